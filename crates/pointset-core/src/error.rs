@@ -1,0 +1,218 @@
+//! The error type of `pointset-core`.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::io::FileFormat;
+
+/// Where in a file a problem was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Location {
+    /// A 1-based line number in a text file or text header.
+    Line(usize),
+    /// A 0-based byte offset from the start of the file.
+    Byte(u64),
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::Line(n) => write!(f, "line {n}"),
+            Location::Byte(n) => write!(f, "byte {n}"),
+        }
+    }
+}
+
+/// Everything that can go wrong in `pointset-core`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The operating system failed to read or write a file.
+    #[error("cannot access {path}: {source}")]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Writing to an in-memory or user-supplied writer failed.
+    #[error("write failed: {source}")]
+    Write {
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file has no bytes at all.
+    #[error("{path} is empty")]
+    EmptyFile {
+        /// The file involved.
+        path: PathBuf,
+    },
+    /// The file's extension names no supported format and its content matches none either.
+    #[error("cannot tell the format of {path}: {reason}")]
+    UnknownFormat {
+        /// The file involved.
+        path: PathBuf,
+        /// Why detection failed.
+        reason: String,
+    },
+    /// The extension says one format but the content is clearly another.
+    #[error("{path} has a .{extension} extension but its content looks like {sniffed}")]
+    FormatMismatch {
+        /// The file involved.
+        path: PathBuf,
+        /// The extension found.
+        extension: String,
+        /// The format the content looks like.
+        sniffed: FileFormat,
+    },
+    /// Text or binary content that does not follow the format.
+    #[error("{format} syntax error at {location}: {message}")]
+    Malformed {
+        /// The format being read.
+        format: FileFormat,
+        /// Where the problem is.
+        location: Location,
+        /// What is wrong.
+        message: String,
+    },
+    /// A property type name that the PLY specification does not define.
+    #[error("PLY header line {line}: unknown property type `{type_name}`")]
+    UnknownPropertyType {
+        /// Header line (1-based).
+        line: usize,
+        /// The type name found.
+        type_name: String,
+    },
+    /// The header declares more data than the file contains (checked before allocating).
+    #[error(
+        "{format} header declares {declared} `{element}` records needing at least {needed_bytes} bytes, \
+         but only {available_bytes} bytes follow the header"
+    )]
+    HeaderExceedsFile {
+        /// The format being read.
+        format: FileFormat,
+        /// The element whose count is too large.
+        element: String,
+        /// The declared record count.
+        declared: u64,
+        /// Minimum number of bytes those records need.
+        needed_bytes: u128,
+        /// Bytes actually present after the header.
+        available_bytes: u64,
+    },
+    /// The data ends before all declared records were read.
+    #[error("{format} data ends early at {location} while reading {what}")]
+    UnexpectedEof {
+        /// The format being read.
+        format: FileFormat,
+        /// Where the data ran out.
+        location: Location,
+        /// What was being read.
+        what: String,
+    },
+    /// A list property's length is negative, absurd, or longer than the remaining data.
+    #[error("{format} list at {location} claims {count} items, {reason}")]
+    ListCountOverflow {
+        /// The format being read.
+        format: FileFormat,
+        /// Where the list starts.
+        location: Location,
+        /// The declared list length.
+        count: i128,
+        /// Why it is rejected.
+        reason: String,
+    },
+    /// A coordinate, normal or attribute value is NaN or infinite.
+    #[error("{what} {index} is not finite")]
+    NonFinite {
+        /// What kind of value (e.g. "position", "normal", "attribute `radius` value").
+        what: String,
+        /// Index of the offending record.
+        index: usize,
+    },
+    /// A face references a vertex that does not exist.
+    #[error("face {face} references vertex {vertex}, but there are only {vertex_count} vertices")]
+    IndexOutOfRange {
+        /// Face index.
+        face: usize,
+        /// The referenced vertex index.
+        vertex: i64,
+        /// Number of vertices.
+        vertex_count: usize,
+    },
+    /// A face that cannot be turned into triangles.
+    #[error("face {face} is invalid: {reason}")]
+    InvalidFace {
+        /// Face index.
+        face: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// Two arrays that must have equal length do not.
+    #[error("{what}: expected {expected} entries, found {found}")]
+    LengthMismatch {
+        /// What was being matched.
+        what: String,
+        /// Expected length.
+        expected: usize,
+        /// Actual length.
+        found: usize,
+    },
+    /// Two point sets (or meshes) with different attribute layouts were combined.
+    #[error("incompatible layouts: {reason}")]
+    IncompatibleLayout {
+        /// What differs.
+        reason: String,
+    },
+    /// An attribute name is reserved, empty or used twice.
+    #[error("invalid attribute name `{name}`: {reason}")]
+    InvalidAttributeName {
+        /// The name given.
+        name: String,
+        /// Why it is rejected.
+        reason: String,
+    },
+    /// An operation needs at least one element.
+    #[error("{what} is empty")]
+    EmptyInput {
+        /// What was empty.
+        what: String,
+    },
+    /// A parameter lies outside its valid range.
+    #[error("parameter `{name}` = {value} is out of range: expected {expected}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// The value given, formatted.
+        value: String,
+        /// The accepted range, in words.
+        expected: String,
+    },
+    /// The run was cancelled through its [`crate::CancelFlag`].
+    #[error("cancelled")]
+    Cancelled,
+    /// An OBJ file that `tobj` could not load.
+    #[error("OBJ file {path} could not be loaded: {message}")]
+    Obj {
+        /// The file involved.
+        path: PathBuf,
+        /// tobj's description of the problem.
+        message: String,
+    },
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Checks that every vector in `values` is finite, naming the first offender.
+pub(crate) fn check_finite_vec3(values: &[glam::Vec3], what: &str) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(Error::NonFinite {
+            what: what.to_string(),
+            index,
+        }),
+        None => Ok(()),
+    }
+}

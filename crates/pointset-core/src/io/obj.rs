@@ -1,0 +1,162 @@
+//! Wavefront OBJ: reading through `tobj`, writing in-house.
+//!
+//! Reading triangulates polygons (fans), unifies position/UV/normal indices into one vertex
+//! per distinct combination (so vertices on UV seams are duplicated, the way every GPU-style
+//! mesh stores them), keeps per-vertex colours (`v x y z r g b`) as `red/green/blue`
+//! channels, merges all objects and groups into one mesh, and ignores materials and line
+//! elements. A file with only point elements (`p`) becomes a point set.
+
+use std::io::Write;
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+
+use super::Geometry;
+use crate::{Error, PointSet, Result, TriMesh};
+
+fn obj_error(path: &Path, message: impl Into<String>) -> Error {
+    Error::Obj {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+fn triples(values: &[f32]) -> Vec<Vec3> {
+    values
+        .chunks_exact(3)
+        .map(|c| Vec3::new(c[0], c[1], c[2]))
+        .collect()
+}
+
+/// Reads an OBJ file held in memory; `path` is used in error messages only.
+pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: false,
+        ignore_lines: true,
+    };
+    let mut reader = std::io::BufReader::new(bytes);
+    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
+        Ok((Vec::new(), Default::default()))
+    })
+    .map_err(|e| obj_error(path, e.to_string()))?;
+
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    let mut colors = Vec::new();
+    let mut triangles = Vec::new();
+    let (mut all_normals, mut all_uvs, mut all_colors) = (true, true, true);
+    for model in &models {
+        let mesh = &model.mesh;
+        let base = u32::try_from(positions.len())
+            .map_err(|_| obj_error(path, "more than 2^32 vertices"))?;
+        let count = mesh.positions.len() / 3;
+        positions.extend(triples(&mesh.positions));
+        all_normals &= mesh.normals.len() == 3 * count;
+        normals.extend(triples(&mesh.normals));
+        all_uvs &= mesh.texcoords.len() == 2 * count;
+        uvs.extend(
+            mesh.texcoords
+                .chunks_exact(2)
+                .map(|c| Vec2::new(c[0], c[1])),
+        );
+        all_colors &= mesh.vertex_color.len() == 3 * count;
+        colors.extend(
+            mesh.vertex_color
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]]),
+        );
+        for (face, tri) in mesh.indices.chunks_exact(3).enumerate() {
+            if tri.iter().any(|&i| i as usize >= count) {
+                return Err(Error::IndexOutOfRange {
+                    face: triangles.len() + face,
+                    vertex: tri.iter().map(|&i| i64::from(i)).max().unwrap_or(0),
+                    vertex_count: count,
+                });
+            }
+            // Point elements arrive as degenerate (a, a, a) triangles.
+            if !(tri[0] == tri[1] && tri[1] == tri[2]) {
+                triangles.push([tri[0] + base, tri[1] + base, tri[2] + base]);
+            }
+        }
+    }
+    if positions.is_empty() {
+        return Err(obj_error(
+            path,
+            "no faces or point elements (`f`/`p` lines) found",
+        ));
+    }
+    let mut points = PointSet::new(positions)?;
+    if all_normals && !normals.is_empty() {
+        points = points.with_normals(normals)?;
+    }
+    if all_colors && !colors.is_empty() {
+        points.set_colors(&colors)?;
+    }
+    if triangles.is_empty() {
+        return Ok(Geometry::Points(points));
+    }
+    let mut mesh = TriMesh::new(points, triangles)?;
+    if all_uvs && !uvs.is_empty() {
+        mesh = mesh.with_uvs(uvs)?;
+    }
+    Ok(Geometry::Mesh(mesh))
+}
+
+/// Writes OBJ: `v` lines (with `r g b` in `0..=1` when colours exist), `vt`, `vn`, then
+/// `f` lines for a mesh or one `p` line per point for a point set.
+pub fn write_obj(geometry: &Geometry, comments: &[String], out: &mut impl Write) -> Result<()> {
+    let mut s = String::new();
+    for c in comments {
+        s.push_str(&format!("# {}\n", c.replace(['\n', '\r'], " ")));
+    }
+    let points = geometry.points();
+    let colors = points.colors();
+    for (i, p) in points.positions().iter().enumerate() {
+        match &colors {
+            Some(c) => s.push_str(&format!(
+                "v {} {} {} {} {} {}\n",
+                p.x, p.y, p.z, c[i][0], c[i][1], c[i][2]
+            )),
+            None => s.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z)),
+        }
+    }
+    let uvs = geometry.mesh().and_then(TriMesh::uvs);
+    for uv in uvs.unwrap_or(&[]) {
+        s.push_str(&format!("vt {} {}\n", uv.x, uv.y));
+    }
+    let normals = points.normals();
+    for n in normals.unwrap_or(&[]) {
+        s.push_str(&format!("vn {} {} {}\n", n.x, n.y, n.z));
+    }
+    let corner = |i: u32| {
+        let i = i + 1;
+        match (uvs.is_some(), normals.is_some()) {
+            (true, true) => format!("{i}/{i}/{i}"),
+            (true, false) => format!("{i}/{i}"),
+            (false, true) => format!("{i}//{i}"),
+            (false, false) => format!("{i}"),
+        }
+    };
+    match geometry.mesh() {
+        Some(mesh) => {
+            for t in mesh.triangles() {
+                s.push_str(&format!(
+                    "f {} {} {}\n",
+                    corner(t[0]),
+                    corner(t[1]),
+                    corner(t[2])
+                ));
+            }
+        }
+        None => {
+            for i in 0..points.len() as u32 {
+                s.push_str(&format!("p {}\n", corner(i)));
+            }
+        }
+    }
+    out.write_all(s.as_bytes())
+        .map_err(|source| Error::Write { source })
+}

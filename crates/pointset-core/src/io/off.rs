@@ -1,0 +1,240 @@
+//! Object File Format (OFF, with the `N` normal and `C` colour prefixes: `NOFF`, `COFF`,
+//! `CNOFF`). Polygons are split into triangle fans; per-face colours are skipped. Vertex
+//! colours may be integers in `0..=255` or floats in `0..=1` (decided per file: any value
+//! above 1 means the integer range).
+
+use std::io::Write;
+
+use glam::Vec3;
+
+use super::{FileFormat, Geometry};
+use crate::{Error, Location, PointSet, Result, TriMesh};
+
+fn malformed(line: usize, message: impl Into<String>) -> Error {
+    Error::Malformed {
+        format: FileFormat::Off,
+        location: Location::Line(line),
+        message: message.into(),
+    }
+}
+
+/// Non-empty, comment-stripped lines with their 1-based numbers and byte offsets.
+struct Lines<'a> {
+    inner: std::iter::Enumerate<std::str::Lines<'a>>,
+}
+
+impl<'a> Iterator for Lines<'a> {
+    type Item = (usize, Vec<&'a str>);
+    fn next(&mut self) -> Option<Self::Item> {
+        for (i, line) in self.inner.by_ref() {
+            let content = line.split('#').next().unwrap_or("");
+            let words: Vec<&str> = content.split_whitespace().collect();
+            if !words.is_empty() {
+                return Some((i + 1, words));
+            }
+        }
+        None
+    }
+}
+
+fn numbers(line: usize, words: &[&str]) -> Result<Vec<f64>> {
+    words
+        .iter()
+        .map(|w| {
+            w.parse::<f64>()
+                .map_err(|_| malformed(line, format!("`{w}` is not a number")))
+        })
+        .collect()
+}
+
+/// Reads an OFF file held in memory; returns the geometry and the file's `#` comments.
+pub fn read_off(bytes: &[u8]) -> Result<(Geometry, Vec<String>)> {
+    let text = std::str::from_utf8(bytes).map_err(|e| Error::Malformed {
+        format: FileFormat::Off,
+        location: Location::Byte(e.valid_up_to() as u64),
+        message: "not valid UTF-8 text (binary OFF is not supported)".into(),
+    })?;
+    let comments = text
+        .lines()
+        .filter_map(|l| l.trim_start().strip_prefix('#'))
+        .map(|c| c.trim().to_string())
+        .collect();
+    let mut lines = Lines {
+        inner: text.lines().enumerate(),
+    };
+    let (first_line, first) = lines.next().ok_or_else(|| malformed(1, "no OFF keyword"))?;
+    let keyword = first[0];
+    let (has_normals, has_colors) = match keyword {
+        "OFF" => (false, false),
+        "NOFF" => (true, false),
+        "COFF" => (false, true),
+        "CNOFF" | "NCOFF" => (true, true),
+        other => {
+            return Err(malformed(
+                first_line,
+                format!("unsupported OFF variant `{other}`"),
+            ));
+        }
+    };
+    // Counts may follow the keyword on the same line.
+    let (count_line, count_words) = if first.len() > 1 {
+        (first_line, first[1..].to_vec())
+    } else {
+        lines
+            .next()
+            .ok_or_else(|| malformed(first_line + 1, "missing vertex/face counts"))?
+    };
+    let counts: Vec<u64> = count_words
+        .iter()
+        .take(2)
+        .map(|w| w.parse::<u64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| malformed(count_line, "counts must be non-negative integers"))?;
+    let [nv, nf] = counts[..] else {
+        return Err(malformed(count_line, "expected `VERTICES FACES [EDGES]`"));
+    };
+    // A vertex line needs at least 6 bytes ("0 0 0\n"), a face line at least 8 ("3 0 1 2\n").
+    let needed = u128::from(nv) * 6 + u128::from(nf) * 8;
+    let available = bytes.len() as u64;
+    if needed > u128::from(available) {
+        return Err(Error::HeaderExceedsFile {
+            format: FileFormat::Off,
+            element: if u128::from(nv) * 6 > u128::from(available) {
+                "vertex"
+            } else {
+                "face"
+            }
+            .into(),
+            declared: if u128::from(nv) * 6 > u128::from(available) {
+                nv
+            } else {
+                nf
+            },
+            needed_bytes: needed,
+            available_bytes: available,
+        });
+    }
+    let (nv, nf) = (nv as usize, nf as usize);
+    let stride = 3 + if has_normals { 3 } else { 0 };
+    let mut positions = Vec::with_capacity(nv);
+    let mut normals = Vec::with_capacity(if has_normals { nv } else { 0 });
+    let mut raw_colors = Vec::new();
+    for v in 0..nv {
+        let (line, words) = lines.next().ok_or_else(|| Error::UnexpectedEof {
+            format: FileFormat::Off,
+            location: Location::Line(text.lines().count() + 1),
+            what: format!("vertex {v} of {nv}"),
+        })?;
+        let need = stride + if has_colors { 3 } else { 0 };
+        if words.len() < need {
+            return Err(malformed(line, format!("vertex line needs {need} numbers")));
+        }
+        let x = numbers(line, &words[..need])?;
+        positions.push(Vec3::new(x[0] as f32, x[1] as f32, x[2] as f32));
+        if has_normals {
+            normals.push(Vec3::new(x[3] as f32, x[4] as f32, x[5] as f32));
+        }
+        if has_colors {
+            raw_colors.push([x[stride], x[stride + 1], x[stride + 2]]);
+        }
+    }
+    let mut points = PointSet::new(positions)?;
+    if has_normals {
+        points = points.with_normals(normals)?;
+    }
+    if has_colors {
+        let scale = if raw_colors.iter().flatten().any(|&c| c > 1.0) {
+            255.0
+        } else {
+            1.0
+        };
+        let colors: Vec<[f32; 3]> = raw_colors
+            .iter()
+            .map(|c| c.map(|x| (x / scale) as f32))
+            .collect();
+        points.set_colors(&colors)?;
+    }
+    let mut triangles = Vec::with_capacity(nf);
+    for face in 0..nf {
+        let (line, words) = lines.next().ok_or_else(|| Error::UnexpectedEof {
+            format: FileFormat::Off,
+            location: Location::Line(text.lines().count() + 1),
+            what: format!("face {face} of {nf}"),
+        })?;
+        let n: usize = words[0]
+            .parse()
+            .map_err(|_| malformed(line, "face must start with its vertex count"))?;
+        if n < 3 {
+            return Err(Error::InvalidFace {
+                face,
+                reason: format!("{n} vertex indices (at least 3 needed)"),
+            });
+        }
+        if words.len() < n + 1 {
+            return Err(Error::ListCountOverflow {
+                format: FileFormat::Off,
+                location: Location::Line(line),
+                count: n as i128,
+                reason: format!("but the line has only {} indices", words.len() - 1),
+            });
+        }
+        let mut idx = Vec::with_capacity(n);
+        for w in &words[1..=n] {
+            let i: i64 = w
+                .parse()
+                .map_err(|_| malformed(line, format!("`{w}` is not a vertex index")))?;
+            if i < 0 || i as usize >= nv {
+                return Err(Error::IndexOutOfRange {
+                    face,
+                    vertex: i,
+                    vertex_count: nv,
+                });
+            }
+            idx.push(i as u32);
+        }
+        for k in 1..n - 1 {
+            triangles.push([idx[0], idx[k], idx[k + 1]]);
+        }
+    }
+    let geometry = if nf == 0 {
+        Geometry::Points(points)
+    } else {
+        Geometry::Mesh(TriMesh::new(points, triangles)?)
+    };
+    Ok((geometry, comments))
+}
+
+/// Writes ASCII OFF (`NOFF`/`COFF`/`CNOFF` when normals or colours exist; colours as
+/// integers in `0..=255` with alpha 255). Point sets are written with zero faces.
+pub fn write_off(geometry: &Geometry, comments: &[String], out: &mut impl Write) -> Result<()> {
+    let points = geometry.points();
+    let normals = points.normals();
+    let colors = points.colors();
+    let keyword = format!(
+        "{}{}OFF",
+        if colors.is_some() { "C" } else { "" },
+        if normals.is_some() { "N" } else { "" }
+    );
+    let tris = geometry.mesh().map_or(&[][..], TriMesh::triangles);
+    let mut s = format!("{keyword}\n");
+    for c in comments {
+        s.push_str(&format!("# {}\n", c.replace(['\n', '\r'], " ")));
+    }
+    s.push_str(&format!("{} {} 0\n", points.len(), tris.len()));
+    for (i, p) in points.positions().iter().enumerate() {
+        s.push_str(&format!("{} {} {}", p.x, p.y, p.z));
+        if let Some(n) = normals {
+            s.push_str(&format!(" {} {} {}", n[i].x, n[i].y, n[i].z));
+        }
+        if let Some(c) = &colors {
+            let [r, g, b] = c[i].map(|x| (x * 255.0).round() as u8);
+            s.push_str(&format!(" {r} {g} {b} 255"));
+        }
+        s.push('\n');
+    }
+    for t in tris {
+        s.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+    }
+    out.write_all(s.as_bytes())
+        .map_err(|source| Error::Write { source })
+}

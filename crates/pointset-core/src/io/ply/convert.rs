@@ -1,0 +1,216 @@
+//! Conversions between [`PlyDocument`] and the geometry types.
+//!
+//! Reading: the `vertex` element must have `x y z`; `nx ny nz` become normals; in files with
+//! faces, `s t` (or `u v`, `texture_u texture_v`, `texture_s texture_t`) become UVs; every other
+//! scalar vertex property becomes a named [`Attribute`] that remembers its declared type.
+//! The `face` element's `vertex_indices` (or `vertex_index`) lists become triangles, polygons
+//! split as fans. Other elements, list properties on vertices and other face properties are
+//! skipped. Writing produces `float` positions/normals/UVs, attributes in their storage type,
+//! and `list uchar int vertex_indices` faces — the layout MeshLab, Blender and Open3D read.
+
+use glam::{Vec2, Vec3};
+
+use super::{PlyColumn, PlyDocument, PlyElement, PlyEncoding, PlyProperty, PropertyKind};
+use crate::io::{FileFormat, Geometry};
+use crate::{Attribute, Error, Location, PointSet, Result, ScalarType, TriMesh};
+
+const UV_NAMES: [(&str, &str); 4] = [
+    ("s", "t"),
+    ("u", "v"),
+    ("texture_u", "texture_v"),
+    ("texture_s", "texture_t"),
+];
+
+fn missing(message: &str) -> Error {
+    Error::Malformed {
+        format: FileFormat::Ply,
+        location: Location::Line(1),
+        message: message.to_string(),
+    }
+}
+
+fn vec3s(e: &PlyElement, names: [&str; 3]) -> Option<Vec<Vec3>> {
+    let [x, y, z] = names.map(|n| e.scalar(n));
+    let (x, y, z) = (x?, y?, z?);
+    Some(
+        (0..e.count)
+            .map(|i| Vec3::new(x[i] as f32, y[i] as f32, z[i] as f32))
+            .collect(),
+    )
+}
+
+/// Turns a parsed document into a point set (no faces) or a mesh.
+pub fn geometry_from_document(doc: &PlyDocument) -> Result<Geometry> {
+    let vertex = doc
+        .element("vertex")
+        .ok_or_else(|| missing("no `vertex` element"))?;
+    let positions =
+        vec3s(vertex, ["x", "y", "z"]).ok_or_else(|| missing("vertex element lacks x, y or z"))?;
+    let faces = doc.element("face");
+    let has_faces = faces.is_some_and(|f| f.count > 0);
+    let uv_names = UV_NAMES
+        .iter()
+        .find(|(u, v)| vertex.scalar(u).is_some() && vertex.scalar(v).is_some())
+        .filter(|_| has_faces);
+    let mut consumed: Vec<&str> = vec!["x", "y", "z"];
+    let mut points = PointSet::new(positions)?;
+    if let Some(normals) = vec3s(vertex, ["nx", "ny", "nz"]) {
+        points = points.with_normals(normals)?;
+        consumed.extend(["nx", "ny", "nz"]);
+    }
+    if let Some((u, v)) = uv_names {
+        consumed.extend([*u, *v]);
+    }
+    for (prop, column) in vertex.properties.iter().zip(&vertex.columns) {
+        if let (PropertyKind::Scalar(ty), PlyColumn::Scalar(values)) = (prop.kind, column) {
+            if consumed.contains(&prop.name.as_str()) {
+                continue;
+            }
+            let values = values.iter().map(|&v| v as f32).collect();
+            points.set_attribute(Attribute::new(prop.name.clone(), values).with_storage(ty))?;
+        }
+    }
+    let Some(faces) = faces.filter(|_| has_faces) else {
+        return Ok(Geometry::Points(points));
+    };
+    let (_, column) = faces
+        .column("vertex_indices")
+        .or_else(|| faces.column("vertex_index"))
+        .ok_or_else(|| missing("face element has no `vertex_indices` list"))?;
+    let PlyColumn::List { offsets, items } = column else {
+        return Err(missing("face `vertex_indices` is not a list"));
+    };
+    let vertex_count = points.len();
+    let mut triangles = Vec::with_capacity(faces.count);
+    for face in 0..faces.count {
+        let list = &items[offsets[face]..offsets[face + 1]];
+        if list.len() < 3 {
+            return Err(Error::InvalidFace {
+                face,
+                reason: format!("{} vertex indices (at least 3 needed)", list.len()),
+            });
+        }
+        let mut idx = Vec::with_capacity(list.len());
+        for &v in list {
+            if v < 0.0 || v >= vertex_count as f64 {
+                return Err(Error::IndexOutOfRange {
+                    face,
+                    vertex: v as i64,
+                    vertex_count,
+                });
+            }
+            idx.push(v as u32);
+        }
+        for k in 1..idx.len() - 1 {
+            triangles.push([idx[0], idx[k], idx[k + 1]]);
+        }
+    }
+    let mut mesh = TriMesh::new(points, triangles)?;
+    if let Some((u, v)) = uv_names {
+        let (u, v) = (vertex.scalar(u), vertex.scalar(v));
+        if let (Some(u), Some(v)) = (u, v) {
+            let uvs = u
+                .iter()
+                .zip(v)
+                .map(|(&a, &b)| Vec2::new(a as f32, b as f32))
+                .collect();
+            mesh = mesh.with_uvs(uvs)?;
+        }
+    }
+    Ok(Geometry::Mesh(mesh))
+}
+
+fn scalar_property(name: &str, ty: ScalarType, values: Vec<f64>) -> (PlyProperty, PlyColumn) {
+    (
+        PlyProperty {
+            name: name.to_string(),
+            kind: PropertyKind::Scalar(ty),
+        },
+        PlyColumn::Scalar(values),
+    )
+}
+
+/// Builds a document for a point set or mesh, with the given encoding and comments.
+pub fn document_from_geometry(
+    geometry: &Geometry,
+    encoding: PlyEncoding,
+    comments: &[String],
+) -> Result<PlyDocument> {
+    let (points, mesh) = match geometry {
+        Geometry::Points(p) => (p, None),
+        Geometry::Mesh(m) => (m.vertices(), Some(m)),
+    };
+    let mut props = Vec::new();
+    let pos = points.positions();
+    for (axis, name) in ["x", "y", "z"].iter().enumerate() {
+        props.push(scalar_property(
+            name,
+            ScalarType::F32,
+            pos.iter().map(|p| f64::from(p[axis])).collect(),
+        ));
+    }
+    if let Some(normals) = points.normals() {
+        for (axis, name) in ["nx", "ny", "nz"].iter().enumerate() {
+            props.push(scalar_property(
+                name,
+                ScalarType::F32,
+                normals.iter().map(|n| f64::from(n[axis])).collect(),
+            ));
+        }
+    }
+    if let Some(uvs) = mesh.and_then(TriMesh::uvs) {
+        if points.attribute("s").is_some() || points.attribute("t").is_some() {
+            return Err(Error::IncompatibleLayout {
+                reason: "attributes named `s`/`t` collide with the UV properties".into(),
+            });
+        }
+        props.push(scalar_property(
+            "s",
+            ScalarType::F32,
+            uvs.iter().map(|uv| f64::from(uv.x)).collect(),
+        ));
+        props.push(scalar_property(
+            "t",
+            ScalarType::F32,
+            uvs.iter().map(|uv| f64::from(uv.y)).collect(),
+        ));
+    }
+    for a in points.attributes() {
+        props.push(scalar_property(
+            a.name(),
+            a.storage(),
+            a.values().iter().map(|&v| f64::from(v)).collect(),
+        ));
+    }
+    let (properties, columns) = props.into_iter().unzip();
+    let mut elements = vec![PlyElement {
+        name: "vertex".into(),
+        count: points.len(),
+        properties,
+        columns,
+    }];
+    if let Some(mesh) = mesh {
+        let tris = mesh.triangles();
+        elements.push(PlyElement {
+            name: "face".into(),
+            count: tris.len(),
+            properties: vec![PlyProperty {
+                name: "vertex_indices".into(),
+                kind: PropertyKind::List {
+                    count: ScalarType::U8,
+                    item: ScalarType::I32,
+                },
+            }],
+            columns: vec![PlyColumn::List {
+                offsets: (0..=tris.len()).map(|i| 3 * i).collect(),
+                items: tris.iter().flat_map(|t| t.map(f64::from)).collect(),
+            }],
+        });
+    }
+    Ok(PlyDocument {
+        encoding,
+        comments: comments.to_vec(),
+        obj_info: Vec::new(),
+        elements,
+    })
+}

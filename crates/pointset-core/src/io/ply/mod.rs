@@ -1,0 +1,175 @@
+//! PLY (Stanford polygon file format): an in-house codec for `ascii`,
+//! `binary_little_endian` and `binary_big_endian`.
+//!
+//! [`PlyDocument`] is the faithful file model: every element (known or not), every scalar and
+//! list property with its declared type, comments and `obj_info` lines. [`read_ply`] checks
+//! the header's record counts against the bytes actually present before allocating anything,
+//! and reports problems with a line number (header, ascii body) or byte offset (binary body).
+//! Conversions to and from [`crate::PointSet`] / [`crate::TriMesh`] live in `convert`.
+
+mod body;
+mod convert;
+mod header;
+mod write;
+
+pub use convert::{document_from_geometry, geometry_from_document};
+pub use write::write_ply;
+
+use crate::{Result, ScalarType};
+
+/// The three PLY encodings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum PlyEncoding {
+    /// Human-readable text.
+    Ascii,
+    /// Binary, little-endian (the default: compact and what most tools write).
+    #[default]
+    BinaryLittleEndian,
+    /// Binary, big-endian.
+    BinaryBigEndian,
+}
+
+impl PlyEncoding {
+    /// The header keyword (`ascii`, `binary_little_endian`, `binary_big_endian`).
+    pub fn keyword(self) -> &'static str {
+        match self {
+            PlyEncoding::Ascii => "ascii",
+            PlyEncoding::BinaryLittleEndian => "binary_little_endian",
+            PlyEncoding::BinaryBigEndian => "binary_big_endian",
+        }
+    }
+
+    /// All encodings.
+    pub const ALL: [PlyEncoding; 3] = [
+        PlyEncoding::Ascii,
+        PlyEncoding::BinaryLittleEndian,
+        PlyEncoding::BinaryBigEndian,
+    ];
+}
+
+/// A property's declared type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PropertyKind {
+    /// One scalar per record.
+    Scalar(ScalarType),
+    /// A variable-length list: the length's type and the items' type.
+    List {
+        /// Type of the length prefix.
+        count: ScalarType,
+        /// Type of each item.
+        item: ScalarType,
+    },
+}
+
+/// A declared property of an element.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlyProperty {
+    /// Property name.
+    pub name: String,
+    /// Declared type.
+    pub kind: PropertyKind,
+}
+
+/// The values of one property for every record of an element.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlyColumn {
+    /// One value per record.
+    Scalar(Vec<f64>),
+    /// Lists: record `r` owns `items[offsets[r]..offsets[r + 1]]`.
+    List {
+        /// `count + 1` offsets into `items`.
+        offsets: Vec<usize>,
+        /// All list items, concatenated.
+        items: Vec<f64>,
+    },
+}
+
+impl PlyColumn {
+    /// An empty column of the right shape for `kind`.
+    pub fn empty(kind: PropertyKind) -> Self {
+        match kind {
+            PropertyKind::Scalar(_) => PlyColumn::Scalar(Vec::new()),
+            PropertyKind::List { .. } => PlyColumn::List {
+                offsets: vec![0],
+                items: Vec::new(),
+            },
+        }
+    }
+
+    /// Number of records held.
+    pub fn len(&self) -> usize {
+        match self {
+            PlyColumn::Scalar(v) => v.len(),
+            PlyColumn::List { offsets, .. } => offsets.len().saturating_sub(1),
+        }
+    }
+
+    /// Whether no records are held.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// One element (e.g. `vertex`, `face`) with its properties and data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlyElement {
+    /// Element name.
+    pub name: String,
+    /// Number of records.
+    pub count: usize,
+    /// Declared properties, in file order.
+    pub properties: Vec<PlyProperty>,
+    /// One column per property, each with `count` records.
+    pub columns: Vec<PlyColumn>,
+}
+
+impl PlyElement {
+    /// The column of a property by name, with its kind.
+    pub fn column(&self, name: &str) -> Option<(&PlyProperty, &PlyColumn)> {
+        let at = self.properties.iter().position(|p| p.name == name)?;
+        Some((&self.properties[at], self.columns.get(at)?))
+    }
+
+    /// A scalar column's values by property name.
+    pub fn scalar(&self, name: &str) -> Option<&[f64]> {
+        match self.column(name)? {
+            (_, PlyColumn::Scalar(v)) => Some(v),
+            _ => None,
+        }
+    }
+}
+
+/// A whole PLY file.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PlyDocument {
+    /// Encoding of the body.
+    pub encoding: PlyEncoding,
+    /// `comment` lines (without the keyword).
+    pub comments: Vec<String>,
+    /// `obj_info` lines (without the keyword).
+    pub obj_info: Vec<String>,
+    /// Elements in file order.
+    pub elements: Vec<PlyElement>,
+}
+
+impl PlyDocument {
+    /// An element by name.
+    pub fn element(&self, name: &str) -> Option<&PlyElement> {
+        self.elements.iter().find(|e| e.name == name)
+    }
+}
+
+/// Parses a whole PLY file held in memory.
+pub fn read_ply(bytes: &[u8]) -> Result<PlyDocument> {
+    let parsed = header::parse_header(bytes)?;
+    let elements = body::read_body(&parsed, bytes)?;
+    Ok(PlyDocument {
+        encoding: parsed.encoding,
+        comments: parsed.comments,
+        obj_info: parsed.obj_info,
+        elements,
+    })
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,147 @@
+//! PLY encoding.
+
+use std::io::Write;
+
+use super::{PlyColumn, PlyDocument, PlyEncoding, PropertyKind};
+use crate::{Error, Result, ScalarType};
+
+fn io(source: std::io::Error) -> Error {
+    Error::Write { source }
+}
+
+/// Writes `doc` in `doc.encoding`. Values are converted with [`ScalarType::quantize`]
+/// (integers rounded and clamped); columns must hold `count` records each.
+pub fn write_ply(doc: &PlyDocument, out: &mut impl Write) -> Result<()> {
+    for element in &doc.elements {
+        for (prop, column) in element.properties.iter().zip(&element.columns) {
+            if column.len() != element.count {
+                return Err(Error::LengthMismatch {
+                    what: format!("PLY column `{}` of `{}`", prop.name, element.name),
+                    expected: element.count,
+                    found: column.len(),
+                });
+            }
+        }
+        if element.columns.len() != element.properties.len() {
+            return Err(Error::LengthMismatch {
+                what: format!("PLY columns of `{}`", element.name),
+                expected: element.properties.len(),
+                found: element.columns.len(),
+            });
+        }
+    }
+    write_header(doc, out).map_err(io)?;
+    let mut buf: Vec<u8> = Vec::with_capacity(1 << 16);
+    for element in &doc.elements {
+        for record in 0..element.count {
+            for (i, (prop, column)) in element.properties.iter().zip(&element.columns).enumerate() {
+                if doc.encoding == PlyEncoding::Ascii && i > 0 {
+                    buf.push(b' ');
+                }
+                match (prop.kind, column) {
+                    (PropertyKind::Scalar(ty), PlyColumn::Scalar(v)) => {
+                        put(&mut buf, doc.encoding, ty, v[record]);
+                    }
+                    (PropertyKind::List { count, item }, PlyColumn::List { offsets, items }) => {
+                        let list = &items[offsets[record]..offsets[record + 1]];
+                        let (_, max) = count.range();
+                        if list.len() as f64 > max {
+                            return Err(Error::ListCountOverflow {
+                                format: crate::io::FileFormat::Ply,
+                                location: crate::Location::Byte(0),
+                                count: list.len() as i128,
+                                reason: format!("more than a `{count}` length can express"),
+                            });
+                        }
+                        put(&mut buf, doc.encoding, count, list.len() as f64);
+                        for &v in list {
+                            if doc.encoding == PlyEncoding::Ascii {
+                                buf.push(b' ');
+                            }
+                            put(&mut buf, doc.encoding, item, v);
+                        }
+                    }
+                    _ => {
+                        return Err(Error::IncompatibleLayout {
+                            reason: format!(
+                                "column of `{}` does not match its declared kind",
+                                prop.name
+                            ),
+                        });
+                    }
+                }
+            }
+            if doc.encoding == PlyEncoding::Ascii {
+                buf.push(b'\n');
+            }
+            if buf.len() >= 1 << 16 {
+                out.write_all(&buf).map_err(io)?;
+                buf.clear();
+            }
+        }
+    }
+    out.write_all(&buf).map_err(io)?;
+    out.flush().map_err(io)
+}
+
+fn write_header(doc: &PlyDocument, out: &mut impl Write) -> std::io::Result<()> {
+    let mut h = String::from("ply\n");
+    h.push_str(&format!("format {} 1.0\n", doc.encoding.keyword()));
+    for c in &doc.comments {
+        h.push_str(&format!("comment {}\n", single_line(c)));
+    }
+    for c in &doc.obj_info {
+        h.push_str(&format!("obj_info {}\n", single_line(c)));
+    }
+    for e in &doc.elements {
+        h.push_str(&format!("element {} {}\n", e.name, e.count));
+        for p in &e.properties {
+            match p.kind {
+                PropertyKind::Scalar(t) => h.push_str(&format!("property {t} {}\n", p.name)),
+                PropertyKind::List { count, item } => {
+                    h.push_str(&format!("property list {count} {item} {}\n", p.name))
+                }
+            }
+        }
+    }
+    h.push_str("end_header\n");
+    out.write_all(h.as_bytes())
+}
+
+fn single_line(s: &str) -> String {
+    s.replace(['\n', '\r'], " ")
+}
+
+fn put(buf: &mut Vec<u8>, encoding: PlyEncoding, ty: ScalarType, value: f64) {
+    let v = ty.quantize(value);
+    if encoding == PlyEncoding::Ascii {
+        let text = match ty {
+            ScalarType::F32 => format!("{}", v as f32),
+            ScalarType::F64 => format!("{v}"),
+            _ => format!("{}", v as i64),
+        };
+        buf.extend_from_slice(text.as_bytes());
+        return;
+    }
+    let big = encoding == PlyEncoding::BinaryBigEndian;
+    macro_rules! bytes {
+        ($t:ty) => {{
+            let x = v as $t;
+            if big {
+                buf.extend_from_slice(&x.to_be_bytes())
+            } else {
+                buf.extend_from_slice(&x.to_le_bytes())
+            }
+        }};
+    }
+    match ty {
+        ScalarType::I8 => bytes!(i8),
+        ScalarType::U8 => bytes!(u8),
+        ScalarType::I16 => bytes!(i16),
+        ScalarType::U16 => bytes!(u16),
+        ScalarType::I32 => bytes!(i32),
+        ScalarType::U32 => bytes!(u32),
+        ScalarType::F32 => bytes!(f32),
+        ScalarType::F64 => bytes!(f64),
+    }
+}

@@ -1,0 +1,244 @@
+//! Triangle meshes.
+
+use glam::{Vec2, Vec3};
+
+use crate::{Aabb, Error, PointSet, Result};
+
+/// How face normals are weighted when averaged into vertex normals.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NormalWeighting {
+    /// Weight by triangle area (the cross product's length).
+    Area,
+    /// Weight by the triangle's interior angle at the vertex (Thürmer & Wüthrich); the
+    /// default, as it does not depend on how a flat region is triangulated.
+    #[default]
+    Angle,
+}
+
+/// An indexed triangle mesh. Vertices are a [`PointSet`], so they carry optional normals and
+/// any named attributes (vertex colours are the `red`, `green`, `blue` channels).
+///
+/// Invariant: every triangle index is below the vertex count; UVs, when present, are one per
+/// vertex and finite. Degenerate triangles are allowed and reported by
+/// [`TriMesh::degenerate_faces`].
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TriMesh {
+    vertices: PointSet,
+    triangles: Vec<[u32; 3]>,
+    uvs: Option<Vec<Vec2>>,
+}
+
+impl TriMesh {
+    /// A mesh from vertices and triangles; errors on an out-of-range index.
+    pub fn new(vertices: PointSet, triangles: Vec<[u32; 3]>) -> Result<Self> {
+        let vertex_count = vertices.len();
+        for (face, tri) in triangles.iter().enumerate() {
+            if let Some(&v) = tri.iter().find(|&&v| v as usize >= vertex_count) {
+                return Err(Error::IndexOutOfRange {
+                    face,
+                    vertex: i64::from(v),
+                    vertex_count,
+                });
+            }
+        }
+        Ok(Self {
+            vertices,
+            triangles,
+            uvs: None,
+        })
+    }
+
+    /// Adds per-vertex texture coordinates.
+    pub fn with_uvs(mut self, uvs: Vec<Vec2>) -> Result<Self> {
+        if uvs.len() != self.vertices.len() {
+            return Err(Error::LengthMismatch {
+                what: "uvs".into(),
+                expected: self.vertices.len(),
+                found: uvs.len(),
+            });
+        }
+        if let Some(index) = uvs.iter().position(|uv| !uv.is_finite()) {
+            return Err(Error::NonFinite {
+                what: "uv".into(),
+                index,
+            });
+        }
+        self.uvs = Some(uvs);
+        Ok(self)
+    }
+
+    /// The vertices (positions, normals, attributes).
+    pub fn vertices(&self) -> &PointSet {
+        &self.vertices
+    }
+
+    /// Vertex positions.
+    pub fn positions(&self) -> &[Vec3] {
+        self.vertices.positions()
+    }
+
+    /// Triangles as vertex index triples.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// Per-vertex texture coordinates, if present.
+    pub fn uvs(&self) -> Option<&[Vec2]> {
+        self.uvs.as_deref()
+    }
+
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.vertices.len()
+    }
+
+    /// Number of triangles.
+    pub fn face_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Bounding box of the vertices, `None` without vertices.
+    pub fn bounding_box(&self) -> Option<Aabb> {
+        self.vertices.bounding_box()
+    }
+
+    /// Corner positions of triangle `face` (which must exist).
+    fn corners(&self, tri: &[u32; 3]) -> [Vec3; 3] {
+        let p = self.vertices.positions();
+        tri.map(|v| p[v as usize])
+    }
+
+    /// Indices of triangles with a repeated vertex or (near-)zero area: area below
+    /// `1e-12 ·` the squared bounding-box diagonal.
+    pub fn degenerate_faces(&self) -> Vec<usize> {
+        let scale = self.bounding_box().map_or(0.0, |b| b.diagonal());
+        let threshold = 1e-12 * scale * scale;
+        self.triangles
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| {
+                let [a, b, c] = self.corners(t);
+                t[0] == t[1]
+                    || t[1] == t[2]
+                    || t[0] == t[2]
+                    || (b - a).cross(c - a).length() * 0.5 <= threshold
+            })
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// Unit face normals (right-hand rule); zero for degenerate faces.
+    pub fn face_normals(&self) -> Vec<Vec3> {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = self.corners(t);
+                (b - a).cross(c - a).normalize_or_zero()
+            })
+            .collect()
+    }
+
+    /// Total surface area.
+    pub fn area(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = self.corners(t);
+                f64::from((b - a).cross(c - a).length()) * 0.5
+            })
+            .sum()
+    }
+
+    /// Unit vertex normals averaged from incident faces. Isolated vertices (or those with
+    /// only degenerate faces) get a zero normal.
+    pub fn vertex_normals(&self, weighting: NormalWeighting) -> Vec<Vec3> {
+        let mut acc = vec![Vec3::ZERO; self.vertex_count()];
+        for t in &self.triangles {
+            let corners = self.corners(t);
+            let face = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+            let unit = face.normalize_or_zero();
+            for k in 0..3 {
+                let w = match weighting {
+                    NormalWeighting::Area => face,
+                    NormalWeighting::Angle => {
+                        let e1 = (corners[(k + 1) % 3] - corners[k]).normalize_or_zero();
+                        let e2 = (corners[(k + 2) % 3] - corners[k]).normalize_or_zero();
+                        unit * e1.dot(e2).clamp(-1.0, 1.0).acos()
+                    }
+                };
+                acc[t[k] as usize] += w;
+            }
+        }
+        acc.into_iter().map(Vec3::normalize_or_zero).collect()
+    }
+
+    /// Stores freshly computed vertex normals in the mesh.
+    pub fn compute_normals(&mut self, weighting: NormalWeighting) -> Result<()> {
+        let normals = self.vertex_normals(weighting);
+        self.vertices.set_normals(Some(normals))
+    }
+
+    /// Consumes the mesh and returns its parts.
+    pub fn into_parts(self) -> (PointSet, Vec<[u32; 3]>, Option<Vec<Vec2>>) {
+        (self.vertices, self.triangles, self.uvs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube with outward-facing triangles.
+    pub(crate) fn cube() -> TriMesh {
+        let p: Vec<Vec3> = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let tris = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        TriMesh::new(PointSet::new(p).unwrap(), tris).unwrap()
+    }
+
+    #[test]
+    fn cube_area_and_normals_point_outward() {
+        let m = cube();
+        assert!((m.area() - 6.0).abs() < 1e-9);
+        let center = Vec3::splat(0.5);
+        for weighting in [NormalWeighting::Area, NormalWeighting::Angle] {
+            for (p, n) in m.positions().iter().zip(m.vertex_normals(weighting)) {
+                assert!((n.length() - 1.0).abs() < 1e-5);
+                assert!(n.dot(*p - center) > 0.0);
+            }
+        }
+        // Angle weighting is triangulation independent: corners get the exact diagonal.
+        let n = m.vertex_normals(NormalWeighting::Angle)[7];
+        assert!((n - Vec3::ONE.normalize()).length() < 1e-5);
+        assert!(m.degenerate_faces().is_empty());
+    }
+
+    #[test]
+    fn bad_indices_and_degenerate_faces() {
+        let v = PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y]).unwrap();
+        assert!(matches!(
+            TriMesh::new(v.clone(), vec![[0, 1, 3]]),
+            Err(Error::IndexOutOfRange {
+                face: 0,
+                vertex: 3,
+                ..
+            })
+        ));
+        let m = TriMesh::new(v, vec![[0, 1, 2], [0, 0, 1], [0, 1, 1]]).unwrap();
+        assert_eq!(m.degenerate_faces(), vec![1, 2]);
+        assert!(m.clone().with_uvs(vec![Vec2::ZERO; 2]).is_err());
+        assert!(m.with_uvs(vec![Vec2::NAN; 3]).is_err());
+    }
+}

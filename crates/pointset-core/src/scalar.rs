@@ -1,0 +1,142 @@
+//! Scalar storage types for attribute channels (the PLY scalar types).
+
+use std::fmt;
+
+/// The storage type an attribute channel had in its file, or should have when written.
+///
+/// Values are always held as `f32` in memory; the storage type only decides how they are
+/// encoded on disk, so `uchar` colours and `double` confidences both survive a round trip.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum ScalarType {
+    /// Signed 8-bit integer (`char` / `int8`).
+    I8,
+    /// Unsigned 8-bit integer (`uchar` / `uint8`).
+    U8,
+    /// Signed 16-bit integer (`short` / `int16`).
+    I16,
+    /// Unsigned 16-bit integer (`ushort` / `uint16`).
+    U16,
+    /// Signed 32-bit integer (`int` / `int32`).
+    I32,
+    /// Unsigned 32-bit integer (`uint` / `uint32`).
+    U32,
+    /// 32-bit float (`float` / `float32`); the default.
+    #[default]
+    F32,
+    /// 64-bit float (`double` / `float64`).
+    F64,
+}
+
+impl ScalarType {
+    /// Every scalar type, in PLY order.
+    pub const ALL: [ScalarType; 8] = [
+        ScalarType::I8,
+        ScalarType::U8,
+        ScalarType::I16,
+        ScalarType::U16,
+        ScalarType::I32,
+        ScalarType::U32,
+        ScalarType::F32,
+        ScalarType::F64,
+    ];
+
+    /// Size of one value in bytes.
+    pub fn size(self) -> usize {
+        match self {
+            ScalarType::I8 | ScalarType::U8 => 1,
+            ScalarType::I16 | ScalarType::U16 => 2,
+            ScalarType::I32 | ScalarType::U32 | ScalarType::F32 => 4,
+            ScalarType::F64 => 8,
+        }
+    }
+
+    /// Whether the type holds integers.
+    pub fn is_integer(self) -> bool {
+        !matches!(self, ScalarType::F32 | ScalarType::F64)
+    }
+
+    /// Smallest and largest representable value (for integer types).
+    pub fn range(self) -> (f64, f64) {
+        match self {
+            ScalarType::I8 => (i8::MIN.into(), i8::MAX.into()),
+            ScalarType::U8 => (0.0, u8::MAX.into()),
+            ScalarType::I16 => (i16::MIN.into(), i16::MAX.into()),
+            ScalarType::U16 => (0.0, u16::MAX.into()),
+            ScalarType::I32 => (i32::MIN.into(), i32::MAX.into()),
+            ScalarType::U32 => (0.0, u32::MAX.into()),
+            ScalarType::F32 => (f32::MIN.into(), f32::MAX.into()),
+            ScalarType::F64 => (f64::MIN, f64::MAX),
+        }
+    }
+
+    /// The canonical PLY name (`char`, `uchar`, `short`, `ushort`, `int`, `uint`, `float`,
+    /// `double`), the spelling every PLY reader accepts.
+    pub fn ply_name(self) -> &'static str {
+        match self {
+            ScalarType::I8 => "char",
+            ScalarType::U8 => "uchar",
+            ScalarType::I16 => "short",
+            ScalarType::U16 => "ushort",
+            ScalarType::I32 => "int",
+            ScalarType::U32 => "uint",
+            ScalarType::F32 => "float",
+            ScalarType::F64 => "double",
+        }
+    }
+
+    /// Parses either PLY spelling (`uchar` or `uint8`, …).
+    pub fn from_ply_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "char" | "int8" => ScalarType::I8,
+            "uchar" | "uint8" => ScalarType::U8,
+            "short" | "int16" => ScalarType::I16,
+            "ushort" | "uint16" => ScalarType::U16,
+            "int" | "int32" => ScalarType::I32,
+            "uint" | "uint32" => ScalarType::U32,
+            "float" | "float32" => ScalarType::F32,
+            "double" | "float64" => ScalarType::F64,
+            _ => return None,
+        })
+    }
+
+    /// Converts a value for storage: integers are rounded and clamped to the type's range,
+    /// `F32` rounds to single precision.
+    pub fn quantize(self, value: f64) -> f64 {
+        match self {
+            ScalarType::F64 => value,
+            ScalarType::F32 => f64::from(value as f32),
+            _ => {
+                let (lo, hi) = self.range();
+                value.round().clamp(lo, hi)
+            }
+        }
+    }
+}
+
+impl fmt::Display for ScalarType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.ply_name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for t in ScalarType::ALL {
+            assert_eq!(ScalarType::from_ply_name(t.ply_name()), Some(t));
+        }
+        assert_eq!(ScalarType::from_ply_name("uint8"), Some(ScalarType::U8));
+        assert_eq!(ScalarType::from_ply_name("quad"), None);
+    }
+
+    #[test]
+    fn quantize_clamps_integers() {
+        assert_eq!(ScalarType::U8.quantize(300.4), 255.0);
+        assert_eq!(ScalarType::I8.quantize(-3.6), -4.0);
+        assert_eq!(ScalarType::F64.quantize(0.1), 0.1);
+    }
+}

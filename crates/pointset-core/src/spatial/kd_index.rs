@@ -1,0 +1,161 @@
+//! A panic-free wrapper over `kiddo`'s immutable k-d tree.
+
+use std::num::NonZeroUsize;
+
+use glam::Vec3;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+
+use crate::{Error, Result};
+
+/// One query result: the index of a point in the indexed slice and its squared distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Neighbour {
+    /// Index into the slice the index was built from.
+    pub index: usize,
+    /// Squared Euclidean distance to the query.
+    pub distance_squared: f32,
+}
+
+/// A static k-d tree for k-nearest-neighbour and radius queries over 3D points.
+///
+/// Built once from a slice; the point at slice position `i` is reported as index `i`.
+/// Unlike the raw tree it never panics: non-finite points or queries are errors, an empty
+/// index answers every query with no neighbours, and data with many identical coordinates
+/// (grid-aligned or voxel-centre points, exact duplicates) is supported — the immutable tree
+/// splits by median and keeps equal values in one leaf, which the tests check.
+///
+/// Results are sorted by `(distance, index)`, so ties come back in a deterministic order.
+pub struct KdIndex {
+    tree: Option<ImmutableKdTree<f32, 3>>,
+    points: Vec<Vec3>,
+}
+
+impl std::fmt::Debug for KdIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("KdIndex")
+            .field("len", &self.points.len())
+            .finish()
+    }
+}
+
+fn check_query(q: Vec3) -> Result<[f32; 3]> {
+    if q.is_finite() {
+        Ok(q.to_array())
+    } else {
+        Err(Error::NonFinite {
+            what: "query point".into(),
+            index: 0,
+        })
+    }
+}
+
+impl KdIndex {
+    /// Builds the index; errors if any point is NaN or infinite, or there are more than
+    /// `u32::MAX` points.
+    pub fn new(points: &[Vec3]) -> Result<Self> {
+        crate::error::check_finite_vec3(points, "indexed point")?;
+        if points.len() > u32::MAX as usize {
+            return Err(Error::InvalidParameter {
+                name: "points",
+                value: points.len().to_string(),
+                expected: "at most 2^32 - 1 points".into(),
+            });
+        }
+        let tree = if points.is_empty() {
+            None
+        } else {
+            let raw: Vec<[f32; 3]> = points.iter().map(|p| p.to_array()).collect();
+            let tree =
+                ImmutableKdTree::new_from_slice(&raw).map_err(|e| Error::InvalidParameter {
+                    name: "points",
+                    value: format!("{} points", points.len()),
+                    expected: format!("a set the k-d tree accepts ({e})"),
+                })?;
+            Some(tree)
+        };
+        Ok(Self {
+            tree,
+            points: points.to_vec(),
+        })
+    }
+
+    /// Number of indexed points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the index holds no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The indexed points.
+    pub fn points(&self) -> &[Vec3] {
+        &self.points
+    }
+
+    /// The `k` nearest points to `q` (fewer if the index is smaller), nearest first.
+    pub fn nearest(&self, q: Vec3, k: usize) -> Result<Vec<Neighbour>> {
+        let query = check_query(q)?;
+        let (Some(tree), Some(k)) = (&self.tree, NonZeroUsize::new(k)) else {
+            return Ok(Vec::new());
+        };
+        let found = tree
+            .query(&query)
+            .nearest_n::<SquaredEuclidean<f32>>(k)
+            .execute();
+        Ok(Self::sorted(
+            found.into_iter().map(|r| (r.item as usize, r.distance)),
+        ))
+    }
+
+    /// The nearest point to `q`, `None` for an empty index.
+    pub fn nearest_one(&self, q: Vec3) -> Result<Option<Neighbour>> {
+        Ok(self.nearest(q, 1)?.into_iter().next())
+    }
+
+    /// Every point within distance `radius` of `q` (inclusive), nearest first.
+    pub fn within(&self, q: Vec3, radius: f32) -> Result<Vec<Neighbour>> {
+        let query = check_query(q)?;
+        if !(radius.is_finite() && radius >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "radius",
+                value: radius.to_string(),
+                expected: "a finite non-negative distance".into(),
+            });
+        }
+        let Some(tree) = &self.tree else {
+            return Ok(Vec::new());
+        };
+        let found = tree
+            .query(&query)
+            .within::<SquaredEuclidean<f32>>(radius * radius)
+            .execute();
+        Ok(Self::sorted(
+            found.into_iter().map(|r| (r.item as usize, r.distance)),
+        ))
+    }
+
+    /// At most `k` nearest points within `radius` of `q`, nearest first.
+    pub fn nearest_within(&self, q: Vec3, k: usize, radius: f32) -> Result<Vec<Neighbour>> {
+        let mut found = self.nearest(q, k)?;
+        let r2 = radius * radius;
+        found.retain(|n| n.distance_squared <= r2);
+        Ok(found)
+    }
+
+    fn sorted(found: impl Iterator<Item = (usize, f32)>) -> Vec<Neighbour> {
+        let mut out: Vec<Neighbour> = found
+            .map(|(index, distance_squared)| Neighbour {
+                index,
+                distance_squared,
+            })
+            .collect();
+        out.sort_by(|a, b| {
+            a.distance_squared
+                .total_cmp(&b.distance_squared)
+                .then(a.index.cmp(&b.index))
+        });
+        out
+    }
+}
