@@ -58,6 +58,7 @@ pub mod rng;
 mod scalar;
 pub mod spatial;
 mod stage;
+pub mod testdata;
 
 pub use aabb::Aabb;
 pub use error::{Error, Location, Result};

@@ -4,7 +4,8 @@
 //! per distinct combination (so vertices on UV seams are duplicated, the way every GPU-style
 //! mesh stores them), keeps per-vertex colours (`v x y z r g b`) as `red/green/blue`
 //! channels, merges all objects and groups into one mesh, and ignores materials and line
-//! elements. A file with only point elements (`p`) becomes a point set.
+//! elements. A file without faces (bare `v` lines, the usual point-cloud OBJ) becomes a
+//! point set; `vn` lines are its normals when there is one per vertex.
 
 use std::io::Write;
 use std::path::Path;
@@ -33,7 +34,7 @@ pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
-        ignore_points: false,
+        ignore_points: true,
         ignore_lines: true,
     };
     let mut reader = std::io::BufReader::new(bytes);
@@ -76,17 +77,11 @@ pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
                     vertex_count: count,
                 });
             }
-            // Point elements arrive as degenerate (a, a, a) triangles.
-            if !(tri[0] == tri[1] && tri[1] == tri[2]) {
-                triangles.push([tri[0] + base, tri[1] + base, tri[2] + base]);
-            }
+            triangles.push([tri[0] + base, tri[1] + base, tri[2] + base]);
         }
     }
     if positions.is_empty() {
-        return Err(obj_error(
-            path,
-            "no faces or point elements (`f`/`p` lines) found",
-        ));
+        return read_point_cloud(bytes).map(Geometry::Points);
     }
     let mut points = PointSet::new(positions)?;
     if all_normals && !normals.is_empty() {
@@ -95,9 +90,6 @@ pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
     if all_colors && !colors.is_empty() {
         points.set_colors(&colors)?;
     }
-    if triangles.is_empty() {
-        return Ok(Geometry::Points(points));
-    }
     let mut mesh = TriMesh::new(points, triangles)?;
     if all_uvs && !uvs.is_empty() {
         mesh = mesh.with_uvs(uvs)?;
@@ -105,8 +97,57 @@ pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
     Ok(Geometry::Mesh(mesh))
 }
 
+/// Reads a face-less OBJ: `v x y z [r g b]` lines and optional `vn` lines.
+fn read_point_cloud(bytes: &[u8]) -> Result<PointSet> {
+    let malformed = |line: usize, message: String| Error::Malformed {
+        format: super::FileFormat::Obj,
+        location: crate::Location::Line(line),
+        message,
+    };
+    let text = std::str::from_utf8(bytes)
+        .map_err(|e| malformed(1, format!("not UTF-8 text (at byte {})", e.valid_up_to())))?;
+    let (mut positions, mut normals, mut colors) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let keyword = words.next();
+        if !matches!(keyword, Some("v" | "vn")) {
+            continue;
+        }
+        let values = words
+            .map(|w| {
+                w.parse::<f32>()
+                    .map_err(|_| malformed(i + 1, format!("`{w}` is not a number")))
+            })
+            .collect::<Result<Vec<f32>>>()?;
+        if values.len() < 3 {
+            return Err(malformed(i + 1, "expected at least three numbers".into()));
+        }
+        let v = Vec3::new(values[0], values[1], values[2]);
+        if keyword == Some("vn") {
+            normals.push(v);
+        } else {
+            positions.push(v);
+            if let [_, _, _, r, g, b, ..] = values[..] {
+                colors.push([r, g, b]);
+            }
+        }
+    }
+    if positions.is_empty() {
+        return Err(malformed(1, "no vertices (`v` lines) found".into()));
+    }
+    let count = positions.len();
+    let mut points = PointSet::new(positions)?;
+    if normals.len() == count {
+        points = points.with_normals(normals)?;
+    }
+    if colors.len() == count {
+        points.set_colors(&colors)?;
+    }
+    Ok(points)
+}
+
 /// Writes OBJ: `v` lines (with `r g b` in `0..=1` when colours exist), `vt`, `vn`, then
-/// `f` lines for a mesh or one `p` line per point for a point set.
+/// `f` lines for a mesh; a point set is written as its vertices alone.
 pub fn write_obj(geometry: &Geometry, comments: &[String], out: &mut impl Write) -> Result<()> {
     let mut s = String::new();
     for c in comments {

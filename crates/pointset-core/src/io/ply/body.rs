@@ -210,7 +210,12 @@ impl ValueSource for AsciiSource<'_> {
                 return Err(bad(&format!("is not a valid {ty}")));
             }
         }
-        Ok(value)
+        // A `float` token means the nearest single-precision value, as in a binary file.
+        Ok(if ty == ScalarType::F32 {
+            ty.quantize(value)
+        } else {
+            value
+        })
     }
 
     fn location(&self) -> Location {

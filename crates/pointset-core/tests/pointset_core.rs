@@ -1,0 +1,406 @@
+//! Integration tests of pointset-core: real files, round trips, malformed input, spatial
+//! indices against brute force, seeded streams.
+
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+use pointset_core::io::ply::PlyEncoding;
+use pointset_core::io::{self, FileFormat, Geometry, WriteOptions};
+use pointset_core::testdata::shared_data;
+use pointset_core::{Attribute, BucketGrid, Error, KdIndex, PointSet, ScalarType, TriMesh, rng};
+use proptest::prelude::*;
+use rand::RngExt;
+
+// ---------------------------------------------------------------- real public data
+
+fn load(test: &str, rel: &str) -> Option<io::LoadedGeometry> {
+    let path = shared_data(test, rel)?;
+    Some(io::read_geometry(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())))
+}
+
+#[test]
+fn reads_every_shared_mesh_with_the_right_counts() {
+    let expected: [(&str, usize, usize); 6] = [
+        ("meshes/bunny_watertight.obj", 34834, 69664),
+        ("meshes/stanford_bunny_res2.ply", 8171, 16301),
+        ("meshes/fertility.off", 4494, 9000),
+        ("meshes/icosphere_642.ply", 642, 1280),
+        ("meshes/utah_teapot.obj", 3644, 6320),
+        ("meshes/spot_triangulated.obj", 0, 5856),
+    ];
+    for (rel, vertices, faces) in expected {
+        let Some(loaded) = load("reads_every_shared_mesh", rel) else {
+            return;
+        };
+        let mesh = loaded
+            .geometry
+            .mesh()
+            .unwrap_or_else(|| panic!("{rel} is a mesh"));
+        if vertices > 0 {
+            assert_eq!(mesh.vertex_count(), vertices, "{rel}");
+        }
+        assert_eq!(mesh.face_count(), faces, "{rel}");
+    }
+}
+
+#[test]
+fn scan_attributes_survive_a_round_trip() {
+    let Some(loaded) = load("scan_attributes", "meshes/stanford_bunny_res2.ply") else {
+        return;
+    };
+    assert_eq!(loaded.encoding, "ascii");
+    assert_eq!(loaded.comments, vec!["zipper output".to_string()]);
+    let points = loaded.geometry.points();
+    for name in ["confidence", "intensity"] {
+        assert_eq!(
+            points.attribute(name).map(|a| a.storage()),
+            Some(ScalarType::F32),
+            "{name}"
+        );
+    }
+    for encoding in PlyEncoding::ALL {
+        let bytes = io::encode_geometry(
+            &loaded.geometry,
+            FileFormat::Ply,
+            &WriteOptions::default().ply_encoding(encoding),
+        )
+        .unwrap();
+        let back = io::read_geometry_bytes(Path::new("b.ply"), &bytes).unwrap();
+        assert_eq!(back.geometry, loaded.geometry, "{encoding:?}");
+    }
+}
+
+#[test]
+fn oriented_point_sets_keep_normals_radius_and_colours() {
+    for (rel, count) in [
+        ("pointsets/chameleon4k_normals.ply", 4594),
+        ("pointsets/bunny16k_normals.ply", 16130),
+    ] {
+        let Some(loaded) = load("oriented_point_sets", rel) else {
+            return;
+        };
+        let Geometry::Points(points) = &loaded.geometry else {
+            panic!("{rel} has no faces");
+        };
+        assert_eq!(points.len(), count);
+        assert!(points.normals().is_some());
+        assert!(points.attribute("radius").is_some());
+        for c in ["red", "green", "blue", "alpha"] {
+            assert_eq!(
+                points.attribute(c).map(Attribute::storage),
+                Some(ScalarType::U8)
+            );
+        }
+        assert_eq!(points.colors().map(|c| c.len()), Some(count));
+    }
+}
+
+// ---------------------------------------------------------------- round trips
+
+fn point_set_strategy() -> impl Strategy<Value = PointSet> {
+    (1usize..60).prop_flat_map(|n| {
+        (
+            proptest::collection::vec(prop::array::uniform3(-100.0f32..100.0), n),
+            proptest::collection::vec(prop::array::uniform3(-1.0f32..1.0), n),
+            proptest::collection::vec(0u8..=255, n),
+            proptest::collection::vec(-1e3f32..1e3, n),
+        )
+            .prop_map(|(p, nrm, c, conf)| {
+                PointSet::new(p.into_iter().map(Vec3::from).collect())
+                    .unwrap()
+                    .with_normals(nrm.into_iter().map(Vec3::from).collect())
+                    .unwrap()
+                    .with_attribute(
+                        Attribute::new("red", c.iter().map(|&x| f32::from(x)).collect())
+                            .with_storage(ScalarType::U8),
+                    )
+                    .unwrap()
+                    .with_attribute(Attribute::new("confidence", conf))
+                    .unwrap()
+                    .with_attribute(
+                        Attribute::new("green", c.iter().map(|&x| f32::from(255 - x)).collect())
+                            .with_storage(ScalarType::U8),
+                    )
+                    .unwrap()
+                    .with_attribute(
+                        Attribute::new("blue", c.iter().map(|&x| f32::from(x / 2)).collect())
+                            .with_storage(ScalarType::U8),
+                    )
+                    .unwrap()
+            })
+    })
+}
+
+proptest! {
+    #[test]
+    fn point_sets_round_trip_through_every_ply_encoding(points in point_set_strategy()) {
+        let geometry = Geometry::Points(points);
+        for encoding in PlyEncoding::ALL {
+            let opts = WriteOptions::default().ply_encoding(encoding).comment("round trip");
+            let bytes = io::encode_geometry(&geometry, FileFormat::Ply, &opts).unwrap();
+            let back = io::read_geometry_bytes(Path::new("x.ply"), &bytes).unwrap();
+            prop_assert_eq!(&back.geometry, &geometry);
+            prop_assert_eq!(back.comments, vec!["round trip".to_string()]);
+        }
+    }
+
+    #[test]
+    fn meshes_round_trip_through_ply_obj_and_off(
+        points in point_set_strategy(),
+        seed in any::<u64>(),
+    ) {
+        let n = points.len() as u32;
+        let mut r = rng::rng_from_seed(seed);
+        let tris: Vec<[u32; 3]> = (0..n).map(|_| {
+            [r.random_range(0..n), r.random_range(0..n), r.random_range(0..n)]
+        }).collect();
+        let uvs: Vec<Vec2> = (0..n).map(|i| Vec2::new(i as f32 * 0.25, 1.0 - i as f32 * 0.5)).collect();
+        let mesh = TriMesh::new(points.clone(), tris.clone()).unwrap().with_uvs(uvs).unwrap();
+        let geometry = Geometry::Mesh(mesh);
+        let bytes = io::encode_geometry(&geometry, FileFormat::Ply, &WriteOptions::default()).unwrap();
+        prop_assert_eq!(&io::read_geometry_bytes(Path::new("m.ply"), &bytes).unwrap().geometry, &geometry);
+
+        // OFF keeps positions, normals, colours (as 0..255) and faces.
+        let bytes = io::encode_geometry(&geometry, FileFormat::Off, &WriteOptions::default()).unwrap();
+        let back = io::read_geometry_bytes(Path::new("m.off"), &bytes).unwrap().geometry;
+        let m = back.mesh().unwrap();
+        prop_assert_eq!(m.positions(), points.positions());
+        prop_assert_eq!(m.vertices().normals(), points.normals());
+        prop_assert_eq!(m.triangles(), &tris[..]);
+        prop_assert_eq!(m.vertices().colors(), points.colors());
+    }
+}
+
+#[test]
+fn obj_round_trip_keeps_faces_normals_and_uvs() {
+    let points = PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE])
+        .unwrap()
+        .with_normals(vec![Vec3::Z; 4])
+        .unwrap();
+    let uvs = vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE];
+    let mesh = TriMesh::new(points, vec![[0, 1, 2], [1, 3, 2]])
+        .unwrap()
+        .with_uvs(uvs)
+        .unwrap();
+    let geometry = Geometry::Mesh(mesh);
+    let bytes = io::encode_geometry(&geometry, FileFormat::Obj, &WriteOptions::default()).unwrap();
+    let back = io::read_geometry_bytes(Path::new("q.obj"), &bytes)
+        .unwrap()
+        .geometry;
+    assert_eq!(back, geometry);
+    // Point sets are written as bare `v` lines (what MeshLab and Open3D read as a point
+    // cloud) and read back as points.
+    let pts = Geometry::Points(geometry.points().clone());
+    let bytes = io::encode_geometry(&pts, FileFormat::Obj, &WriteOptions::default()).unwrap();
+    let back = io::read_geometry_bytes(Path::new("p.obj"), &bytes)
+        .unwrap()
+        .geometry;
+    assert_eq!(back.points().positions(), pts.points().positions());
+    assert_eq!(back.points().normals(), pts.points().normals());
+    assert!(back.mesh().is_none());
+}
+
+// ---------------------------------------------------------------- malformed input
+
+fn read(name: &str, bytes: &[u8]) -> Result<io::LoadedGeometry, Error> {
+    io::read_geometry_bytes(Path::new(name), bytes)
+}
+
+#[test]
+fn malformed_files_give_specific_errors() {
+    assert!(matches!(read("e.ply", b""), Err(Error::EmptyFile { .. })));
+    let nan = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 nan 0\n";
+    assert!(matches!(
+        read("n.ply", nan),
+        Err(Error::NonFinite { index: 1, .. })
+    ));
+    let bad_index = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n";
+    assert!(matches!(
+        read("f.ply", bad_index),
+        Err(Error::IndexOutOfRange {
+            face: 0,
+            vertex: 7,
+            vertex_count: 3
+        })
+    ));
+    let no_xyz = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float a\nend_header\n1\n";
+    assert!(matches!(
+        read("a.ply", no_xyz),
+        Err(Error::Malformed { .. })
+    ));
+    assert!(matches!(
+        read("off.off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n"),
+        Err(Error::IndexOutOfRange { vertex: 9, .. })
+    ));
+    assert!(matches!(
+        read("off.off", b"OFF\n1000000000000 0 0\n0 0 0\n"),
+        Err(Error::HeaderExceedsFile { .. })
+    ));
+    assert!(matches!(
+        read("off.off", b"OFF\n2 0 0\n0 0 0\n"),
+        Err(Error::UnexpectedEof { .. })
+    ));
+    assert!(matches!(
+        read("off.off", b"OFF\n1 0 0\ninf 0 0\n"),
+        Err(Error::NonFinite { .. })
+    ));
+    assert!(matches!(
+        read("t.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 5\n"),
+        Err(Error::Obj { .. } | Error::IndexOutOfRange { .. })
+    ));
+    assert!(matches!(
+        read("v.obj", b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"),
+        Err(Error::NonFinite { .. })
+    ));
+    assert!(matches!(
+        read("x.ply", b"OFF\n0 0 0\n"),
+        Err(Error::FormatMismatch { .. })
+    ));
+    assert!(matches!(
+        read("x.xyz", b"\x00\x01binary"),
+        Err(Error::UnknownFormat { .. })
+    ));
+    // Without an extension the content decides.
+    assert!(read("noext", b"OFF\n1 0 0\n0 0 0\n").is_ok());
+}
+
+#[test]
+fn truncated_real_file_is_an_error_not_a_panic() {
+    let Some(path) = shared_data("truncated_real_file", "pointsets/chameleon4k_normals.ply") else {
+        return;
+    };
+    let bytes = std::fs::read(&path).unwrap();
+    for cut in [10, 200, bytes.len() / 2, bytes.len() - 1] {
+        assert!(read("c.ply", &bytes[..cut]).is_err(), "cut at {cut}");
+    }
+}
+
+// ---------------------------------------------------------------- spatial indices
+
+fn brute_force_knn(points: &[Vec3], q: Vec3, k: usize) -> Vec<f32> {
+    let mut d: Vec<f32> = points.iter().map(|p| p.distance_squared(q)).collect();
+    d.sort_by(f32::total_cmp);
+    d.truncate(k);
+    d
+}
+
+fn points_strategy() -> impl Strategy<Value = Vec<Vec3>> {
+    // Mix of random, grid-aligned and duplicated coordinates.
+    (
+        proptest::collection::vec(prop::array::uniform3(-10.0f32..10.0), 0..150),
+        proptest::collection::vec(prop::array::uniform3(0i32..4), 0..150),
+        0usize..40,
+    )
+        .prop_map(|(random, grid, dups)| {
+            let mut pts: Vec<Vec3> = random.into_iter().map(Vec3::from).collect();
+            pts.extend(
+                grid.into_iter()
+                    .map(|g| Vec3::new(g[0] as f32, g[1] as f32, g[2] as f32)),
+            );
+            let first = pts.first().copied().unwrap_or(Vec3::ONE);
+            pts.extend(std::iter::repeat_n(first, dups));
+            pts
+        })
+}
+
+proptest! {
+    #[test]
+    fn kd_index_agrees_with_brute_force(
+        points in points_strategy(),
+        q in prop::array::uniform3(-12.0f32..12.0),
+        k in 0usize..20,
+        r in 0.0f32..6.0,
+    ) {
+        let q = Vec3::from(q);
+        let index = KdIndex::new(&points).unwrap();
+        let got: Vec<f32> = index.nearest(q, k).unwrap().iter().map(|n| n.distance_squared).collect();
+        let want = brute_force_knn(&points, q, k);
+        prop_assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            prop_assert!((g - w).abs() <= 1e-4 * w.max(1.0));
+        }
+        let mut within: Vec<usize> = index.within(q, r).unwrap().iter().map(|n| n.index).collect();
+        within.sort_unstable();
+        let expected: Vec<usize> = (0..points.len()).filter(|&i| points[i].distance_squared(q) <= r * r).collect();
+        prop_assert_eq!(within, expected);
+    }
+
+    #[test]
+    fn bucket_grid_agrees_with_brute_force(
+        points in points_strategy(),
+        cell in 0.3f32..5.0,
+        q in prop::array::uniform3(-12.0f32..12.0),
+        r in 0.0f32..8.0,
+        remove_every in 2usize..5,
+    ) {
+        let q = Vec3::from(q);
+        let mut grid = BucketGrid::new(cell).unwrap();
+        let keys: Vec<_> = points.iter().enumerate().map(|(i, &p)| grid.insert(p, i).unwrap()).collect();
+        let mut alive = vec![true; points.len()];
+        for (i, key) in keys.iter().enumerate().step_by(remove_every) {
+            prop_assert_eq!(grid.remove(*key).map(|(_, v)| v), Some(i));
+            alive[i] = false;
+        }
+        prop_assert_eq!(grid.len(), alive.iter().filter(|&&a| a).count());
+        let mut got: Vec<usize> = grid.query_radius(q, r).iter().map(|&k| *grid.get(k).unwrap().1).collect();
+        got.sort_unstable();
+        let want: Vec<usize> = (0..points.len()).filter(|&i| alive[i] && points[i].distance_squared(q) <= r * r).collect();
+        prop_assert_eq!(got, want);
+
+        let region = pointset_core::Aabb::new(q, q + Vec3::splat(r));
+        let mut removed: Vec<usize> = grid.remove_inside_box(&region).into_iter().map(|(_, v)| v).collect();
+        removed.sort_unstable();
+        let want: Vec<usize> = (0..points.len()).filter(|&i| alive[i] && region.contains(points[i])).collect();
+        prop_assert_eq!(&removed, &want);
+        prop_assert!(grid.query_box(&region).is_empty());
+        for &i in &removed { alive[i] = false; }
+        prop_assert_eq!(grid.iter().count(), alive.iter().filter(|&&a| a).count());
+    }
+}
+
+#[test]
+fn kd_index_handles_voxel_centres_and_rejects_nan() {
+    // 32³ grid-aligned voxel centres plus 500 exact duplicates of one point.
+    let mut pts = Vec::new();
+    for k in 0..32 {
+        for j in 0..32 {
+            for i in 0..32 {
+                pts.push(Vec3::new(i as f32, j as f32, k as f32) + 0.5);
+            }
+        }
+    }
+    pts.extend(std::iter::repeat_n(Vec3::splat(0.5), 500));
+    let index = KdIndex::new(&pts).unwrap();
+    let n = index.nearest(Vec3::splat(0.5), 510).unwrap();
+    assert_eq!(n.len(), 510);
+    assert_eq!(n.iter().filter(|x| x.distance_squared == 0.0).count(), 501);
+    assert_eq!(
+        index
+            .within(Vec3::new(10.5, 10.5, 10.5), 1.0)
+            .unwrap()
+            .len(),
+        7
+    );
+    assert!(matches!(
+        KdIndex::new(&[Vec3::NAN]),
+        Err(Error::NonFinite { .. })
+    ));
+    assert!(index.nearest(Vec3::new(f32::NAN, 0.0, 0.0), 1).is_err());
+    assert!(index.within(Vec3::ZERO, f32::NAN).is_err());
+    let empty = KdIndex::new(&[]).unwrap();
+    assert!(empty.nearest(Vec3::ZERO, 3).unwrap().is_empty());
+}
+
+#[test]
+fn seeded_streams_are_deterministic_across_threads() {
+    let draw = |i: u64| {
+        let mut r = rng::stream(42, i);
+        (0..4).map(|_| r.random::<u32>()).collect::<Vec<_>>()
+    };
+    let sequential: Vec<_> = (0..64).map(draw).collect();
+    let threaded: Vec<_> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..64).map(|i| s.spawn(move || draw(i))).collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert_eq!(sequential, threaded);
+}
