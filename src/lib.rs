@@ -1,1 +1,74 @@
-//! tmp
+//! # geosynth
+//!
+//! Example-based geometry and texture synthesis in Rust: given a small example — a point
+//! set, a mesh, a height field, a texture — produce more of it. This facade re-exports the
+//! workspace's crates as modules and adds what ties them together: headless previews
+//! ([`preview`]), procedural exemplars ([`fixtures`]) and an umbrella [`Error`].
+//!
+//! | module | crate | what |
+//! |---|---|---|
+//! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF I/O, [`Stage`] |
+//! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
+//! | [`fixtures`] | (facade) | deterministic procedural exemplars |
+//!
+//! The synthesis families (papers 000–004) arrive as further modules — `quilt`, `voxel`,
+//! `texmesh`, `structure` — each exposed as a [`Stage`].
+//!
+//! ## Cookbook: read, inspect, render
+//!
+//! ```
+//! use geosynth::core::io::{self, Geometry, WriteOptions};
+//! use geosynth::{fixtures, preview};
+//!
+//! let torus = Geometry::Mesh(fixtures::torus_mesh(32, 16, 1.0, 0.3)?);
+//! let dir = tempfile::tempdir()?;
+//! let path = dir.path().join("torus.ply");
+//! io::write_geometry(&path, &torus, &WriteOptions::default())?;
+//!
+//! let loaded = io::read_geometry(&path)?;
+//! assert_eq!(loaded.geometry.mesh().map(|m| m.face_count()), Some(32 * 16 * 2));
+//!
+//! let image = preview::render(&loaded.geometry, &preview::RenderOptions::default())?;
+//! preview::save_png(&image, &dir.path().join("torus.png"))?;
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! ## Composing stages
+//!
+//! Every algorithm is a [`Stage`]; `then` chains them with typed inputs and outputs, and the
+//! [`RunContext`] carries the seed, a progress sink, a cancel flag and per-stage timings.
+//!
+//! ```
+//! use geosynth::core::{io::Geometry, PointSet};
+//! use geosynth::{RunContext, Stage};
+//!
+//! /// Keeps the points above a height.
+//! struct Above(f32);
+//! impl Stage for Above {
+//!     type Input = PointSet;
+//!     type Output = PointSet;
+//!     type Error = geosynth::Error;
+//!     fn name(&self) -> &str { "above" }
+//!     fn run(&self, p: PointSet, ctx: &mut RunContext) -> Result<PointSet, Self::Error> {
+//!         ctx.check_cancelled()?;
+//!         Ok(p.filter(|_, q| q.y > self.0))
+//!     }
+//! }
+//!
+//! let sphere = geosynth::fixtures::sphere_points(1000)?;
+//! let cap = Above(0.0).then(Above(0.5)).run(sphere, &mut RunContext::new(7))?;
+//! assert!(cap.positions().iter().all(|p| p.y > 0.5));
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+#![deny(missing_docs)]
+
+mod error;
+pub mod fixtures;
+pub mod preview;
+
+/// Shared types, I/O and spatial indices (the `pointset-core` crate).
+pub use pointset_core as core;
+pub use pointset_core::{CancelFlag, Progress, ProgressUpdate, RunContext, Stage};
+
+pub use error::{Error, Result};

@@ -1,0 +1,6 @@
+//! One module per subcommand.
+
+pub mod demo;
+pub mod fixtures;
+pub mod info;
+pub mod render;

@@ -1,0 +1,34 @@
+//! The facade's umbrella error.
+
+use std::path::PathBuf;
+
+/// Any error from a geosynth crate or the facade itself.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// From `pointset-core` (types, I/O, spatial indices, stages).
+    #[error(transparent)]
+    Core(#[from] pointset_core::Error),
+    /// Encoding or writing an image failed.
+    #[error("cannot write image {path}: {source}")]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: image::ImageError,
+    },
+    /// A rendering or pipeline parameter is out of range.
+    #[error("parameter `{name}` = {value} is out of range: expected {expected}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// The value given.
+        value: String,
+        /// The accepted range, in words.
+        expected: String,
+    },
+}
+
+/// Shorthand for results of the facade.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,248 @@
+//! Headless previews: point sets as shaded, depth-tested splats and meshes as shaded,
+//! z-buffered triangles, rendered on the CPU into PNG images.
+//!
+//! The camera is orthographic, looks at the geometry from `azimuth`/`elevation`, and is
+//! fitted so the geometry fills 90% of the image. Lighting is Lambertian, two-sided, from a
+//! light slightly above and left of the viewer, so surfaces darken toward silhouettes.
+//! Stored colours (`red/green/blue` channels) are used when present; otherwise
+//! [`RenderOptions::color`]. Splat size comes from the point spacing (median nearest-neighbour
+//! distance of a sample of points). Rendering is deterministic.
+//!
+//! ```
+//! use geosynth::core::io::Geometry;
+//! use geosynth::preview::{render, RenderOptions};
+//! use geosynth::fixtures;
+//!
+//! let sphere = Geometry::Points(fixtures::sphere_points(2000)?);
+//! let image = render(&sphere, &RenderOptions::default().size(160, 120))?;
+//! assert_eq!(image.dimensions(), (160, 120));
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod camera;
+mod raster;
+
+use std::path::Path;
+
+use glam::Vec3;
+use image::RgbImage;
+use pointset_core::io::Geometry;
+use pointset_core::{KdIndex, NormalWeighting};
+
+pub use camera::UpAxis;
+
+use crate::{Error, Result};
+use camera::Camera;
+use raster::FrameBuffer;
+
+/// How to render a preview.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct RenderOptions {
+    /// Image (or panel) width in pixels; default 640.
+    pub width: u32,
+    /// Image (or panel) height in pixels; default 480.
+    pub height: u32,
+    /// Camera azimuth around the up axis in degrees; default 30.
+    pub azimuth: f32,
+    /// Camera elevation above the horizontal plane in degrees; default 25.
+    pub elevation: f32,
+    /// Which world axis is up; default +Y.
+    pub up: UpAxis,
+    /// Surface colour (RGB in `0..=1`) when the geometry has none; default light grey-blue.
+    pub color: [f32; 3],
+    /// Background colour; default white.
+    pub background: [f32; 3],
+    /// Multiplies the automatic splat radius; default 1.
+    pub splat_scale: f32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            width: 640,
+            height: 480,
+            azimuth: 30.0,
+            elevation: 25.0,
+            up: UpAxis::Y,
+            color: [0.78, 0.8, 0.88],
+            background: [1.0, 1.0, 1.0],
+            splat_scale: 1.0,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// Sets the image size (default 640 × 480).
+    pub fn size(mut self, width: u32, height: u32) -> Self {
+        self.width = width;
+        self.height = height;
+        self
+    }
+
+    /// Sets the view direction in degrees (default azimuth 30, elevation 25).
+    pub fn view(mut self, azimuth: f32, elevation: f32) -> Self {
+        self.azimuth = azimuth;
+        self.elevation = elevation;
+        self
+    }
+
+    /// Sets the up axis (default +Y).
+    pub fn up(mut self, up: UpAxis) -> Self {
+        self.up = up;
+        self
+    }
+
+    /// Sets the surface colour used when the geometry has none (default light grey-blue).
+    pub fn color(mut self, color: [f32; 3]) -> Self {
+        self.color = color;
+        self
+    }
+
+    /// Checks sizes (1..=8192 pixels), finite angles, colours in `0..=1`, positive splat scale.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, value: String, expected: &str| {
+            Err(Error::InvalidParameter {
+                name,
+                value,
+                expected: expected.into(),
+            })
+        };
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if !(1..=8192).contains(&v) {
+                return bad(name, v.to_string(), "1 to 8192 pixels");
+            }
+        }
+        if !(self.azimuth.is_finite() && self.elevation.is_finite()) {
+            return bad(
+                "azimuth/elevation",
+                format!("{}/{}", self.azimuth, self.elevation),
+                "finite angles",
+            );
+        }
+        for (name, c) in [("color", self.color), ("background", self.background)] {
+            if c.iter().any(|v| !(0.0..=1.0).contains(v)) {
+                return bad(name, format!("{c:?}"), "RGB components in 0..=1");
+            }
+        }
+        if !(self.splat_scale.is_finite() && self.splat_scale > 0.0) {
+            return bad(
+                "splat_scale",
+                self.splat_scale.to_string(),
+                "a positive number",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Median distance from a sample of points to their nearest neighbour (0 for < 2 points).
+pub fn point_spacing(points: &[Vec3]) -> Result<f32> {
+    if points.len() < 2 {
+        return Ok(0.0);
+    }
+    let index = KdIndex::new(points)?;
+    let step = (points.len() / 2000).max(1);
+    let mut d: Vec<f32> = Vec::with_capacity(points.len() / step + 1);
+    for p in points.iter().step_by(step) {
+        if let Some(n) = index.nearest(*p, 2)?.get(1) {
+            d.push(n.distance_squared.sqrt());
+        }
+    }
+    d.sort_by(f32::total_cmp);
+    Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
+}
+
+/// Renders one geometry into an image of `options.width × options.height`.
+pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> {
+    options.validate()?;
+    let points = geometry.points();
+    let cam = Camera::fitted(
+        points.positions(),
+        options.up,
+        options.azimuth,
+        options.elevation,
+        options.width,
+        options.height,
+    );
+    let mut fb = FrameBuffer::new(
+        options.width,
+        options.height,
+        Vec3::from(options.background),
+    );
+    let fallback = Vec3::from(options.color);
+    let colors: Vec<Vec3> = match points.colors() {
+        Some(c) => c.into_iter().map(Vec3::from).collect(),
+        None => vec![fallback; points.len()],
+    };
+    match geometry.mesh() {
+        Some(mesh) => {
+            let computed;
+            let normals = match mesh.vertices().normals() {
+                Some(n) => n,
+                None => {
+                    computed = mesh.vertex_normals(NormalWeighting::Angle);
+                    &computed
+                }
+            };
+            let projected: Vec<_> = mesh.positions().iter().map(|&p| cam.project(p)).collect();
+            for t in mesh.triangles() {
+                let [a, b, c] = t.map(|v| v as usize);
+                fb.triangle(
+                    &cam,
+                    [projected[a], projected[b], projected[c]],
+                    [normals[a], normals[b], normals[c]],
+                    [colors[a], colors[b], colors[c]],
+                );
+            }
+        }
+        None => {
+            let spacing = point_spacing(points.positions())?;
+            let radius = (1.1 * spacing * cam.scale() * options.splat_scale).clamp(1.0, 64.0);
+            let normals = points.normals();
+            for (i, &p) in points.positions().iter().enumerate() {
+                fb.splat(
+                    &cam,
+                    cam.project(p),
+                    radius,
+                    normals.map(|n| n[i]),
+                    colors[i],
+                );
+            }
+        }
+    }
+    RgbImage::from_raw(options.width, options.height, fb.to_rgb8()).ok_or(Error::InvalidParameter {
+        name: "width/height",
+        value: format!("{}x{}", options.width, options.height),
+        expected: "a size whose pixel buffer fits in memory".into(),
+    })
+}
+
+/// Width of the grey separator between panels, in pixels.
+const PANEL_GAP: u32 = 4;
+
+/// Renders each geometry into its own panel and places the panels side by side.
+pub fn render_panels(geometries: &[&Geometry], options: &RenderOptions) -> Result<RgbImage> {
+    options.validate()?;
+    let n = geometries.len().max(1) as u32;
+    let total_width = n * options.width + (n - 1) * PANEL_GAP;
+    let mut out = RgbImage::from_pixel(total_width, options.height, image::Rgb([160, 160, 160]));
+    for (k, g) in geometries.iter().enumerate() {
+        let panel = render(g, options)?;
+        let x0 = k as u32 * (options.width + PANEL_GAP);
+        for (x, y, px) in panel.enumerate_pixels() {
+            out.put_pixel(x0 + x, y, *px);
+        }
+    }
+    Ok(out)
+}
+
+/// Saves an image as PNG (the format is fixed regardless of the extension).
+pub fn save_png(image: &RgbImage, path: &Path) -> Result<()> {
+    image
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|source| Error::Image {
+            path: path.to_path_buf(),
+            source,
+        })
+}

@@ -1,0 +1,182 @@
+//! End-to-end tests through the facade: previews and fixtures.
+
+use geosynth::core::io::{self, Geometry};
+use geosynth::fixtures;
+use geosynth::preview::{self, RenderOptions, UpAxis};
+use glam::Vec3;
+use image::RgbImage;
+
+const BACKGROUND: [u8; 3] = [255, 255, 255];
+
+fn luminance(img: &RgbImage, x: u32, y: u32) -> f32 {
+    let p = img.get_pixel(x, y).0;
+    (f32::from(p[0]) + f32::from(p[1]) + f32::from(p[2])) / 3.0
+}
+
+/// Checks that a unit sphere covers the expected disc and darkens toward its rim. The
+/// camera fits the sphere's projected extent (diameter 2) into 90% of the image; point
+/// splats reach `splat_px` further.
+fn assert_shaded_disc(img: &RgbImage, splat_px: f32) {
+    let (w, h) = img.dimensions();
+    let radius = 0.45 * w.min(h) as f32 + splat_px;
+    let (cx, cy) = (w as f32 / 2.0, h as f32 / 2.0);
+    let mut covered = 0u32;
+    let mut inside_uncovered = 0u32;
+    let mut outside_covered = 0u32;
+    let (mut centre_sum, mut centre_n, mut rim_sum, mut rim_n) = (0.0, 0, 0.0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let d = ((x as f32 + 0.5 - cx).powi(2) + (y as f32 + 0.5 - cy).powi(2)).sqrt() / radius;
+            let fg = img.get_pixel(x, y).0 != BACKGROUND;
+            covered += u32::from(fg);
+            if d < 0.97 && !fg {
+                inside_uncovered += 1;
+            }
+            if d > 1.03 && fg {
+                outside_covered += 1;
+            }
+            if fg && d < 0.3 {
+                centre_sum += luminance(img, x, y);
+                centre_n += 1;
+            }
+            if fg && (0.85..0.97).contains(&d) {
+                rim_sum += luminance(img, x, y);
+                rim_n += 1;
+            }
+        }
+    }
+    let expected = std::f32::consts::PI * radius * radius;
+    assert!(
+        (covered as f32 - expected).abs() < 0.04 * expected,
+        "covered {covered} px, expected about {expected}"
+    );
+    assert_eq!(inside_uncovered, 0, "holes inside the disc");
+    assert_eq!(outside_covered, 0, "pixels outside the disc");
+    let (centre, rim) = (centre_sum / centre_n as f32, rim_sum / rim_n as f32);
+    assert!(
+        rim < 0.75 * centre,
+        "rim {rim} should be darker than centre {centre}"
+    );
+}
+
+#[test]
+fn rendered_sphere_mesh_is_a_disc_darker_toward_its_rim() {
+    let sphere = Geometry::Mesh(fixtures::icosphere_mesh(4).unwrap());
+    let img = preview::render(
+        &sphere,
+        &RenderOptions::default().size(200, 200).view(0.0, 0.0),
+    )
+    .unwrap();
+    assert_shaded_disc(&img, 0.0);
+}
+
+#[test]
+fn rendered_sphere_points_are_a_disc_darker_toward_its_rim() {
+    let sphere = Geometry::Points(fixtures::sphere_points(20_000).unwrap());
+    let img = preview::render(
+        &sphere,
+        &RenderOptions::default().size(200, 200).view(10.0, 20.0),
+    )
+    .unwrap();
+    let spacing = preview::point_spacing(sphere.points().positions()).unwrap();
+    // Splat radius: 1.1 × spacing, at 90 pixels per unit.
+    assert_shaded_disc(&img, 1.1 * spacing * 90.0);
+}
+
+#[test]
+fn nearer_geometry_hides_farther_geometry() {
+    // Two red/blue squares of points, the red one nearer the camera (+Z, azimuth 0).
+    let mut pts = Vec::new();
+    let mut colors = Vec::new();
+    for (z, color) in [(0.5f32, [1.0, 0.0, 0.0]), (-0.5, [0.0, 0.0, 1.0])] {
+        for j in 0..40 {
+            for i in 0..40 {
+                pts.push(Vec3::new(i as f32 / 39.0 - 0.5, j as f32 / 39.0 - 0.5, z));
+                colors.push(color);
+            }
+        }
+    }
+    let mut points = geosynth::core::PointSet::new(pts).unwrap();
+    points.set_colors(&colors).unwrap();
+    let img = preview::render(
+        &Geometry::Points(points),
+        &RenderOptions::default().size(100, 100).view(0.0, 0.0),
+    )
+    .unwrap();
+    let centre = img.get_pixel(50, 50).0;
+    assert!(
+        centre[0] > centre[2],
+        "front (red) must win the depth test: {centre:?}"
+    );
+}
+
+#[test]
+fn panels_are_placed_side_by_side() {
+    let a = Geometry::Mesh(fixtures::icosphere_mesh(2).unwrap());
+    let b = Geometry::Points(fixtures::torus_points(500, 1.0, 0.3, 1).unwrap());
+    let opts = RenderOptions::default().size(64, 48);
+    let img = preview::render_panels(&[&a, &b], &opts).unwrap();
+    assert_eq!(img.dimensions(), (64 * 2 + 4, 48));
+    assert!(preview::render(&a, &opts.clone().size(0, 10)).is_err());
+}
+
+#[test]
+fn rendering_is_deterministic() {
+    let g = Geometry::Points(fixtures::heightfield_points(32, 2.0, 3).unwrap());
+    let opts = RenderOptions::default().size(120, 90).up(UpAxis::Z);
+    assert_eq!(
+        preview::render(&g, &opts).unwrap(),
+        preview::render(&g, &opts).unwrap()
+    );
+}
+
+#[test]
+fn committed_fixtures_match_the_generators_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let written = fixtures::write_all(dir.path(), fixtures::FIXTURE_SEED).unwrap();
+    assert_eq!(written.len(), fixtures::all().unwrap().len());
+    for path in written {
+        let name = path.file_name().unwrap();
+        let committed = fixtures::bundled_dir().join(name);
+        let fresh = std::fs::read(&path).unwrap();
+        let stored = std::fs::read(&committed).unwrap_or_else(|e| {
+            panic!(
+                "{} missing ({e}); run `geosynth fixtures`",
+                committed.display()
+            )
+        });
+        assert!(
+            fresh == stored,
+            "{} differs from its generator",
+            committed.display()
+        );
+        // And they load back as what the generator made.
+        assert!(io::read_geometry(&committed).is_ok());
+    }
+}
+
+#[test]
+fn fixture_meshes_are_closed_and_outward() {
+    for mesh in [
+        fixtures::icosphere_mesh(3).unwrap(),
+        fixtures::torus_mesh(24, 12, 1.0, 0.3).unwrap(),
+    ] {
+        // Every undirected edge in exactly two faces, once in each direction.
+        let mut edges = std::collections::HashMap::new();
+        for t in mesh.triangles() {
+            for k in 0..3 {
+                *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &n) in &edges {
+            assert_eq!(n, 1);
+            assert_eq!(edges.get(&(b, a)), Some(&1));
+        }
+        let computed = mesh.vertex_normals(geosynth::core::NormalWeighting::Angle);
+        for (c, n) in computed.iter().zip(mesh.vertices().normals().unwrap()) {
+            assert!(c.dot(*n) > 0.95);
+        }
+    }
+    assert_eq!(fixtures::icosphere_mesh(3).unwrap().vertex_count(), 642);
+    assert!(fixtures::torus_mesh(2, 5, 1.0, 0.2).is_err());
+}
