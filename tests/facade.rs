@@ -1,5 +1,8 @@
 //! End-to-end tests through the facade: previews and fixtures.
 
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use geosynth::core::io::{self, Geometry};
 use geosynth::fixtures;
 use geosynth::preview::{self, RenderOptions, UpAxis};

@@ -40,7 +40,7 @@ impl FrameBuffer {
         let y0 = lo.y.floor().max(0.0) as usize;
         let x1 = (hi.x.ceil() as i64).min(self.width as i64 - 1);
         let y1 = (hi.y.ceil() as i64).min(self.height as i64 - 1);
-        (x1 >= x0 as i64 && y1 >= y0 as i64).then(|| (x0, y0, x1 as usize, y1 as usize))
+        (x1 >= x0 as i64 && y1 >= y0 as i64).then_some((x0, y0, x1 as usize, y1 as usize))
     }
 
     /// Fills a triangle, interpolating depth, normal and colour, shading per pixel.

@@ -170,6 +170,3 @@ pub fn read_ply(bytes: &[u8]) -> Result<PlyDocument> {
         elements,
     })
 }
-
-#[cfg(test)]
-mod tests;

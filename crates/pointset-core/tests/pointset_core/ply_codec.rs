@@ -1,9 +1,8 @@
 //! Codec-level tests: every encoding × every scalar type, and malformed input.
 
+use pointset_core::io::ply::*;
+use pointset_core::{Error, Location, ScalarType};
 use proptest::prelude::*;
-
-use super::*;
-use crate::Error;
 
 fn doc_with_all_types(encoding: PlyEncoding, values: &[f64]) -> PlyDocument {
     let n = values.len();
@@ -123,7 +122,7 @@ fn truncated_binary_body_reports_the_byte_offset() {
     let bytes = minimal("binary_little_endian", header, &body);
     match read_ply(&bytes) {
         Err(Error::ListCountOverflow { location, .. }) => {
-            assert!(matches!(location, crate::Location::Byte(_)));
+            assert!(matches!(location, Location::Byte(_)));
         }
         other => panic!("expected ListCountOverflow, got {other:?}"),
     }
@@ -137,7 +136,7 @@ fn truncated_binary_body_reports_the_byte_offset() {
     let header_len = bytes.len() - body.len();
     match read_ply(&bytes) {
         Err(Error::UnexpectedEof {
-            location: crate::Location::Byte(off),
+            location: Location::Byte(off),
             ..
         }) => assert_eq!(off, header_len as u64 + 10),
         other => panic!("expected UnexpectedEof, got {other:?}"),
@@ -212,7 +211,7 @@ fn ascii_line_numbers_count_from_the_file_start() {
     let bytes = minimal("ascii", "element v 3\nproperty float x\n", b"1\n2\nzz\n");
     match read_ply(&bytes) {
         Err(Error::Malformed {
-            location: crate::Location::Line(n),
+            location: Location::Line(n),
             ..
         }) => assert_eq!(n, 8),
         other => panic!("expected a line number, got {other:?}"),

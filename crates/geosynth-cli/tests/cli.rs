@@ -1,0 +1,200 @@
+//! Runs the `geosynth` binary as a user would.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use geosynth::core::testdata::shared_data;
+
+fn geosynth(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_geosynth"))
+        .args(args)
+        .output()
+        .expect("the geosynth binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = geosynth(args);
+    assert!(
+        out.status.success(),
+        "geosynth {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn shared_geometry_files() -> Option<Vec<PathBuf>> {
+    let meshes = shared_data("info_and_render_on_shared_data", "meshes")?;
+    let pointsets = meshes.parent()?.join("pointsets");
+    let mut files = Vec::new();
+    for dir in [meshes, pointsets] {
+        for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+            let path = entry.unwrap().path();
+            if matches!(
+                path.extension().and_then(|e| e.to_str()),
+                Some("ply" | "obj" | "off")
+            ) {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    assert!(
+        files.len() >= 8,
+        "expected the shared meshes and point sets, found {files:?}"
+    );
+    Some(files)
+}
+
+#[test]
+fn info_and_render_work_on_every_shared_file() {
+    let Some(files) = shared_geometry_files() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for file in &files {
+        let f = file.to_str().unwrap();
+        let json: serde_json::Value = serde_json::from_str(&ok(&["info", "--json", f])).unwrap();
+        assert!(json["vertices"].as_u64().unwrap() > 0, "{f}");
+        assert!(json["bbox_min"].is_array(), "{f}");
+        let text = ok(&["info", f]);
+        assert!(text.contains("vertices:"), "{f}");
+        let png = dir.path().join(format!(
+            "{}.png",
+            file.file_stem().unwrap().to_str().unwrap()
+        ));
+        ok(&[
+            "render",
+            f,
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "160",
+            "--height",
+            "120",
+        ]);
+        let img = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (160, 120));
+        let drawn = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+        assert!(drawn > 500, "{f}: only {drawn} pixels drawn");
+    }
+    // Several inputs become panels.
+    let all: Vec<&str> = files.iter().take(3).map(|p| p.to_str().unwrap()).collect();
+    let out = dir.path().join("panels.png");
+    let mut args = vec!["render"];
+    args.extend(&all);
+    args.extend([
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "100",
+        "--height",
+        "80",
+        "--quiet",
+    ]);
+    ok(&args);
+    assert_eq!(image::open(&out).unwrap().width(), 3 * 100 + 2 * 4);
+}
+
+#[test]
+fn info_reports_kept_attributes() {
+    let Some(path) = shared_data(
+        "info_reports_kept_attributes",
+        "meshes/stanford_bunny_res2.ply",
+    ) else {
+        return;
+    };
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap();
+    assert_eq!(json["vertices"], 8171);
+    assert_eq!(json["faces"], 16301);
+    let names: Vec<&str> = json["attributes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["confidence", "intensity"]);
+}
+
+#[test]
+fn bad_input_fails_with_a_message_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.ply");
+    std::fs::write(&bad, b"ply\nformat binary_little_endian 1.0\nelement vertex 99999999\nproperty float x\nend_header\n").unwrap();
+    for args in [
+        vec!["info", bad.to_str().unwrap()],
+        vec!["info", "/nonexistent/file.ply"],
+        vec!["render", bad.to_str().unwrap(), "-o", "x.png"],
+        vec![
+            "render",
+            "--width",
+            "0",
+            "-o",
+            "x.png",
+            bad.to_str().unwrap(),
+        ],
+    ] {
+        let out = geosynth(&args);
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("error"), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    assert!(
+        !geosynth(&[
+            "--threads",
+            "0",
+            "fixtures",
+            "--out",
+            dir.path().to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+}
+
+#[test]
+fn demo_quick_writes_report_geometry_and_previews() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    ok(&["demo", "--quick", "--quiet", "--out", out.to_str().unwrap()]);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let fixtures = report["fixtures"].as_array().unwrap();
+    assert!(fixtures.len() >= 6);
+    for f in fixtures {
+        for key in ["preview", "geometry"] {
+            let p = out.join(f[key].as_str().unwrap());
+            assert!(p.is_file(), "{}", p.display());
+        }
+        let img = image::open(out.join(f["preview"].as_str().unwrap())).unwrap();
+        assert_eq!(img.width(), 320);
+    }
+    assert!(
+        report["fixtures_source"]
+            .as_str()
+            .unwrap()
+            .ends_with("fixtures")
+    );
+    assert!(
+        std::fs::read_to_string(out.join("report.md"))
+            .unwrap()
+            .contains("| stage | seconds |")
+    );
+    assert!(Path::new(&out.join("fixtures.png")).is_file());
+}
+
+#[test]
+fn fixtures_command_reproduces_the_committed_files() {
+    let dir = tempfile::tempdir().unwrap();
+    ok(&["fixtures", "--quiet", "--out", dir.path().to_str().unwrap()]);
+    let committed = geosynth::fixtures::bundled_dir();
+    for f in geosynth::fixtures::all().unwrap() {
+        let a = std::fs::read(dir.path().join(f.file_name())).unwrap();
+        let b = std::fs::read(committed.join(f.file_name())).unwrap();
+        assert!(a == b, "{} differs", f.file_name());
+    }
+}
