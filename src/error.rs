@@ -18,6 +18,15 @@ pub enum Error {
         #[source]
         source: image::ImageError,
     },
+    /// Reading or decoding an image failed.
+    #[error("cannot read image {path}: {source}")]
+    ImageRead {
+        /// The image file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: image::ImageError,
+    },
     /// A rendering or pipeline parameter is out of range.
     #[error("parameter `{name}` = {value} is out of range: expected {expected}")]
     InvalidParameter {

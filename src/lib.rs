@@ -10,6 +10,7 @@
 //! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF I/O, [`Stage`] |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
+//! | [`imagery`] | (facade) | textures and height fields from PNG/JPEG/raw `f32` files |
 //!
 //! The synthesis families (papers 000–004) arrive as further modules — `quilt`, `voxel`,
 //! `texmesh`, `structure` — each exposed as a [`Stage`].
@@ -65,6 +66,7 @@
 
 mod error;
 pub mod fixtures;
+pub mod imagery;
 pub mod preview;
 
 /// Shared types, I/O and spatial indices (the `pointset-core` crate).

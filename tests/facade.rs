@@ -118,8 +118,18 @@ fn panels_are_placed_side_by_side() {
     let a = Geometry::Mesh(fixtures::icosphere_mesh(2).unwrap());
     let b = Geometry::Points(fixtures::torus_points(500, 1.0, 0.3, 1).unwrap());
     let opts = RenderOptions::default().size(64, 48);
-    let img = preview::render_panels(&[&a, &b], &opts).unwrap();
-    assert_eq!(img.dimensions(), (64 * 2 + 4, 48));
+    let texture = RgbImage::from_pixel(10, 20, image::Rgb([255, 0, 0]));
+    let panels = [
+        preview::Panel::Geometry(&a, UpAxis::Y),
+        preview::Panel::Geometry(&b, UpAxis::Z),
+        preview::Panel::Image(&texture),
+    ];
+    let img = preview::render_panels(&panels, &opts).unwrap();
+    assert_eq!(img.dimensions(), (64 * 3 + 2 * 4, 48));
+    // The texture panel is scaled to the panel height and centred.
+    let x0 = 2 * (64 + 4);
+    assert_eq!(img.get_pixel(x0 + 32, 24).0, [255, 0, 0]);
+    assert_eq!(img.get_pixel(x0 + 2, 24).0, BACKGROUND);
     assert!(preview::render(&a, &opts.clone().size(0, 10)).is_err());
 }
 
@@ -182,4 +192,39 @@ fn fixture_meshes_are_closed_and_outward() {
     }
     assert_eq!(fixtures::icosphere_mesh(3).unwrap().vertex_count(), 642);
     assert!(fixtures::torus_mesh(2, 5, 1.0, 0.2).is_err());
+}
+
+#[test]
+fn height_fields_load_from_raw_and_png_and_agree() {
+    use geosynth::core::testdata::shared_data;
+    use geosynth::imagery;
+    let Some(raw) = shared_data("height_fields_load", "heightfields/StoneWall_200x200.f32le")
+    else {
+        return;
+    };
+    let png = raw.with_file_name("StoneWall_200x200_u16.png");
+    let a = imagery::read_heightfield(&raw).unwrap();
+    let b = imagery::read_heightfield(&png).unwrap();
+    assert_eq!((a.width(), a.height()), (200, 200));
+    assert_eq!((b.width(), b.height()), (200, 200));
+    // The PNG is the raw field normalized to 16 bits: they must correlate almost perfectly.
+    let (lo, hi) = a.range();
+    let err: f32 = a
+        .heights()
+        .iter()
+        .zip(b.heights())
+        .map(|(x, y)| ((x - lo) / (hi - lo) - y).abs())
+        .fold(0.0, f32::max);
+    assert!(err < 0.01, "max normalized difference {err}");
+    let mesh = imagery::heightfield_mesh(&a, 0.2).unwrap();
+    assert_eq!(mesh.vertex_count(), 200 * 200);
+    let bb = mesh.bounding_box().unwrap();
+    assert!((bb.extent().z - 0.2).abs() < 1e-4);
+    let helens = shared_data(
+        "height_fields_load",
+        "heightfields/SainteHelens_317x460.f32le",
+    )
+    .unwrap();
+    let h = imagery::read_heightfield(&helens).unwrap();
+    assert_eq!((h.width(), h.height()), (317, 460));
 }

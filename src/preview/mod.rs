@@ -25,14 +25,14 @@ mod raster;
 use std::path::Path;
 
 use glam::Vec3;
-use image::RgbImage;
 use pointset_core::io::Geometry;
 use pointset_core::{KdIndex, NormalWeighting};
 
-pub use camera::UpAxis;
-
 use crate::{Error, Result};
 use camera::Camera;
+pub use camera::UpAxis;
+/// The image type previews are returned as (from the `image` crate).
+pub use image::RgbImage;
 use raster::FrameBuffer;
 
 /// How to render a preview.
@@ -221,20 +221,51 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
 /// Width of the grey separator between panels, in pixels.
 const PANEL_GAP: u32 = 4;
 
-/// Renders each geometry into its own panel and places the panels side by side.
-pub fn render_panels(geometries: &[&Geometry], options: &RenderOptions) -> Result<RgbImage> {
+/// One panel of a side-by-side preview.
+#[derive(Debug, Clone, Copy)]
+pub enum Panel<'a> {
+    /// Geometry rendered with the shared options, seen with the given up axis.
+    Geometry(&'a Geometry, UpAxis),
+    /// A picture (a texture exemplar or output) scaled to fit the panel.
+    Image(&'a RgbImage),
+}
+
+/// Renders each panel at `options.width × options.height` and places them side by side,
+/// separated by grey gaps.
+pub fn render_panels(panels: &[Panel<'_>], options: &RenderOptions) -> Result<RgbImage> {
     options.validate()?;
-    let n = geometries.len().max(1) as u32;
+    let n = panels.len().max(1) as u32;
     let total_width = n * options.width + (n - 1) * PANEL_GAP;
     let mut out = RgbImage::from_pixel(total_width, options.height, image::Rgb([160, 160, 160]));
-    for (k, g) in geometries.iter().enumerate() {
-        let panel = render(g, options)?;
+    for (k, panel) in panels.iter().enumerate() {
+        let rendered = match panel {
+            Panel::Geometry(g, up) => render(g, &options.clone().up(*up))?,
+            Panel::Image(img) => fit_image(img, options),
+        };
         let x0 = k as u32 * (options.width + PANEL_GAP);
-        for (x, y, px) in panel.enumerate_pixels() {
-            out.put_pixel(x0 + x, y, *px);
-        }
+        image::imageops::replace(&mut out, &rendered, i64::from(x0), 0);
     }
     Ok(out)
+}
+
+/// Scales a picture to fit the panel (keeping its aspect ratio) on the background colour.
+fn fit_image(img: &RgbImage, options: &RenderOptions) -> RgbImage {
+    let bg = options.background.map(|c| (c * 255.0).round() as u8);
+    let mut panel = RgbImage::from_pixel(options.width, options.height, image::Rgb(bg));
+    let (w, h) = img.dimensions();
+    if w == 0 || h == 0 {
+        return panel;
+    }
+    let s = (options.width as f32 / w as f32).min(options.height as f32 / h as f32);
+    let (sw, sh) = (
+        ((w as f32 * s) as u32).max(1),
+        ((h as f32 * s) as u32).max(1),
+    );
+    // Nearest-neighbour keeps texels crisp, which is what one wants to inspect exemplars.
+    let scaled = image::imageops::resize(img, sw, sh, image::imageops::FilterType::Nearest);
+    let (x0, y0) = ((options.width - sw) / 2, (options.height - sh) / 2);
+    image::imageops::replace(&mut panel, &scaled, i64::from(x0), i64::from(y0));
+    panel
 }
 
 /// Saves an image as PNG (the format is fixed regardless of the extension).

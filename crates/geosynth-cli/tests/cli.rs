@@ -25,16 +25,20 @@ fn ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
-fn shared_geometry_files() -> Option<Vec<PathBuf>> {
-    let meshes = shared_data("info_and_render_on_shared_data", "meshes")?;
-    let pointsets = meshes.parent()?.join("pointsets");
+/// Every data file under `GEOSYNTH_DATA` (geometry, pictures, height fields), skipping the
+/// folder's own text documentation.
+fn shared_data_files() -> Option<Vec<PathBuf>> {
+    let root = shared_data("info_and_render_on_shared_data", "")?;
     let mut files = Vec::new();
-    for dir in [meshes, pointsets] {
+    let mut dirs = vec![root];
+    while let Some(dir) = dirs.pop() {
         for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
             let path = entry.unwrap().path();
-            if matches!(
+            if path.is_dir() {
+                dirs.push(path);
+            } else if !matches!(
                 path.extension().and_then(|e| e.to_str()),
-                Some("ply" | "obj" | "off")
+                Some("md" | "json" | "txt")
             ) {
                 files.push(path);
             }
@@ -42,25 +46,31 @@ fn shared_geometry_files() -> Option<Vec<PathBuf>> {
     }
     files.sort();
     assert!(
-        files.len() >= 8,
-        "expected the shared meshes and point sets, found {files:?}"
+        files.len() >= 30,
+        "expected the shared data set, found {files:?}"
     );
     Some(files)
 }
 
 #[test]
 fn info_and_render_work_on_every_shared_file() {
-    let Some(files) = shared_geometry_files() else {
+    let Some(files) = shared_data_files() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     for file in &files {
         let f = file.to_str().unwrap();
         let json: serde_json::Value = serde_json::from_str(&ok(&["info", "--json", f])).unwrap();
-        assert!(json["vertices"].as_u64().unwrap() > 0, "{f}");
-        assert!(json["bbox_min"].is_array(), "{f}");
+        match json["kind"].as_str().unwrap() {
+            "points" | "mesh" => {
+                assert!(json["vertices"].as_u64().unwrap() > 0, "{f}");
+                assert!(json["bbox_min"].is_array(), "{f}");
+            }
+            "image" | "heightfield" => assert!(json["width"].as_u64().unwrap() >= 64, "{f}"),
+            other => panic!("{f}: unexpected kind {other}"),
+        }
         let text = ok(&["info", f]);
-        assert!(text.contains("vertices:"), "{f}");
+        assert!(text.contains("kind:"), "{f}");
         let png = dir.path().join(format!(
             "{}.png",
             file.file_stem().unwrap().to_str().unwrap()
@@ -80,6 +90,19 @@ fn info_and_render_work_on_every_shared_file() {
         let drawn = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
         assert!(drawn > 500, "{f}: only {drawn} pixels drawn");
     }
+    // A 16-bit PNG height field can be drawn as terrain too.
+    let hf = files
+        .iter()
+        .find(|p| p.to_str().unwrap().ends_with("_u16.png"))
+        .unwrap();
+    let terrain = dir.path().join("terrain.png");
+    ok(&[
+        "render",
+        "--heightfield",
+        hf.to_str().unwrap(),
+        "-o",
+        terrain.to_str().unwrap(),
+    ]);
     // Several inputs become panels.
     let all: Vec<&str> = files.iter().take(3).map(|p| p.to_str().unwrap()).collect();
     let out = dir.path().join("panels.png");

@@ -51,6 +51,7 @@
 mod aabb;
 mod error;
 mod grid;
+mod heightfield;
 pub mod io;
 mod mesh;
 mod pointset;
@@ -63,6 +64,7 @@ pub mod testdata;
 pub use aabb::Aabb;
 pub use error::{Error, Location, Result};
 pub use grid::Grid3;
+pub use heightfield::{HeightField, dims_from_name};
 pub use mesh::{NormalWeighting, TriMesh};
 pub use pointset::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES};
 pub use scalar::ScalarType;

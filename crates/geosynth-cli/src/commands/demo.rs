@@ -134,10 +134,9 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     timed("render fixtures", t);
 
     let t = Instant::now();
-    let panels: Vec<&Geometry> = fixtures
+    let panels: Vec<_> = fixtures
         .iter()
-        .filter(|f| f.up == preview::UpAxis::Y)
-        .map(|f| &f.geometry)
+        .map(|f| preview::Panel::Geometry(&f.geometry, f.up))
         .collect();
     let overview = preview::render_panels(&panels, &RenderOptions::default().size(w / 2, h / 2))?;
     preview::save_png(&overview, &args.out.join("fixtures.png"))?;

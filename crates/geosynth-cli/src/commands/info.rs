@@ -1,9 +1,10 @@
 //! `geosynth info`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 use geosynth::core::io::{self, Geometry, LoadedGeometry};
+use geosynth::imagery;
 use serde::Serialize;
 
 use crate::output::status;
@@ -12,7 +13,8 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The file to describe (.ply, .obj or .off).
+    /// The file to describe: .ply, .obj, .off, a picture (.png, .jpg) or a raw height field
+    /// (`name_WxH.f32le`).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -113,14 +115,87 @@ impl FileInfo {
     }
 }
 
-/// Runs `geosynth info`.
-pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
-    let loaded = io::read_geometry(&args.file)?;
-    let info = FileInfo::new(&args.file, &loaded);
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
+/// What `info` reports about a picture or height field.
+#[derive(Debug, Serialize)]
+pub struct GridInfo {
+    path: String,
+    format: String,
+    kind: &'static str,
+    width: usize,
+    height: usize,
+    channels: Option<String>,
+    min: Option<f32>,
+    max: Option<f32>,
+}
+
+impl GridInfo {
+    fn load(path: &Path) -> CliResult<Self> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_uppercase();
+        if imagery::is_raw_heightfield_path(path) {
+            let field = imagery::read_heightfield(path)?;
+            let (lo, hi) = field.range();
+            return Ok(Self {
+                path: path.display().to_string(),
+                format: "raw little-endian f32".into(),
+                kind: "heightfield",
+                width: field.width(),
+                height: field.height(),
+                channels: None,
+                min: Some(lo),
+                max: Some(hi),
+            });
+        }
+        let img = imagery::read_image(path)?;
+        Ok(Self {
+            path: path.display().to_string(),
+            format: if ext == "JPG" { "JPEG".into() } else { ext },
+            kind: "image",
+            width: img.width() as usize,
+            height: img.height() as usize,
+            channels: Some(format!("{:?}", img.color())),
+            min: None,
+            max: None,
+        })
+    }
+
+    fn text(&self) -> String {
+        let mut s = format!(
+            "file:        {}\nformat:      {}\nkind:        {}\nsize:        {} x {}",
+            self.path, self.format, self.kind, self.width, self.height
+        );
+        if let Some(c) = &self.channels {
+            s.push_str(&format!("\nchannels:    {c}"));
+        }
+        if let (Some(lo), Some(hi)) = (self.min, self.max) {
+            s.push_str(&format!("\nheights:     {lo} .. {hi}"));
+        }
+        s
+    }
+}
+
+fn print(globals: Globals, json: bool, value: &impl Serialize, text: String) -> CliResult {
+    if json {
+        println!("{}", serde_json::to_string_pretty(value)?);
     } else {
-        status(globals, info.text());
+        status(globals, text);
     }
     Ok(())
+}
+
+/// Runs `geosynth info`.
+pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
+    let path = args.file.as_path();
+    if imagery::is_image_path(path) || imagery::is_raw_heightfield_path(path) {
+        let info = GridInfo::load(path)?;
+        let text = info.text();
+        return print(globals, args.json, &info, text);
+    }
+    let loaded = io::read_geometry(path)?;
+    let info = FileInfo::new(path, &loaded);
+    let text = info.text();
+    print(globals, args.json, &info, text)
 }

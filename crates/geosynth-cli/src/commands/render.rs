@@ -1,10 +1,11 @@
 //! `geosynth render`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
-use geosynth::core::io;
-use geosynth::preview::{self, RenderOptions, UpAxis};
+use geosynth::core::io::{self, Geometry};
+use geosynth::imagery;
+use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 
 use crate::output::status;
 use crate::{CliResult, Globals};
@@ -87,25 +88,65 @@ fn parse_color(s: &str) -> Result<[f32; 3], String> {
 /// Arguments of `geosynth render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// Files to render; each becomes a panel, left to right.
+    /// Files to render, each a panel, left to right: point sets and meshes (.ply, .obj,
+    /// .off), pictures (.png, .jpg) and raw height fields (`name_WxH.f32le`, drawn as
+    /// shaded terrain).
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Output PNG.
     #[arg(short, long)]
     output: PathBuf,
+    /// Draw pictures as height fields (grey level = height) instead of as pictures.
+    #[arg(long)]
+    heightfield: bool,
+    /// Height range of drawn height fields, relative to their longer side.
+    #[arg(long, default_value_t = 0.2)]
+    relief: f32,
     #[command(flatten)]
     view: ViewArgs,
 }
 
+/// A loaded input, ready to become a panel.
+enum Input {
+    Geometry(Geometry, UpAxis),
+    Picture(preview::RgbImage),
+}
+
+fn load(path: &Path, args: &RenderArgs) -> CliResult<Input> {
+    let as_heightfield = imagery::is_raw_heightfield_path(path)
+        || (args.heightfield && imagery::is_image_path(path));
+    if as_heightfield {
+        let field = imagery::read_heightfield(path)?;
+        let mesh = imagery::heightfield_mesh(&field, args.relief)?;
+        return Ok(Input::Geometry(Geometry::Mesh(mesh), UpAxis::Z));
+    }
+    if imagery::is_image_path(path) {
+        return Ok(Input::Picture(imagery::read_image(path)?.into_rgb8()));
+    }
+    Ok(Input::Geometry(
+        io::read_geometry(path)?.geometry,
+        args.view.up.into(),
+    ))
+}
+
 /// Runs `geosynth render`.
 pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
-    let loaded = args
+    if !(args.relief.is_finite() && args.relief > 0.0) {
+        return Err(format!("--relief must be a positive number, not {}", args.relief).into());
+    }
+    let inputs = args
         .files
         .iter()
-        .map(io::read_geometry)
-        .collect::<Result<Vec<_>, _>>()?;
-    let geometries: Vec<_> = loaded.iter().map(|l| &l.geometry).collect();
-    let image = preview::render_panels(&geometries, &args.view.options())?;
+        .map(|p| load(p, args))
+        .collect::<CliResult<Vec<_>>>()?;
+    let panels: Vec<Panel<'_>> = inputs
+        .iter()
+        .map(|i| match i {
+            Input::Geometry(g, up) => Panel::Geometry(g, *up),
+            Input::Picture(img) => Panel::Image(img),
+        })
+        .collect();
+    let image = preview::render_panels(&panels, &args.view.options())?;
     preview::save_png(&image, &args.output)?;
     status(
         globals,
