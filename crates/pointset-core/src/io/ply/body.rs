@@ -7,8 +7,9 @@ use crate::{Error, Location, Result, ScalarType};
 
 /// A source of typed values, either ascii tokens or binary words.
 trait ValueSource {
-    /// Reads one value of type `ty`; `what` names it for error messages.
-    fn scalar(&mut self, ty: ScalarType, what: &str) -> Result<f64>;
+    /// Reads one value of type `ty`; `what` names it for error messages (called only when
+    /// there is an error, so the hot path allocates nothing).
+    fn scalar(&mut self, ty: ScalarType, what: &dyn Fn() -> String) -> Result<f64>;
     /// Where the next value starts.
     fn location(&self) -> Location;
     /// A cheap upper bound on how many more values of type `ty` could follow.
@@ -58,11 +59,11 @@ fn read_elements(header: &ParsedHeader, src: &mut impl ValueSource) -> Result<Ve
                 let what = || format!("property `{}` of {} {record}", prop.name, decl.name);
                 match (prop.kind, column) {
                     (PropertyKind::Scalar(ty), PlyColumn::Scalar(values)) => {
-                        values.push(src.scalar(ty, &what())?);
+                        values.push(src.scalar(ty, &what)?);
                     }
                     (PropertyKind::List { count, item }, PlyColumn::List { offsets, items }) => {
                         let at = src.location();
-                        let n = src.scalar(count, &what())?;
+                        let n = src.scalar(count, &what)?;
                         let remaining = src.max_remaining(item);
                         if n < 0.0 || n > remaining as f64 {
                             return Err(Error::ListCountOverflow {
@@ -77,7 +78,7 @@ fn read_elements(header: &ParsedHeader, src: &mut impl ValueSource) -> Result<Ve
                             });
                         }
                         for _ in 0..n as u64 {
-                            items.push(src.scalar(item, &what())?);
+                            items.push(src.scalar(item, &what)?);
                         }
                         offsets.push(items.len());
                     }
@@ -104,14 +105,14 @@ struct BinarySource<'a> {
 }
 
 impl BinarySource<'_> {
-    fn take<const N: usize>(&mut self, what: &str) -> Result<[u8; N]> {
+    fn take<const N: usize>(&mut self, what: &dyn Fn() -> String) -> Result<[u8; N]> {
         let slice = self
             .data
             .get(self.pos..self.pos + N)
             .ok_or_else(|| Error::UnexpectedEof {
                 format: FileFormat::Ply,
                 location: self.location(),
-                what: what.to_string(),
+                what: what(),
             })?;
         let mut out = [0u8; N];
         out.copy_from_slice(slice);
@@ -124,7 +125,7 @@ impl BinarySource<'_> {
 }
 
 impl ValueSource for BinarySource<'_> {
-    fn scalar(&mut self, ty: ScalarType, what: &str) -> Result<f64> {
+    fn scalar(&mut self, ty: ScalarType, what: &dyn Fn() -> String) -> Result<f64> {
         // Bytes are put in little-endian order by `take`.
         Ok(match ty {
             ScalarType::I8 => f64::from(i8::from_le_bytes(self.take(what)?)),
@@ -162,7 +163,7 @@ impl<'a> AsciiSource<'a> {
         }
     }
 
-    fn next_token(&mut self, what: &str) -> Result<&'a str> {
+    fn next_token(&mut self, what: &dyn Fn() -> String) -> Result<&'a str> {
         while let Some(&b) = self.data.get(self.pos) {
             if !b.is_ascii_whitespace() {
                 break;
@@ -184,24 +185,24 @@ impl<'a> AsciiSource<'a> {
             return Err(Error::UnexpectedEof {
                 format: FileFormat::Ply,
                 location: Location::Line(self.line),
-                what: what.to_string(),
+                what: what(),
             });
         }
         std::str::from_utf8(&self.data[start..self.pos]).map_err(|_| Error::Malformed {
             format: FileFormat::Ply,
             location: Location::Line(self.line),
-            message: format!("non-text bytes in {what}"),
+            message: format!("non-text bytes in {}", what()),
         })
     }
 }
 
 impl ValueSource for AsciiSource<'_> {
-    fn scalar(&mut self, ty: ScalarType, what: &str) -> Result<f64> {
+    fn scalar(&mut self, ty: ScalarType, what: &dyn Fn() -> String) -> Result<f64> {
         let token = self.next_token(what)?;
         let bad = |reason: &str| Error::Malformed {
             format: FileFormat::Ply,
             location: Location::Line(self.line),
-            message: format!("`{token}` in {what} {reason}"),
+            message: format!("`{token}` in {} {reason}", what()),
         };
         let value: f64 = token.parse().map_err(|_| bad("is not a number"))?;
         if ty.is_integer() {

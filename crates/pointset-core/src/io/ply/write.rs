@@ -115,12 +115,12 @@ fn single_line(s: &str) -> String {
 fn put(buf: &mut Vec<u8>, encoding: PlyEncoding, ty: ScalarType, value: f64) {
     let v = ty.quantize(value);
     if encoding == PlyEncoding::Ascii {
-        let text = match ty {
-            ScalarType::F32 => format!("{}", v as f32),
-            ScalarType::F64 => format!("{v}"),
-            _ => format!("{}", v as i64),
+        // Writing into a Vec cannot fail.
+        let _ = match ty {
+            ScalarType::F32 => write!(buf, "{}", v as f32),
+            ScalarType::F64 => write!(buf, "{v}"),
+            _ => write!(buf, "{}", v as i64),
         };
-        buf.extend_from_slice(text.as_bytes());
         return;
     }
     let big = encoding == PlyEncoding::BinaryBigEndian;
