@@ -3,7 +3,8 @@
 //! Shared foundations of the geosynth workspace: geometry types ([`PointSet`], [`TriMesh`],
 //! [`Aabb`], [`Grid3`]), spatial indices ([`KdIndex`], [`BucketGrid`]), file I/O
 //! ([`io`]: PLY ascii/binary, OBJ, OFF), seeded randomness ([`rng`]), and the
-//! [`Stage`] / [`RunContext`] / [`Progress`] machinery every algorithm is exposed through.
+//! [`Stage`] / [`RunContext`] / [`Progress`] machinery every algorithm is exposed through,
+//! and the [`Surface`] trait (closest point + normal) shared by point-set surfaces and meshes.
 //! It contains no algorithm from any paper.
 //!
 //! ## Quick start
@@ -59,6 +60,7 @@ pub mod rng;
 mod scalar;
 pub mod spatial;
 mod stage;
+mod surface;
 pub mod testdata;
 
 pub use aabb::Aabb;
@@ -70,6 +72,7 @@ pub use pointset::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES};
 pub use scalar::ScalarType;
 pub use spatial::{BucketGrid, KdIndex, Neighbour, PointKey};
 pub use stage::{CancelFlag, NoProgress, Progress, ProgressUpdate, RunContext, Stage, Then};
+pub use surface::{Surface, SurfacePoint};
 
 /// Re-export of the `glam` version used for all geometry.
 pub use glam;

@@ -1,0 +1,298 @@
+//! The MLS point-set surface of Adamson & Alexa (2004): evaluation and projection.
+
+use glam::Vec3;
+use pointset_core::{KdIndex, PointSet, Surface, SurfacePoint};
+use rayon::prelude::*;
+
+use crate::error::{MlsError, Result};
+use crate::params::MlsParams;
+
+/// The local quantities of the surface definition at a point `x`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalFit {
+    /// Weighted centre `a(x) = Σ θ p_i / Σ θ`.
+    pub center: Vec3,
+    /// Weighted normal direction `n(x) = Σ θ n_i / |Σ θ n_i|`.
+    pub normal: Vec3,
+    /// Implicit function `f(x) = n(x) · (x − a(x))`.
+    pub value: f32,
+    /// Number of points inside the kernel's support.
+    pub neighbours: usize,
+}
+
+/// The result of projecting a point onto the surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Projection {
+    /// The surface point `x*`.
+    pub point: Vec3,
+    /// The surface normal `n(x*)`.
+    pub normal: Vec3,
+    /// Signed distance of the query: `±|x − x*|`, positive on the normal's side.
+    pub signed_distance: f32,
+    /// Iterations used.
+    pub iterations: usize,
+    /// Whether `|f| < tolerance · h` was reached (otherwise the cap stopped it).
+    pub converged: bool,
+}
+
+/// An oriented point-set surface: Gaussian-weighted centres and normals of the input points
+/// define `f(x) = n(x) · (x − a(x))`, whose zero set is the surface.
+#[derive(Debug)]
+pub struct MlsSurface {
+    points: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    index: KdIndex,
+    h: f32,
+    params: MlsParams,
+}
+
+/// How many neighbours are examined per point when looking past exact duplicates.
+const SPACING_NEIGHBOURS: usize = 8;
+
+/// Median distance from (a sample of) the points to their nearest *distinct* point (exact
+/// duplicates are looked past, up to 7 copies), or 0 when no point has a distinct neighbour.
+pub fn median_spacing(index: &KdIndex) -> Result<f32> {
+    let points = index.points();
+    let step = (points.len() / 4096).max(1);
+    let mut d = Vec::with_capacity(points.len() / step + 1);
+    for p in points.iter().step_by(step) {
+        let nearest_distinct = index
+            .nearest(*p, SPACING_NEIGHBOURS)?
+            .into_iter()
+            .find(|n| n.distance_squared > 0.0);
+        if let Some(n) = nearest_distinct {
+            d.push(n.distance_squared.sqrt());
+        }
+    }
+    d.sort_by(f32::total_cmp);
+    Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
+}
+
+impl MlsSurface {
+    /// Builds the surface over an oriented point set.
+    ///
+    /// Errors: no normals, no points, a zero normal, invalid parameters, or an estimated
+    /// kernel of zero (all points identical) without an explicit `kernel`.
+    pub fn new(points: &PointSet, params: &MlsParams) -> Result<Self> {
+        params.validate()?;
+        let normals = points.normals().ok_or(MlsError::MissingNormals)?;
+        if points.is_empty() {
+            return Err(MlsError::EmptyInput { what: "point set" });
+        }
+        let mut unit = Vec::with_capacity(normals.len());
+        for (index, n) in normals.iter().enumerate() {
+            unit.push(
+                n.try_normalize()
+                    .ok_or(MlsError::DegenerateNormal { index })?,
+            );
+        }
+        let index = KdIndex::new(points.positions())?;
+        let h = match params.kernel {
+            Some(h) => h,
+            None => {
+                let spacing = median_spacing(&index)?;
+                if spacing <= 0.0 {
+                    return Err(MlsError::InvalidParameter {
+                        name: "kernel",
+                        value: "estimated 0".into(),
+                        expected: "an explicit kernel: the points have no spacing to estimate it from",
+                    });
+                }
+                params.kernel_spacing_factor * spacing
+            }
+        };
+        Ok(Self {
+            points: points.positions().to_vec(),
+            normals: unit,
+            index,
+            h,
+            params: params.clone(),
+        })
+    }
+
+    /// The kernel size `h`.
+    pub fn kernel(&self) -> f32 {
+        self.h
+    }
+
+    /// The truncation radius `support · h`.
+    pub fn support_radius(&self) -> f32 {
+        self.params.support * self.h
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &MlsParams {
+        &self.params
+    }
+
+    /// The input points (positions).
+    pub fn points(&self) -> &[Vec3] {
+        &self.points
+    }
+
+    /// The input normals, normalized.
+    pub fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+
+    /// The spatial index over the input points.
+    pub fn index(&self) -> &KdIndex {
+        &self.index
+    }
+
+    /// Indices of input points within `radius` of `x` (empty for non-finite `x`).
+    fn candidates(&self, x: Vec3, radius: f32) -> Vec<usize> {
+        self.index
+            .within(x, radius)
+            .map(|n| n.into_iter().map(|n| n.index).collect())
+            .unwrap_or_default()
+    }
+
+    /// Evaluates `a`, `n` and `f` at `x` from the candidate points inside the support.
+    fn fit_with(&self, x: Vec3, candidates: &[usize]) -> Option<LocalFit> {
+        let r2 = self.support_radius().powi(2);
+        let inv_h2 = 1.0 / (self.h * self.h);
+        // Offsets `p_i − x` are summed instead of positions: they are small, so `a(x) − x`
+        // keeps full f32 precision far from the origin.
+        let (mut sw, mut sd, mut sn, mut count) = (0.0f32, Vec3::ZERO, Vec3::ZERO, 0usize);
+        for &i in candidates {
+            let d = self.points[i] - x;
+            let d2 = d.length_squared();
+            if d2 > r2 {
+                continue;
+            }
+            let w = (-d2 * inv_h2).exp();
+            sw += w;
+            sd += w * d;
+            sn += w * self.normals[i];
+            count += 1;
+        }
+        if count < self.params.min_neighbours || sw <= f32::MIN_POSITIVE {
+            return None;
+        }
+        let len = sn.length();
+        // Opposing normals cancelling out: the orientation is undefined here.
+        if len <= 1e-4 * sw {
+            return None;
+        }
+        let to_center = sd / sw;
+        let normal = sn / len;
+        Some(LocalFit {
+            center: x + to_center,
+            normal,
+            value: -normal.dot(to_center),
+            neighbours: count,
+        })
+    }
+
+    /// `a(x)`, `n(x)` and `f(x)`, or `None` where fewer than `min_neighbours` points lie
+    /// inside the support or the weighted normals cancel.
+    pub fn fit(&self, x: Vec3) -> Option<LocalFit> {
+        if !x.is_finite() {
+            return None;
+        }
+        self.fit_with(x, &self.candidates(x, self.support_radius()))
+    }
+
+    /// The weighted normal direction `n(x)`.
+    pub fn normal(&self, x: Vec3) -> Option<Vec3> {
+        self.fit(x).map(|f| f.normal)
+    }
+
+    /// The implicit function `f(x)`.
+    pub fn implicit(&self, x: Vec3) -> Option<f32> {
+        self.fit(x).map(|f| f.value)
+    }
+
+    /// Quasi-orthogonal projection: repeats `x ← x − f(x) n(x)` until `|f| < tolerance · h`
+    /// or the iteration cap. `None` where the surface is not defined (see [`Self::fit`]).
+    pub fn project(&self, x: Vec3) -> Option<Projection> {
+        if !x.is_finite() {
+            return None;
+        }
+        let radius = self.support_radius();
+        // Candidates are gathered in a ball of radius 1.5·support around `anchor` and reused
+        // while the iterate stays within 0.5·support of it.
+        let slack = 0.5 * radius;
+        let mut anchor = x;
+        let mut candidates = self.candidates(anchor, radius + slack);
+        let tolerance = self.params.tolerance * self.h;
+        let mut y = x;
+        for iteration in 1..=self.params.max_iterations {
+            if y.distance(anchor) > slack {
+                anchor = y;
+                candidates = self.candidates(anchor, radius + slack);
+            }
+            let fit = self.fit_with(y, &candidates)?;
+            if fit.value.abs() < tolerance {
+                return Some(self.finish(x, y, fit.normal, iteration, true));
+            }
+            y -= fit.value * fit.normal;
+            if !y.is_finite() {
+                return None;
+            }
+            if iteration == self.params.max_iterations {
+                let normal = self
+                    .fit_with(y, &candidates)
+                    .map_or(fit.normal, |f| f.normal);
+                return Some(self.finish(x, y, normal, iteration, false));
+            }
+        }
+        None
+    }
+
+    fn finish(
+        &self,
+        query: Vec3,
+        point: Vec3,
+        normal: Vec3,
+        iterations: usize,
+        converged: bool,
+    ) -> Projection {
+        let offset = query - point;
+        let sign = if offset.dot(normal) < 0.0 { -1.0 } else { 1.0 };
+        Projection {
+            point,
+            normal,
+            signed_distance: sign * offset.length(),
+            iterations,
+            converged,
+        }
+    }
+
+    /// Signed distance of `x` to the surface (via projection).
+    pub fn signed_distance(&self, x: Vec3) -> Option<f32> {
+        self.project(x).map(|p| p.signed_distance)
+    }
+
+    /// Gradient of the signed distance at `x`: the surface normal at `x`'s projection (the
+    /// exact gradient of a distance field is the normal at the closest point).
+    pub fn gradient(&self, x: Vec3) -> Option<Vec3> {
+        self.project(x).map(|p| p.normal)
+    }
+
+    /// Projects many points in parallel (deterministic: each result depends only on its
+    /// query).
+    pub fn project_all(&self, queries: &[Vec3]) -> Vec<Option<Projection>> {
+        queries.par_iter().map(|&q| self.project(q)).collect()
+    }
+}
+
+/// Where the kernel does not reach, [`Surface::closest_point`] falls back to the nearest
+/// input point and its normal, so distance fields stay defined (with a coarser value) far
+/// from the samples. [`MlsSurface::project`] itself returns `None` there.
+impl Surface for MlsSurface {
+    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
+        if let Some(p) = self.project(query) {
+            return Some(SurfacePoint {
+                point: p.point,
+                normal: p.normal,
+            });
+        }
+        let nearest = self.index.nearest_one(query).ok()??;
+        Some(SurfacePoint {
+            point: self.points[nearest.index],
+            normal: self.normals[nearest.index],
+        })
+    }
+}

@@ -1,0 +1,341 @@
+//! Tests of the MLS surface against analytic shapes, degenerate input, and the contracts of
+//! rays, surface variation, clustering and relaxation.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use glam::Vec3;
+use mls_surface::{
+    ClusterParams, MlsError, MlsParams, MlsSurface, RelaxParams, adaptive_clusters,
+    nearest_neighbour_spread, relax, surface_variation,
+};
+use pointset_core::{KdIndex, PointSet, Surface, rng};
+use proptest::prelude::*;
+use rand::RngExt;
+
+/// `n` Fibonacci-spiral points on a sphere of radius `r`, normals outward.
+fn sphere(n: usize, r: f32) -> PointSet {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let dirs: Vec<Vec3> = (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let s = (1.0 - y * y).sqrt();
+            let phi = golden * i as f32;
+            Vec3::new(s * phi.cos(), y, s * phi.sin())
+        })
+        .collect();
+    PointSet::new(dirs.iter().map(|d| *d * r).collect())
+        .unwrap()
+        .with_normals(dirs)
+        .unwrap()
+}
+
+fn random_unit(r: &mut rng::SeededRng) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+        );
+        if let Some(u) = v.try_normalize() {
+            if v.length() <= 1.0 {
+                return u;
+            }
+        }
+    }
+}
+
+#[test]
+fn sphere_projection_lands_on_the_sphere_with_correct_normals() {
+    // The Adamson–Alexa surface of a sphere lies inside it by about h²/r (the weighted centre
+    // of a curved neighbourhood is inside the curve); 50k samples make h small enough for
+    // the 1e-3·r bound.
+    let r = 2.0;
+    let points = sphere(50_000, r);
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let mut g = rng::rng_from_seed(1);
+    for _ in 0..500 {
+        let dir = random_unit(&mut g);
+        let offset = g.random_range(-0.05..0.05) * r;
+        let q = dir * (r + offset);
+        let p = surface
+            .project(q)
+            .expect("near the sphere the surface is defined");
+        assert!(p.converged);
+        assert!(
+            (p.point.length() - r).abs() < 1e-3 * r,
+            "off the sphere by {}",
+            p.point.length() - r
+        );
+        let angle = p
+            .normal
+            .dot(p.point.normalize())
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
+        assert!(angle < 1.0, "normal off by {angle}°");
+        assert!((p.signed_distance - (q.length() - p.point.length())).abs() < 2e-3 * r);
+        // Idempotent: projecting the projection does not move it.
+        let again = surface.project(p.point).unwrap();
+        assert!(again.point.distance(p.point) < 1e-4 * r);
+    }
+}
+
+#[test]
+fn plane_projection_is_orthogonal_projection() {
+    let normal = Vec3::new(0.3, -0.2, 1.0).normalize();
+    let u = normal.any_orthonormal_vector();
+    let v = normal.cross(u);
+    let origin = Vec3::new(0.5, -1.0, 2.0);
+    let p: Vec<Vec3> = (0..40 * 40)
+        .map(|i| origin + u * ((i % 40) as f32 * 0.05) + v * ((i / 40) as f32 * 0.05))
+        .collect();
+    let points = PointSet::new(p)
+        .unwrap()
+        .with_normals(vec![normal; 1600])
+        .unwrap();
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let mut g = rng::rng_from_seed(2);
+    for _ in 0..200 {
+        let q = origin
+            + u * g.random_range(0.5..1.5)
+            + v * g.random_range(0.5..1.5)
+            + normal * g.random_range(-0.1..0.1);
+        let expected = q - normal * normal.dot(q - origin);
+        let p = surface.project(q).unwrap();
+        assert!(
+            p.point.distance(expected) < 1e-4,
+            "{} vs {}",
+            p.point,
+            expected
+        );
+        assert!((p.normal - normal).length() < 1e-5);
+        assert!((p.signed_distance - normal.dot(q - origin)).abs() < 1e-4);
+    }
+}
+
+#[test]
+fn noisy_samples_still_converge_with_bounded_error() {
+    let r = 1.0;
+    let clean = sphere(10_000, r);
+    let mut g = rng::rng_from_seed(3);
+    let spacing = (4.0 * std::f32::consts::PI / 10_000.0).sqrt();
+    let noisy_p: Vec<Vec3> = clean
+        .positions()
+        .iter()
+        .map(|p| *p + random_unit(&mut g) * 0.2 * spacing)
+        .collect();
+    let noisy_n: Vec<Vec3> = clean
+        .normals()
+        .unwrap()
+        .iter()
+        .map(|n| (*n + random_unit(&mut g) * 0.1).normalize())
+        .collect();
+    let points = PointSet::new(noisy_p)
+        .unwrap()
+        .with_normals(noisy_n)
+        .unwrap();
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    for _ in 0..300 {
+        let q = random_unit(&mut g) * (r + g.random_range(-0.05..0.05));
+        let p = surface.project(q).unwrap();
+        assert!(p.converged);
+        assert!((p.point.length() - r).abs() < 0.01 * r);
+    }
+}
+
+#[test]
+fn degenerate_input_gives_values_not_panics() {
+    let points = sphere(2000, 1.0);
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    // Far away: no neighbours in the kernel.
+    assert!(surface.project(Vec3::splat(100.0)).is_none());
+    assert!(surface.normal(Vec3::splat(100.0)).is_none());
+    assert!(
+        surface
+            .signed_distance(Vec3::new(f32::NAN, 0.0, 0.0))
+            .is_none()
+    );
+    // The Surface trait falls back to the nearest sample instead.
+    let far = surface.closest_point(Vec3::new(0.0, 100.0, 0.0)).unwrap();
+    assert!(far.point.y > 0.99);
+    // The sphere's centre: opposite normals cancel or no neighbours — either way None.
+    assert!(surface.project(Vec3::ZERO).is_none());
+
+    // Duplicated points: every sample twice.
+    let mut doubled = points.clone();
+    doubled.append(&points).unwrap();
+    let s2 = MlsSurface::new(&doubled, &MlsParams::default()).unwrap();
+    assert!(
+        (s2.kernel() - surface.kernel()).abs() < 1e-6,
+        "duplicates must not shrink the kernel estimate"
+    );
+    // Duplicates scale every weight equally, so the surface is unchanged.
+    let q = Vec3::new(0.1, 1.02, 0.0);
+    assert!(
+        s2.project(q)
+            .unwrap()
+            .point
+            .distance(surface.project(q).unwrap().point)
+            < 1e-5
+    );
+
+    // Too few points for the kernel.
+    let lonely = PointSet::new(vec![Vec3::ZERO])
+        .unwrap()
+        .with_normals(vec![Vec3::Z])
+        .unwrap();
+    assert!(matches!(
+        MlsSurface::new(&lonely, &MlsParams::default()),
+        Err(MlsError::InvalidParameter { .. })
+    ));
+    let s3 = MlsSurface::new(&lonely, &MlsParams::default().kernel(1.0)).unwrap();
+    assert!(s3.project(Vec3::new(0.1, 0.0, 0.2)).is_none());
+    let s4 = MlsSurface::new(&lonely, &MlsParams::default().kernel(1.0).min_neighbours(1)).unwrap();
+    assert!(s4.project(Vec3::new(0.1, 0.0, 0.2)).unwrap().point.z.abs() < 1e-5);
+
+    // Construction errors.
+    let bare = PointSet::new(vec![Vec3::ZERO, Vec3::X]).unwrap();
+    assert!(matches!(
+        MlsSurface::new(&bare, &MlsParams::default()),
+        Err(MlsError::MissingNormals)
+    ));
+    let zero_n = bare
+        .clone()
+        .with_normals(vec![Vec3::Z, Vec3::ZERO])
+        .unwrap();
+    assert!(matches!(
+        MlsSurface::new(&zero_n, &MlsParams::default()),
+        Err(MlsError::DegenerateNormal { index: 1 })
+    ));
+    let empty = PointSet::new(vec![]).unwrap().with_normals(vec![]).unwrap();
+    assert!(matches!(
+        MlsSurface::new(&empty, &MlsParams::default()),
+        Err(MlsError::EmptyInput { .. })
+    ));
+    assert!(MlsSurface::new(&points, &MlsParams::default().support(-1.0)).is_err());
+    assert!(MlsSurface::new(&points, &MlsParams::default().max_iterations(0)).is_err());
+}
+
+#[test]
+fn rays_hit_the_sphere_where_geometry_says() {
+    let points = sphere(20_000, 1.0);
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let mut g = rng::rng_from_seed(4);
+    for _ in 0..100 {
+        let dir = random_unit(&mut g);
+        let start = dir * 1.06;
+        let hit = surface
+            .intersect_ray(start, -dir, 0.2)
+            .expect("inward ray crosses the sphere");
+        assert!((hit.t - 0.06).abs() < 3e-3, "t = {}", hit.t);
+        // The hit lies on the MLS surface: projecting it does not move it.
+        let on_surface = surface.project(hit.point).unwrap();
+        assert!(on_surface.point.distance(hit.point) < 1e-4);
+        // Pointing away: nothing within reach.
+        assert!(surface.intersect_ray(start, dir, 0.2).is_none());
+        // Snapping along ±normal from either side finds the same surface point.
+        let inside = dir * 0.97;
+        let snapped = surface.snap_along_normal(inside, dir).unwrap();
+        assert!((snapped.point.length() - 1.0).abs() < 3e-3);
+        assert!(snapped.signed_distance < 0.0);
+    }
+    assert!(surface.intersect_ray(Vec3::ZERO, Vec3::ZERO, 1.0).is_none());
+}
+
+#[test]
+fn surface_variation_is_zero_on_planes_and_positive_on_curved_or_random_sets() {
+    let plane: Vec<Vec3> = (0..900)
+        .map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0))
+        .collect();
+    let v = surface_variation(&KdIndex::new(&plane).unwrap(), 16).unwrap();
+    assert!(v.iter().all(|&s| s < 1e-6));
+    let mut g = rng::rng_from_seed(5);
+    let cloud: Vec<Vec3> = (0..2000)
+        .map(|_| Vec3::new(g.random(), g.random(), g.random()))
+        .collect();
+    let v = surface_variation(&KdIndex::new(&cloud).unwrap(), 16).unwrap();
+    let mean = v.iter().sum::<f32>() / v.len() as f32;
+    assert!(
+        mean > 0.15 && v.iter().all(|&s| s <= 1.0 / 3.0 + 1e-6),
+        "mean {mean}"
+    );
+    assert!(surface_variation(&KdIndex::new(&plane).unwrap(), 2).is_err());
+}
+
+proptest! {
+    #[test]
+    fn clusters_partition_the_points_and_respect_limits(
+        seed in any::<u64>(),
+        n in 1usize..600,
+        max_points in 1usize..40,
+        max_variation in 0.0f32..0.2,
+    ) {
+        let mut g = rng::rng_from_seed(seed);
+        // A mix of a sphere cap and duplicates.
+        let mut pts: Vec<Vec3> = (0..n).map(|_| random_unit(&mut g)).collect();
+        pts.extend(std::iter::repeat_n(pts[0], n / 10));
+        let clusters = adaptive_clusters(&pts, &ClusterParams::default().max_points(max_points).max_variation(max_variation)).unwrap();
+        let mut seen = vec![0u32; pts.len()];
+        for c in &clusters {
+            prop_assert!(c.members.contains(&c.representative));
+            for &m in &c.members { seen[m] += 1; }
+            let unsplittable = c.members.iter().all(|&m| pts[m] == pts[c.members[0]]);
+            if !unsplittable {
+                prop_assert!(c.members.len() <= max_points);
+                prop_assert!(c.variation <= max_variation + 1e-6);
+            }
+        }
+        prop_assert!(seen.iter().all(|&s| s == 1), "every point in exactly one cluster");
+    }
+}
+
+#[test]
+fn relaxation_evens_out_a_clumpy_sampling() {
+    let reference = sphere(8000, 1.0);
+    let surface = MlsSurface::new(&reference, &MlsParams::default()).unwrap();
+    let mut g = rng::rng_from_seed(6);
+    // Uniform random points (clumpy compared with a blue-noise sampling).
+    let clumpy: Vec<Vec3> = (0..1500).map(|_| random_unit(&mut g)).collect();
+    let relaxed = relax(&surface, &clumpy, &RelaxParams::default()).unwrap();
+    assert!((relaxed.spread_before - nearest_neighbour_spread(&clumpy).unwrap()).abs() < 1e-6);
+    assert!(
+        relaxed.spread_after < 0.6 * relaxed.spread_before,
+        "spread {} -> {}",
+        relaxed.spread_before,
+        relaxed.spread_after
+    );
+    for (p, n) in relaxed.positions.iter().zip(&relaxed.normals) {
+        // On the MLS surface (which lies slightly inside the sphere, see above).
+        assert!(surface.project(*p).unwrap().point.distance(*p) < 1e-4);
+        assert!((p.length() - 1.0).abs() < 1e-2);
+        assert!(n.dot(p.normalize()) > 0.999);
+    }
+}
+
+#[test]
+fn parallel_results_do_not_depend_on_thread_count() {
+    let points = sphere(5000, 1.0);
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let mut g = rng::rng_from_seed(7);
+    let queries: Vec<Vec3> = (0..2000)
+        .map(|_| random_unit(&mut g) * g.random_range(0.9..1.1))
+        .collect();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let proj = surface.project_all(&queries);
+            let relaxed = relax(
+                &surface,
+                &queries[..500],
+                &RelaxParams::default().iterations(3),
+            )
+            .unwrap();
+            (proj, relaxed)
+        })
+    };
+    assert_eq!(run(1), run(2));
+}

@@ -1,0 +1,67 @@
+//! The surface abstraction shared by point-set surfaces and meshes.
+
+use glam::Vec3;
+
+/// A point on a surface with its unit outward normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    /// Position on the surface.
+    pub point: Vec3,
+    /// Unit normal at `point`, oriented outward.
+    pub normal: Vec3,
+}
+
+/// Anything that can answer "which surface point is closest to `q`, and which way is out?".
+///
+/// Implemented by the MLS point-set surface (`mls-surface`) and by triangle meshes
+/// (`distance-field`), so distance fields can be computed from either without the crates
+/// depending on each other.
+pub trait Surface: Send + Sync {
+    /// The closest surface point to `query` with its outward normal, or `None` where the
+    /// surface is not defined near `query`.
+    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint>;
+
+    /// Signed distance from `query` to the surface (positive on the normal's side) and the
+    /// closest point. The default derives both from [`Surface::closest_point`]; the sign comes
+    /// from the normal at the closest point.
+    fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
+        let c = self.closest_point(query)?;
+        let offset = query - c.point;
+        let distance = offset.length();
+        let sign = if offset.dot(c.normal) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        Some((sign * distance, c))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct UnitSphere;
+    impl Surface for UnitSphere {
+        fn closest_point(&self, q: Vec3) -> Option<SurfacePoint> {
+            let n = q.try_normalize()?;
+            Some(SurfacePoint {
+                point: n,
+                normal: n,
+            })
+        }
+    }
+
+    #[test]
+    fn default_signed_distance_uses_the_normal_side() {
+        let (d, _) = UnitSphere
+            .signed_distance(Vec3::new(0.0, 0.0, 3.0))
+            .unwrap();
+        assert!((d - 2.0).abs() < 1e-6);
+        let (d, _) = UnitSphere
+            .signed_distance(Vec3::new(0.0, 0.25, 0.0))
+            .unwrap();
+        assert!((d + 0.75).abs() < 1e-6);
+        assert!(UnitSphere.signed_distance(Vec3::ZERO).is_none());
+    }
+}
