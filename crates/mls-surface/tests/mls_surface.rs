@@ -37,10 +37,10 @@ fn random_unit(r: &mut rng::SeededRng) -> Vec3 {
             r.random_range(-1.0..1.0),
             r.random_range(-1.0..1.0),
         );
-        if let Some(u) = v.try_normalize() {
-            if v.length() <= 1.0 {
-                return u;
-            }
+        if let Some(u) = v.try_normalize()
+            && v.length() <= 1.0
+        {
+            return u;
         }
     }
 }
