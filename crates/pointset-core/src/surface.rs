@@ -35,6 +35,15 @@ pub trait Surface: Send + Sync {
         };
         Some((sign * distance, c))
     }
+
+    /// Like [`Surface::signed_distance`], with a hint: the caller knows the true distance is
+    /// at most `bound` (e.g. from a neighbouring grid node plus the node spacing), which lets
+    /// exact searches prune. Implementations must return the same answer as without the hint
+    /// whenever the hint is correct. The default ignores it.
+    fn signed_distance_bounded(&self, query: Vec3, bound: f32) -> Option<(f32, SurfacePoint)> {
+        let _ = bound;
+        self.signed_distance(query)
+    }
 }
 
 #[cfg(test)]

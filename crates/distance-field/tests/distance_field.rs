@@ -1,0 +1,427 @@
+//! Tests of distance-field against independent references: brute-force point–triangle
+//! distances, winding numbers, analytic spheres and tori, paper 001 Eq. 2, file round trips.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use std::collections::HashMap;
+
+use distance_field::{
+    BlockPyramid, FieldError, GridSpec, MeshSurface, SdfGrid, isosurface, nrrd, sdf_isosurface,
+};
+use glam::Vec3;
+use mls_surface::{MlsParams, MlsSurface};
+use pointset_core::testdata::shared_data;
+use pointset_core::{Aabb, Grid3, PointSet, Surface, SurfacePoint, TriMesh, io, rng};
+use proptest::prelude::*;
+use rand::RngExt;
+
+// ------------------------------------------------------------ independent references
+
+/// Distance from `p` to segment `ab`.
+fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+    let d = b - a;
+    let t = if d.length_squared() > 0.0 {
+        ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + t * d)
+}
+
+/// Point–triangle distance by plane projection + barycentric test, else the nearest edge.
+fn brute_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let n = (b - a).cross(c - a);
+    if n.length_squared() > 1e-20 {
+        let n = n.normalize();
+        let q = p - n * n.dot(p - a);
+        let inside = [(a, b), (b, c), (c, a)]
+            .iter()
+            .all(|&(s, e)| (e - s).cross(q - s).dot(n) >= 0.0);
+        if inside {
+            return p.distance(q);
+        }
+    }
+    segment_distance(p, a, b)
+        .min(segment_distance(p, b, c))
+        .min(segment_distance(p, c, a))
+}
+
+/// Generalized winding number of a closed mesh around `p` (van Oosterom–Strackee).
+fn winding_number(mesh: &TriMesh, p: Vec3) -> f64 {
+    let pos = mesh.positions();
+    let mut total = 0.0f64;
+    for t in mesh.triangles() {
+        let [a, b, c] = t.map(|v| (pos[v as usize] - p).as_dvec3());
+        let (la, lb, lc) = (a.length(), b.length(), c.length());
+        let num = a.dot(b.cross(c));
+        let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+        total += 2.0 * num.atan2(den);
+    }
+    total / (4.0 * std::f64::consts::PI)
+}
+
+fn random_mesh(seed: u64, n: usize) -> TriMesh {
+    let mut g = rng::rng_from_seed(seed);
+    let p: Vec<Vec3> = (0..3 * n)
+        .map(|_| Vec3::new(g.random(), g.random(), g.random()))
+        .collect();
+    let tris = (0..n as u32)
+        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+        .collect();
+    TriMesh::new(PointSet::new(p).unwrap(), tris).unwrap()
+}
+
+proptest! {
+    #[test]
+    fn mesh_distance_matches_brute_force(
+        seed in any::<u64>(),
+        n in 1usize..80,
+        q in prop::array::uniform3(-1.0f32..2.0),
+    ) {
+        let mesh = random_mesh(seed, n);
+        let surface = MeshSurface::new(&mesh).unwrap();
+        let q = Vec3::from(q);
+        let pos = mesh.positions();
+        let expected = mesh
+            .triangles()
+            .iter()
+            .map(|t| brute_triangle_distance(q, pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]))
+            .fold(f32::INFINITY, f32::min);
+        let hit = surface.closest(q, f32::INFINITY).unwrap();
+        prop_assert!((hit.distance_squared.sqrt() - expected).abs() <= 1e-4 * expected.max(1.0));
+        // A correct bound changes nothing.
+        let bounded = surface.closest(q, expected * 1.01 + 1e-6).unwrap();
+        prop_assert!((bounded.distance_squared - hit.distance_squared).abs() <= 1e-6);
+    }
+}
+
+#[test]
+fn bunny_sign_agrees_with_winding_numbers() {
+    let Some(path) = shared_data("bunny_sign", "meshes/bunny_watertight.obj") else {
+        return;
+    };
+    let mesh = io::read_geometry(&path)
+        .unwrap()
+        .geometry
+        .mesh()
+        .unwrap()
+        .clone();
+    let surface = MeshSurface::new(&mesh).unwrap();
+    let bounds = mesh.bounding_box().unwrap();
+    let mut g = rng::rng_from_seed(11);
+    let (mut inside, mut outside) = (0, 0);
+    for _ in 0..150 {
+        let t = Vec3::new(g.random(), g.random(), g.random());
+        let q = bounds.min + t * bounds.extent();
+        let w = winding_number(&mesh, q);
+        let d = surface.signed_distance_to(q).unwrap();
+        // Skip the rare query so close to the surface that either answer is legitimate.
+        if d.abs() < 1e-5 * bounds.diagonal() {
+            continue;
+        }
+        assert_eq!(d < 0.0, w > 0.5, "q = {q}, distance {d}, winding {w}");
+        if d < 0.0 { inside += 1 } else { outside += 1 }
+    }
+    assert!(
+        inside > 10 && outside > 10,
+        "{inside} inside, {outside} outside"
+    );
+    // Just off the surface along the normals: the sign follows the side.
+    let eps = 1e-4 * bounds.diagonal();
+    let normals = mesh.vertex_normals(pointset_core::NormalWeighting::Angle);
+    for (v, n) in mesh.positions().iter().zip(&normals).step_by(97) {
+        assert!(surface.signed_distance_to(*v + *n * eps).unwrap() > 0.0);
+        assert!(surface.signed_distance_to(*v - *n * eps).unwrap() < 0.0);
+    }
+}
+
+// ------------------------------------------------------------ grids of spheres
+
+struct AnalyticSphere(f32);
+impl Surface for AnalyticSphere {
+    fn closest_point(&self, q: Vec3) -> Option<SurfacePoint> {
+        let n = q.try_normalize()?;
+        Some(SurfacePoint {
+            point: n * self.0,
+            normal: n,
+        })
+    }
+}
+
+fn fibonacci_sphere(n: usize, r: f32) -> PointSet {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let dirs: Vec<Vec3> = (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let s = (1.0 - y * y).sqrt();
+            Vec3::new(
+                s * (golden * i as f32).cos(),
+                y,
+                s * (golden * i as f32).sin(),
+            )
+        })
+        .collect();
+    PointSet::new(dirs.iter().map(|d| *d * r).collect())
+        .unwrap()
+        .with_normals(dirs)
+        .unwrap()
+}
+
+#[test]
+fn sdf_of_an_analytic_sphere_is_exact_and_clamped() {
+    let spec =
+        GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 33, 0.25).unwrap();
+    let sdf = SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, 0.3).unwrap();
+    assert_eq!(
+        sdf.undefined_nodes(),
+        1,
+        "only the centre has no closest point"
+    );
+    let [nx, ny, nz] = sdf.dims();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = spec.node(i, j, k);
+                if p.length() < 1e-6 {
+                    continue;
+                }
+                let d = sdf.distance(i, j, k).unwrap();
+                assert!((d - (p.length() - 1.0).clamp(-0.3, 0.3)).abs() < 1e-5);
+                let g = sdf.gradient(i, j, k).unwrap();
+                assert!((g - p.normalize()).length() < 1e-4);
+            }
+        }
+    }
+}
+
+#[test]
+fn sdf_from_a_point_set_surface_matches_the_sphere_near_the_surface() {
+    let points = fibonacci_sphere(20_000, 1.0);
+    let mls = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 24, 0.2).unwrap();
+    let sdf = SdfGrid::from_surface(&mls, &spec, 0.5).unwrap();
+    let [nx, ny, nz] = sdf.dims();
+    let mut checked = 0;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = spec.node(i, j, k);
+                let exact = p.length() - 1.0;
+                if exact.abs() > 0.1 {
+                    continue;
+                }
+                checked += 1;
+                assert!(
+                    (sdf.distance(i, j, k).unwrap() - exact).abs() < 3e-3,
+                    "at {p}"
+                );
+                let g = sdf.gradient(i, j, k).unwrap();
+                assert!((g.length() - 1.0).abs() < 1e-3);
+                assert!(g.dot(p.normalize()) > 0.999);
+            }
+        }
+    }
+    assert!(checked > 500);
+}
+
+#[test]
+fn grid_filling_does_not_depend_on_thread_count() {
+    let mesh = random_mesh(5, 60);
+    let surface = MeshSurface::new(&mesh).unwrap();
+    let spec = GridSpec::covering(mesh.bounding_box().unwrap(), 20, 0.1).unwrap();
+    let run = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| SdfGrid::from_surface(&surface, &spec, 1.0).unwrap())
+    };
+    assert_eq!(run(1), run(2));
+}
+
+// ------------------------------------------------------------ pyramids (paper 001 Eq. 2)
+
+proptest! {
+    #[test]
+    fn pyramid_distances_never_decrease_with_level(
+        a in proptest::collection::vec(-1.0f32..1.0, 512),
+        b in proptest::collection::vec(-1.0f32..1.0, 512),
+    ) {
+        let pa = BlockPyramid::new(&a, 8).unwrap();
+        let pb = BlockPyramid::new(&b, 8).unwrap();
+        for l in 1..pa.level_count() {
+            let coarse = pa.level_distance(&pb, l).unwrap();
+            let fine = pa.level_distance(&pb, l + 1).unwrap();
+            prop_assert!(coarse <= fine + 1e-6, "level {l}: {coarse} > {fine}");
+        }
+    }
+}
+
+// ------------------------------------------------------------ iso-surfaces
+
+fn analytic_grid(n: usize, half: f32, f: impl Fn(Vec3) -> f32) -> Grid3<f32> {
+    let spacing = 2.0 * half / (n - 1) as f32;
+    let origin = Vec3::splat(-half);
+    let mut data = Vec::with_capacity(n * n * n);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                data.push(f(origin + Vec3::new(i as f32, j as f32, k as f32) * spacing));
+            }
+        }
+    }
+    Grid3::from_vec([n; 3], origin, spacing, data).unwrap()
+}
+
+/// Checks every edge is used by exactly two faces, once per direction; returns V − E + F.
+fn euler_characteristic_of_closed_manifold(mesh: &TriMesh) -> i64 {
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in mesh.triangles() {
+        for k in 0..3 {
+            *directed.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    for (&(a, b), &n) in &directed {
+        assert_eq!(
+            n, 1,
+            "edge {a}-{b} used twice in one direction (orientation flip or non-manifold)"
+        );
+        assert_eq!(directed.get(&(b, a)), Some(&1), "edge {a}-{b} is a border");
+    }
+    let edges = directed.len() as i64 / 2;
+    mesh.vertex_count() as i64 - edges + mesh.face_count() as i64
+}
+
+fn volume(mesh: &TriMesh) -> f64 {
+    let p = mesh.positions();
+    mesh.triangles()
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| p[v as usize].as_dvec3());
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+#[test]
+fn sphere_isosurface_is_a_closed_sphere_with_the_right_area_and_volume() {
+    let r = 0.8f32;
+    let grid = analytic_grid(64, 1.0, |p| p.length() - r);
+    let mesh = isosurface(&grid, 0.0).unwrap();
+    assert_eq!(euler_characteristic_of_closed_manifold(&mesh), 2);
+    let area = mesh.area();
+    let exact_area = 4.0 * std::f64::consts::PI * f64::from(r).powi(2);
+    assert!(
+        (area - exact_area).abs() < 0.01 * exact_area,
+        "area {area} vs {exact_area}"
+    );
+    let vol = volume(&mesh);
+    let exact_vol = 4.0 / 3.0 * std::f64::consts::PI * f64::from(r).powi(3);
+    assert!(
+        (vol - exact_vol).abs() < 0.01 * exact_vol,
+        "volume {vol} vs {exact_vol}"
+    );
+    // Positive volume means the faces point outward.
+    assert!(vol > 0.0);
+}
+
+#[test]
+fn torus_isosurface_has_euler_characteristic_zero() {
+    let (big, small) = (0.6f32, 0.25f32);
+    let grid = analytic_grid(64, 1.0, |p| {
+        let q = glam::Vec2::new(glam::Vec2::new(p.x, p.z).length() - big, p.y);
+        q.length() - small
+    });
+    let mesh = isosurface(&grid, 0.0).unwrap();
+    assert_eq!(euler_characteristic_of_closed_manifold(&mesh), 0);
+    assert!(mesh.degenerate_faces().len() < mesh.face_count() / 100);
+}
+
+#[test]
+fn sdf_isosurface_uses_stored_gradients_for_normals() {
+    let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 40, 0.2).unwrap();
+    let sdf = SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, 0.5).unwrap();
+    let mesh = sdf_isosurface(&sdf).unwrap();
+    assert_eq!(euler_characteristic_of_closed_manifold(&mesh), 2);
+    for (p, n) in mesh
+        .positions()
+        .iter()
+        .zip(mesh.vertices().normals().unwrap())
+    {
+        assert!((p.length() - 1.0).abs() < 2e-3);
+        assert!(n.dot(p.normalize()) > 0.999);
+    }
+    // Empty and constant fields give empty meshes, not errors.
+    let flat = analytic_grid(4, 1.0, |_| 1.0);
+    assert_eq!(isosurface(&flat, 0.0).unwrap().face_count(), 0);
+}
+
+// ------------------------------------------------------------ NRRD
+
+#[test]
+fn nrrd_round_trips_and_rejects_short_data() {
+    let grid = analytic_grid(9, 1.0, |p| p.x - 2.0 * p.y + p.z * p.z);
+    let mut bytes = Vec::new();
+    nrrd::write_scalar(&mut bytes, &grid).unwrap();
+    let back = nrrd::read(&bytes).unwrap();
+    assert_eq!(back.channels, 1);
+    assert_eq!(back.scalar_grid().unwrap(), grid);
+
+    let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 8, 0.1).unwrap();
+    let sdf = SdfGrid::from_surface(&AnalyticSphere(0.7), &spec, 0.5).unwrap();
+    let mut bytes4 = Vec::new();
+    nrrd::write_vec4(&mut bytes4, sdf.grid()).unwrap();
+    let back4 = nrrd::read(&bytes4).unwrap();
+    assert_eq!(back4.channels, 4);
+    assert_eq!(&back4.vec4_grid().unwrap(), sdf.grid());
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.nrrd");
+    nrrd::write_file(&path, |f| nrrd::write_vec4(f, sdf.grid())).unwrap();
+    assert_eq!(nrrd::read_file(&path).unwrap(), back4);
+
+    // Truncated data and lying headers are errors, not allocations or panics.
+    assert!(matches!(
+        nrrd::read(&bytes[..bytes.len() - 3]),
+        Err(FieldError::Nrrd { .. })
+    ));
+    let liar = b"NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\nencoding: raw\nspacings: 1 1 1\n\n1234";
+    assert!(matches!(nrrd::read(liar), Err(FieldError::Nrrd { .. })));
+    for bad in [
+        &b"NRRD0004\ntype: short\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\n\n"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: gzip\nspacings: 1 1 1\n\n"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1\nencoding: raw\nspacings: 1 1\n\n"[..],
+        &b"not nrrd\n\n"[..],
+        &b"NRRD0004\ntype: float"[..],
+    ] {
+        assert!(
+            matches!(nrrd::read(bad), Err(FieldError::Nrrd { .. })),
+            "{:?}",
+            String::from_utf8_lossy(bad)
+        );
+    }
+}
+
+#[test]
+fn invalid_parameters_are_errors() {
+    let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+    assert!(GridSpec::covering(b, 1, 0.0).is_err());
+    assert!(GridSpec::covering(b, 10, -1.0).is_err());
+    assert!(GridSpec::covering(Aabb::new(Vec3::ZERO, Vec3::ZERO), 10, 0.0).is_err());
+    let spec = GridSpec::covering(b, 10, 0.0).unwrap();
+    assert!(spec.sub_box([0, 0, 0], [11, 2, 2]).is_err());
+    let sub = spec.sub_box([2, 3, 4], [5, 6, 8]).unwrap();
+    assert_eq!(sub.dims, [3, 3, 4]);
+    assert!((sub.origin - spec.node(2, 3, 4)).length() < 1e-6);
+    assert!(SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, 0.0).is_err());
+    let flat = TriMesh::new(
+        PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0]).unwrap(),
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    assert!(matches!(
+        MeshSurface::new(&flat),
+        Err(FieldError::EmptyMesh)
+    ));
+}
