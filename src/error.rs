@@ -9,6 +9,12 @@ pub enum Error {
     /// From `pointset-core` (types, I/O, spatial indices, stages).
     #[error(transparent)]
     Core(#[from] pointset_core::Error),
+    /// From `mls-surface`.
+    #[error(transparent)]
+    Mls(#[from] mls_surface::MlsError),
+    /// From `distance-field`.
+    #[error(transparent)]
+    Field(#[from] distance_field::FieldError),
     /// Encoding or writing an image failed.
     #[error("cannot write image {path}: {source}")]
     Image {

@@ -8,6 +8,9 @@
 //! | module | crate | what |
 //! |---|---|---|
 //! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF I/O, [`Stage`] |
+//! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation |
+//! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
+//! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
 //! | [`imagery`] | (facade) | textures and height fields from PNG/JPEG/raw `f32` files |
@@ -68,9 +71,38 @@ mod error;
 pub mod fixtures;
 pub mod imagery;
 pub mod preview;
+pub mod reconstruct;
 
 /// Shared types, I/O and spatial indices (the `pointset-core` crate).
 pub use pointset_core as core;
+
+/// Point-set surfaces after Adamson & Alexa (the `mls-surface` crate).
+///
+/// ```
+/// use geosynth::mls::{MlsParams, MlsSurface};
+///
+/// let sphere = geosynth::fixtures::sphere_points(4000)?;
+/// let surface = MlsSurface::new(&sphere, &MlsParams::default())?;
+/// let p = surface.project(glam::Vec3::new(0.0, 1.05, 0.0)).ok_or("no surface")?;
+/// assert!((p.point.length() - 1.0).abs() < 0.01);
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub use mls_surface as mls;
+
+/// Signed distance fields (the `distance-field` crate).
+///
+/// ```
+/// use geosynth::sdf::{GridSpec, MeshSurface, SdfGrid, sdf_isosurface};
+///
+/// let torus = geosynth::fixtures::torus_mesh(48, 24, 1.0, 0.35)?;
+/// let surface = MeshSurface::new(&torus)?;
+/// let spec = GridSpec::covering(torus.bounding_box().ok_or("empty")?, 40, 0.1)?;
+/// let field = SdfGrid::from_surface(&surface, &spec, 0.3)?;
+/// let remeshed = sdf_isosurface(&field)?;
+/// assert!(remeshed.face_count() > 1000);
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub use distance_field as sdf;
 pub use pointset_core::{CancelFlag, Progress, ProgressUpdate, RunContext, Stage};
 
 pub use error::{Error, Result};

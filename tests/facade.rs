@@ -228,3 +228,36 @@ fn height_fields_load_from_raw_and_png_and_agree() {
     let h = imagery::read_heightfield(&helens).unwrap();
     assert_eq!((h.width(), h.height()), (317, 460));
 }
+
+#[test]
+fn bunny_points_reconstruct_to_one_closed_genus_zero_mesh() {
+    use geosynth::core::testdata::shared_data;
+    use geosynth::reconstruct::Reconstruct;
+    use geosynth::{RunContext, Stage};
+    let Some(path) = shared_data("bunny_reconstruction", "pointsets/bunny16k_normals.ply") else {
+        return;
+    };
+    let points = io::read_geometry(&path).unwrap().geometry.points().clone();
+    let bounds = points.bounding_box().unwrap();
+    let mut ctx = RunContext::new(0);
+    let mesh = Reconstruct::default()
+        .run(points.clone(), &mut ctx)
+        .unwrap();
+    let topology = mesh.topology();
+    assert!(topology.is_closed_manifold(), "{topology:?}");
+    assert_eq!(topology.components, 1, "{topology:?}");
+    assert_eq!(topology.euler_characteristic, 2, "genus 0: {topology:?}");
+    // The mesh hugs the samples: every sample lies within 1% of the box diagonal.
+    let surface = geosynth::sdf::MeshSurface::new(&mesh).unwrap();
+    let worst = points
+        .positions()
+        .iter()
+        .step_by(7)
+        .map(|p| surface.signed_distance_to(*p).unwrap().abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 0.01 * bounds.diagonal(),
+        "worst sample distance {worst}"
+    );
+    assert_eq!(ctx.timings().len(), 2);
+}

@@ -12,7 +12,7 @@
 
 use std::collections::HashMap;
 
-use glam::{Vec3, Vec4};
+use glam::{IVec3, Vec3, Vec4};
 use pointset_core::{Grid3, NormalWeighting, PointSet, TriMesh};
 
 use crate::error::Result;
@@ -67,19 +67,40 @@ impl Builder<'_> {
         id
     }
 
-    fn triangle(&mut self, [a, b, c]: [u32; 3], outward: Vec3) {
-        let (pa, pb, pc) = (
-            self.positions[a as usize],
-            self.positions[b as usize],
-            self.positions[c as usize],
-        );
-        if (pb - pa).cross(pc - pa).dot(outward) < 0.0 {
-            self.triangles.push([a, c, b]);
-        } else {
-            self.triangles.push([a, b, c]);
-        }
+    /// Integer grid coordinates of a node.
+    fn coords(&self, node: usize) -> IVec3 {
+        let [nx, ny, _] = self.dims;
+        IVec3::new(
+            (node % nx) as i32,
+            ((node / nx) % ny) as i32,
+            (node / (nx * ny)) as i32,
+        )
     }
 
+    /// Orientation of the ordered tetrahedron `(a, b, c, d)`: the sign of
+    /// `det(b − a, c − a, d − a)` on integer grid coordinates (exact, never zero for the
+    /// Kuhn tetrahedra).
+    fn orientation(&self, [a, b, c, d]: [usize; 4]) -> bool {
+        let pa = self.coords(a);
+        let (u, v, w) = (
+            self.coords(b) - pa,
+            self.coords(c) - pa,
+            self.coords(d) - pa,
+        );
+        u.dot(v.cross(w)) > 0
+    }
+
+    fn push(&mut self, [a, b, c]: [u32; 3], flip: bool) {
+        self.triangles
+            .push(if flip { [a, c, b] } else { [a, b, c] });
+    }
+
+    /// Emits the surface piece of one tetrahedron. Orientation is decided combinatorially:
+    /// for a lone vertex `a` and the others `b, c, d`, the triangle `(ab, ac, ad)` faces away
+    /// from `a` exactly when `(a, b, c, d)` is positively oriented; for inside pair `a, b` and
+    /// outside pair `c, d`, the quad `(ac, ad, bd, bc)` faces `c, d` under the same
+    /// condition. Geometric normals are never consulted, so near-degenerate triangles (a
+    /// crossing right at a grid node) cannot flip.
     fn tetrahedron(&mut self, nodes: [usize; 4]) {
         let inside: Vec<usize> = nodes
             .iter()
@@ -91,31 +112,28 @@ impl Builder<'_> {
             .copied()
             .filter(|&n| self.values[n] >= 0.0)
             .collect();
-        if inside.is_empty() || outside.is_empty() {
-            return;
-        }
-        let centre = |s: &Self, set: &[usize]| {
-            set.iter().map(|&n| s.position(n)).sum::<Vec3>() / set.len() as f32
-        };
-        let outward = centre(self, &outside) - centre(self, &inside);
         match (inside.as_slice(), outside.as_slice()) {
-            ([a], [b, c, d]) | ([b, c, d], [a]) => {
-                let tri = [
-                    self.vertex(*a, *b),
-                    self.vertex(*a, *c),
-                    self.vertex(*a, *d),
-                ];
-                self.triangle(tri, outward);
+            (&[a], &[b, c, d]) => {
+                let tri = [self.vertex(a, b), self.vertex(a, c), self.vertex(a, d)];
+                let flip = !self.orientation([a, b, c, d]);
+                self.push(tri, flip);
             }
-            ([a, b], [c, d]) => {
+            (&[b, c, d], &[a]) => {
+                // The lone vertex is outside: the triangle must face it.
+                let tri = [self.vertex(a, b), self.vertex(a, c), self.vertex(a, d)];
+                let flip = self.orientation([a, b, c, d]);
+                self.push(tri, flip);
+            }
+            (&[a, b], &[c, d]) => {
                 let (ac, ad, bd, bc) = (
-                    self.vertex(*a, *c),
-                    self.vertex(*a, *d),
-                    self.vertex(*b, *d),
-                    self.vertex(*b, *c),
+                    self.vertex(a, c),
+                    self.vertex(a, d),
+                    self.vertex(b, d),
+                    self.vertex(b, c),
                 );
-                self.triangle([ac, ad, bd], outward);
-                self.triangle([ac, bd, bc], outward);
+                let flip = !self.orientation([a, b, c, d]);
+                self.push([ac, ad, bd], flip);
+                self.push([ac, bd, bc], flip);
             }
             _ => {}
         }

@@ -28,6 +28,11 @@ enum Command {
     Info(commands::info::InfoArgs),
     /// Render point sets and meshes to a PNG, one panel per input file.
     Render(commands::render::RenderArgs),
+    /// Turn an oriented point set into a closed mesh (MLS surface → distance field →
+    /// iso-surface).
+    Reconstruct(commands::reconstruct::ReconstructArgs),
+    /// Sample the signed distance field of a mesh or oriented point set into an NRRD file.
+    Sdf(commands::reconstruct::SdfArgs),
     /// Write the procedural exemplars used by the tests and the demo.
     Fixtures(commands::fixtures::FixturesArgs),
     /// Run every available synthesis family on the bundled fixtures; write results,
@@ -60,6 +65,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(args) => commands::info::run(&args, globals),
         Command::Render(args) => commands::render::run(&args, globals),
+        Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(&args, globals),
+        Command::Sdf(args) => commands::reconstruct::run_sdf(&args, globals),
         Command::Fixtures(args) => commands::fixtures::run(&args, globals),
         Command::Demo(args) => commands::demo::run(&args, globals),
     };

@@ -221,3 +221,55 @@ fn fixtures_command_reproduces_the_committed_files() {
         assert!(a == b, "{} differs", f.file_name());
     }
 }
+
+#[test]
+fn reconstruct_and_sdf_commands_write_usable_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = geosynth::fixtures::bundled_dir().join("torus_points.ply");
+    let mesh = dir.path().join("torus.ply");
+    ok(&[
+        "reconstruct",
+        points.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "40",
+        "-q",
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--json", mesh.to_str().unwrap()])).unwrap();
+    assert_eq!(json["topology"]["closed_manifold"], true);
+    assert_eq!(json["topology"]["euler_characteristic"], 0, "a torus");
+
+    let field = dir.path().join("torus.nrrd");
+    ok(&[
+        "sdf",
+        mesh.to_str().unwrap(),
+        "-o",
+        field.to_str().unwrap(),
+        "--resolution",
+        "24",
+        "--gradient",
+        "-q",
+    ]);
+    let volume = geosynth::sdf::nrrd::read_file(&field).unwrap();
+    assert_eq!(volume.channels, 4);
+    assert!(
+        volume.data.iter().step_by(4).any(|d| *d < 0.0)
+            && volume.data.iter().step_by(4).any(|d| *d > 0.0)
+    );
+
+    let bad = geosynth(&[
+        "reconstruct",
+        points.to_str().unwrap(),
+        "-o",
+        "x.ply",
+        "--resolution",
+        "2",
+    ]);
+    assert!(!bad.status.success());
+    let bare = dir.path().join("bare.ply");
+    std::fs::write(&bare, b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n").unwrap();
+    let out = geosynth(&["reconstruct", bare.to_str().unwrap(), "-o", "x.ply"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("normals"));
+}

@@ -41,7 +41,7 @@
 //! | parameter | default | meaning |
 //! |---|---|---|
 //! | `kernel` | estimated | `h`; estimate = `kernel_spacing_factor` × median nearest-neighbour spacing |
-//! | `kernel_spacing_factor` | 2 | |
+//! | `kernel_spacing_factor` | 1.25 | keep `support · h` below the thinnest feature's thickness |
 //! | `support` | 2.5 | truncation radius in units of `h` (`θ = 0.002` there) |
 //! | `min_neighbours` | 4 | fewer points in the support → no surface (`None`) |
 //! | `tolerance` | 1e-4 | stop when `|f| < tolerance · h` |
@@ -52,7 +52,8 @@
 //! - The gradient of the signed distance at `x` is the normal `n(x*)` at its projection.
 //! - Where the kernel does not reach, `project` returns `None`; the [`pointset_core::Surface`]
 //!   implementation falls back to the nearest sample and its normal, so distance fields
-//!   remain defined far from the points.
+//!   remain defined far from the points. Its signed distance takes the magnitude from the
+//!   projection and the sign from `f` at the query (the surface is `f`'s zero set).
 //! - Clusters are represented by the member nearest the centroid (a real oriented sample).
 //! - Relaxation moves all points simultaneously (Jacobi style), which makes it independent
 //!   of thread scheduling.

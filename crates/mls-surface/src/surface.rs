@@ -295,4 +295,18 @@ impl Surface for MlsSurface {
             normal: self.normals[nearest.index],
         })
     }
+
+    /// Magnitude from the projection; sign from `f(query)` where the kernel reaches the
+    /// query (the surface *is* the zero set of `f`, so the grid's zero crossings match it),
+    /// otherwise from the closest point's normal.
+    fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
+        let c = self.closest_point(query)?;
+        let offset = query - c.point;
+        let inside = match self.fit(query) {
+            Some(fit) => fit.value < 0.0,
+            None => offset.dot(c.normal) < 0.0,
+        };
+        let d = offset.length();
+        Some((if inside { -d } else { d }, c))
+    }
 }

@@ -56,7 +56,8 @@ fn sphere_projection_lands_on_the_sphere_with_correct_normals() {
     let mut g = rng::rng_from_seed(1);
     for _ in 0..500 {
         let dir = random_unit(&mut g);
-        let offset = g.random_range(-0.05..0.05) * r;
+        // Within 1.5 kernels of the surface, where the kernel reaches.
+        let offset = g.random_range(-1.5..1.5) * surface.kernel();
         let q = dir * (r + offset);
         let p = surface
             .project(q)
@@ -137,7 +138,7 @@ fn noisy_samples_still_converge_with_bounded_error() {
         .unwrap();
     let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
     for _ in 0..300 {
-        let q = random_unit(&mut g) * (r + g.random_range(-0.05..0.05));
+        let q = random_unit(&mut g) * (r + g.random_range(-1.5..1.5) * surface.kernel());
         let p = surface.project(q).unwrap();
         assert!(p.converged);
         assert!((p.point.length() - r).abs() < 0.01 * r);

@@ -67,7 +67,7 @@ pub use aabb::Aabb;
 pub use error::{Error, Location, Result};
 pub use grid::Grid3;
 pub use heightfield::{HeightField, dims_from_name};
-pub use mesh::{NormalWeighting, TriMesh};
+pub use mesh::{MeshTopology, NormalWeighting, TriMesh};
 pub use pointset::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES};
 pub use scalar::ScalarType;
 pub use spatial::{BucketGrid, KdIndex, Neighbour, PointKey};

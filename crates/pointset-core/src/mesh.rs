@@ -15,6 +15,32 @@ pub enum NormalWeighting {
     Angle,
 }
 
+/// Edge-based topology of a mesh (see [`TriMesh::topology`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshTopology {
+    /// Distinct undirected edges.
+    pub edges: usize,
+    /// Edges used by exactly one face (holes, open borders).
+    pub boundary_edges: usize,
+    /// Edges used by more than two faces.
+    pub non_manifold_edges: usize,
+    /// Edges shared by two faces that traverse them in the same direction (inconsistent
+    /// orientation).
+    pub misoriented_edges: usize,
+    /// Connected components (of vertices used by faces).
+    pub components: usize,
+    /// `V − E + F` over the vertices used by faces (2 per closed sphere-like component).
+    pub euler_characteristic: i64,
+}
+
+impl MeshTopology {
+    /// Whether the mesh is a closed, consistently oriented 2-manifold (every edge in exactly
+    /// two faces, traversed once in each direction).
+    pub fn is_closed_manifold(&self) -> bool {
+        self.boundary_edges == 0 && self.non_manifold_edges == 0 && self.misoriented_edges == 0
+    }
+}
+
 /// An indexed triangle mesh. Vertices are a [`PointSet`], so they carry optional normals and
 /// any named attributes (vertex colours are the `red`, `green`, `blue` channels).
 ///
@@ -178,6 +204,71 @@ impl TriMesh {
         self.vertices.set_normals(Some(normals))
     }
 
+    /// Edge and component counts: what `geosynth info` reports and what tests check for
+    /// "closed 2-manifold".
+    pub fn topology(&self) -> MeshTopology {
+        let mut directed: std::collections::HashMap<(u32, u32), u32> =
+            std::collections::HashMap::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *directed.entry((a, b)).or_insert(0) += 1;
+            }
+        }
+        let mut undirected: std::collections::HashMap<(u32, u32), (u32, u32)> =
+            std::collections::HashMap::new();
+        for (&(a, b), &n) in &directed {
+            let e = undirected.entry((a.min(b), a.max(b))).or_insert((0, 0));
+            if a < b {
+                e.0 += n;
+            } else {
+                e.1 += n;
+            }
+        }
+        let (mut boundary, mut non_manifold, mut misoriented) = (0, 0, 0);
+        for &(forward, backward) in undirected.values() {
+            match forward + backward {
+                1 => boundary += 1,
+                2 if forward != 1 => misoriented += 1,
+                2 => {}
+                _ => non_manifold += 1,
+            }
+        }
+        // Connected components of the vertices used by faces (union-find).
+        let mut parent: Vec<u32> = (0..self.vertex_count() as u32).collect();
+        fn find(parent: &mut [u32], mut x: u32) -> u32 {
+            while parent[x as usize] != x {
+                parent[x as usize] = parent[parent[x as usize] as usize];
+                x = parent[x as usize];
+            }
+            x
+        }
+        let mut used = vec![false; self.vertex_count()];
+        for t in &self.triangles {
+            for &v in t {
+                used[v as usize] = true;
+            }
+            let r0 = find(&mut parent, t[0]);
+            for &v in &t[1..] {
+                let r = find(&mut parent, v);
+                parent[r as usize] = r0;
+            }
+        }
+        let used_count = used.iter().filter(|&&u| u).count();
+        let components = (0..self.vertex_count() as u32)
+            .filter(|&v| used[v as usize] && find(&mut parent, v) == v)
+            .count();
+        MeshTopology {
+            edges: undirected.len(),
+            boundary_edges: boundary,
+            non_manifold_edges: non_manifold,
+            misoriented_edges: misoriented,
+            components,
+            euler_characteristic: used_count as i64 - undirected.len() as i64
+                + self.triangles.len() as i64,
+        }
+    }
+
     /// Consumes the mesh and returns its parts.
     pub fn into_parts(self) -> (PointSet, Vec<[u32; 3]>, Option<Vec<Vec2>>) {
         (self.vertices, self.triangles, self.uvs)
@@ -223,6 +314,27 @@ mod tests {
         let n = m.vertex_normals(NormalWeighting::Angle)[7];
         assert!((n - Vec3::ONE.normalize()).length() < 1e-5);
         assert!(m.degenerate_faces().is_empty());
+        let t = m.topology();
+        assert!(t.is_closed_manifold());
+        assert_eq!((t.edges, t.components, t.euler_characteristic), (18, 1, 2));
+    }
+
+    #[test]
+    fn topology_finds_borders_flips_and_fans() {
+        let v = PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE]).unwrap();
+        let open = TriMesh::new(v.clone(), vec![[0, 1, 2], [1, 3, 2]])
+            .unwrap()
+            .topology();
+        assert_eq!((open.boundary_edges, open.misoriented_edges), (4, 0));
+        let flipped = TriMesh::new(v.clone(), vec![[0, 1, 2], [1, 2, 3]])
+            .unwrap()
+            .topology();
+        assert_eq!(flipped.misoriented_edges, 1);
+        let fan = TriMesh::new(v, vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+            .unwrap()
+            .topology();
+        assert_eq!(fan.non_manifold_edges, 1);
+        assert!(!fan.is_closed_manifold());
     }
 
     #[test]

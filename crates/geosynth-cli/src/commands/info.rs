@@ -31,6 +31,7 @@ pub struct FileInfo {
     vertices: usize,
     faces: usize,
     degenerate_faces: usize,
+    topology: Option<TopologyInfo>,
     normals: bool,
     colors: bool,
     uvs: bool,
@@ -38,6 +39,17 @@ pub struct FileInfo {
     bbox_min: Option<[f32; 3]>,
     bbox_max: Option<[f32; 3]>,
     comments: Vec<String>,
+}
+
+/// Edge topology of a mesh.
+#[derive(Debug, Serialize)]
+pub struct TopologyInfo {
+    closed_manifold: bool,
+    components: usize,
+    euler_characteristic: i64,
+    boundary_edges: usize,
+    non_manifold_edges: usize,
+    misoriented_edges: usize,
 }
 
 /// One attribute channel.
@@ -63,6 +75,17 @@ impl FileInfo {
             vertices: points.len(),
             faces: g.mesh().map_or(0, |m| m.face_count()),
             degenerate_faces: g.mesh().map_or(0, |m| m.degenerate_faces().len()),
+            topology: g.mesh().map(|m| {
+                let t = m.topology();
+                TopologyInfo {
+                    closed_manifold: t.is_closed_manifold(),
+                    components: t.components,
+                    euler_characteristic: t.euler_characteristic,
+                    boundary_edges: t.boundary_edges,
+                    non_manifold_edges: t.non_manifold_edges,
+                    misoriented_edges: t.misoriented_edges,
+                }
+            }),
             normals: points.normals().is_some(),
             colors: points.colors().is_some(),
             uvs: g.mesh().is_some_and(|m| m.uvs().is_some()),
@@ -98,6 +121,17 @@ impl FileInfo {
         );
         if self.faces > 0 {
             s.push_str(&format!("degenerate:  {}\n", self.degenerate_faces));
+        }
+        if let Some(t) = &self.topology {
+            s.push_str(&format!(
+                "topology:    {}, {} component(s), Euler characteristic {}, {} border / {} non-manifold / {} misoriented edges\n",
+                if t.closed_manifold { "closed manifold" } else { "open or non-manifold" },
+                t.components,
+                t.euler_characteristic,
+                t.boundary_edges,
+                t.non_manifold_edges,
+                t.misoriented_edges
+            ));
         }
         s.push_str(&format!(
             "normals:     {}\ncolours:     {}\nuvs:         {}\nattributes:  {}\nbbox min:    {}\nbbox max:    {}",
