@@ -289,11 +289,11 @@ impl MeshSurface {
 
     /// Signed distance to the mesh (see the module docs for the sign rule).
     pub fn signed_distance_to(&self, q: Vec3) -> Option<f32> {
-        self.signed_distance_within(q, f32::INFINITY)
+        self.signed_distance_bounded_search(q, f32::INFINITY)
             .map(|(d, _)| d)
     }
 
-    fn signed_distance_within(&self, q: Vec3, bound: f32) -> Option<(f32, SurfacePoint)> {
+    fn signed_distance_bounded_search(&self, q: Vec3, bound: f32) -> Option<(f32, SurfacePoint)> {
         let hit = self.closest(q, bound)?;
         let d = hit.distance_squared.sqrt();
         let sign = if (q - hit.point).dot(hit.pseudo_normal) < 0.0 {
@@ -318,16 +318,19 @@ impl MeshSurface {
 
 impl Surface for MeshSurface {
     fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
-        self.signed_distance_within(query, f32::INFINITY)
+        self.signed_distance_bounded_search(query, f32::INFINITY)
             .map(|(_, p)| p)
     }
 
     fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
-        self.signed_distance_within(query, f32::INFINITY)
+        self.signed_distance_bounded_search(query, f32::INFINITY)
     }
 
-    fn signed_distance_bounded(&self, query: Vec3, bound: f32) -> Option<(f32, SurfacePoint)> {
-        self.signed_distance_within(query, bound)
-            .or_else(|| self.signed_distance_within(query, f32::INFINITY))
+    fn signed_distance_within(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+    ) -> Option<(f32, SurfacePoint)> {
+        self.signed_distance_bounded_search(query, max_distance)
     }
 }

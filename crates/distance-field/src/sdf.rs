@@ -77,22 +77,34 @@ impl GridSpec {
 /// A grid of signed distances and their gradients: each node holds
 /// `Vec4(distance, ∂x, ∂y, ∂z)`.
 ///
-/// Distances are clamped to `[−band, band]`; gradients are kept unchanged beyond the band.
-/// The gradient is the unit direction from the closest surface point to the node, oriented
-/// toward increasing distance (the surface normal on the surface itself).
+/// Nodes within `band` of the surface hold the exact signed distance and its gradient — the
+/// unit direction from the closest surface point to the node, oriented toward increasing
+/// distance (the surface normal on the surface itself). Nodes farther away hold `±band` and
+/// a zero gradient: the values of the clamped field.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SdfGrid {
     grid: Grid3<Vec4>,
     band: f32,
+    far: usize,
     undefined: usize,
 }
+
+/// A node whose distance is not known yet (farther than the band).
+const UNKNOWN: f32 = f32::INFINITY;
 
 impl SdfGrid {
     /// Samples `surface` at every node of `spec` (parallel over rows, deterministic).
     ///
-    /// Nodes where the surface gives no answer get distance `+band` and a zero gradient and
-    /// are counted in [`SdfGrid::undefined_nodes`]. Along each row, the previous node's
-    /// distance plus the spacing bounds the next one's, which lets exact mesh searches prune.
+    /// 1. Every node asks for the surface within `band` only. Along a row the previous
+    ///    node's distance plus the spacing bounds the next one's, so exact mesh searches
+    ///    prune to a small ball.
+    /// 2. Nodes with no surface within `band` take the sign of their 6-connected region of
+    ///    such nodes, read from a neighbouring node that has a distance. This is exact when
+    ///    `band` exceeds the spacing: two neighbouring nodes on opposite sides of the surface
+    ///    would both lie within one spacing of it. A region with no such neighbour (no
+    ///    surface near the grid at all) asks the surface once, without a limit.
+    ///
+    /// Errors when `band` is not larger than the spacing.
     pub fn from_surface(
         surface: &(impl Surface + ?Sized),
         spec: &GridSpec,
@@ -100,43 +112,39 @@ impl SdfGrid {
     ) -> Result<Self> {
         positive("band", band)?;
         positive("spacing", spec.spacing)?;
+        if band <= spec.spacing {
+            return Err(FieldError::InvalidParameter {
+                name: "band",
+                value: format!("{band} (spacing {})", spec.spacing),
+                expected: "a band wider than the grid spacing",
+            });
+        }
         let grid = Grid3::new(spec.dims, spec.origin, spec.spacing, Vec4::ZERO)?;
         let [nx, ny, _] = spec.dims;
         let mut data = grid.into_data();
-        let undefined: usize = data
-            .par_chunks_mut(nx)
-            .enumerate()
-            .map(|(row, out)| {
-                let (j, k) = (row % ny, row / ny);
-                let mut previous: Option<f32> = None;
-                let mut missing = 0;
-                for (i, slot) in out.iter_mut().enumerate() {
-                    let q = spec.node(i, j, k);
-                    let answer = match previous {
-                        Some(d) => {
-                            surface.signed_distance_bounded(q, d.abs() + spec.spacing * 1.001)
-                        }
-                        None => surface.signed_distance(q),
-                    };
-                    match answer {
-                        Some((d, p)) => {
-                            previous = Some(d);
-                            *slot =
-                                Vec4::new(d.clamp(-band, band), p.normal.x, p.normal.y, p.normal.z);
-                        }
-                        None => {
-                            previous = None;
-                            missing += 1;
-                            *slot = Vec4::new(band, 0.0, 0.0, 0.0);
-                        }
-                    }
-                }
-                missing
-            })
-            .sum();
+        data.par_chunks_mut(nx).enumerate().for_each(|(row, out)| {
+            let (j, k) = (row % ny, row / ny);
+            let mut previous: Option<f32> = None;
+            for (i, slot) in out.iter_mut().enumerate() {
+                let q = spec.node(i, j, k);
+                let hinted = previous
+                    .map(|d| d.abs() + spec.spacing * 1.001)
+                    .filter(|&bound| bound < band)
+                    .and_then(|bound| surface.signed_distance_within(q, bound));
+                let answer = hinted.or_else(|| surface.signed_distance_within(q, band));
+                previous = answer.map(|(d, _)| d);
+                *slot = match answer {
+                    Some((d, p)) => Vec4::new(d, p.normal.x, p.normal.y, p.normal.z),
+                    None => Vec4::new(UNKNOWN, 0.0, 0.0, 0.0),
+                };
+            }
+        });
+        let far = data.iter().filter(|v| v.x == UNKNOWN).count();
+        let undefined = fill_far_signs(&mut data, spec, band, surface);
         Ok(Self {
             grid: Grid3::from_vec(spec.dims, spec.origin, spec.spacing, data)?,
             band,
+            far,
             undefined,
         })
     }
@@ -147,6 +155,7 @@ impl SdfGrid {
         Ok(Self {
             grid,
             band,
+            far: 0,
             undefined: 0,
         })
     }
@@ -161,7 +170,13 @@ impl SdfGrid {
         self.band
     }
 
-    /// Nodes where the surface gave no answer.
+    /// Nodes farther than the band from the surface (sign from their region).
+    pub fn far_nodes(&self) -> usize {
+        self.far
+    }
+
+    /// Nodes whose sign could not be determined (the surface gave no answer anywhere in
+    /// their region); they hold `+band`.
     pub fn undefined_nodes(&self) -> usize {
         self.undefined
     }
@@ -197,4 +212,67 @@ impl SdfGrid {
             self.grid.data().iter().map(|v| v.x).collect(),
         )?)
     }
+}
+
+/// Gives every node still marked unknown `±band`, with the sign of its 6-connected region of
+/// unknown nodes (taken from the first known neighbour met in a breadth-first walk from the
+/// region's lowest index, or one unlimited surface query). Returns the number of nodes left
+/// undefined.
+fn fill_far_signs(
+    data: &mut [Vec4],
+    spec: &GridSpec,
+    band: f32,
+    surface: &(impl Surface + ?Sized),
+) -> usize {
+    let [nx, ny, nz] = spec.dims;
+    let mut visited = vec![false; data.len()];
+    let mut region = Vec::new();
+    let mut undefined = 0;
+    for seed in 0..data.len() {
+        if visited[seed] || data[seed].x != UNKNOWN {
+            continue;
+        }
+        region.clear();
+        region.push(seed);
+        visited[seed] = true;
+        let mut sign: Option<f32> = None;
+        let mut head = 0;
+        while head < region.len() {
+            let n = region[head];
+            head += 1;
+            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+            let neighbours = [
+                (i > 0).then(|| n - 1),
+                (i + 1 < nx).then(|| n + 1),
+                (j > 0).then(|| n - nx),
+                (j + 1 < ny).then(|| n + nx),
+                (k > 0).then(|| n - nx * ny),
+                (k + 1 < nz).then(|| n + nx * ny),
+            ];
+            for m in neighbours.into_iter().flatten() {
+                let d = data[m].x;
+                if d != UNKNOWN {
+                    if sign.is_none() && d != 0.0 {
+                        sign = Some(d.signum());
+                    }
+                } else if !visited[m] {
+                    visited[m] = true;
+                    region.push(m);
+                }
+            }
+        }
+        let sign = sign.or_else(|| {
+            let (i, j, k) = (seed % nx, (seed / nx) % ny, seed / (nx * ny));
+            surface
+                .signed_distance(spec.node(i, j, k))
+                .map(|(d, _)| if d < 0.0 { -1.0 } else { 1.0 })
+        });
+        if sign.is_none() {
+            undefined += region.len();
+        }
+        for &n in &region {
+            data[n] = Vec4::new(sign.unwrap_or(1.0) * band, 0.0, 0.0, 0.0);
+        }
+    }
+    undefined
 }

@@ -173,26 +173,37 @@ fn sdf_of_an_analytic_sphere_is_exact_and_clamped() {
     let spec =
         GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 33, 0.25).unwrap();
     let sdf = SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, 0.3).unwrap();
-    assert_eq!(
-        sdf.undefined_nodes(),
-        1,
-        "only the centre has no closest point"
-    );
+    // The centre has no closest point, but its region (the inside beyond the band) has a sign.
+    assert_eq!(sdf.undefined_nodes(), 0);
     let [nx, ny, nz] = sdf.dims();
+    let mut far = 0;
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
                 let p = spec.node(i, j, k);
-                if p.length() < 1e-6 {
-                    continue;
-                }
+                let exact = p.length() - 1.0;
                 let d = sdf.distance(i, j, k).unwrap();
-                assert!((d - (p.length() - 1.0).clamp(-0.3, 0.3)).abs() < 1e-5);
+                assert!(
+                    (d - exact.clamp(-0.3, 0.3)).abs() < 1e-5,
+                    "at {p}: {d} vs {exact}"
+                );
                 let g = sdf.gradient(i, j, k).unwrap();
-                assert!((g - p.normalize()).length() < 1e-4);
+                if exact.abs() <= 0.3 - 1e-4 {
+                    assert!((g - p.normalize()).length() < 1e-4);
+                } else if exact.abs() > 0.3 + 1e-4 {
+                    assert_eq!(
+                        g,
+                        Vec3::ZERO,
+                        "clamped nodes carry the clamped field's gradient"
+                    );
+                    far += 1;
+                }
             }
         }
     }
+    assert!(far > 0 && far <= sdf.far_nodes());
+    // A band no wider than the spacing cannot propagate signs safely.
+    assert!(SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, spec.spacing).is_err());
 }
 
 #[test]
@@ -201,6 +212,7 @@ fn sdf_from_a_point_set_surface_matches_the_sphere_near_the_surface() {
     let mls = MlsSurface::new(&points, &MlsParams::default()).unwrap();
     let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 24, 0.2).unwrap();
     let sdf = SdfGrid::from_surface(&mls, &spec, 0.5).unwrap();
+    assert_eq!(sdf.undefined_nodes(), 0);
     let [nx, ny, nz] = sdf.dims();
     let mut checked = 0;
     for k in 0..nz {
@@ -424,4 +436,33 @@ fn invalid_parameters_are_errors() {
         MeshSurface::new(&flat),
         Err(FieldError::EmptyMesh)
     ));
+}
+
+#[test]
+fn band_limited_bunny_grid_agrees_with_unlimited_queries() {
+    let Some(path) = shared_data("band_limited_bunny_grid", "meshes/bunny_watertight.obj") else {
+        return;
+    };
+    let mesh = io::read_geometry(&path)
+        .unwrap()
+        .geometry
+        .mesh()
+        .unwrap()
+        .clone();
+    let surface = MeshSurface::new(&mesh).unwrap();
+    let spec = GridSpec::covering(mesh.bounding_box().unwrap(), 40, 0.0).unwrap();
+    let band = 3.0 * spec.spacing;
+    let sdf = SdfGrid::from_surface(&surface, &spec, band).unwrap();
+    assert_eq!(sdf.undefined_nodes(), 0);
+    assert!(sdf.far_nodes() > 0);
+    let [nx, ny, nz] = sdf.dims();
+    for n in (0..nx * ny * nz).step_by(13) {
+        let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+        let exact = surface.signed_distance_to(spec.node(i, j, k)).unwrap();
+        let d = sdf.distance(i, j, k).unwrap();
+        assert!(
+            (d - exact.clamp(-band, band)).abs() <= 1e-4 * band,
+            "node {n}: {d} vs {exact}"
+        );
+    }
 }

@@ -36,13 +36,16 @@ pub trait Surface: Send + Sync {
         Some((sign * distance, c))
     }
 
-    /// Like [`Surface::signed_distance`], with a hint: the caller knows the true distance is
-    /// at most `bound` (e.g. from a neighbouring grid node plus the node spacing), which lets
-    /// exact searches prune. Implementations must return the same answer as without the hint
-    /// whenever the hint is correct. The default ignores it.
-    fn signed_distance_bounded(&self, query: Vec3, bound: f32) -> Option<(f32, SurfacePoint)> {
-        let _ = bound;
+    /// Like [`Surface::signed_distance`], but only answers when the surface is within
+    /// `max_distance` of `query` (`None` otherwise), which lets exact searches prune
+    /// everything farther away. The default computes the full answer and filters it.
+    fn signed_distance_within(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+    ) -> Option<(f32, SurfacePoint)> {
         self.signed_distance(query)
+            .filter(|(d, _)| d.abs() <= max_distance)
     }
 }
 
@@ -72,5 +75,15 @@ mod tests {
             .unwrap();
         assert!((d + 0.75).abs() < 1e-6);
         assert!(UnitSphere.signed_distance(Vec3::ZERO).is_none());
+        assert!(
+            UnitSphere
+                .signed_distance_within(Vec3::new(0.0, 0.0, 3.0), 1.5)
+                .is_none()
+        );
+        assert!(
+            UnitSphere
+                .signed_distance_within(Vec3::new(0.0, 0.0, 3.0), 2.5)
+                .is_some()
+        );
     }
 }

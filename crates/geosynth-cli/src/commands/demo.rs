@@ -11,6 +11,8 @@ use clap::Args;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::fixtures::{self, Fixture};
 use geosynth::preview::{self, RenderOptions};
+use geosynth::reconstruct::{FieldParams, Reconstruct};
+use geosynth::{RunContext, Stage};
 use serde::Serialize;
 
 use crate::output::{progress_bar, status};
@@ -31,6 +33,10 @@ pub struct DemoArgs {
     /// Folder with the fixtures to use (default: the source tree's `fixtures/`).
     #[arg(long)]
     fixtures: Option<PathBuf>,
+    /// Folder with the shared real-world data (default: `$GEOSYNTH_DATA`, else
+    /// `../shared/data` beside the source tree); parts that need it are skipped without it.
+    #[arg(long)]
+    data: Option<PathBuf>,
 }
 
 /// The demo's run report.
@@ -43,7 +49,26 @@ struct Report {
     fixtures_source: String,
     stages: Vec<StageTiming>,
     fixtures: Vec<FixtureEntry>,
-    families: Vec<serde_json::Value>,
+    reconstructions: Vec<ReconstructionEntry>,
+    skipped: Vec<String>,
+}
+
+/// One point set turned into a mesh.
+#[derive(Debug, Serialize)]
+struct ReconstructionEntry {
+    name: String,
+    input: String,
+    input_points: usize,
+    resolution: usize,
+    vertices: usize,
+    faces: usize,
+    closed_manifold: bool,
+    components: usize,
+    euler_characteristic: i64,
+    seconds_distance_field: f64,
+    seconds_isosurface: f64,
+    geometry: String,
+    preview: String,
 }
 
 #[derive(Debug, Serialize)]
@@ -141,6 +166,51 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     let overview = preview::render_panels(&panels, &RenderOptions::default().size(w / 2, h / 2))?;
     preview::save_png(&overview, &args.out.join("fixtures.png"))?;
     timed("overview panel", t);
+
+    let t = Instant::now();
+    let data_dir = args
+        .data
+        .clone()
+        .or_else(|| std::env::var_os("GEOSYNTH_DATA").map(PathBuf::from))
+        .unwrap_or_else(|| {
+            fixtures::bundled_dir()
+                .join("..")
+                .join("..")
+                .join("shared")
+                .join("data")
+        });
+    let mut skipped = Vec::new();
+    let mut jobs: Vec<(String, PathBuf)> =
+        vec![("torus_points".into(), dir.join("torus_points.ply"))];
+    let bunny = data_dir.join("pointsets").join("bunny16k_normals.ply");
+    if bunny.is_file() {
+        jobs.push(("bunny16k".into(), bunny));
+    } else {
+        skipped.push(format!(
+            "bunny reconstruction: {} not found (set GEOSYNTH_DATA or --data)",
+            bunny.display()
+        ));
+    }
+    let resolution = if args.quick { 48 } else { 96 };
+    let mut reconstructions = Vec::new();
+    let bar = progress_bar(globals, jobs.len() as u64, "reconstruct");
+    for (name, input) in &jobs {
+        let points = match io::read_geometry(input) {
+            Ok(l) => l.geometry.points().clone(),
+            // The torus comes from the fixtures, which may be in memory only.
+            Err(_) => fixtures
+                .iter()
+                .find(|f| &f.name == name)
+                .map(|f| f.geometry.points().clone())
+                .ok_or("missing input")?,
+        };
+        reconstructions.push(reconstruct_one(
+            name, input, points, resolution, w, h, &args.out,
+        )?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    timed("reconstructions", t);
     timed("total", started);
 
     let report = Report {
@@ -151,7 +221,8 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
         fixtures_source: source,
         stages,
         fixtures: entries,
-        families: Vec::new(),
+        reconstructions,
+        skipped,
     };
     write_reports(&report, &args.out)?;
     status(
@@ -185,9 +256,27 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
             f.name, f.kind, f.points, f.faces, f.preview, f.description
         ));
     }
-    md.push_str("\n## Synthesis families\n\n");
-    if report.families.is_empty() {
-        md.push_str("No synthesis family is part of this build yet.\n");
+    md.push_str("\n## Reconstructions (MLS surface → distance field → iso-surface)\n\n");
+    md.push_str("| input | points | grid | vertices | faces | closed manifold | components | χ | field s | iso s | preview |\n|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---|\n");
+    for r in &report.reconstructions {
+        md.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | ![]({}) |\n",
+            r.name,
+            r.input_points,
+            r.resolution,
+            r.vertices,
+            r.faces,
+            r.closed_manifold,
+            r.components,
+            r.euler_characteristic,
+            r.seconds_distance_field,
+            r.seconds_isosurface,
+            r.preview
+        ));
+    }
+    md.push_str("\n## Synthesis families\n\nNo synthesis family is part of this build yet.\n");
+    for s in &report.skipped {
+        md.push_str(&format!("\nSkipped: {s}\n"));
     }
     md.push_str("\n## Timings\n\n| stage | seconds |\n|---|---:|\n");
     for s in &report.stages {
@@ -195,4 +284,66 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
     }
     let path = out.join("report.md");
     std::fs::write(&path, md).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
+}
+
+/// Reconstructs one point set, writes the mesh and a points | mesh preview.
+fn reconstruct_one(
+    name: &str,
+    input: &Path,
+    points: geosynth::core::PointSet,
+    resolution: usize,
+    w: u32,
+    h: u32,
+    out: &Path,
+) -> CliResult<ReconstructionEntry> {
+    let input_points = points.len();
+    let mut ctx = RunContext::new(0);
+    let stage = Reconstruct {
+        params: FieldParams::default().resolution(resolution),
+    };
+    let mesh = stage.run(points.clone(), &mut ctx)?;
+    let seconds = |stage: &str| {
+        ctx.timings()
+            .iter()
+            .find(|(n, _)| n.ends_with(stage))
+            .map_or(0.0, |(_, d)| d.as_secs_f64())
+    };
+    let topology = mesh.topology();
+    let geometry_path = out
+        .join("geometry")
+        .join(format!("{name}_reconstructed.ply"));
+    let mesh = Geometry::Mesh(mesh);
+    io::write_geometry(
+        &geometry_path,
+        &mesh,
+        &WriteOptions::default().comment(format!("reconstructed from {name}")),
+    )?;
+    let preview_path = out
+        .join("previews")
+        .join(format!("{name}_reconstructed.png"));
+    let cloud = Geometry::Points(points);
+    let panels = [
+        preview::Panel::Geometry(&cloud, preview::UpAxis::Y),
+        preview::Panel::Geometry(&mesh, preview::UpAxis::Y),
+    ];
+    preview::save_png(
+        &preview::render_panels(&panels, &RenderOptions::default().size(w, h))?,
+        &preview_path,
+    )?;
+    let faces = mesh.mesh().map_or(0, |m| m.face_count());
+    Ok(ReconstructionEntry {
+        name: name.to_string(),
+        input: input.display().to_string(),
+        input_points,
+        resolution,
+        vertices: mesh.points().len(),
+        faces,
+        closed_manifold: topology.is_closed_manifold(),
+        components: topology.components,
+        euler_characteristic: topology.euler_characteristic,
+        seconds_distance_field: seconds("distance field"),
+        seconds_isosurface: seconds("iso-surface"),
+        geometry: relative(&geometry_path, out),
+        preview: relative(&preview_path, out),
+    })
 }

@@ -1,0 +1,89 @@
+//! Surface kernels: MLS projection throughput, signed distance grids from a mesh and from a
+//! point set, iso-surface extraction.
+
+// A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
+#![allow(clippy::expect_used)]
+
+use std::hint::black_box;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use geosynth::core::io;
+use geosynth::core::rng;
+use geosynth::fixtures;
+use geosynth::mls::{MlsParams, MlsSurface};
+use geosynth::sdf::{GridSpec, MeshSurface, SdfGrid, sdf_isosurface};
+use glam::Vec3;
+use rand::RngExt;
+
+fn mls_projection(c: &mut Criterion) {
+    let points = fixtures::torus_points(100_000, 1.0, 0.35, 1).expect("benchmark setup");
+    let surface = MlsSurface::new(&points, &MlsParams::default()).expect("benchmark setup");
+    let mut g = rng::rng_from_seed(2);
+    // Queries within one kernel of the surface, as in distance-field sampling near it.
+    let queries: Vec<Vec3> = points
+        .positions()
+        .iter()
+        .zip(points.normals().expect("normals"))
+        .step_by(10)
+        .map(|(p, n)| *p + *n * g.random_range(-1.0..1.0) * surface.kernel())
+        .collect();
+    let mut group = c.benchmark_group("mls_projection_100k_points");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(queries.len() as u64));
+    group.bench_function("project_all_10k_queries", |b| {
+        b.iter(|| surface.project_all(black_box(&queries)))
+    });
+    group.finish();
+}
+
+fn sdf_grids(c: &mut Criterion) {
+    let mut group = c.benchmark_group("sdf_grid");
+    group.sample_size(10);
+    match std::env::var_os("GEOSYNTH_DATA") {
+        Some(dir) => {
+            let path = std::path::Path::new(&dir).join("meshes/bunny_watertight.obj");
+            let bunny = io::read_geometry(&path)
+                .expect("bunny_watertight.obj")
+                .geometry;
+            let mesh = bunny.mesh().expect("a mesh");
+            let surface = MeshSurface::new(mesh).expect("benchmark setup");
+            let bounds = mesh.bounding_box().expect("bounds");
+            for n in [64usize, 128] {
+                let spec = GridSpec::covering(bounds, n, 0.05 * bounds.diagonal()).expect("grid");
+                // The default band of the CLI and the facade: 4 grid spacings.
+                group.bench_with_input(
+                    BenchmarkId::new("bunny_mesh_70k_triangles_band4", n),
+                    &spec,
+                    |b, spec| b.iter(|| SdfGrid::from_surface(&surface, spec, 4.0 * spec.spacing)),
+                );
+                // No clamping at all: every node gets its exact distance.
+                group.bench_with_input(
+                    BenchmarkId::new("bunny_mesh_70k_triangles_unclamped", n),
+                    &spec,
+                    |b, spec| {
+                        b.iter(|| SdfGrid::from_surface(&surface, spec, 2.0 * bounds.diagonal()))
+                    },
+                );
+            }
+        }
+        None => eprintln!("skipped sdf_grid/bunny_mesh: GEOSYNTH_DATA is not set"),
+    }
+    let points = fixtures::torus_points(100_000, 1.0, 0.35, 3).expect("benchmark setup");
+    let mls = MlsSurface::new(&points, &MlsParams::default()).expect("benchmark setup");
+    let bounds = points.bounding_box().expect("bounds");
+    for n in [64usize, 128] {
+        let spec = GridSpec::covering(bounds, n, 0.1).expect("grid");
+        group.bench_with_input(BenchmarkId::new("mls_100k_points", n), &spec, |b, spec| {
+            b.iter(|| SdfGrid::from_surface(&mls, spec, 4.0 * spec.spacing))
+        });
+    }
+    let spec = GridSpec::covering(bounds, 128, 0.1).expect("grid");
+    let field = SdfGrid::from_surface(&mls, &spec, 4.0 * spec.spacing).expect("field");
+    group.bench_function("isosurface_128", |b| {
+        b.iter(|| sdf_isosurface(black_box(&field)))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, mls_projection, sdf_grids);
+criterion_main!(benches);
