@@ -200,7 +200,7 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
             // The torus comes from the fixtures, which may be in memory only.
             Err(_) => fixtures
                 .iter()
-                .find(|f| &f.name == name)
+                .find(|f| f.name == name)
                 .map(|f| f.geometry.points().clone())
                 .ok_or("missing input")?,
         };
