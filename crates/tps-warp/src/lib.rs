@@ -1,0 +1,74 @@
+//! # tps-warp
+//!
+//! Thin-plate spline warps driven by automatic point pairing, as paper 000 (Duranleau &
+//! Poulin, *Patch-based synthesis of geometry textures with point-set surfaces*, §5.2) uses
+//! them to bend a chosen patch onto its neighbourhood.
+//!
+//! ## The spline (Wahba 1990), in 3D
+//!
+//! `W(x) = c + A x + Σᵢ wᵢ φ(|x − sᵢ|)` with the biharmonic kernel of three dimensions,
+//! `φ(r) = r`, and the side conditions `Σ wᵢ = 0`, `Σ wᵢ sᵢᵀ = 0`. The `(n+4) × (n+4)`
+//! system `[K + λI, P; Pᵀ, 0] [w; a] = [q; 0]` is solved in `f64` (nalgebra LU) for the three
+//! coordinates at once; `λ` is optional smoothing. The Jacobian is analytic,
+//! `J(x) = A + Σ wᵢ (x − sᵢ)ᵀ / |x − sᵢ|` (the singular term is dropped at a control point),
+//! and normals are transported as in the paper: `n' = (J u × J v) / |J u × J v|` for
+//! orthonormal tangents `u, v` of `n`.
+//!
+//! Degenerate control sets: coincident sources with different targets are an error;
+//! identical pairs are merged; sets that do not span 3D (coplanar — every flat patch —,
+//! collinear, a single pair) either fail ([`AffineRegularization::Reject`]) or, by default,
+//! resolve the undetermined affine directions toward the identity. Never a NaN warp: a
+//! non-finite solution is [`TpsError::Singular`].
+//!
+//! ## The pairing (paper 000 Eq. 1–3)
+//!
+//! `c(s, q) = w_p |p_s − p_q| + (w_n/2)(1 − n_s·n_q) + w_v (v_s − v_q)²`, infinite when a raw
+//! term exceeds its threshold; `g(s, q, Φ) = w_l | |p_s − p_q| − f_l | + (w_d/2)(1 − f_d·dir)`
+//! with `f_l`, `f_d` the `θ`-weighted mean length and direction of neighbouring pairs
+//! (distances measured in `Q`, Gaussian `θ`). [`pair_points`] runs the iterated greedy
+//! algorithm (steps 1–6), uses no source twice, and removes pairs that cross neighbours.
+//! [`anchors_in_regions`] picks the corner points mapped to themselves; [`pair_and_fit`]
+//! does all of it and fits the spline.
+//!
+//! ```
+//! use glam::Vec3;
+//! use tps_warp::{ThinPlateSpline, TpsParams};
+//!
+//! // Bend a unit square's corners and centre; the warp interpolates them exactly.
+//! let s = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.5, 0.5, 0.2)];
+//! let q = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.5, 0.5, 0.5)];
+//! let w = ThinPlateSpline::fit(&s, &q, &TpsParams::default())?;
+//! assert!((w.eval(s[4]) - q[4]).length() < 1e-5);
+//! let n = w.transform_normal(Vec3::new(0.2, 0.2, 0.0), Vec3::Z);
+//! assert!((n.length() - 1.0).abs() < 1e-6);
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! ## Choices where the paper leaves room
+//!
+//! - Thresholds apply to the raw terms (distance, `(1 − n·n)/2`, squared variation
+//!   difference); the default normal threshold excludes pairs more than 90° apart.
+//! - `g` excludes `q`'s own previous pair from `f_l`, `f_d` ("its neighbours"); a zero-length
+//!   pair or cancelling neighbour directions contribute no direction term.
+//! - A crossing is a pair of neighbouring pairs (targets within `3σ`) that reverse their
+//!   relative order, `(s_i − s_j)·(q_i − q_j) ≤ 0` — the configuration that folds the warp.
+//! - Default weights are Table 1's height-field row; [`Table1Preset`] has the others.
+//!
+//! ## Complexity, determinism, errors
+//!
+//! Fitting is `O(n³)` (LU of `n + 4`), evaluation `O(n)` per point (parallel over points).
+//! Pairing is `O(n m)` per round without a distance threshold, less with one. Everything is
+//! deterministic. Errors are [`TpsError`].
+
+#![deny(missing_docs)]
+
+mod error;
+mod pairing;
+mod spline;
+
+pub use error::{Result, TpsError};
+pub use pairing::{
+    Pair, PairedWarp, Pairing, PairingParams, PairingPoint, Table1Preset, anchors_in_regions,
+    pair_and_fit, pair_points,
+};
+pub use spline::{AffineRegularization, ThinPlateSpline, TpsParams};

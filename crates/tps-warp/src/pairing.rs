@@ -1,0 +1,478 @@
+//! Automatic point pairing for the warp (paper 000 §5.2, Eq. 1–3) by the paper's iterated
+//! greedy algorithm, with crossing removal and anchor pairs.
+
+use glam::Vec3;
+use pointset_core::{Aabb, KdIndex};
+
+use crate::error::{Result, TpsError};
+use crate::spline::{ThinPlateSpline, TpsParams};
+
+/// A point taking part in a pairing: position, unit normal, surface variation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairingPoint {
+    /// Position.
+    pub position: Vec3,
+    /// Unit normal.
+    pub normal: Vec3,
+    /// Surface variation `σ = λ0 / (λ0 + λ1 + λ2)` (any per-point scalar of local shape).
+    pub variation: f32,
+}
+
+/// The paper's Table 1 weight sets (all with `w_p = 1`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Table1Preset {
+    /// Height field: `w_n 3, w_v 30, w_l 9, w_d 7`.
+    HeightField,
+    /// Chain mail: `w_n 1, w_v 10, w_l 8, w_d 6`.
+    ChainMail,
+    /// Weave: `w_n 2, w_v 15, w_l 6, w_d 5`.
+    Weave,
+    /// Flowers: `w_n 2, w_v 2, w_l 6, w_d 6`.
+    Flowers,
+}
+
+/// Parameters of [`pair_points`].
+///
+/// Thresholds apply to the raw quantities of Eq. 2 (distance, `(1 − n_s·n_q)/2`,
+/// `(v_s − v_q)²`), so they keep their meaning whatever the weights; a term above its
+/// threshold makes `c(s, q) = ∞`.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct PairingParams {
+    /// Position weight `w_p`; default 1.
+    pub w_p: f32,
+    /// Normal weight `w_n`; default 3 (Table 1, height field).
+    pub w_n: f32,
+    /// Surface-variation weight `w_v`; default 30.
+    pub w_v: f32,
+    /// Length-coherence weight `w_l`; default 9.
+    pub w_l: f32,
+    /// Direction-coherence weight `w_d`; default 7.
+    pub w_d: f32,
+    /// Largest pair length; default unlimited.
+    pub max_distance: f32,
+    /// Largest `(1 − n_s·n_q)/2`; default 0.5 (normals at most 90° apart, so opposite
+    /// normals never pair).
+    pub max_normal_difference: f32,
+    /// Largest `(v_s − v_q)²`; default unlimited.
+    pub max_variation_difference: f32,
+    /// Width `σ` of the Gaussian `θ(d) = exp(−d²/σ²)` weighting neighbouring pairs in `g`;
+    /// default: twice the median nearest-neighbour distance within the targets.
+    pub coherence_radius: Option<f32>,
+    /// Rounds of steps 3–5; default 3.
+    pub rounds: usize,
+    /// Remove pairs that cross their neighbours; default true.
+    pub remove_crossings: bool,
+}
+
+impl Default for PairingParams {
+    fn default() -> Self {
+        Self::table1(Table1Preset::HeightField)
+    }
+}
+
+impl PairingParams {
+    /// The weights of one row of the paper's Table 1 and the default thresholds.
+    pub fn table1(preset: Table1Preset) -> Self {
+        let (w_n, w_v, w_l, w_d) = match preset {
+            Table1Preset::HeightField => (3.0, 30.0, 9.0, 7.0),
+            Table1Preset::ChainMail => (1.0, 10.0, 8.0, 6.0),
+            Table1Preset::Weave => (2.0, 15.0, 6.0, 5.0),
+            Table1Preset::Flowers => (2.0, 2.0, 6.0, 6.0),
+        };
+        Self {
+            w_p: 1.0,
+            w_n,
+            w_v,
+            w_l,
+            w_d,
+            max_distance: f32::INFINITY,
+            max_normal_difference: 0.5,
+            max_variation_difference: f32::INFINITY,
+            coherence_radius: None,
+            rounds: 3,
+            remove_crossings: true,
+        }
+    }
+
+    /// Sets the largest pair length (default unlimited).
+    pub fn max_distance(mut self, d: f32) -> Self {
+        self.max_distance = d;
+        self
+    }
+
+    /// Sets the number of greedy rounds (default 3).
+    pub fn rounds(mut self, rounds: usize) -> Self {
+        self.rounds = rounds;
+        self
+    }
+
+    /// Sets the coherence radius (default twice the targets' median spacing).
+    pub fn coherence_radius(mut self, sigma: f32) -> Self {
+        self.coherence_radius = Some(sigma);
+        self
+    }
+
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<()> {
+        let fields = [
+            ("w_p", self.w_p),
+            ("w_n", self.w_n),
+            ("w_v", self.w_v),
+            ("w_l", self.w_l),
+            ("w_d", self.w_d),
+        ];
+        for (name, v) in fields {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(TpsError::InvalidParameter {
+                    name,
+                    value: v.to_string(),
+                    expected: "a finite weight ≥ 0",
+                });
+            }
+        }
+        let thresholds = [
+            ("max_distance", self.max_distance),
+            ("max_normal_difference", self.max_normal_difference),
+            ("max_variation_difference", self.max_variation_difference),
+        ];
+        for (name, v) in thresholds {
+            if v.is_nan() || v < 0.0 {
+                return Err(TpsError::InvalidParameter {
+                    name,
+                    value: v.to_string(),
+                    expected: "a threshold ≥ 0 (infinity allowed)",
+                });
+            }
+        }
+        if let Some(s) = self.coherence_radius
+            && !(s.is_finite() && s > 0.0)
+        {
+            return Err(TpsError::InvalidParameter {
+                name: "coherence_radius",
+                value: s.to_string(),
+                expected: "a positive length",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One pair: indices into the source and target slices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pair {
+    /// Index into the sources (`S`).
+    pub source: usize,
+    /// Index into the targets (`Q`).
+    pub target: usize,
+}
+
+/// The result of [`pair_points`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pairing {
+    /// The pairs, in target order.
+    pub pairs: Vec<Pair>,
+    /// `C(Φ)` of Eq. 1 for the final pairs.
+    pub cost: f64,
+    /// Targets with no admissible source (every `c(s, q) = ∞` or all used).
+    pub unmatched_targets: Vec<usize>,
+    /// Pairs removed because they crossed neighbours.
+    pub removed_crossings: usize,
+}
+
+/// The pairing problem: points, parameters and precomputed neighbourhoods in `Q`.
+struct Problem<'a> {
+    sources: &'a [PairingPoint],
+    targets: &'a [PairingPoint],
+    params: &'a PairingParams,
+    /// Per target: admissible sources and `c(s, q)`.
+    candidates: Vec<Vec<(usize, f32)>>,
+    /// Per target: other targets with their weights `θ(|p_q − p_r|)`.
+    neighbours: Vec<Vec<(usize, f32)>>,
+}
+
+impl Problem<'_> {
+    /// Eq. 2 with thresholds; `None` stands for `∞`.
+    fn pair_cost(&self, s: &PairingPoint, q: &PairingPoint) -> Option<f32> {
+        let p = self.params;
+        let distance = s.position.distance(q.position);
+        let normal = 0.5 * (1.0 - s.normal.dot(q.normal));
+        let variation = (s.variation - q.variation).powi(2);
+        if distance > p.max_distance
+            || normal > p.max_normal_difference
+            || variation > p.max_variation_difference
+        {
+            return None;
+        }
+        Some(p.w_p * distance + p.w_n * normal + p.w_v * variation)
+    }
+
+    /// `g(s, q, Φ)`: coherence of the pair `s → q` with the pairs of `q`'s neighbours in
+    /// `pairing` (its own pair excluded), weighted by `θ` of distances in `Q`. Terms whose
+    /// direction is undefined (zero-length pair or cancelling neighbour directions) are 0.
+    fn coherence(&self, s: usize, q: usize, source_of: &[Option<usize>]) -> f32 {
+        let (mut sum_w, mut sum_len, mut sum_dir) = (0.0f32, 0.0f32, Vec3::ZERO);
+        for &(r, w) in &self.neighbours[q] {
+            if let Some(t) = source_of[r] {
+                let v = self.sources[t].position - self.targets[r].position;
+                sum_w += w;
+                sum_len += w * v.length();
+                sum_dir += w * v;
+            }
+        }
+        if sum_w <= 0.0 {
+            return 0.0;
+        }
+        let v = self.sources[s].position - self.targets[q].position;
+        let length_term = self.params.w_l * (v.length() - sum_len / sum_w).abs();
+        let direction_term = match (v.try_normalize(), sum_dir.try_normalize()) {
+            (Some(dir), Some(mean)) => 0.5 * self.params.w_d * (1.0 - mean.dot(dir)),
+            _ => 0.0,
+        };
+        length_term + direction_term
+    }
+}
+
+/// Median nearest-neighbour distance among `points` (0 for fewer than 2).
+fn median_spacing(points: &[Vec3]) -> Result<f32> {
+    let index = KdIndex::new(points)?;
+    let mut d = Vec::with_capacity(points.len());
+    for p in points {
+        if let Some(n) = index.nearest(*p, 2)?.get(1) {
+            d.push(n.distance_squared.sqrt());
+        }
+    }
+    d.sort_by(f32::total_cmp);
+    Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
+}
+
+fn check(points: &[PairingPoint], what: &'static str) -> Result<()> {
+    match points
+        .iter()
+        .position(|p| !(p.position.is_finite() && p.normal.is_finite() && p.variation.is_finite()))
+    {
+        Some(index) => Err(TpsError::NonFinite { what, index }),
+        None => Ok(()),
+    }
+}
+
+/// Pairs targets `Q` with distinct sources `S` (paper 000 §5.2).
+///
+/// 1–2. Greedy: each target in order takes the unused source of least `c(s, q)`.
+/// 3–6. `rounds` times: with the previous pairing `Φ` fixed, each pair's target in order
+///      takes the unused source of least `c(s, q) + g(s, q, Φ)`.
+///
+/// Then, if enabled, pairs that cross a neighbour — targets within `3σ` whose relative order
+/// the pairs reverse, `(s_i − s_j)·(q_i − q_j) ≤ 0`, which folds the warp — are removed, the
+/// pair with most crossings first (ties: the costlier one). Deterministic.
+pub fn pair_points(
+    sources: &[PairingPoint],
+    targets: &[PairingPoint],
+    params: &PairingParams,
+) -> Result<Pairing> {
+    params.validate()?;
+    if sources.is_empty() || targets.is_empty() {
+        return Err(TpsError::EmptyInput {
+            what: "source or target set",
+        });
+    }
+    check(sources, "source point")?;
+    check(targets, "target point")?;
+    let target_positions: Vec<Vec3> = targets.iter().map(|t| t.position).collect();
+    let sigma = match params.coherence_radius {
+        Some(s) => s,
+        None => (2.0 * median_spacing(&target_positions)?).max(f32::MIN_POSITIVE),
+    };
+    let target_index = KdIndex::new(&target_positions)?;
+    let neighbours = targets
+        .iter()
+        .enumerate()
+        .map(|(q, t)| {
+            Ok(target_index
+                .within(t.position, 3.0 * sigma)?
+                .into_iter()
+                .filter(|n| n.index != q)
+                .map(|n| (n.index, (-n.distance_squared / (sigma * sigma)).exp()))
+                .collect())
+        })
+        .collect::<Result<Vec<Vec<_>>>>()?;
+    let mut problem = Problem {
+        sources,
+        targets,
+        params,
+        candidates: Vec::new(),
+        neighbours,
+    };
+    let source_positions: Vec<Vec3> = sources.iter().map(|s| s.position).collect();
+    let source_index = KdIndex::new(&source_positions)?;
+    problem.candidates = targets
+        .iter()
+        .map(|q| {
+            let near: Vec<usize> = if params.max_distance.is_finite() {
+                source_index
+                    .within(q.position, params.max_distance)?
+                    .into_iter()
+                    .map(|n| n.index)
+                    .collect()
+            } else {
+                (0..sources.len()).collect()
+            };
+            Ok(near
+                .into_iter()
+                .filter_map(|s| problem.pair_cost(&sources[s], q).map(|c| (s, c)))
+                .collect())
+        })
+        .collect::<Result<Vec<Vec<_>>>>()?;
+
+    // Steps 1–2.
+    let mut used = vec![false; sources.len()];
+    let mut source_of: Vec<Option<usize>> = vec![None; targets.len()];
+    for q in 0..targets.len() {
+        let best = problem.candidates[q]
+            .iter()
+            .filter(|(s, _)| !used[*s])
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        if let Some(&(s, _)) = best {
+            used[s] = true;
+            source_of[q] = Some(s);
+        }
+    }
+    // Steps 3–6.
+    for _ in 0..params.rounds {
+        let previous = source_of.clone();
+        let mut used = vec![false; sources.len()];
+        let mut next: Vec<Option<usize>> = vec![None; targets.len()];
+        for q in (0..targets.len()).filter(|&q| previous[q].is_some()) {
+            let best = problem.candidates[q]
+                .iter()
+                .filter(|(s, _)| !used[*s])
+                .map(|&(s, c)| (s, c + problem.coherence(s, q, &previous)))
+                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            if let Some((s, _)) = best {
+                used[s] = true;
+                next[q] = Some(s);
+            }
+        }
+        source_of = next;
+    }
+    let removed_crossings = if params.remove_crossings {
+        remove_crossings(&problem, &mut source_of)
+    } else {
+        0
+    };
+    let total = |q: usize, s: usize| {
+        let c = problem.candidates[q]
+            .iter()
+            .find(|(t, _)| *t == s)
+            .map_or(0.0, |(_, c)| *c);
+        f64::from(c + problem.coherence(s, q, &source_of))
+    };
+    let pairs: Vec<Pair> = source_of
+        .iter()
+        .enumerate()
+        .filter_map(|(target, s)| s.map(|source| Pair { source, target }))
+        .collect();
+    let cost = pairs.iter().map(|p| total(p.target, p.source)).sum();
+    let unmatched_targets = (0..targets.len())
+        .filter(|&q| source_of[q].is_none())
+        .collect();
+    Ok(Pairing {
+        pairs,
+        cost,
+        unmatched_targets,
+        removed_crossings,
+    })
+}
+
+/// Whether pairs `qi → si` and `qj → sj` reverse the targets' relative order.
+fn crosses(problem: &Problem<'_>, qi: usize, si: usize, qj: usize, sj: usize) -> bool {
+    let ds = problem.sources[si].position - problem.sources[sj].position;
+    let dq = problem.targets[qi].position - problem.targets[qj].position;
+    ds.dot(dq) <= 0.0
+}
+
+fn remove_crossings(problem: &Problem<'_>, source_of: &mut [Option<usize>]) -> usize {
+    let mut removed = 0;
+    loop {
+        let mut worst: Option<(usize, usize, f32)> = None;
+        for q in 0..source_of.len() {
+            let Some(s) = source_of[q] else { continue };
+            let count = problem.neighbours[q]
+                .iter()
+                .filter(|(r, _)| source_of[*r].is_some_and(|t| crosses(problem, q, s, *r, t)))
+                .count();
+            if count == 0 {
+                continue;
+            }
+            let cost = problem.candidates[q]
+                .iter()
+                .find(|(t, _)| *t == s)
+                .map_or(0.0, |(_, c)| *c);
+            let better = match worst {
+                None => true,
+                Some((_, n, c)) => count > n || (count == n && cost > c),
+            };
+            if better {
+                worst = Some((q, count, cost));
+            }
+        }
+        match worst {
+            Some((q, _, _)) => {
+                source_of[q] = None;
+                removed += 1;
+            }
+            None => return removed,
+        }
+    }
+}
+
+/// Up to `per_region` points inside each region, nearest its centre first: the anchor
+/// points paper 000 maps to themselves in the corners of `F_k` so the warp stays local.
+pub fn anchors_in_regions(points: &[Vec3], regions: &[Aabb], per_region: usize) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    for region in regions {
+        let mut inside: Vec<Vec3> = points
+            .iter()
+            .copied()
+            .filter(|p| region.contains(*p))
+            .collect();
+        let c = region.center();
+        inside.sort_by(|a, b| a.distance_squared(c).total_cmp(&b.distance_squared(c)));
+        out.extend(inside.into_iter().take(per_region));
+    }
+    out
+}
+
+/// A fitted warp with the pairing behind it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairedWarp {
+    /// The pairing (without anchors).
+    pub pairing: Pairing,
+    /// The spline through the pairs and the anchors.
+    pub spline: ThinPlateSpline,
+}
+
+/// Pairs `targets` with `sources`, adds `anchors` (mapped to themselves) and fits the spline.
+pub fn pair_and_fit(
+    sources: &[PairingPoint],
+    targets: &[PairingPoint],
+    anchors: &[Vec3],
+    pairing: &PairingParams,
+    tps: &TpsParams,
+) -> Result<PairedWarp> {
+    let pairing = pair_points(sources, targets, pairing)?;
+    let mut from: Vec<Vec3> = pairing
+        .pairs
+        .iter()
+        .map(|p| sources[p.source].position)
+        .collect();
+    let mut to: Vec<Vec3> = pairing
+        .pairs
+        .iter()
+        .map(|p| targets[p.target].position)
+        .collect();
+    from.extend_from_slice(anchors);
+    to.extend_from_slice(anchors);
+    let spline = ThinPlateSpline::fit(&from, &to, tps)?;
+    Ok(PairedWarp { pairing, spline })
+}

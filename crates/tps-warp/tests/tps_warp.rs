@@ -1,0 +1,440 @@
+//! Tests of the thin-plate spline and the pairing against exact properties.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use glam::{DMat3, DVec3, Mat3, Vec3};
+use pointset_core::{Aabb, rng};
+use proptest::prelude::*;
+use rand::RngExt;
+use tps_warp::{
+    AffineRegularization, PairingParams, PairingPoint, ThinPlateSpline, TpsError, TpsParams,
+    anchors_in_regions, pair_and_fit, pair_points,
+};
+
+fn random_points(g: &mut rng::SeededRng, n: usize, scale: f32) -> Vec<Vec3> {
+    (0..n)
+        .map(|_| {
+            Vec3::new(
+                g.random_range(-1.0..1.0),
+                g.random_range(-1.0..1.0),
+                g.random_range(-1.0..1.0),
+            ) * scale
+        })
+        .collect()
+}
+
+fn strict() -> TpsParams {
+    TpsParams::default().affine_regularization(AffineRegularization::Reject)
+}
+
+proptest! {
+    #[test]
+    fn the_spline_interpolates_its_control_points(seed in any::<u64>(), n in 5usize..40) {
+        let mut g = rng::rng_from_seed(seed);
+        let s = random_points(&mut g, n, 2.0);
+        let q: Vec<Vec3> = s.iter().map(|p| *p + Vec3::new(g.random(), g.random(), g.random()) * 0.3).collect();
+        let w = ThinPlateSpline::fit(&s, &q, &strict()).unwrap();
+        for (a, b) in s.iter().zip(&q) {
+            let err = w.eval_f64(a.as_dvec3()).distance(b.as_dvec3());
+            prop_assert!(err <= 1e-9 * (1.0 + b.as_dvec3().length()), "residual {err}");
+        }
+    }
+
+    #[test]
+    fn affine_maps_are_reproduced_with_zero_kernel_weights(seed in any::<u64>(), n in 5usize..30) {
+        let mut g = rng::rng_from_seed(seed);
+        let s = random_points(&mut g, n, 1.0);
+        let m = Mat3::from_cols_array(&[1.2, 0.1, -0.2, 0.05, 0.9, 0.1, 0.3, -0.1, 1.1]);
+        let t = Vec3::new(0.5, -0.25, 2.0);
+        let q: Vec<Vec3> = s.iter().map(|p| m * *p + t).collect();
+        let w = ThinPlateSpline::fit(&s, &q, &strict()).unwrap();
+        // Zero up to the f32 rounding of the targets.
+        for wi in w.weights() {
+            prop_assert!(wi.length() < 1e-5, "kernel weight {wi}");
+        }
+        for x in random_points(&mut g, 20, 3.0) {
+            prop_assert!((w.eval(x) - (m * x + t)).length() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn bending_energy_is_minimal_among_interpolants(seed in any::<u64>(), n in 5usize..20, extra in 1usize..6) {
+        let mut g = rng::rng_from_seed(seed);
+        let s = random_points(&mut g, n, 1.0);
+        let q: Vec<Vec3> = s.iter().map(|p| *p + Vec3::new(g.random(), g.random(), g.random()) * 0.2).collect();
+        let minimal = ThinPlateSpline::fit(&s, &q, &strict()).unwrap();
+        // Another interpolant of the same data: also pass through extra points with
+        // arbitrary targets.
+        let mut s2 = s.clone();
+        let mut q2 = q.clone();
+        for p in random_points(&mut g, extra, 1.0) {
+            s2.push(p);
+            q2.push(p + Vec3::new(g.random(), g.random(), g.random()) * 0.5);
+        }
+        let other = ThinPlateSpline::fit(&s2, &q2, &strict()).unwrap();
+        let (e0, e1) = (minimal.bending_energy(), other.bending_energy());
+        prop_assert!(e0 >= -1e-9, "energy {e0} must be non-negative");
+        prop_assert!(e0 <= e1 + 1e-9 * e1.abs().max(1.0), "{e0} > {e1}");
+    }
+}
+
+#[test]
+fn jacobian_matches_central_differences() {
+    let mut g = rng::rng_from_seed(3);
+    let s = random_points(&mut g, 25, 1.0);
+    let q: Vec<Vec3> = s
+        .iter()
+        .map(|p| *p + Vec3::new(g.random(), g.random(), g.random()) * 0.3)
+        .collect();
+    let w = ThinPlateSpline::fit(&s, &q, &strict()).unwrap();
+    let h = 1e-5;
+    for x in random_points(&mut g, 50, 1.2) {
+        let j = w.jacobian(x);
+        let xd = x.as_dvec3();
+        let cols: Vec<DVec3> = (0..3)
+            .map(|k| {
+                let mut e = DVec3::ZERO;
+                e[k] = h;
+                (w.eval_f64(xd + e) - w.eval_f64(xd - e)) / (2.0 * h)
+            })
+            .collect();
+        let fd = DMat3::from_cols(cols[0], cols[1], cols[2]);
+        let diff = (j - fd)
+            .to_cols_array()
+            .iter()
+            .map(|v| v.abs())
+            .fold(0.0, f64::max);
+        assert!(
+            diff < 1e-6,
+            "Jacobian differs from finite differences by {diff}"
+        );
+    }
+    // At a control point the singular term is dropped: the result is finite.
+    assert!(
+        w.jacobian(s[0])
+            .to_cols_array()
+            .iter()
+            .all(|v| v.is_finite())
+    );
+}
+
+#[test]
+fn normals_rotate_exactly_under_a_rotation() {
+    let mut g = rng::rng_from_seed(4);
+    let s = random_points(&mut g, 20, 1.0);
+    let r = Mat3::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
+    let q: Vec<Vec3> = s.iter().map(|p| r * *p).collect();
+    let w = ThinPlateSpline::fit(&s, &q, &strict()).unwrap();
+    for x in random_points(&mut g, 30, 1.0) {
+        let n = random_points(&mut g, 1, 1.0)[0].normalize();
+        let turned = w.transform_normal(x, n);
+        assert!((turned - r * n).length() < 1e-5, "{turned} vs {}", r * n);
+    }
+    let (moved, normals) = w.warp(&s, Some(&vec![Vec3::Z; s.len()]));
+    assert!(moved.iter().zip(&q).all(|(a, b)| a.distance(*b) < 1e-5));
+    assert!(
+        normals
+            .unwrap()
+            .iter()
+            .all(|n| (*n - r * Vec3::Z).length() < 1e-5)
+    );
+}
+
+#[test]
+fn degenerate_control_points_are_errors_or_documented_regularization() {
+    let square = [
+        Vec3::ZERO,
+        Vec3::X,
+        Vec3::Y,
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(0.5, 0.5, 0.0),
+    ];
+    let bumped = [
+        Vec3::ZERO,
+        Vec3::X,
+        Vec3::Y,
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(0.5, 0.5, 0.1),
+    ];
+    assert!(matches!(
+        ThinPlateSpline::fit(&square, &bumped, &strict()),
+        Err(TpsError::DegenerateControlPoints { rank: 2 })
+    ));
+    // Default: coplanar controls resolve toward the identity along the normal.
+    let w = ThinPlateSpline::fit(&square, &bumped, &TpsParams::default()).unwrap();
+    for (a, b) in square.iter().zip(&bumped) {
+        assert!(w.eval(*a).distance(*b) < 1e-4);
+    }
+    // The undetermined affine direction (the plane's normal) is the identity's.
+    let (_, a) = w.affine();
+    assert!(
+        (a * DVec3::Z - DVec3::Z).length() < 1e-6,
+        "A·n = {}",
+        a * DVec3::Z
+    );
+    let above = w.eval(Vec3::new(0.0, 0.0, 1.0));
+    assert!(
+        above.is_finite() && (above.z - 1.0).abs() < 1e-2,
+        "off-plane offsets survive: {above}"
+    );
+    assert!(
+        (w.transform_normal(Vec3::new(0.1, 0.1, 0.0), Vec3::Z)
+            .length()
+            - 1.0)
+            .abs()
+            < 1e-6
+    );
+
+    // One pair: a translation by default, an error when strict.
+    assert!(matches!(
+        ThinPlateSpline::fit(&[Vec3::ZERO], &[Vec3::X], &strict()),
+        Err(TpsError::DegenerateControlPoints { rank: 0 })
+    ));
+    let t = ThinPlateSpline::fit(&[Vec3::ZERO], &[Vec3::X], &TpsParams::default()).unwrap();
+    assert!((t.eval(Vec3::new(3.0, 2.0, 1.0)) - Vec3::new(4.0, 2.0, 1.0)).length() < 1e-4);
+
+    // Coincident sources with different targets; identical pairs are merged.
+    let dup_s = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::X];
+    let dup_q = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
+    assert!(matches!(
+        ThinPlateSpline::fit(&dup_s, &dup_q, &strict()),
+        Err(TpsError::DuplicateControlPoints {
+            first: 1,
+            second: 4
+        })
+    ));
+    let same_q = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::X];
+    assert_eq!(
+        ThinPlateSpline::fit(&dup_s, &same_q, &strict())
+            .unwrap()
+            .centers()
+            .len(),
+        4
+    );
+
+    // NaN, empty, mismatched.
+    assert!(matches!(
+        ThinPlateSpline::fit(&[Vec3::NAN], &[Vec3::X], &strict()),
+        Err(TpsError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        ThinPlateSpline::fit(&[], &[], &strict()),
+        Err(TpsError::EmptyInput { .. })
+    ));
+    assert!(matches!(
+        ThinPlateSpline::fit(&[Vec3::X], &[], &strict()),
+        Err(TpsError::LengthMismatch { .. })
+    ));
+    assert!(ThinPlateSpline::fit(&square, &bumped, &TpsParams::default().smoothing(-1.0)).is_err());
+}
+
+// ------------------------------------------------------------ pairing
+
+/// A bumpy sheet: `z = 0.1 sin(3x) cos(2y)`, normals from the gradient, variation from |z|.
+fn sheet(g: &mut rng::SeededRng, n: usize) -> Vec<PairingPoint> {
+    (0..n)
+        .map(|_| {
+            let (x, y) = (g.random_range(-1.0..1.0f32), g.random_range(-1.0..1.0f32));
+            let z = 0.1 * (3.0 * x).sin() * (2.0 * y).cos();
+            let dzdx = 0.3 * (3.0 * x).cos() * (2.0 * y).cos();
+            let dzdy = -0.2 * (3.0 * x).sin() * (2.0 * y).sin();
+            PairingPoint {
+                position: Vec3::new(x, y, z),
+                normal: Vec3::new(-dzdx, -dzdy, 1.0).normalize(),
+                variation: 0.02 * z.abs() / 0.1,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn a_shifted_noisy_copy_is_paired_back_to_its_originals() {
+    let mut g = rng::rng_from_seed(7);
+    let q = sheet(&mut g, 200);
+    let shift = Vec3::new(0.01, -0.008, 0.003);
+    // S: the shifted noisy copy of Q (indices 0..200) plus 1800 distractors.
+    let mut s: Vec<PairingPoint> = q
+        .iter()
+        .map(|p| PairingPoint {
+            position: p.position + shift + Vec3::new(g.random(), g.random(), g.random()) * 0.002,
+            ..*p
+        })
+        .collect();
+    s.extend(sheet(&mut g, 1800).into_iter().map(|p| PairingPoint {
+        position: p.position + Vec3::Z * 0.05,
+        ..p
+    }));
+    let pairing = pair_points(&s, &q, &PairingParams::default().max_distance(0.2)).unwrap();
+    let correct = pairing
+        .pairs
+        .iter()
+        .filter(|p| p.source == p.target)
+        .count();
+    assert!(
+        correct as f32 >= 0.95 * q.len() as f32,
+        "{correct} of {} paired back",
+        q.len()
+    );
+    // No source used twice.
+    let mut used: Vec<usize> = pairing.pairs.iter().map(|p| p.source).collect();
+    used.sort_unstable();
+    used.dedup();
+    assert_eq!(used.len(), pairing.pairs.len());
+    assert!(pairing.cost.is_finite() && pairing.cost > 0.0);
+}
+
+#[test]
+fn thresholds_and_opposite_normals_are_honoured() {
+    let mut g = rng::rng_from_seed(8);
+    let q = sheet(&mut g, 100);
+    // Sources: exact copies with flipped normals, plus properly oriented points farther away.
+    let mut s: Vec<PairingPoint> = q
+        .iter()
+        .map(|p| PairingPoint {
+            normal: -p.normal,
+            ..*p
+        })
+        .collect();
+    s.extend(q.iter().map(|p| PairingPoint {
+        position: p.position + Vec3::Z * 0.05,
+        ..*p
+    }));
+    let params = PairingParams::default().max_distance(0.04);
+    let pairing = pair_points(&s, &q, &params).unwrap();
+    // Flipped copies are never paired; the correct ones are beyond max_distance.
+    assert!(pairing.pairs.is_empty(), "{:?}", pairing.pairs);
+    assert_eq!(pairing.unmatched_targets.len(), q.len());
+    let params = PairingParams::default().max_distance(0.06);
+    let pairing = pair_points(&s, &q, &params).unwrap();
+    for p in &pairing.pairs {
+        assert!(p.source >= q.len(), "a flipped normal was paired");
+        assert!(s[p.source].position.distance(q[p.target].position) <= 0.06);
+        assert!(s[p.source].normal.dot(q[p.target].normal) >= 0.0);
+    }
+    assert!(!pairing.pairs.is_empty());
+}
+
+#[test]
+fn crossing_pairs_are_removed() {
+    // Targets on a line; sources the same line lifted a little.
+    let mut q: Vec<PairingPoint> = (0..10)
+        .map(|i| PairingPoint {
+            position: Vec3::new(i as f32 * 0.1, 0.0, 0.0),
+            normal: Vec3::Z,
+            variation: 0.0,
+        })
+        .collect();
+    let mut s: Vec<PairingPoint> = q
+        .iter()
+        .map(|p| PairingPoint {
+            position: p.position + Vec3::Y * 0.02,
+            ..*p
+        })
+        .collect();
+    // Target 4 (x = 0.4) has a distinctive variation that only a source at x = 0.47 shares,
+    // and the source near target 5 sits at x = 0.43: the cheapest pairs reverse the order.
+    q[4].variation = 0.5;
+    s[4].position = Vec3::new(0.47, 0.02, 0.0);
+    s[4].variation = 0.5;
+    s[5].position = Vec3::new(0.43, 0.02, 0.0);
+    let mut params = PairingParams::default().coherence_radius(0.15).rounds(0);
+    params.remove_crossings = false;
+    let raw = pair_points(&s, &q, &params).unwrap();
+    let source_of = |pairing: &tps_warp::Pairing, t: usize| {
+        pairing
+            .pairs
+            .iter()
+            .find(|p| p.target == t)
+            .map(|p| p.source)
+    };
+    assert_eq!(
+        (source_of(&raw, 4), source_of(&raw, 5)),
+        (Some(4), Some(5)),
+        "setup: 0.4 → 0.47 and 0.5 → 0.43 cross"
+    );
+    params.remove_crossings = true;
+    let clean = pair_points(&s, &q, &params).unwrap();
+    assert_eq!(clean.removed_crossings, 1);
+    for a in &clean.pairs {
+        for b in &clean.pairs {
+            if a.target != b.target && q[a.target].position.distance(q[b.target].position) < 0.45 {
+                let ds = s[a.source].position - s[b.source].position;
+                let dq = q[a.target].position - q[b.target].position;
+                assert!(ds.dot(dq) > 0.0, "pairs {a:?} and {b:?} still cross");
+            }
+        }
+    }
+}
+
+#[test]
+fn pairing_is_deterministic_and_validates_input() {
+    let mut g = rng::rng_from_seed(9);
+    let q = sheet(&mut g, 80);
+    let s = sheet(&mut g, 400);
+    let a = pair_points(&s, &q, &PairingParams::default()).unwrap();
+    let b = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| pair_points(&s, &q, &PairingParams::default()).unwrap());
+    assert_eq!(a, b);
+    assert!(pair_points(&[], &q, &PairingParams::default()).is_err());
+    let mut bad = q.clone();
+    bad[3].normal = Vec3::NAN;
+    assert!(matches!(
+        pair_points(&s, &bad, &PairingParams::default()),
+        Err(TpsError::NonFinite { index: 3, .. })
+    ));
+    let mut params = PairingParams::default();
+    params.w_v = -1.0;
+    assert!(pair_points(&s, &q, &params).is_err());
+}
+
+#[test]
+fn anchored_warp_stays_local() {
+    let mut g = rng::rng_from_seed(10);
+    let q = sheet(&mut g, 150);
+    let s: Vec<PairingPoint> = q
+        .iter()
+        .map(|p| PairingPoint {
+            position: p.position + Vec3::Z * 0.02,
+            ..*p
+        })
+        .collect();
+    // Anchor the four corners of a larger box, far from the pairs.
+    let grid: Vec<Vec3> = (0..400)
+        .map(|i| {
+            Vec3::new(
+                (i % 20) as f32 * 0.3 - 3.0,
+                (i / 20) as f32 * 0.3 - 3.0,
+                0.0,
+            )
+        })
+        .collect();
+    let corners: Vec<Aabb> = [(-3.0, -3.0), (2.4, -3.0), (-3.0, 2.4), (2.4, 2.4)]
+        .iter()
+        .map(|&(x, y)| Aabb::new(Vec3::new(x, y, -0.1), Vec3::new(x + 0.6, y + 0.6, 0.1)))
+        .collect();
+    let anchors = anchors_in_regions(&grid, &corners, 3);
+    assert_eq!(anchors.len(), 12);
+    let warp = pair_and_fit(
+        &s,
+        &q,
+        &anchors,
+        &PairingParams::default().max_distance(0.1),
+        &TpsParams::default(),
+    )
+    .unwrap();
+    for a in &anchors {
+        assert!(warp.spline.eval(*a).distance(*a) < 1e-4, "anchors stay put");
+    }
+    for p in &warp.pairing.pairs {
+        assert!(
+            warp.spline
+                .eval(s[p.source].position)
+                .distance(q[p.target].position)
+                < 1e-4
+        );
+    }
+}
