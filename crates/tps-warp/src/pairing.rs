@@ -327,14 +327,14 @@ pub fn pair_points(
     // Steps 1–2.
     let mut used = vec![false; sources.len()];
     let mut source_of: Vec<Option<usize>> = vec![None; targets.len()];
-    for q in 0..targets.len() {
-        let best = problem.candidates[q]
+    for (slot, candidates) in source_of.iter_mut().zip(&problem.candidates) {
+        let best = candidates
             .iter()
             .filter(|(s, _)| !used[*s])
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         if let Some(&(s, _)) = best {
             used[s] = true;
-            source_of[q] = Some(s);
+            *slot = Some(s);
         }
     }
     // Steps 3–6.
