@@ -15,6 +15,9 @@ pub enum Error {
     /// From `distance-field`.
     #[error(transparent)]
     Field(#[from] distance_field::FieldError),
+    /// From `tps-warp`.
+    #[error(transparent)]
+    Tps(#[from] tps_warp::TpsError),
     /// Encoding or writing an image failed.
     #[error("cannot write image {path}: {source}")]
     Image {

@@ -10,6 +10,7 @@
 //! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF I/O, [`Stage`] |
 //! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation |
 //! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
+//! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
@@ -103,6 +104,28 @@ pub use mls_surface as mls;
 /// Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub use distance_field as sdf;
+
 pub use pointset_core::{CancelFlag, Progress, ProgressUpdate, RunContext, Stage};
+/// Thin-plate spline warps and point pairing (the `tps-warp` crate).
+///
+/// ```
+/// use geosynth::tps::{ThinPlateSpline, TpsParams};
+/// use glam::Vec3;
+///
+/// // Push the middle of a flat patch up; anchors at the corners keep the rest in place.
+/// let corners = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)];
+/// let mut from = corners.to_vec();
+/// let mut to = corners.to_vec();
+/// from.push(Vec3::new(0.5, 0.5, 0.0));
+/// to.push(Vec3::new(0.5, 0.5, 0.2));
+/// let warp = ThinPlateSpline::fit(&from, &to, &TpsParams::default())?;
+///
+/// let sphere = geosynth::fixtures::sphere_points(500)?;
+/// let (moved, normals) = warp.warp(sphere.positions(), sphere.normals());
+/// assert_eq!(moved.len(), 500);
+/// assert!(normals.ok_or("normals")?.iter().all(|n| (n.length() - 1.0).abs() < 1e-5));
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub use tps_warp as tps;
 
 pub use error::{Error, Result};

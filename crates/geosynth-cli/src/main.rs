@@ -33,6 +33,9 @@ enum Command {
     Reconstruct(commands::reconstruct::ReconstructArgs),
     /// Sample the signed distance field of a mesh or oriented point set into an NRRD file.
     Sdf(commands::reconstruct::SdfArgs),
+    /// Warp a point set or mesh with a thin-plate spline through given pairs (normals are
+    /// transported through the spline's Jacobian).
+    Warp(commands::warp::WarpArgs),
     /// Write the procedural exemplars used by the tests and the demo.
     Fixtures(commands::fixtures::FixturesArgs),
     /// Run every available synthesis family on the bundled fixtures; write results,
@@ -67,6 +70,7 @@ fn main() -> ExitCode {
         Command::Render(args) => commands::render::run(&args, globals),
         Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(&args, globals),
         Command::Sdf(args) => commands::reconstruct::run_sdf(&args, globals),
+        Command::Warp(args) => commands::warp::run(&args, globals),
         Command::Fixtures(args) => commands::fixtures::run(&args, globals),
         Command::Demo(args) => commands::demo::run(&args, globals),
     };

@@ -273,3 +273,62 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
     let out = geosynth(&["reconstruct", bare.to_str().unwrap(), "-o", "x.ply"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("normals"));
 }
+
+#[test]
+fn warp_moves_points_through_the_pairs_and_turns_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    let pairs = dir.path().join("pairs.txt");
+    // A rotation by 90° about +z given by five pairs (not coplanar).
+    std::fs::write(
+        &pairs,
+        "# rotation about z\n1 0 0  0 1 0\n0 1 0  -1 0 0\n-1 0 0  0 -1 0\n0 0 1  0 0 1\n0 0 -1  0 0 -1\n",
+    )
+    .unwrap();
+    let input = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let out = dir.path().join("warped.ply");
+    ok(&[
+        "warp",
+        input.to_str().unwrap(),
+        "--pairs",
+        pairs.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    let before = geosynth::core::io::read_geometry(&input).unwrap().geometry;
+    let after = geosynth::core::io::read_geometry(&out).unwrap().geometry;
+    let (p0, p1) = (before.points(), after.points());
+    for i in (0..p0.len()).step_by(37) {
+        let (a, b) = (p0.positions()[i], p1.positions()[i]);
+        assert!((b - glam::Vec3::new(-a.y, a.x, a.z)).length() < 1e-4);
+        let (n0, n1) = (p0.normals().unwrap()[i], p1.normals().unwrap()[i]);
+        assert!((n1 - glam::Vec3::new(-n0.y, n0.x, n0.z)).length() < 1e-4);
+    }
+    // Meshes keep their faces.
+    let mesh_in = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");
+    let mesh_out = dir.path().join("torus_warped.obj");
+    ok(&[
+        "warp",
+        mesh_in.to_str().unwrap(),
+        "--pairs",
+        pairs.to_str().unwrap(),
+        "-o",
+        mesh_out.to_str().unwrap(),
+        "-q",
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--json", mesh_out.to_str().unwrap()])).unwrap();
+    assert_eq!(json["faces"], 48 * 24 * 2);
+    // Bad pairs files fail with the line.
+    std::fs::write(&pairs, "1 0 0 0 1 0\n1 2 3\n").unwrap();
+    let bad = geosynth(&[
+        "warp",
+        input.to_str().unwrap(),
+        "--pairs",
+        pairs.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("pairs.txt:2"));
+}

@@ -5,3 +5,4 @@ pub mod fixtures;
 pub mod info;
 pub mod reconstruct;
 pub mod render;
+pub mod warp;
