@@ -56,7 +56,7 @@ fn pairing(c: &mut Criterion) {
         normal: points.normals().map_or(Vec3::Z, |n| n[i]),
         variation: 0.0,
     };
-    let sources: Vec<PairingPoint> = (0..2000).map(|i| as_pairing(i)).collect();
+    let sources: Vec<PairingPoint> = (0..2000).map(as_pairing).collect();
     let targets: Vec<PairingPoint> = (0..200)
         .map(|i| {
             let mut p = as_pairing(i * 10);
