@@ -131,7 +131,8 @@ impl<T> BucketGrid<T> {
     fn candidates(&self, region: &Aabb, mut visit: impl FnMut(u32, Vec3)) {
         let lo = self.cell_of(region.min);
         let hi = self.cell_of(region.max);
-        let span = (hi - lo + IVec3::ONE).as_i64vec3();
+        // In 64 bits: boxes reaching the saturated outermost cells would overflow i32.
+        let span = hi.as_i64vec3() - lo.as_i64vec3() + glam::I64Vec3::ONE;
         let cells_in_box = span.x.saturating_mul(span.y).saturating_mul(span.z);
         if cells_in_box > self.cells.len() as i64 {
             // Sparse grid or huge box: scan occupied cells instead of the box's cells.

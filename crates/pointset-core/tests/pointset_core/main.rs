@@ -364,6 +364,21 @@ proptest! {
 }
 
 #[test]
+fn bucket_grid_accepts_unbounded_query_boxes() {
+    let mut grid = BucketGrid::new(0.5).unwrap();
+    for i in 0..10 {
+        grid.insert(Vec3::new(i as f32, 0.0, -1e6), i).unwrap();
+    }
+    let slab = pointset_core::Aabb::new(
+        Vec3::new(2.0, -1.0, f32::MIN),
+        Vec3::new(5.0, 1.0, f32::MAX),
+    );
+    assert_eq!(grid.query_box(&slab).len(), 4);
+    assert_eq!(grid.remove_inside_box(&slab).len(), 4);
+    assert_eq!(grid.len(), 6);
+}
+
+#[test]
 fn kd_index_handles_voxel_centres_and_rejects_nan() {
     // 32³ grid-aligned voxel centres plus 500 exact duplicates of one point.
     let mut pts = Vec::new();

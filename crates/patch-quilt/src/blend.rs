@@ -1,0 +1,130 @@
+//! Step 5: progressive linear interpolation of the warped patch toward the neighbourhood
+//! (paper 000 §5.3, Figure 3c).
+
+use glam::{Vec2, Vec3};
+use mls_surface::MlsSurface;
+use rayon::prelude::*;
+
+/// The overlap of one patch: which strips exist and where.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Overlap {
+    /// Patch corner (x_k, y_k).
+    pub origin: Vec2,
+    /// Overlap width `W_O`.
+    pub width: f32,
+    /// Patch side `P` (the strips run along it).
+    pub patch: f32,
+    /// A strip along the left edge (already synthesized patch to the left).
+    pub left: bool,
+    /// A strip along the bottom edge (already synthesized row below).
+    pub bottom: bool,
+}
+
+impl Overlap {
+    /// Whether `(x, y)` lies in the overlap region `O_k` (the L-shaped strips).
+    pub fn contains(&self, q: Vec2) -> bool {
+        let d = q - self.origin;
+        let inside = d.x >= 0.0 && d.y >= 0.0 && d.x <= self.patch && d.y <= self.patch;
+        inside && ((self.left && d.x <= self.width) || (self.bottom && d.y <= self.width))
+    }
+
+    /// The ramp of Figure 3c: 1 at the overlap's outer edge (fully the neighbourhood), falling
+    /// linearly to 0 at its inner edge (fully the patch), 0 beyond; the larger of the two
+    /// strips' values. Points outside the patch on the overlap side get 1.
+    pub fn ramp(&self, q: Vec2) -> f32 {
+        let d = q - self.origin;
+        let strip = |u: f32| (1.0 - u / self.width).clamp(0.0, 1.0);
+        let left = if self.left { strip(d.x) } else { 0.0 };
+        let bottom = if self.bottom { strip(d.y) } else { 0.0 };
+        left.max(bottom)
+    }
+}
+
+/// Counts of what blending did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BlendCounts {
+    /// Points with a ramp value above 0.
+    pub blended: usize,
+    /// Of those, targets found by the two-ray intersection.
+    pub by_ray: usize,
+    /// Of those, targets found by projection (no ray hit).
+    pub by_projection: usize,
+    /// Of those, no target (no neighbourhood surface nearby): left unchanged.
+    pub unmatched: usize,
+}
+
+/// Moves each point with ramp value `t > 0` to `p + t (g − p)` and its normal to
+/// `normalize((1 − t) n + t n_g)`, where `g, n_g` is the point's target on the
+/// neighbourhood's surface: the closer hit of rays along `±n`, else the projection.
+pub(crate) fn blend(
+    points: &mut [Vec3],
+    normals: &mut [Vec3],
+    overlap: &Overlap,
+    neighbourhood: &MlsSurface,
+) -> BlendCounts {
+    let results: Vec<Option<(Vec3, Vec3, bool)>> = points
+        .par_iter()
+        .zip(normals.par_iter())
+        .map(|(&p, &n)| {
+            let t = overlap.ramp(p.truncate());
+            if t <= 0.0 {
+                return None;
+            }
+            let forward = neighbourhood.intersect_ray(p, n, neighbourhood.support_radius());
+            let backward = neighbourhood.intersect_ray(p, -n, neighbourhood.support_radius());
+            let hit = match (forward, backward) {
+                (Some(a), Some(b)) => Some(if a.t <= b.t { a } else { b }),
+                (a, b) => a.or(b),
+            };
+            let (target, target_normal, by_ray) = match hit {
+                Some(h) => (h.point, h.normal, true),
+                None => match neighbourhood.project(p) {
+                    Some(q) => (q.point, q.normal, false),
+                    None => return Some((p, n, false)),
+                },
+            };
+            let blended_normal = ((1.0 - t) * n + t * target_normal)
+                .try_normalize()
+                .unwrap_or(n);
+            Some((p + t * (target - p), blended_normal, by_ray))
+        })
+        .collect();
+    let mut counts = BlendCounts::default();
+    for (i, r) in results.into_iter().enumerate() {
+        let Some((p, n, by_ray)) = r else { continue };
+        counts.blended += 1;
+        if p == points[i] && n == normals[i] {
+            counts.unmatched += 1;
+        } else if by_ray {
+            counts.by_ray += 1;
+        } else {
+            counts.by_projection += 1;
+        }
+        points[i] = p;
+        normals[i] = n;
+    }
+    counts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ramp_is_one_outside_and_zero_inside() {
+        let o = Overlap {
+            origin: Vec2::ZERO,
+            width: 1.0,
+            patch: 4.0,
+            left: true,
+            bottom: false,
+        };
+        assert_eq!(o.ramp(Vec2::new(0.0, 2.0)), 1.0);
+        assert_eq!(o.ramp(Vec2::new(0.5, 2.0)), 0.5);
+        assert_eq!(o.ramp(Vec2::new(1.5, 2.0)), 0.0);
+        assert!(o.contains(Vec2::new(0.5, 3.0)) && !o.contains(Vec2::new(2.0, 0.5)));
+        let l = Overlap { bottom: true, ..o };
+        assert_eq!(l.ramp(Vec2::new(3.0, 0.25)), 0.75);
+        assert!(l.contains(Vec2::new(2.0, 0.5)));
+    }
+}

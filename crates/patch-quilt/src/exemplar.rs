@@ -1,0 +1,168 @@
+//! Precomputation on `T_in`: its distance field `D(T_in)`, surface variation, point bins.
+
+use distance_field::{GridSpec, SdfGrid};
+use glam::{Vec2, Vec3};
+use mls_surface::{MlsParams, MlsSurface, surface_variation};
+use pointset_core::{Aabb, BucketGrid};
+
+use crate::error::{QuiltError, Result};
+use crate::params::QuiltParams;
+use crate::texture::GeometryTexture;
+
+/// Patch geometry in field nodes: patch `np`, overlap `no`, extra region `ne`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PatchGeometry {
+    /// Field spacing `s`.
+    pub spacing: f32,
+    /// Patch side in nodes (the patch spans `np · s`).
+    pub patch_nodes: usize,
+    /// Overlap width in nodes.
+    pub overlap_nodes: usize,
+    /// Extra region width in nodes.
+    pub extra_nodes: usize,
+}
+
+impl PatchGeometry {
+    /// Patch side `P`.
+    pub fn patch(&self) -> f32 {
+        self.patch_nodes as f32 * self.spacing
+    }
+    /// Overlap width `W_O`.
+    pub fn overlap(&self) -> f32 {
+        self.overlap_nodes as f32 * self.spacing
+    }
+    /// Extra width `w_E`.
+    pub fn extra(&self) -> f32 {
+        self.extra_nodes as f32 * self.spacing
+    }
+}
+
+/// Everything precomputed on the exemplar.
+pub(crate) struct Exemplar {
+    pub points: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub variation: Vec<f32>,
+    bins: BucketGrid<u32>,
+    pub field: SdfGrid,
+    pub spec: GridSpec,
+    pub kernel: f32,
+    pub bounds: Aabb,
+    pub geometry: PatchGeometry,
+    /// Valid patch offsets (in nodes): `0..=max_i`, `0..=max_j`.
+    pub max_i: usize,
+    pub max_j: usize,
+}
+
+impl Exemplar {
+    pub fn new(texture: &GeometryTexture, params: &QuiltParams) -> Result<Self> {
+        let set = texture.canonical_points();
+        let points = set.positions().to_vec();
+        let normals =
+            set.normals()
+                .map(<[Vec3]>::to_vec)
+                .ok_or_else(|| QuiltError::InvalidTexture {
+                    reason: "no normals".into(),
+                })?;
+        let bounds = texture.canonical_bounds();
+        let surface = MlsSurface::new(set, &MlsParams::default())?;
+        let variation = surface_variation(surface.index(), 12)?;
+        let ext = bounds.extent();
+        let spacing = ext.x.max(ext.y) / (params.field_resolution - 1) as f32;
+        let dims = [
+            (ext.x / spacing).floor() as usize + 1,
+            (ext.y / spacing).floor() as usize + 1,
+            (ext.z / spacing).ceil() as usize + 1,
+        ];
+        let spec = GridSpec {
+            dims,
+            origin: bounds.min,
+            spacing,
+        };
+        let field = SdfGrid::from_surface(&surface, &spec, params.band * spacing)?;
+        let patch_nodes = ((params.patch_size * ext.x.min(ext.y)) / spacing)
+            .round()
+            .max(2.0) as usize;
+        let overlap_nodes =
+            ((params.overlap * patch_nodes as f32).round() as usize).clamp(1, patch_nodes / 2);
+        let extra_nodes = ((params.extra_width * patch_nodes as f32).round() as usize).max(1);
+        let geometry = PatchGeometry {
+            spacing,
+            patch_nodes,
+            overlap_nodes,
+            extra_nodes,
+        };
+        // P ∪ E must lie inside the geometry: the patch inside the field, E inside the padding.
+        let all = Aabb::from_points(&points).unwrap_or(bounds);
+        let limit = |origin: f32, nodes: usize, far: f32| -> usize {
+            (0..nodes)
+                .take_while(|&i| {
+                    origin + (i + patch_nodes + extra_nodes) as f32 * spacing
+                        <= far + 1e-6 * spacing
+                })
+                .last()
+                .unwrap_or(0)
+        };
+        if patch_nodes + 1 > dims[0].min(dims[1]) {
+            return Err(QuiltError::InvalidParameter {
+                name: "patch_size",
+                value: params.patch_size.to_string(),
+                expected: "a patch smaller than the exemplar box".into(),
+            });
+        }
+        let max_i = limit(spec.origin.x, dims[0] - patch_nodes, all.max.x);
+        let max_j = limit(spec.origin.y, dims[1] - patch_nodes, all.max.y);
+        let fits = |origin: f32, far: f32| {
+            origin + (patch_nodes + extra_nodes) as f32 * spacing <= far + 1e-6 * spacing
+        };
+        if !fits(spec.origin.x, all.max.x) || !fits(spec.origin.y, all.max.y) {
+            return Err(QuiltError::InvalidTexture {
+                reason: format!(
+                    "the geometry does not extend far enough beyond the box for the extra region (w_E = {}; padding {})",
+                    geometry.extra(),
+                    texture.padding()
+                ),
+            });
+        }
+        let cell = (2.0 * spacing).max(f32::MIN_POSITIVE);
+        let mut bins = BucketGrid::new(cell)?;
+        for (i, p) in points.iter().enumerate() {
+            bins.insert(*p, i as u32)?;
+        }
+        Ok(Self {
+            points,
+            normals,
+            variation,
+            bins,
+            field,
+            spec,
+            kernel: surface.kernel(),
+            bounds,
+            geometry,
+            max_i,
+            max_j,
+        })
+    }
+
+    /// Indices of points whose (x, y) lies in `[lo, hi]`, ascending.
+    pub fn points_in(&self, lo: Vec2, hi: Vec2) -> Vec<usize> {
+        let region = Aabb::new(lo.extend(f32::MIN / 4.0), hi.extend(f32::MAX / 4.0));
+        let mut out: Vec<usize> = self
+            .bins
+            .query_box(&region)
+            .into_iter()
+            .filter_map(|k| self.bins.get(k).map(|(_, &i)| i as usize))
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
+    /// World (canonical) position of the patch offset `(i, j)`'s lower-left corner.
+    pub fn patch_origin(&self, i: usize, j: usize) -> Vec2 {
+        self.spec.origin.truncate() + Vec2::new(i as f32, j as f32) * self.geometry.spacing
+    }
+
+    /// Memory held by `D(T_in)` in bytes.
+    pub fn field_bytes(&self) -> usize {
+        self.field.grid().data().len() * std::mem::size_of::<glam::Vec4>()
+    }
+}

@@ -1,0 +1,181 @@
+//! Configuration of a quilting run.
+
+use mls_surface::ClusterParams;
+use tps_warp::PairingParams;
+
+use crate::error::{Result, invalid};
+
+/// Which parts of the algorithm run. [`Method::Full`] is the paper; the others are the
+/// baselines the quality report compares against, computed by the same code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Search, warp and blend (paper 000 §4–§5).
+    #[default]
+    Full,
+    /// Search for the best patch, paste it translated (no warp, no blend).
+    SearchOnly,
+    /// Paste randomly chosen patches translated (no search, no warp, no blend).
+    RandomPlacement,
+}
+
+/// The output's extent on the reference plane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OutputSize {
+    /// Width and depth in world units.
+    Absolute(f32, f32),
+    /// Multiples of the exemplar box's width and depth.
+    Scale(f32),
+}
+
+/// Parameters of [`crate::quilt`]. Lengths given as fractions are relative to the patch
+/// size; the patch size is relative to the exemplar box.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct QuiltParams {
+    /// Patch side as a fraction of the box's smaller in-plane side; default 0.4.
+    pub patch_size: f32,
+    /// Width `w_E` of the extra region, as a fraction of the patch; default 0.3 (the paper
+    /// used 1/4 to 1/3).
+    pub extra_width: f32,
+    /// Overlap width as a fraction of the patch; default 1/6.
+    pub overlap: f32,
+    /// Nodes of `D(T_in)` along the box's longer in-plane side; default 48 (the paper used
+    /// 51–84).
+    pub field_resolution: usize,
+    /// Relative tolerance `ε` of the candidate set; default 0.1.
+    pub epsilon: f32,
+    /// Distances are clamped at this many field spacings; default 4.
+    pub band: f32,
+    /// Pairing weights and thresholds (Eq. 2); default Table 1's height-field row with
+    /// `max_distance` = the overlap width.
+    pub pairing: Option<PairingParams>,
+    /// Adaptive clustering limits for the target set `Q`; default `n_max` 12, `σ_max` 0.1.
+    pub clusters: ClusterParams,
+    /// Anchor points mapped to themselves per free corner of `F_k`; default 4.
+    pub anchors_per_corner: usize,
+    /// The output extent; default twice the exemplar in each direction.
+    pub output: OutputSize,
+    /// Seed of every random choice; default 0.
+    pub seed: u64,
+    /// Relaxation rounds after trimming (paper §6 post-process); default 0 (off).
+    pub relaxation_rounds: usize,
+    /// Which parts run; default the full algorithm.
+    pub method: Method,
+    /// A fixed seed patch (node offsets in `D(T_in)`); default random.
+    pub seed_patch: Option<(usize, usize)>,
+}
+
+impl Default for QuiltParams {
+    fn default() -> Self {
+        Self {
+            patch_size: 0.4,
+            extra_width: 0.3,
+            overlap: 1.0 / 6.0,
+            field_resolution: 48,
+            epsilon: 0.1,
+            band: 4.0,
+            pairing: None,
+            clusters: ClusterParams::default().max_points(12).max_variation(0.1),
+            anchors_per_corner: 4,
+            output: OutputSize::Scale(2.0),
+            seed: 0,
+            relaxation_rounds: 0,
+            method: Method::Full,
+            seed_patch: None,
+        }
+    }
+}
+
+impl QuiltParams {
+    /// Sets the patch size (fraction of the box's smaller side; default 0.4).
+    pub fn patch_size(mut self, fraction: f32) -> Self {
+        self.patch_size = fraction;
+        self
+    }
+
+    /// Sets the output extent (default twice the exemplar).
+    pub fn output(mut self, size: OutputSize) -> Self {
+        self.output = size;
+        self
+    }
+
+    /// Sets the seed (default 0).
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Sets the method (default full).
+    pub fn method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// Sets the field resolution (default 48).
+    pub fn field_resolution(mut self, n: usize) -> Self {
+        self.field_resolution = n;
+        self
+    }
+
+    /// Sets the relaxation rounds (default 0).
+    pub fn relaxation_rounds(mut self, n: usize) -> Self {
+        self.relaxation_rounds = n;
+        self
+    }
+
+    /// Sets the pairing parameters (default Table 1 height field).
+    pub fn pairing(mut self, pairing: PairingParams) -> Self {
+        self.pairing = Some(pairing);
+        self
+    }
+
+    /// Sets `ε` (default 0.1).
+    pub fn epsilon(mut self, epsilon: f32) -> Self {
+        self.epsilon = epsilon;
+        self
+    }
+
+    /// Checks every range.
+    pub fn validate(&self) -> Result<()> {
+        let fraction = |name, v: f32, lo: f32, hi: f32| {
+            if v.is_finite() && v > lo && v <= hi {
+                Ok(())
+            } else {
+                Err(invalid(name, v, format!("a number in ({lo}, {hi}]")))
+            }
+        };
+        fraction("patch_size", self.patch_size, 0.0, 1.0)?;
+        fraction("extra_width", self.extra_width, 0.0, 1.0)?;
+        fraction("overlap", self.overlap, 0.0, 0.5)?;
+        fraction("band", self.band, 1.0, 1e3)?;
+        if !(self.epsilon.is_finite() && self.epsilon >= 0.0) {
+            return Err(invalid("epsilon", self.epsilon, "a finite number ≥ 0"));
+        }
+        if !(8..=512).contains(&self.field_resolution) {
+            return Err(invalid(
+                "field_resolution",
+                self.field_resolution,
+                "8 to 512 nodes",
+            ));
+        }
+        match self.output {
+            OutputSize::Absolute(w, h)
+                if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) =>
+            {
+                return Err(invalid(
+                    "output",
+                    format!("{w} x {h}"),
+                    "a positive width and depth",
+                ));
+            }
+            OutputSize::Scale(s) if !(s.is_finite() && s > 0.0 && s <= 64.0) => {
+                return Err(invalid("output", s, "a scale in (0, 64]"));
+            }
+            _ => {}
+        }
+        if let Some(p) = &self.pairing {
+            p.validate()?;
+        }
+        Ok(())
+    }
+}

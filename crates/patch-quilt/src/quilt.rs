@@ -1,0 +1,404 @@
+//! The synthesis loop (paper 000 §4, steps 1–8).
+
+use std::time::Instant;
+
+use distance_field::{GridSpec, SdfGrid};
+use glam::{Vec2, Vec3};
+use mls_surface::{MlsParams, MlsSurface, RelaxParams, relax, surface_variation};
+use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarType, rng};
+use rand::RngExt;
+use tps_warp::PairingParams;
+
+use crate::blend::{BlendCounts, Overlap, blend};
+use crate::error::{QuiltError, Result};
+use crate::exemplar::{Exemplar, PatchGeometry};
+use crate::params::{Method, OutputSize, QuiltParams};
+use crate::search::{OverlapNode, candidates, distances};
+use crate::texture::GeometryTexture;
+use crate::warp::{Neighbourhood, WarpCounts, warp_patch};
+
+/// Where one patch went and how it was chosen.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Placement {
+    /// Patch index `k`.
+    pub index: usize,
+    /// Column and row in the scan-line layout.
+    pub cell: (usize, usize),
+    /// Lower-left corner `(x_k, y_k)` of the patch in the output (canonical frame).
+    pub origin: Vec2,
+    /// Chosen patch: node offsets `(i, j)` in `D(T_in)`.
+    pub source: (usize, usize),
+    /// `|Ψ_k|`.
+    pub candidates: usize,
+    /// `d` of the chosen patch (0 for the seed patch and random placement).
+    pub distance: f32,
+    /// What the warp did.
+    pub warp: WarpCounts,
+    /// What blending did.
+    pub blend: BlendCounts,
+}
+
+/// Run statistics (Table 1 style timings are in the [`RunContext`]: `search`, `warp`,
+/// `blend`, `other`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuiltStats {
+    /// Patches placed.
+    pub patches: usize,
+    /// Mean `|Ψ_k|` over searched patches.
+    pub mean_candidates: f64,
+    /// Mean pairs per warp over warped patches.
+    pub mean_pairs: f64,
+    /// Patches left unwarped.
+    pub warps_skipped: usize,
+    /// `D(T_in)` dimensions.
+    pub field_dims: [usize; 3],
+    /// Bytes held by `D(T_in)` (the patches' fields are read from it, not unpacked).
+    pub field_bytes: usize,
+    /// Patch geometry in field nodes.
+    pub geometry: PatchGeometry,
+    /// Input points.
+    pub input_points: usize,
+    /// Output points.
+    pub output_points: usize,
+    /// Spread of nearest-neighbour distances before/after relaxation (when it ran).
+    pub relaxation_spread: Option<(f32, f32)>,
+}
+
+/// The result of [`quilt`].
+#[derive(Debug, Clone)]
+pub struct QuiltOutput {
+    /// The synthesized texture, in world coordinates, with normals and a `patch` attribute
+    /// (index of the patch each point came from).
+    pub points: PointSet,
+    /// The output box (world coordinates).
+    pub bounds: Aabb,
+    /// Every placement, in synthesis order.
+    pub placements: Vec<Placement>,
+    /// Counts and sizes.
+    pub stats: QuiltStats,
+}
+
+/// A point of `T_out`: normal and the patch it came from.
+type OutPoint = (Vec3, u32);
+
+struct Layout {
+    start: Vec2,
+    step: f32,
+    cols: usize,
+    rows: usize,
+    out_lo: Vec2,
+    out_hi: Vec2,
+}
+
+impl Layout {
+    fn new(ex: &Exemplar, output: OutputSize) -> Self {
+        let g = ex.geometry;
+        let lo = ex.bounds.min.truncate();
+        let ext = ex.bounds.extent().truncate();
+        let size = match output {
+            OutputSize::Absolute(w, h) => Vec2::new(w, h),
+            OutputSize::Scale(s) => ext * s,
+        };
+        let start = lo - Vec2::splat(g.extra());
+        let step = g.patch() - g.overlap();
+        let count =
+            |span: f32| ((span + g.extra() - g.patch()) / step).ceil().max(0.0) as usize + 1;
+        // Cover [start, lo + size + w_E]: the trim removes w_E on every side.
+        Self {
+            start,
+            step,
+            cols: count(size.x + g.extra()),
+            rows: count(size.y + g.extra()),
+            out_lo: lo,
+            out_hi: lo + size,
+        }
+    }
+
+    fn origin(&self, col: usize, row: usize) -> Vec2 {
+        self.start + Vec2::new(col as f32, row as f32) * self.step
+    }
+}
+
+fn vec4_field(sdf: &SdfGrid) -> &[glam::Vec4] {
+    sdf.grid().data()
+}
+
+/// Runs the synthesis.
+pub fn quilt(
+    texture: &GeometryTexture,
+    params: &QuiltParams,
+    ctx: &mut RunContext,
+) -> Result<QuiltOutput> {
+    params.validate()?;
+    let t0 = Instant::now();
+    let ex = Exemplar::new(texture, params)?;
+    let g = ex.geometry;
+    let layout = Layout::new(&ex, params.output);
+    let pairing = params
+        .pairing
+        .clone()
+        .unwrap_or_else(|| PairingParams::default().max_distance(g.overlap()));
+    let mls = MlsParams::default().kernel(ex.kernel);
+    let [nx, _, nz] = ex.spec.dims;
+    let total = layout.cols * layout.rows;
+    let mut out: BucketGrid<OutPoint> = BucketGrid::new(2.0 * g.spacing)?;
+    let mut placements = Vec::with_capacity(total);
+    ctx.record_timing("other", t0.elapsed());
+
+    for row in 0..layout.rows {
+        for col in 0..layout.cols {
+            ctx.check_cancelled()?;
+            let k = row * layout.cols + col;
+            let mut rng = rng::stream(params.seed, k as u64);
+            let origin = layout.origin(col, row);
+            let overlap = Overlap {
+                origin,
+                width: g.overlap(),
+                patch: g.patch(),
+                left: col > 0,
+                bottom: row > 0,
+            };
+            let far = origin + Vec2::splat(g.patch() + g.extra());
+            let t = Instant::now();
+            // N_k: T_out around B_k (B_k grown by w_E).
+            let gather_lo = origin - Vec2::splat(g.extra());
+            let gather_hi = far + Vec2::splat(g.extra());
+            let gather = Aabb::new(
+                gather_lo.extend(f32::MIN / 4.0),
+                gather_hi.extend(f32::MAX / 4.0),
+            );
+            let keys = out.query_box(&gather);
+            let mut n_points = Vec::with_capacity(keys.len());
+            let mut n_normals = Vec::with_capacity(keys.len());
+            for key in keys {
+                if let Some((p, (n, _))) = out.get(key) {
+                    n_points.push(p);
+                    n_normals.push(*n);
+                }
+            }
+            let first = k == 0 || n_points.len() < 8;
+            let n_surface = if first || params.method == Method::RandomPlacement {
+                None
+            } else {
+                let set = PointSet::new(n_points.clone())?.with_normals(n_normals.clone())?;
+                Some(MlsSurface::new(&set, &mls)?)
+            };
+            ctx.record_timing("other", t.elapsed());
+
+            // Steps 2–3: choose the patch.
+            let t = Instant::now();
+            let (source, count, distance) = match (&n_surface, params.seed_patch) {
+                (None, Some(seed)) if k == 0 => {
+                    ((seed.0.min(ex.max_i), seed.1.min(ex.max_j)), 1, 0.0)
+                }
+                (None, _) => (
+                    (
+                        rng.random_range(0..=ex.max_i),
+                        rng.random_range(0..=ex.max_j),
+                    ),
+                    1,
+                    0.0,
+                ),
+                (Some(surface), _) => {
+                    let spec = GridSpec {
+                        dims: [g.patch_nodes + 1, g.patch_nodes + 1, nz],
+                        origin: origin.extend(ex.spec.origin.z),
+                        spacing: g.spacing,
+                    };
+                    let local = SdfGrid::from_surface(surface, &spec, params.band * g.spacing)?;
+                    let side = g.patch_nodes + 1;
+                    let mut nodes = Vec::new();
+                    for c in 0..nz {
+                        for b in 0..side {
+                            for a in 0..side {
+                                let in_left = overlap.left && a <= g.overlap_nodes;
+                                let in_bottom = overlap.bottom && b <= g.overlap_nodes;
+                                if in_left || in_bottom {
+                                    nodes.push(OverlapNode {
+                                        exemplar_offset: a + nx * (b + ex.spec.dims[1] * c),
+                                        neighbourhood_index: a + side * (b + side * c),
+                                    });
+                                }
+                            }
+                        }
+                    }
+                    let d = distances(
+                        vec4_field(&ex.field),
+                        nx,
+                        ex.max_i,
+                        ex.max_j,
+                        &nodes,
+                        vec4_field(&local),
+                    );
+                    let psi = candidates(&d, params.epsilon);
+                    let pick = psi[rng.random_range(0..psi.len())];
+                    let width = ex.max_i + 1;
+                    ((pick % width, pick / width), psi.len(), d[pick])
+                }
+            };
+            ctx.record_timing("search", t.elapsed());
+
+            // Step 3: F_k = tr(P ∪ E), extended by w_E / 2 for the warp.
+            let t = Instant::now();
+            let src_origin = ex.patch_origin(source.0, source.1);
+            let margin = if n_surface.is_some() && params.method == Method::Full {
+                0.5 * g.extra()
+            } else {
+                0.0
+            };
+            let span = g.patch() + g.extra();
+            let idx = ex.points_in(
+                src_origin - Vec2::splat(margin),
+                src_origin + Vec2::splat(span + margin),
+            );
+            let shift = (origin - src_origin).extend(0.0);
+            let mut f_points: Vec<Vec3> = idx.iter().map(|&i| ex.points[i] + shift).collect();
+            let mut f_normals: Vec<Vec3> = idx.iter().map(|&i| ex.normals[i]).collect();
+            let f_variation: Vec<f32> = idx.iter().map(|&i| ex.variation[i]).collect();
+            ctx.record_timing("other", t.elapsed());
+
+            // Steps 4–5.
+            let mut warp = WarpCounts {
+                skipped: true,
+                ..WarpCounts::default()
+            };
+            let mut blended = BlendCounts::default();
+            if let (Some(surface), Method::Full) = (&n_surface, params.method) {
+                let t = Instant::now();
+                let n_variation = surface_variation(surface.index(), 12)?;
+                let neighbourhood = Neighbourhood {
+                    points: &n_points,
+                    normals: &n_normals,
+                    variation: &n_variation,
+                };
+                warp = warp_patch(
+                    &mut f_points,
+                    &mut f_normals,
+                    &f_variation,
+                    &neighbourhood,
+                    &overlap,
+                    (origin, far),
+                    g.extra(),
+                    &params.clusters,
+                    &pairing,
+                    params.anchors_per_corner,
+                );
+                ctx.record_timing("warp", t.elapsed());
+                let t = Instant::now();
+                blended = blend(&mut f_points, &mut f_normals, &overlap, surface);
+                ctx.record_timing("blend", t.elapsed());
+            }
+
+            // Step 6: replace T_out inside B_k.
+            let t = Instant::now();
+            let b_k = Aabb::new(origin.extend(f32::MIN / 4.0), far.extend(f32::MAX / 4.0));
+            out.remove_inside_box(&b_k);
+            for (p, n) in f_points.iter().zip(&f_normals) {
+                if b_k.contains(*p) {
+                    out.insert(*p, (*n, k as u32))?;
+                }
+            }
+            ctx.record_timing("other", t.elapsed());
+            placements.push(Placement {
+                index: k,
+                cell: (col, row),
+                origin,
+                source,
+                candidates: count,
+                distance,
+                warp,
+                blend: blended,
+            });
+            ctx.report("quilt", (k + 1) as u64, Some(total as u64));
+        }
+    }
+
+    // Step 8: trim w_E along the border (keep the requested output box), then relax. The
+    // box's height is the exemplar's, widened by the overlap width: warps may move geometry
+    // that far; anything beyond is trimmed too.
+    let t = Instant::now();
+    let zlo = ex.bounds.min.z - g.overlap();
+    let zhi = ex.bounds.max.z + g.overlap();
+    let (mut pts, mut nrm, mut patch) = (Vec::new(), Vec::new(), Vec::new());
+    for (_, p, (n, id)) in out.iter() {
+        let q = p.truncate();
+        if q.cmpge(layout.out_lo).all() && q.cmple(layout.out_hi).all() && p.z >= zlo && p.z <= zhi
+        {
+            pts.push(p);
+            nrm.push(*n);
+            patch.push(*id as f32);
+        }
+    }
+    if pts.is_empty() {
+        return Err(QuiltError::InvalidTexture {
+            reason: "the synthesis produced no points inside the output box".into(),
+        });
+    }
+    let mut relaxation_spread = None;
+    if params.relaxation_rounds > 0 {
+        let set = PointSet::new(pts.clone())?.with_normals(nrm.clone())?;
+        let surface = MlsSurface::new(&set, &mls)?;
+        let relaxed = relax(
+            &surface,
+            &pts,
+            &RelaxParams::default().iterations(params.relaxation_rounds),
+        )?;
+        relaxation_spread = Some((relaxed.spread_before, relaxed.spread_after));
+        pts = relaxed.positions;
+        nrm = relaxed.normals;
+    }
+    let up = texture.up();
+    let world_p: Vec<Vec3> = pts.iter().map(|&p| up.to_world(p)).collect();
+    let world_n: Vec<Vec3> = nrm.iter().map(|&n| up.to_world(n)).collect();
+    let points = PointSet::new(world_p)?
+        .with_normals(world_n)?
+        .with_attribute(Attribute::new("patch", patch).with_storage(ScalarType::I32))?;
+    let lo = layout.out_lo.extend(zlo);
+    let hi = layout.out_hi.extend(zhi);
+    let bounds = Aabb::new(up.to_world(lo), up.to_world(hi));
+    ctx.record_timing("other", t.elapsed());
+
+    let searched: Vec<&Placement> = placements
+        .iter()
+        .filter(|p| p.distance > 0.0 || p.candidates > 1)
+        .collect();
+    let warped: Vec<&Placement> = placements.iter().filter(|p| !p.warp.skipped).collect();
+    let mean = |v: &[f64]| {
+        if v.is_empty() {
+            0.0
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
+    let stats = QuiltStats {
+        patches: placements.len(),
+        mean_candidates: mean(
+            &searched
+                .iter()
+                .map(|p| p.candidates as f64)
+                .collect::<Vec<_>>(),
+        ),
+        mean_pairs: mean(
+            &warped
+                .iter()
+                .map(|p| p.warp.pairs as f64)
+                .collect::<Vec<_>>(),
+        ),
+        warps_skipped: placements
+            .iter()
+            .filter(|p| p.index > 0 && p.warp.skipped)
+            .count(),
+        field_dims: ex.spec.dims,
+        field_bytes: ex.field_bytes(),
+        geometry: g,
+        input_points: ex.points.len(),
+        output_points: points.len(),
+        relaxation_spread,
+    };
+    Ok(QuiltOutput {
+        points,
+        bounds,
+        placements,
+        stats,
+    })
+}

@@ -1,0 +1,83 @@
+//! Step 2: the candidate set `Ψ_k` by exhaustive comparison of distance fields over the
+//! overlap region (paper 000 §5.1).
+
+use glam::Vec4;
+use rayon::prelude::*;
+
+/// One overlap node: its linear offset in `D(T_in)` relative to a patch's corner node, and
+/// its index in the neighbourhood's field.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct OverlapNode {
+    pub exemplar_offset: usize,
+    pub neighbourhood_index: usize,
+}
+
+/// The distances `d(O^N, O^P) = ‖D(O^N) − D(O^P)‖²` (distance and gradient channels) for
+/// every patch offset `(i, j)`, `0 ≤ i ≤ max_i`, `0 ≤ j ≤ max_j`, row-major in `j`.
+pub(crate) fn distances(
+    exemplar: &[Vec4],
+    nx: usize,
+    max_i: usize,
+    max_j: usize,
+    overlap: &[OverlapNode],
+    neighbourhood: &[Vec4],
+) -> Vec<f32> {
+    let width = max_i + 1;
+    (0..width * (max_j + 1))
+        .into_par_iter()
+        .map(|c| {
+            let base = c % width + nx * (c / width);
+            overlap
+                .iter()
+                .map(|o| {
+                    (exemplar[base + o.exemplar_offset] - neighbourhood[o.neighbourhood_index])
+                        .length_squared()
+                })
+                .sum()
+        })
+        .collect()
+}
+
+/// `Ψ = {P | d(P) ≤ (1 + ε) min d}` as indices into `d`, ascending.
+pub(crate) fn candidates(d: &[f32], epsilon: f32) -> Vec<usize> {
+    let best = d.iter().copied().fold(f32::INFINITY, f32::min);
+    let limit = best * (1.0 + epsilon);
+    (0..d.len()).filter(|&c| d[c] <= limit).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candidate_set_respects_epsilon() {
+        let d = [5.0, 1.0, 1.05, 1.2, 0.99 * 1.1, 3.0];
+        assert_eq!(candidates(&d, 0.1), vec![1, 2, 4]);
+        assert_eq!(candidates(&d, 0.0), vec![1]);
+        assert_eq!(candidates(&[0.0, 0.0, 1.0], 0.5), vec![0, 1]);
+    }
+
+    #[test]
+    fn distances_compare_the_overlap_only() {
+        // A 4×1×1 exemplar field; the neighbourhood matches offset 2 exactly.
+        let ex = [
+            Vec4::splat(0.0),
+            Vec4::splat(1.0),
+            Vec4::splat(2.0),
+            Vec4::splat(3.0),
+        ];
+        let overlap = [
+            OverlapNode {
+                exemplar_offset: 0,
+                neighbourhood_index: 0,
+            },
+            OverlapNode {
+                exemplar_offset: 1,
+                neighbourhood_index: 1,
+            },
+        ];
+        let nb = [Vec4::splat(2.0), Vec4::splat(3.0)];
+        let d = distances(&ex, 4, 2, 0, &overlap, &nb);
+        assert_eq!(d, vec![32.0, 8.0, 0.0]);
+    }
+}

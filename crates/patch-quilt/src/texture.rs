@@ -1,0 +1,178 @@
+//! Geometry textures (paper 000 §3): oriented points, a box, a reference plane.
+
+use glam::{Vec2, Vec3};
+use pointset_core::{Aabb, HeightField, PointSet};
+
+use crate::error::{QuiltError, Result};
+
+/// The axis normal to the reference plane (the texture's "up").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum UpAxis {
+    /// The reference plane is YZ.
+    X,
+    /// The reference plane is ZX.
+    Y,
+    /// The reference plane is XY (height fields); the default.
+    #[default]
+    Z,
+}
+
+impl UpAxis {
+    /// World → canonical frame (up becomes +Z; a cyclic permutation, so orientation is kept).
+    pub(crate) fn to_canonical(self, v: Vec3) -> Vec3 {
+        match self {
+            UpAxis::X => Vec3::new(v.y, v.z, v.x),
+            UpAxis::Y => Vec3::new(v.z, v.x, v.y),
+            UpAxis::Z => v,
+        }
+    }
+
+    /// Canonical frame → world.
+    pub(crate) fn to_world(self, v: Vec3) -> Vec3 {
+        match self {
+            UpAxis::X => Vec3::new(v.z, v.x, v.y),
+            UpAxis::Y => Vec3::new(v.y, v.z, v.x),
+            UpAxis::Z => v,
+        }
+    }
+}
+
+/// An input geometry texture `T_in`: an oriented point set, its box `B_Tin` and the
+/// reference plane. The geometry must extend beyond the box in the plane's directions
+/// (padding): the distance fields near the box's sides and the extra region `E_k` of each
+/// patch come from it.
+///
+/// Internally everything is stored in a canonical frame where the up axis is +Z.
+#[derive(Debug, Clone)]
+pub struct GeometryTexture {
+    points: PointSet,
+    bounds: Aabb,
+    up: UpAxis,
+    padding: f32,
+}
+
+impl GeometryTexture {
+    /// A texture from oriented points (in world coordinates), the box and the up axis.
+    ///
+    /// Errors: no normals, fewer than 16 points, a box with zero extent, no points inside it.
+    pub fn new(points: &PointSet, bounds: Aabb, up: UpAxis) -> Result<Self> {
+        let normals = points.normals().ok_or_else(|| QuiltError::InvalidTexture {
+            reason: "the exemplar has no normals; patch quilting needs oriented points".into(),
+        })?;
+        if points.len() < 16 {
+            return Err(QuiltError::InvalidTexture {
+                reason: format!("{} points are too few for a texture", points.len()),
+            });
+        }
+        let lo = up.to_canonical(bounds.min);
+        let hi = up.to_canonical(bounds.max);
+        let canonical_bounds = Aabb::new(lo, hi);
+        if canonical_bounds.extent().min_element() <= 0.0 || !canonical_bounds.extent().is_finite()
+        {
+            return Err(QuiltError::InvalidTexture {
+                reason: format!("the box {bounds:?} has no volume"),
+            });
+        }
+        let p: Vec<Vec3> = points
+            .positions()
+            .iter()
+            .map(|&v| up.to_canonical(v))
+            .collect();
+        let n: Vec<Vec3> = normals.iter().map(|&v| up.to_canonical(v)).collect();
+        if !p.iter().any(|q| canonical_bounds.contains(*q)) {
+            return Err(QuiltError::InvalidTexture {
+                reason: "no point lies inside the box".into(),
+            });
+        }
+        let all = Aabb::from_points(&p).unwrap_or(canonical_bounds);
+        let padding = [
+            canonical_bounds.min.x - all.min.x,
+            canonical_bounds.min.y - all.min.y,
+            all.max.x - canonical_bounds.max.x,
+            all.max.y - canonical_bounds.max.y,
+        ]
+        .into_iter()
+        .fold(f32::MAX, f32::min)
+        .max(0.0);
+        let mut canonical = PointSet::new(p)?.with_normals(n)?;
+        for a in points.attributes() {
+            canonical.set_attribute(a.clone())?;
+        }
+        Ok(Self {
+            points: canonical,
+            bounds: canonical_bounds,
+            up,
+            padding,
+        })
+    }
+
+    /// Samples a height field `z = scale · h(x, y)` as oriented points (one per sample, at
+    /// `spacing` apart, Z up). The outer `padding` samples on every side are padding: the box
+    /// covers the inner samples and the full height range.
+    pub fn from_heightfield(
+        field: &HeightField,
+        spacing: f32,
+        scale: f32,
+        padding: usize,
+    ) -> Result<Self> {
+        if !(spacing.is_finite() && spacing > 0.0 && scale.is_finite()) {
+            return Err(crate::error::invalid(
+                "spacing/scale",
+                format!("{spacing}/{scale}"),
+                "a positive spacing and a finite scale",
+            ));
+        }
+        if 2 * padding + 2 > field.width().min(field.height()) {
+            return Err(crate::error::invalid(
+                "padding",
+                padding,
+                format!(
+                    "fewer than half of the {}x{} samples",
+                    field.width(),
+                    field.height()
+                ),
+            ));
+        }
+        let points = field.to_points(spacing, scale)?;
+        let (lo, hi) = field.range();
+        let (zlo, zhi) = if scale >= 0.0 {
+            (lo * scale, hi * scale)
+        } else {
+            (hi * scale, lo * scale)
+        };
+        let margin = 0.05 * (zhi - zlo).max(spacing);
+        let pad = padding as f32 * spacing;
+        let max_x = (field.width() - 1) as f32 * spacing - pad;
+        let max_y = (field.height() - 1) as f32 * spacing - pad;
+        let bounds = Aabb::new(
+            Vec3::new(pad, pad, zlo - margin),
+            Vec3::new(max_x, max_y, zhi + margin),
+        );
+        Self::new(&points, bounds, UpAxis::Z)
+    }
+
+    /// The points in the canonical frame (up = +Z).
+    pub fn canonical_points(&self) -> &PointSet {
+        &self.points
+    }
+
+    /// The box in the canonical frame.
+    pub fn canonical_bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// The up axis.
+    pub fn up(&self) -> UpAxis {
+        self.up
+    }
+
+    /// Smallest extent of the geometry beyond the box, over the four in-plane sides.
+    pub fn padding(&self) -> f32 {
+        self.padding
+    }
+
+    /// Footprint of the box on the reference plane (canonical x, y).
+    pub fn footprint(&self) -> (Vec2, Vec2) {
+        (self.bounds.min.truncate(), self.bounds.max.truncate())
+    }
+}

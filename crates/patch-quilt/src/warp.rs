@@ -1,0 +1,139 @@
+//! Step 4: warping the translated patch onto its neighbourhood with a thin-plate spline
+//! driven by the automatic pairing (paper 000 §5.2).
+
+use glam::{Vec2, Vec3};
+use mls_surface::{ClusterParams, adaptive_clusters};
+use pointset_core::Aabb;
+use tps_warp::{PairingParams, PairingPoint, TpsParams, anchors_in_regions, pair_and_fit};
+
+use crate::blend::Overlap;
+
+/// The neighbourhood `N_k` as oriented points with surface variation.
+pub(crate) struct Neighbourhood<'a> {
+    pub points: &'a [Vec3],
+    pub normals: &'a [Vec3],
+    pub variation: &'a [f32],
+}
+
+/// What one warp did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct WarpCounts {
+    /// Pairs used (anchors not included).
+    pub pairs: usize,
+    /// Anchor points mapped to themselves.
+    pub anchors: usize,
+    /// Targets `|Q|`.
+    pub targets: usize,
+    /// `C(Φ)` of the pairing.
+    pub cost: f64,
+    /// True when the patch was left unwarped (fewer than 4 pairs or a degenerate system).
+    pub skipped: bool,
+}
+
+/// Warps `points`/`normals` (the extended, translated `F_k` = `S`) in place.
+///
+/// `Q` = representatives of adaptive clusters of the neighbourhood's points inside the
+/// overlap region; anchors = up to `anchors_per_corner` points of `S` in each `w_E × w_E`
+/// corner of `B_k`'s footprint that does not touch the overlap. A patch with fewer than four
+/// pairs, or whose spline cannot be fitted, is left unwarped (reported, not an error).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn warp_patch(
+    points: &mut [Vec3],
+    normals: &mut [Vec3],
+    variation: &[f32],
+    neighbourhood: &Neighbourhood<'_>,
+    overlap: &Overlap,
+    footprint: (Vec2, Vec2),
+    corner: f32,
+    clusters: &ClusterParams,
+    pairing: &PairingParams,
+    anchors_per_corner: usize,
+) -> WarpCounts {
+    let in_overlap: Vec<usize> = (0..neighbourhood.points.len())
+        .filter(|&i| overlap.contains(neighbourhood.points[i].truncate()))
+        .collect();
+    let positions: Vec<Vec3> = in_overlap
+        .iter()
+        .map(|&i| neighbourhood.points[i])
+        .collect();
+    let Ok(groups) = adaptive_clusters(&positions, clusters) else {
+        return WarpCounts {
+            skipped: true,
+            ..WarpCounts::default()
+        };
+    };
+    let q: Vec<PairingPoint> = groups
+        .iter()
+        .map(|c| {
+            let i = in_overlap[c.representative];
+            PairingPoint {
+                position: neighbourhood.points[i],
+                normal: neighbourhood.normals[i],
+                variation: neighbourhood.variation[i],
+            }
+        })
+        .collect();
+    let s: Vec<PairingPoint> = (0..points.len())
+        .map(|i| PairingPoint {
+            position: points[i],
+            normal: normals[i],
+            variation: variation[i],
+        })
+        .collect();
+    let (lo, hi) = footprint;
+    let corners = [
+        Vec2::new(lo.x, lo.y),
+        Vec2::new(hi.x - corner, lo.y),
+        Vec2::new(lo.x, hi.y - corner),
+        Vec2::new(hi.x - corner, hi.y - corner),
+    ];
+    let free: Vec<Aabb> = corners
+        .iter()
+        .filter(|c| {
+            let probes = [
+                **c,
+                **c + Vec2::new(corner, 0.0),
+                **c + Vec2::new(0.0, corner),
+                **c + Vec2::splat(corner),
+                **c + Vec2::splat(0.5 * corner),
+            ];
+            !probes
+                .iter()
+                .any(|p| overlap.contains(*p) || overlap.ramp(*p) > 0.0)
+        })
+        .map(|c| {
+            Aabb::new(
+                c.extend(f32::MIN / 4.0),
+                (*c + Vec2::splat(corner)).extend(f32::MAX / 4.0),
+            )
+        })
+        .collect();
+    let anchors = anchors_in_regions(points, &free, anchors_per_corner);
+    let mut counts = WarpCounts {
+        targets: q.len(),
+        anchors: anchors.len(),
+        skipped: true,
+        ..WarpCounts::default()
+    };
+    if q.len() < 4 {
+        return counts;
+    }
+    let Ok(fitted) = pair_and_fit(&s, &q, &anchors, pairing, &TpsParams::default()) else {
+        return counts;
+    };
+    counts.pairs = fitted.pairing.pairs.len();
+    counts.cost = fitted.pairing.cost;
+    if counts.pairs < 4 {
+        return counts;
+    }
+    let (moved, turned) = fitted.spline.warp(points, Some(normals));
+    if moved.iter().any(|p| !p.is_finite()) {
+        return counts;
+    }
+    points.copy_from_slice(&moved);
+    if let Some(n) = turned {
+        normals.copy_from_slice(&n);
+    }
+    counts.skipped = false;
+    counts
+}
