@@ -163,6 +163,6 @@ impl Exemplar {
 
     /// Memory held by `D(T_in)` in bytes.
     pub fn field_bytes(&self) -> usize {
-        self.field.grid().data().len() * std::mem::size_of::<glam::Vec4>()
+        std::mem::size_of_val(self.field.grid().data())
     }
 }
