@@ -18,6 +18,17 @@ pub enum Error {
     /// From `tps-warp`.
     #[error(transparent)]
     Tps(#[from] tps_warp::TpsError),
+    /// From `patch-quilt`.
+    #[error(transparent)]
+    Quilt(#[from] patch_quilt::QuiltError),
+    /// A geometry texture file whose box comment cannot be parsed.
+    #[error("{path}: {message}")]
+    TextureFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// Encoding or writing an image failed.
     #[error("cannot write image {path}: {source}")]
     Image {

@@ -11,13 +11,14 @@
 //! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation |
 //! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
 //! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |
+//! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
 //! | [`imagery`] | (facade) | textures and height fields from PNG/JPEG/raw `f32` files |
 //!
-//! The synthesis families (papers 000–004) arrive as further modules — `quilt`, `voxel`,
-//! `texmesh`, `structure` — each exposed as a [`Stage`].
+//! The synthesis families are modules exposed as [`Stage`]s: [`quilt`] (paper 000) today;
+//! `voxel`, `texmesh` and `structure` arrive with their issues.
 //!
 //! ## Cookbook: read, inspect, render
 //!
@@ -72,6 +73,7 @@ mod error;
 pub mod fixtures;
 pub mod imagery;
 pub mod preview;
+pub mod quilt;
 pub mod reconstruct;
 
 /// Shared types, I/O and spatial indices (the `pointset-core` crate).

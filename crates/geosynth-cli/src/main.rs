@@ -36,6 +36,8 @@ enum Command {
     /// Warp a point set or mesh with a thin-plate spline through given pairs (normals are
     /// transported through the spline's Jacobian).
     Warp(commands::warp::WarpArgs),
+    /// Grow a geometry texture by patch-based synthesis (paper 000).
+    Quilt(commands::quilt::QuiltArgs),
     /// Write the procedural exemplars used by the tests and the demo.
     Fixtures(commands::fixtures::FixturesArgs),
     /// Run every available synthesis family on the bundled fixtures; write results,
@@ -71,6 +73,7 @@ fn main() -> ExitCode {
         Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(&args, globals),
         Command::Sdf(args) => commands::reconstruct::run_sdf(&args, globals),
         Command::Warp(args) => commands::warp::run(&args, globals),
+        Command::Quilt(args) => commands::quilt::run(&args, globals),
         Command::Fixtures(args) => commands::fixtures::run(&args, globals),
         Command::Demo(args) => commands::demo::run(&args, globals),
     };

@@ -30,12 +30,22 @@ impl Overlap {
 
     /// The ramp of Figure 3c: 1 at the overlap's outer edge (fully the neighbourhood), falling
     /// linearly to 0 at its inner edge (fully the patch), 0 beyond; the larger of the two
-    /// strips' values. Points outside the patch on the overlap side get 1.
+    /// strips' values. A strip runs along the patch's side only (not into the extra region
+    /// `E_k` beyond it, which the next row or column overwrites); points outside the patch on
+    /// the overlap side get 1.
     pub fn ramp(&self, q: Vec2) -> f32 {
         let d = q - self.origin;
         let strip = |u: f32| (1.0 - u / self.width).clamp(0.0, 1.0);
-        let left = if self.left { strip(d.x) } else { 0.0 };
-        let bottom = if self.bottom { strip(d.y) } else { 0.0 };
+        let left = if self.left && d.y <= self.patch {
+            strip(d.x)
+        } else {
+            0.0
+        };
+        let bottom = if self.bottom && d.x <= self.patch {
+            strip(d.y)
+        } else {
+            0.0
+        };
         left.max(bottom)
     }
 }
@@ -126,5 +136,8 @@ mod tests {
         let l = Overlap { bottom: true, ..o };
         assert_eq!(l.ramp(Vec2::new(3.0, 0.25)), 0.75);
         assert!(l.contains(Vec2::new(2.0, 0.5)));
+        // The strips stop at the patch's sides: the extra region beyond is not overlap.
+        assert_eq!(l.ramp(Vec2::new(0.2, 4.5)), 0.0);
+        assert_eq!(l.ramp(Vec2::new(4.5, 0.2)), 0.0);
     }
 }

@@ -137,7 +137,7 @@ pub fn quilt(
     let pairing = params
         .pairing
         .clone()
-        .unwrap_or_else(|| PairingParams::default().max_distance(g.overlap()));
+        .unwrap_or_else(|| PairingParams::default().max_distance(params.pair_distance * g.spacing));
     let mls = MlsParams::default().kernel(ex.kernel);
     let [nx, _, nz] = ex.spec.dims;
     let total = layout.cols * layout.rows;
@@ -282,6 +282,8 @@ pub fn quilt(
                     &params.clusters,
                     &pairing,
                     params.anchors_per_corner,
+                    params.warp_targets,
+                    f64::from(params.smoothing * g.patch()),
                 );
                 ctx.record_timing("warp", t.elapsed());
                 let t = Instant::now();

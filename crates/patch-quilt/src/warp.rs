@@ -4,9 +4,12 @@
 use glam::{Vec2, Vec3};
 use mls_surface::{ClusterParams, adaptive_clusters};
 use pointset_core::Aabb;
-use tps_warp::{PairingParams, PairingPoint, TpsParams, anchors_in_regions, pair_and_fit};
+use tps_warp::{
+    PairingParams, PairingPoint, ThinPlateSpline, TpsParams, anchors_in_regions, pair_points,
+};
 
 use crate::blend::Overlap;
+use crate::params::WarpTargets;
 
 /// The neighbourhood `N_k` as oriented points with surface variation.
 pub(crate) struct Neighbourhood<'a> {
@@ -28,14 +31,21 @@ pub struct WarpCounts {
     pub cost: f64,
     /// True when the patch was left unwarped (fewer than 4 pairs or a degenerate system).
     pub skipped: bool,
+    /// Mean distance the warp moved the points.
+    pub mean_displacement: f32,
+    /// Largest distance the warp moved a point.
+    pub max_displacement: f32,
+    /// Mean length of the spline's pair displacements (after [`WarpTargets`]).
+    pub mean_pair_length: f32,
 }
 
 /// Warps `points`/`normals` (the extended, translated `F_k` = `S`) in place.
 ///
 /// `Q` = representatives of adaptive clusters of the neighbourhood's points inside the
 /// overlap region; anchors = up to `anchors_per_corner` points of `S` in each `w_E × w_E`
-/// corner of `B_k`'s footprint that does not touch the overlap. A patch with fewer than four
-/// pairs, or whose spline cannot be fitted, is left unwarped (reported, not an error).
+/// corner of `B_k`'s footprint that does not touch the overlap. The spline maps each paired
+/// source to its target ([`WarpTargets`]). A patch with fewer than four pairs, or whose
+/// spline cannot be fitted, is left unwarped (reported, not an error).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn warp_patch(
     points: &mut [Vec3],
@@ -48,6 +58,8 @@ pub(crate) fn warp_patch(
     clusters: &ClusterParams,
     pairing: &PairingParams,
     anchors_per_corner: usize,
+    targets: WarpTargets,
+    smoothing: f64,
 ) -> WarpCounts {
     let in_overlap: Vec<usize> = (0..neighbourhood.points.len())
         .filter(|&i| overlap.contains(neighbourhood.points[i].truncate()))
@@ -118,18 +130,52 @@ pub(crate) fn warp_patch(
     if q.len() < 4 {
         return counts;
     }
-    let Ok(fitted) = pair_and_fit(&s, &q, &anchors, pairing, &TpsParams::default()) else {
+    let Ok(pairing) = pair_points(&s, &q, pairing) else {
         return counts;
     };
-    counts.pairs = fitted.pairing.pairs.len();
-    counts.cost = fitted.pairing.cost;
+    counts.pairs = pairing.pairs.len();
+    counts.cost = pairing.cost;
     if counts.pairs < 4 {
         return counts;
     }
-    let (moved, turned) = fitted.spline.warp(points, Some(normals));
+    let mut from: Vec<Vec3> = pairing.pairs.iter().map(|p| s[p.source].position).collect();
+    let mut to: Vec<Vec3> = pairing
+        .pairs
+        .iter()
+        .map(|p| {
+            let (source, target) = (s[p.source].position, q[p.target]);
+            match targets {
+                WarpTargets::Exact => target.position,
+                WarpTargets::NormalOffset => {
+                    source + (target.position - source).dot(target.normal) * target.normal
+                }
+            }
+        })
+        .collect();
+    counts.mean_pair_length = from
+        .iter()
+        .zip(&to)
+        .map(|(a, b)| a.distance(*b))
+        .sum::<f32>()
+        / counts.pairs as f32;
+    from.extend_from_slice(&anchors);
+    to.extend_from_slice(&anchors);
+    let Ok(spline) = ThinPlateSpline::fit(&from, &to, &TpsParams::default().smoothing(smoothing))
+    else {
+        return counts;
+    };
+    let fitted = spline;
+    let (moved, turned) = fitted.warp(points, Some(normals));
     if moved.iter().any(|p| !p.is_finite()) {
         return counts;
     }
+    let shifts: Vec<f32> = moved
+        .iter()
+        .zip(points.iter())
+        .map(|(a, b)| a.distance(*b))
+        .collect();
+    counts.mean_displacement = shifts.iter().sum::<f32>() / shifts.len().max(1) as f32;
+    counts.max_displacement = shifts.iter().copied().fold(0.0, f32::max);
     points.copy_from_slice(&moved);
     if let Some(n) = turned {
         normals.copy_from_slice(&n);

@@ -1,0 +1,335 @@
+//! `geosynth quilt`: patch-based geometry texture synthesis (paper 000).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::imagery;
+use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
+use geosynth::quilt::{
+    GeometryTexture, Method, OutputSize, QualityReport, QuiltOutput, QuiltParams, UpAxis,
+    WarpTargets, evaluate, quilt, read_texture,
+};
+use geosynth::tps::{PairingParams, Table1Preset};
+use geosynth::{ProgressUpdate, RunContext};
+use serde_json::{Value, json};
+
+use crate::output::{progress_bar, status};
+use crate::{CliResult, Globals};
+
+/// Which parts of the algorithm run.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum MethodArg {
+    /// Search, warp, blend (the paper).
+    Full,
+    /// Best-matching patches pasted without warp or blend.
+    Search,
+    /// Random patches pasted (no search, warp or blend).
+    Random,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Full => Method::Full,
+            MethodArg::Search => Method::SearchOnly,
+            MethodArg::Random => Method::RandomPlacement,
+        }
+    }
+}
+
+/// Table 1 weight presets.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum PresetArg {
+    /// w_n 3, w_v 30, w_l 9, w_d 7.
+    Heightfield,
+    /// w_n 1, w_v 10, w_l 8, w_d 6.
+    ChainMail,
+    /// w_n 2, w_v 15, w_l 6, w_d 5.
+    Weave,
+    /// w_n 2, w_v 2, w_l 6, w_d 6.
+    Flowers,
+}
+
+/// Arguments of `geosynth quilt`.
+#[derive(Debug, Args)]
+pub struct QuiltArgs {
+    /// Geometry texture: an oriented point set whose comments give `texture_box` and
+    /// `texture_up` (as `geosynth fixtures` writes them); otherwise the box is the points'
+    /// box inset by a sixth on every side.
+    #[arg(required_unless_present = "heightfield")]
+    exemplar: Option<PathBuf>,
+    /// Use a height field instead (PNG 8/16-bit or raw `name_WxH.f32le`): sampled as points
+    /// over a 4 × 4 box, relief 0.4, the outer sixth of the samples as padding.
+    #[arg(long, conflicts_with = "exemplar")]
+    heightfield: Option<PathBuf>,
+    /// Output point set (.ply, .obj, .off).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Output width and depth in world units, `W,H`.
+    #[arg(long, value_parser = parse_size, conflicts_with = "scale")]
+    size: Option<(f32, f32)>,
+    /// Output extent as a multiple of the exemplar's box (default 2).
+    #[arg(long)]
+    scale: Option<f32>,
+    /// Seed of every random choice.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Which parts of the algorithm run.
+    #[arg(long, value_enum, default_value_t = MethodArg::Full)]
+    method: MethodArg,
+    /// Pairing weights of a Table 1 row (default: height field).
+    #[arg(long, value_enum)]
+    preset: Option<PresetArg>,
+    /// Nodes of the exemplar's distance field along its longer side.
+    #[arg(long, default_value_t = 48)]
+    resolution: usize,
+    /// Patch size as a fraction of the exemplar box's smaller side.
+    #[arg(long, default_value_t = 0.4)]
+    patch: f32,
+    /// Largest pair length of the warp, in distance-field spacings.
+    #[arg(long, default_value_t = 0.5)]
+    pair_distance: f32,
+    /// Warp paired points by the normal component of their offset only (not in the paper;
+    /// see docs/patch-quilt.md).
+    #[arg(long)]
+    normal_offsets: bool,
+    /// Smoothing λ of the warp's spline, relative to the patch size (0 = interpolate).
+    #[arg(long, default_value_t = 0.0)]
+    smoothing: f32,
+    /// Relaxation rounds after synthesis.
+    #[arg(long, default_value_t = 0)]
+    relax: usize,
+    /// Write a JSON report (timings, counts, quality).
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Also run and measure the random-placement and search-only baselines for the report.
+    #[arg(long)]
+    baselines: bool,
+    /// Render exemplar | output to a PNG.
+    #[arg(long)]
+    preview: Option<PathBuf>,
+}
+
+fn parse_size(s: &str) -> Result<(f32, f32), String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{s}` is not W,H"))?;
+    match parts[..] {
+        [w, h] if w > 0.0 && h > 0.0 => Ok((w, h)),
+        _ => Err(format!("`{s}` needs two positive numbers W,H")),
+    }
+}
+
+/// Loads the texture named by the arguments.
+fn load(args: &QuiltArgs) -> CliResult<GeometryTexture> {
+    if let Some(path) = &args.heightfield {
+        let field = imagery::read_heightfield(path)?;
+        let (lo, hi) = field.range();
+        let spacing = 4.0 / (field.width().max(field.height()) - 1) as f32;
+        let scale = if hi > lo { 0.4 / (hi - lo) } else { 1.0 };
+        let padding = field.width().min(field.height()) / 6;
+        return Ok(GeometryTexture::from_heightfield(
+            &field, spacing, scale, padding,
+        )?);
+    }
+    let path = args
+        .exemplar
+        .as_deref()
+        .ok_or("an exemplar or --heightfield is needed")?;
+    Ok(read_texture(path)?)
+}
+
+/// One measured run: the output, its timings and its quality.
+pub struct MeasuredRun {
+    /// The synthesis result.
+    pub output: QuiltOutput,
+    /// `(stage, seconds)` in first-use order.
+    pub timings: Vec<(String, f64)>,
+    /// Wall time of the synthesis.
+    pub seconds: f64,
+    /// Quality against the exemplar.
+    pub quality: QualityReport,
+}
+
+/// Runs `quilt` with a progress bar, then measures it.
+pub fn measured_run(
+    texture: &GeometryTexture,
+    params: &QuiltParams,
+    globals: Globals,
+    label: &str,
+) -> CliResult<MeasuredRun> {
+    let bar = progress_bar(globals, 1, label);
+    let sink = bar.clone();
+    let mut ctx = RunContext::new(params.seed).with_progress(move |u: &ProgressUpdate<'_>| {
+        if let Some(total) = u.total {
+            sink.set_length(total);
+        }
+        sink.set_position(u.done);
+    });
+    let start = Instant::now();
+    let output = quilt(texture, params, &mut ctx)?;
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let quality = evaluate(texture, &output, params, 48)?;
+    let timings = ctx
+        .timings()
+        .iter()
+        .map(|(n, d)| (n.clone(), d.as_secs_f64()))
+        .collect();
+    Ok(MeasuredRun {
+        output,
+        timings,
+        seconds,
+        quality,
+    })
+}
+
+fn mean(values: impl Iterator<Item = f32>) -> f32 {
+    let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    if n == 0 { 0.0 } else { sum / n as f32 }
+}
+
+/// A run as JSON.
+pub fn run_json(run: &MeasuredRun) -> Value {
+    let s = &run.output.stats;
+    let q = &run.quality;
+    json!({
+        "seconds": run.seconds,
+        "timings": run.timings.iter().map(|(n, t)| json!({"stage": n, "seconds": t})).collect::<Vec<_>>(),
+        "patches": s.patches,
+        "mean_candidates": s.mean_candidates,
+        "mean_pairs": s.mean_pairs,
+        "warps_skipped": s.warps_skipped,
+        "warp_displacement": {
+            "mean": mean(run.output.placements.iter().filter(|p| !p.warp.skipped).map(|p| p.warp.mean_displacement)),
+            "max": run.output.placements.iter().map(|p| p.warp.max_displacement).fold(0.0f32, f32::max),
+            "mean_pair_length": mean(run.output.placements.iter().filter(|p| !p.warp.skipped).map(|p| p.warp.mean_pair_length)),
+        },
+        "input_points": s.input_points,
+        "output_points": s.output_points,
+        "field_dims": s.field_dims,
+        "field_bytes": s.field_bytes,
+        "relaxation_spread": s.relaxation_spread,
+        "quality": {
+            "neighbourhood_error": q.neighbourhood_error,
+            "seam_error": q.seam_error,
+            "interior_error": q.interior_error,
+            "largest_empty_disc": q.largest_empty_disc,
+            "exemplar_largest_empty_disc": q.exemplar_largest_empty_disc,
+            "windows_per_class": q.windows,
+        },
+    })
+}
+
+/// Renders exemplar | result panels (Z-up textures are viewed with Z up).
+pub fn texture_preview(
+    texture: &GeometryTexture,
+    outputs: &[&QuiltOutput],
+    path: &Path,
+    w: u32,
+    h: u32,
+) -> CliResult {
+    let up = match texture.up() {
+        UpAxis::X | UpAxis::Y => ViewUp::Y,
+        UpAxis::Z => ViewUp::Z,
+    };
+    let exemplar = Geometry::Points(texture.canonical_points().clone());
+    let results: Vec<Geometry> = outputs
+        .iter()
+        .map(|o| Geometry::Points(o.points.clone()))
+        .collect();
+    let mut panels = vec![Panel::Geometry(&exemplar, ViewUp::Z)];
+    panels.extend(results.iter().map(|g| Panel::Geometry(g, up)));
+    let image = preview::render_panels(
+        &panels,
+        &RenderOptions::default().size(w, h).view(30.0, 40.0),
+    )?;
+    preview::save_png(&image, path)?;
+    Ok(())
+}
+
+/// Runs `geosynth quilt`.
+pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
+    let texture = load(args)?;
+    let output = match (args.size, args.scale) {
+        (Some((w, h)), _) => OutputSize::Absolute(w, h),
+        (None, Some(s)) => OutputSize::Scale(s),
+        (None, None) => OutputSize::Scale(2.0),
+    };
+    let mut params = QuiltParams::default()
+        .output(output)
+        .seed(args.seed)
+        .method(args.method.into())
+        .field_resolution(args.resolution)
+        .patch_size(args.patch)
+        .relaxation_rounds(args.relax)
+        .pair_distance(args.pair_distance)
+        .smoothing(args.smoothing);
+    if args.normal_offsets {
+        params = params.warp_targets(WarpTargets::NormalOffset);
+    }
+    if let Some(p) = args.preset {
+        let preset = match p {
+            PresetArg::Heightfield => Table1Preset::HeightField,
+            PresetArg::ChainMail => Table1Preset::ChainMail,
+            PresetArg::Weave => Table1Preset::Weave,
+            PresetArg::Flowers => Table1Preset::Flowers,
+        };
+        params = params.pairing(PairingParams::table1(preset));
+    }
+    params.validate()?;
+    let main = measured_run(&texture, &params, globals, "patches")?;
+    let mut comments = vec![format!(
+        "quilted by geosynth (seed {}, {:?})",
+        args.seed, params.method
+    )];
+    comments.extend(geosynth::quilt::texture_comments(
+        &main.output.bounds,
+        texture.up(),
+    ));
+    let mut options = WriteOptions::default();
+    for c in comments {
+        options = options.comment(c);
+    }
+    io::write_geometry(
+        &args.output,
+        &Geometry::Points(main.output.points.clone()),
+        &options,
+    )?;
+    if let Some(path) = &args.preview {
+        texture_preview(&texture, &[&main.output], path, 480, 360)?;
+    }
+    if let Some(path) = &args.report {
+        let mut report = json!({ "method": format!("{:?}", params.method), "seed": args.seed, "run": run_json(&main) });
+        if args.baselines {
+            for (name, method) in [
+                ("search_only", Method::SearchOnly),
+                ("random_placement", Method::RandomPlacement),
+            ] {
+                let baseline =
+                    measured_run(&texture, &params.clone().method(method), globals, name)?;
+                report[name] = run_json(&baseline);
+            }
+        }
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    let q = &main.quality;
+    status(
+        globals,
+        format!(
+            "wrote {} ({} points, {} patches, {:.2}s; neighbourhood error {:.3}, seam error {:.3})",
+            args.output.display(),
+            main.output.points.len(),
+            main.output.stats.patches,
+            main.seconds,
+            q.neighbourhood_error,
+            q.seam_error
+        ),
+    );
+    Ok(())
+}

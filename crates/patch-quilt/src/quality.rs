@@ -1,0 +1,246 @@
+//! Objective quality of a quilt (GUIDE §5): neighbourhood error, seams, coverage.
+//!
+//! Windows are `w × w × n_z` blocks of distance-field nodes (`w` = half a patch, full
+//! height) on the same lattice as `D(T_in)`. The output's field is computed from the
+//! output's own MLS surface over the output box. A window's error is the mean squared
+//! difference (all four channels) to its nearest exemplar window, searched exhaustively;
+//! errors are divided by the exemplar's typical window variation — the mean difference
+//! between random non-overlapping exemplar windows — so 0 means "exactly like some part of
+//! the exemplar" and 1 means "as different as two unrelated parts of it".
+
+use distance_field::{GridSpec, SdfGrid};
+use glam::{Vec2, Vec3, Vec4};
+use mls_surface::{MlsParams, MlsSurface};
+use pointset_core::{KdIndex, PointSet, rng};
+use rand::RngExt;
+use rayon::prelude::*;
+
+use crate::error::Result;
+use crate::exemplar::Exemplar;
+use crate::params::QuiltParams;
+use crate::quilt::QuiltOutput;
+use crate::texture::GeometryTexture;
+
+/// The measured quality of one output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QualityReport {
+    /// Mean normalized nearest-window error over random output windows.
+    pub neighbourhood_error: f32,
+    /// The same over windows centred on seams (within half an overlap of a patch boundary).
+    pub seam_error: f32,
+    /// The same over windows centred well inside patches (a quarter patch from any seam).
+    pub interior_error: f32,
+    /// The exemplar's typical window difference used for normalization.
+    pub exemplar_window_variation: f32,
+    /// Radius of the largest empty disc in the output's projection on the reference plane.
+    pub largest_empty_disc: f32,
+    /// The same for the exemplar's box.
+    pub exemplar_largest_empty_disc: f32,
+    /// Windows measured per class.
+    pub windows: usize,
+}
+
+struct Field<'a> {
+    data: &'a [Vec4],
+    dims: [usize; 3],
+}
+
+impl Field<'_> {
+    fn window_error(
+        &self,
+        at: (usize, usize),
+        other: &Field<'_>,
+        other_at: (usize, usize),
+        w: usize,
+    ) -> f32 {
+        let nz = self.dims[2].min(other.dims[2]);
+        let mut sum = 0.0f32;
+        for c in 0..nz {
+            for b in 0..w {
+                let row = (at.0) + self.dims[0] * (at.1 + b + self.dims[1] * c);
+                let orow = (other_at.0) + other.dims[0] * (other_at.1 + b + other.dims[1] * c);
+                for a in 0..w {
+                    sum += (self.data[row + a] - other.data[orow + a]).length_squared();
+                }
+            }
+        }
+        sum / (w * w * nz) as f32
+    }
+}
+
+/// Radius of the largest empty disc of the points' (x, y) inside `[lo, hi]`, sampled on a
+/// lattice of step `step`.
+fn largest_empty_disc(points: &[Vec3], lo: Vec2, hi: Vec2, step: f32) -> Result<f32> {
+    let flat: Vec<Vec3> = points.iter().map(|p| p.truncate().extend(0.0)).collect();
+    let index = KdIndex::new(&flat)?;
+    let n = ((hi - lo) / step).ceil().as_uvec2();
+    let cells: Vec<Vec3> = (0..n.y)
+        .flat_map(|j| {
+            (0..n.x)
+                .map(move |i| (lo + Vec2::new(i as f32 + 0.5, j as f32 + 0.5) * step).extend(0.0))
+        })
+        .collect();
+    let radius = cells
+        .par_iter()
+        .map(|q| {
+            index
+                .nearest_one(*q)
+                .ok()
+                .flatten()
+                .map_or(0.0, |n| n.distance_squared.sqrt())
+        })
+        .reduce(|| 0.0f32, f32::max);
+    Ok(radius)
+}
+
+/// Measures `output` against `texture` (the parameters must be those of the run).
+pub fn evaluate(
+    texture: &GeometryTexture,
+    output: &QuiltOutput,
+    params: &QuiltParams,
+    windows: usize,
+) -> Result<QualityReport> {
+    let ex = Exemplar::new(texture, params)?;
+    let g = ex.geometry;
+    let up = texture.up();
+    let pts: Vec<Vec3> = output
+        .points
+        .positions()
+        .iter()
+        .map(|&p| up.to_canonical(p))
+        .collect();
+    let nrm: Vec<Vec3> = output
+        .points
+        .normals()
+        .map(|n| n.iter().map(|&v| up.to_canonical(v)).collect())
+        .unwrap_or_default();
+    let set = PointSet::new(pts.clone())?.with_normals(nrm)?;
+    let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.kernel))?;
+    let lo = Vec3::new(
+        up.to_canonical(output.bounds.min)
+            .x
+            .min(up.to_canonical(output.bounds.max).x),
+        0.0,
+        0.0,
+    );
+    let out_lo = Vec2::new(
+        lo.x,
+        up.to_canonical(output.bounds.min)
+            .y
+            .min(up.to_canonical(output.bounds.max).y),
+    );
+    let out_hi = Vec2::new(
+        up.to_canonical(output.bounds.min)
+            .x
+            .max(up.to_canonical(output.bounds.max).x),
+        up.to_canonical(output.bounds.min)
+            .y
+            .max(up.to_canonical(output.bounds.max).y),
+    );
+    let s = g.spacing;
+    let dims = [
+        ((out_hi.x - out_lo.x) / s).floor() as usize + 1,
+        ((out_hi.y - out_lo.y) / s).floor() as usize + 1,
+        ex.spec.dims[2],
+    ];
+    let spec = GridSpec {
+        dims,
+        origin: out_lo.extend(ex.spec.origin.z),
+        spacing: s,
+    };
+    let out_field = SdfGrid::from_surface(&surface, &spec, params.band * s)?;
+    let exf = Field {
+        data: ex.field.grid().data(),
+        dims: ex.spec.dims,
+    };
+    let outf = Field {
+        data: out_field.grid().data(),
+        dims,
+    };
+    let w = (g.patch_nodes / 2).max(3);
+    let ex_positions: Vec<(usize, usize)> = (0..=ex.spec.dims[1].saturating_sub(w))
+        .flat_map(|j| (0..=ex.spec.dims[0].saturating_sub(w)).map(move |i| (i, j)))
+        .collect();
+    // Typical exemplar variation: random pairs of non-overlapping windows.
+    let mut r = rng::stream(params.seed ^ 0x9a11, 0);
+    let mut pair_errors = Vec::new();
+    for _ in 0..(8 * windows) {
+        let a = ex_positions[r.random_range(0..ex_positions.len())];
+        let b = ex_positions[r.random_range(0..ex_positions.len())];
+        if a.0.abs_diff(b.0) >= w || a.1.abs_diff(b.1) >= w {
+            pair_errors.push(exf.window_error(a, &exf, b, w));
+        }
+    }
+    let typical =
+        (pair_errors.iter().sum::<f32>() / pair_errors.len().max(1) as f32).max(f32::MIN_POSITIVE);
+    // Seam lines: the middle of each overlap strip.
+    let seams_x: Vec<f32> = output
+        .placements
+        .iter()
+        .filter(|p| p.cell.0 > 0)
+        .map(|p| p.origin.x + 0.5 * g.overlap())
+        .collect();
+    let seams_y: Vec<f32> = output
+        .placements
+        .iter()
+        .filter(|p| p.cell.1 > 0)
+        .map(|p| p.origin.y + 0.5 * g.overlap())
+        .collect();
+    let seam_distance = |c: Vec2| {
+        let dx = seams_x
+            .iter()
+            .map(|x| (c.x - x).abs())
+            .fold(f32::MAX, f32::min);
+        let dy = seams_y
+            .iter()
+            .map(|y| (c.y - y).abs())
+            .fold(f32::MAX, f32::min);
+        dx.min(dy)
+    };
+    let (mut any, mut seam, mut interior) = (Vec::new(), Vec::new(), Vec::new());
+    let max_i = dims[0].saturating_sub(w);
+    let max_j = dims[1].saturating_sub(w);
+    let mut tries = 0;
+    while (any.len() < windows || seam.len() < windows || interior.len() < windows)
+        && tries < 200 * windows
+    {
+        tries += 1;
+        let at = (r.random_range(0..=max_i), r.random_range(0..=max_j));
+        let centre = out_lo
+            + Vec2::new(
+                at.0 as f32 + 0.5 * (w - 1) as f32,
+                at.1 as f32 + 0.5 * (w - 1) as f32,
+            ) * s;
+        let d = seam_distance(centre);
+        if any.len() < windows {
+            any.push(at);
+        }
+        if d <= 0.5 * g.overlap() && seam.len() < windows {
+            seam.push(at);
+        } else if d >= 0.25 * g.patch() && interior.len() < windows {
+            interior.push(at);
+        }
+    }
+    let nearest = |at: &(usize, usize)| {
+        ex_positions
+            .iter()
+            .map(|e| outf.window_error(*at, &exf, *e, w))
+            .fold(f32::INFINITY, f32::min)
+    };
+    let mean_error = |set: &[(usize, usize)]| {
+        if set.is_empty() {
+            return 0.0;
+        }
+        set.par_iter().map(nearest).sum::<f32>() / set.len() as f32 / typical
+    };
+    let (ex_lo, ex_hi) = texture.footprint();
+    Ok(QualityReport {
+        neighbourhood_error: mean_error(&any),
+        seam_error: mean_error(&seam),
+        interior_error: mean_error(&interior),
+        exemplar_window_variation: typical,
+        largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
+        exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
+        windows,
+    })
+}

@@ -1,0 +1,143 @@
+//! Patch-based geometry texture synthesis (paper 000; the `patch-quilt` crate), with the
+//! facade's stage and file conventions.
+//!
+//! A geometry texture file is an oriented point set (PLY, OBJ, OFF) whose comments carry its
+//! box and up axis: `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the
+//! box is the points' bounding box inset by a sixth of its in-plane extent on every side
+//! (so the outer sixths are padding) and the up axis is Z.
+//!
+//! ```
+//! use geosynth::quilt::{Quilt, QuiltParams, OutputSize, texture_from_exemplar};
+//! use geosynth::{fixtures, RunContext, Stage};
+//!
+//! let exemplar = fixtures::textures::bumpy(60.0, 1)?;
+//! let texture = texture_from_exemplar(&exemplar)?;
+//! let stage = Quilt { params: QuiltParams::default().output(OutputSize::Scale(1.25)).field_resolution(20) };
+//! let out = stage.run(texture, &mut RunContext::new(3))?;
+//! assert!(out.points.len() > 500);
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use std::path::Path;
+
+use glam::Vec3;
+pub use patch_quilt::{
+    BlendCounts, GeometryTexture, Method, OutputSize, Overlap, PatchGeometry, Placement,
+    QualityReport, QuiltError, QuiltOutput, QuiltParams, QuiltStats, UpAxis, WarpCounts,
+    WarpTargets, evaluate, quilt,
+};
+use pointset_core::io::{self, Geometry};
+use pointset_core::{Aabb, RunContext, Stage};
+
+use crate::fixtures::textures::TextureExemplar;
+use crate::{Error, Result};
+
+/// Comment lines describing a texture's box and up axis.
+pub fn texture_comments(bounds: &Aabb, up: UpAxis) -> Vec<String> {
+    let (a, b) = (bounds.min, bounds.max);
+    let axis = match up {
+        UpAxis::X => "x",
+        UpAxis::Y => "y",
+        UpAxis::Z => "z",
+    };
+    vec![
+        format!(
+            "texture_box {} {} {} {} {} {}",
+            a.x, a.y, a.z, b.x, b.y, b.z
+        ),
+        format!("texture_up {axis}"),
+    ]
+}
+
+/// Parses the box and up axis from comment lines (see the module docs); `None` when absent.
+pub fn parse_texture_comments(
+    comments: &[String],
+) -> std::result::Result<Option<(Aabb, UpAxis)>, String> {
+    let mut bounds = None;
+    let mut up = UpAxis::Z;
+    for c in comments {
+        if let Some(rest) = c.trim().strip_prefix("texture_box") {
+            let v: Vec<f32> = rest
+                .split_whitespace()
+                .map(str::parse)
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| format!("`{c}`: texture_box needs six numbers"))?;
+            let [x0, y0, z0, x1, y1, z1] = v[..] else {
+                return Err(format!("`{c}`: texture_box needs six numbers"));
+            };
+            bounds = Some(Aabb::new(Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1)));
+        } else if let Some(rest) = c.trim().strip_prefix("texture_up") {
+            up = match rest.trim() {
+                "x" | "X" => UpAxis::X,
+                "y" | "Y" => UpAxis::Y,
+                "z" | "Z" => UpAxis::Z,
+                other => return Err(format!("texture_up must be x, y or z, not `{other}`")),
+            };
+        }
+    }
+    Ok(bounds.map(|b| (b, up)))
+}
+
+/// Reads a geometry texture file (see the module docs).
+pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
+    let loaded = io::read_geometry(path)?;
+    let points = loaded.geometry.points();
+    let described =
+        parse_texture_comments(&loaded.comments).map_err(|message| Error::TextureFile {
+            path: path.to_path_buf(),
+            message,
+        })?;
+    let (bounds, up) = match described {
+        Some(d) => d,
+        None => {
+            let b = points.bounding_box().ok_or_else(|| Error::TextureFile {
+                path: path.to_path_buf(),
+                message: "no points".into(),
+            })?;
+            let inset = b.extent() / 6.0;
+            (
+                Aabb::new(b.min + inset.with_z(0.0), b.max - inset.with_z(0.0)),
+                UpAxis::Z,
+            )
+        }
+    };
+    Ok(GeometryTexture::new(points, bounds, up)?)
+}
+
+/// The geometry texture of a procedural exemplar.
+pub fn texture_from_exemplar(exemplar: &TextureExemplar) -> Result<GeometryTexture> {
+    Ok(GeometryTexture::new(
+        &exemplar.points,
+        exemplar.bounds,
+        UpAxis::Z,
+    )?)
+}
+
+/// The exemplar as a file-ready geometry with its box comments.
+pub fn exemplar_geometry(exemplar: &TextureExemplar) -> (Geometry, Vec<String>) {
+    (
+        Geometry::Points(exemplar.points.clone()),
+        texture_comments(&exemplar.bounds, UpAxis::Z),
+    )
+}
+
+/// Stage: geometry texture → synthesized texture ([`patch_quilt::quilt`]).
+#[derive(Debug, Clone, Default)]
+pub struct Quilt {
+    /// The parameters used.
+    pub params: QuiltParams,
+}
+
+impl Stage for Quilt {
+    type Input = GeometryTexture;
+    type Output = QuiltOutput;
+    type Error = Error;
+
+    fn name(&self) -> &str {
+        "quilt"
+    }
+
+    fn run(&self, input: GeometryTexture, ctx: &mut RunContext) -> Result<QuiltOutput> {
+        Ok(quilt(&input, &self.params, ctx)?)
+    }
+}
