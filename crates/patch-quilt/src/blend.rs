@@ -119,6 +119,49 @@ pub(crate) fn blend(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use mls_surface::MlsParams;
+    use pointset_core::PointSet;
+
+    #[test]
+    fn blending_moves_points_toward_the_neighbourhood_monotonically_across_the_ramp() {
+        // Neighbourhood: the plane z = 0. Patch points: z = 0.1 across the overlap.
+        let plane: Vec<Vec3> = (0..60 * 60)
+            .map(|i| {
+                Vec3::new(
+                    (i % 60) as f32 * 0.05 - 0.5,
+                    (i / 60) as f32 * 0.05 - 0.5,
+                    0.0,
+                )
+            })
+            .collect();
+        let set = PointSet::new(plane)
+            .unwrap()
+            .with_normals(vec![Vec3::Z; 3600])
+            .unwrap();
+        let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
+        let o = Overlap {
+            origin: Vec2::ZERO,
+            width: 0.5,
+            patch: 2.0,
+            left: true,
+            bottom: false,
+        };
+        let mut points: Vec<Vec3> = (0..=20)
+            .map(|i| Vec3::new(i as f32 * 0.03, 1.0, 0.1))
+            .collect();
+        let mut normals = vec![Vec3::Z; points.len()];
+        let before = points.clone();
+        let counts = blend(&mut points, &mut normals, &o, &surface);
+        assert!(counts.blended > 0 && counts.by_ray == counts.blended);
+        let mut last = -1.0f32;
+        for (p, q) in points.iter().zip(&before) {
+            let t = o.ramp(q.truncate());
+            // Moved toward the plane by exactly the ramp fraction of the gap.
+            assert!((p.z - 0.1 * (1.0 - t)).abs() < 1e-3, "t {t}: z {}", p.z);
+            assert!(p.z >= last - 1e-6, "heights must not decrease inward");
+            last = p.z;
+        }
+    }
 
     #[test]
     fn ramp_is_one_outside_and_zero_inside() {

@@ -1,0 +1,239 @@
+//! Behaviour of the whole synthesis on height-field textures with known answers.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use glam::{Vec2, Vec3};
+use patch_quilt::{
+    GeometryTexture, Method, OutputSize, QuiltError, QuiltParams, UpAxis, evaluate, quilt,
+};
+use pointset_core::testdata::shared_data;
+use pointset_core::{Aabb, HeightField, PointSet, RunContext};
+
+fn texture(f: impl Fn(f32, f32) -> f32, n: usize, spacing: f32) -> GeometryTexture {
+    let h: Vec<f32> = (0..n * n)
+        .map(|i| f((i % n) as f32 * spacing, (i / n) as f32 * spacing))
+        .collect();
+    GeometryTexture::from_heightfield(&HeightField::new(n, n, h).unwrap(), spacing, 1.0, n / 6)
+        .unwrap()
+}
+
+fn small_params() -> QuiltParams {
+    QuiltParams::default()
+        .field_resolution(24)
+        .output(OutputSize::Scale(1.6))
+}
+
+#[test]
+fn output_is_identical_with_one_and_two_threads() {
+    let t = texture(
+        |x, y| 0.1 * (3.0 * x).sin() * (2.0 * y + 0.5 * x).cos(),
+        48,
+        0.05,
+    );
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| quilt(&t, &small_params().seed(5), &mut RunContext::new(5)).unwrap())
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.points, b.points);
+    assert_eq!(a.placements, b.placements);
+    let c = quilt(&t, &small_params().seed(6), &mut RunContext::new(6)).unwrap();
+    assert_ne!(a.points, c.points, "another seed gives another texture");
+}
+
+#[test]
+fn a_flat_plane_stays_flat_and_whole() {
+    let t = texture(|_, _| 0.0, 48, 0.05);
+    let out = quilt(&t, &small_params(), &mut RunContext::new(1)).unwrap();
+    let normals = out.points.normals().unwrap();
+    for (p, n) in out.points.positions().iter().zip(normals) {
+        assert!(p.z.abs() < 1e-4, "off the plane: {p}");
+        assert!(n.angle_between(Vec3::Z).to_degrees() < 1.0, "normal {n}");
+    }
+    let q = evaluate(&t, &out, &small_params(), 16).unwrap();
+    assert!(
+        q.largest_empty_disc <= 1.5 * q.exemplar_largest_empty_disc,
+        "hole of radius {} (exemplar {})",
+        q.largest_empty_disc,
+        q.exemplar_largest_empty_disc
+    );
+}
+
+/// Dominant period along x of a height field sampled from points (autocorrelation peak).
+fn period_along_x(points: &[Vec3], lo: Vec2, hi: Vec2, cell: f32) -> f32 {
+    let n = ((hi - lo) / cell).as_uvec2();
+    let (nx, ny) = (n.x as usize, n.y as usize);
+    let (mut sum, mut count) = (vec![0.0f32; nx * ny], vec![0u32; nx * ny]);
+    for p in points {
+        let c = ((p.truncate() - lo) / cell).as_ivec2();
+        if c.x >= 0 && c.y >= 0 && (c.x as usize) < nx && (c.y as usize) < ny {
+            sum[c.y as usize * nx + c.x as usize] += p.z;
+            count[c.y as usize * nx + c.x as usize] += 1;
+        }
+    }
+    let h: Vec<Option<f32>> = sum
+        .iter()
+        .zip(&count)
+        .map(|(s, &c)| (c > 0).then(|| s / c as f32))
+        .collect();
+    // Autocorrelation over cells that both hold points.
+    let corr = |lag: usize| -> f32 {
+        let (mut acc, mut n) = (0.0, 0);
+        for y in 0..ny {
+            for x in 0..nx - lag {
+                if let (Some(a), Some(b)) = (h[y * nx + x], h[y * nx + x + lag]) {
+                    acc += a * b;
+                    n += 1;
+                }
+            }
+        }
+        acc / n.max(1) as f32
+    };
+    // The first positive local maximum after the first negative correlation is the period.
+    let values: Vec<f32> = (0..nx / 2).map(corr).collect();
+    let negative = (1..values.len()).find(|&i| values[i] < 0.0).unwrap();
+    let peak = (negative..values.len() - 1)
+        .find(|&i| values[i] > 0.0 && values[i] >= values[i - 1] && values[i] >= values[i + 1])
+        .unwrap();
+    peak as f32 * cell
+}
+
+#[test]
+fn a_lattice_of_bumps_keeps_its_spacing() {
+    let lambda = 0.5f32;
+    let f = move |x: f32, y: f32| {
+        0.08 * (std::f32::consts::TAU * x / lambda).sin()
+            * (std::f32::consts::TAU * y / lambda).sin()
+    };
+    let t = texture(f, 64, 0.04);
+    let out = quilt(
+        &t,
+        &small_params().output(OutputSize::Scale(2.0)),
+        &mut RunContext::new(2),
+    )
+    .unwrap();
+    let lo = Vec2::new(out.bounds.min.x, out.bounds.min.y);
+    let hi = Vec2::new(out.bounds.max.x, out.bounds.max.y);
+    let measured = period_along_x(out.points.positions(), lo, hi, 0.05);
+    assert!(
+        (measured - lambda).abs() < 0.1 * lambda,
+        "lattice spacing {measured}, expected {lambda}"
+    );
+}
+
+#[test]
+fn output_lies_in_the_requested_box_and_each_point_in_its_patch_box() {
+    let t = texture(|x, y| 0.1 * (4.0 * x).sin() * (3.0 * y).cos(), 48, 0.05);
+    let params = small_params().output(OutputSize::Absolute(2.3, 1.7));
+    let out = quilt(&t, &params, &mut RunContext::new(3)).unwrap();
+    let ext = out.bounds.extent();
+    assert!((ext.x - 2.3).abs() < 1e-4 && (ext.y - 1.7).abs() < 1e-4);
+    let patch = out.points.attribute("patch").unwrap().values();
+    let g = out.stats.geometry;
+    for (p, &k) in out.points.positions().iter().zip(patch) {
+        assert!(out.bounds.contains(*p), "{p} outside {:?}", out.bounds);
+        let placement = &out.placements[k as usize];
+        let lo = placement.origin;
+        let hi = lo + Vec2::splat(g.patch() + g.extra());
+        assert!(
+            p.x >= lo.x - 1e-4 && p.y >= lo.y - 1e-4 && p.x <= hi.x + 1e-4 && p.y <= hi.y + 1e-4,
+            "point of patch {k} outside B_k"
+        );
+    }
+    // Searched patches report candidate sets; the seed patch does not search.
+    assert_eq!(out.placements[0].candidates, 1);
+    assert!(
+        out.placements
+            .iter()
+            .skip(1)
+            .all(|p| p.candidates >= 1 && p.distance >= 0.0)
+    );
+}
+
+#[test]
+fn baselines_run_through_the_same_code() {
+    let t = texture(|x, y| 0.1 * (4.0 * x).sin() * (3.0 * y).cos(), 40, 0.05);
+    for method in [Method::SearchOnly, Method::RandomPlacement] {
+        let out = quilt(&t, &small_params().method(method), &mut RunContext::new(4)).unwrap();
+        assert!(
+            out.placements
+                .iter()
+                .all(|p| p.warp.skipped && p.blend.blended == 0)
+        );
+        assert!(!out.points.is_empty());
+    }
+}
+
+#[test]
+fn invalid_input_is_an_error() {
+    let t = texture(|_, _| 0.0, 40, 0.05);
+    for bad in [
+        QuiltParams::default().patch_size(0.0),
+        QuiltParams::default().patch_size(1.5),
+        QuiltParams::default().epsilon(-1.0),
+        QuiltParams::default().field_resolution(3),
+        QuiltParams::default().output(OutputSize::Scale(0.0)),
+        QuiltParams::default().output(OutputSize::Absolute(-1.0, 2.0)),
+        QuiltParams::default().pair_distance(0.0),
+    ] {
+        assert!(
+            matches!(
+                quilt(&t, &bad, &mut RunContext::new(0)),
+                Err(QuiltError::InvalidParameter { .. })
+            ),
+            "{bad:?}"
+        );
+    }
+    let bare = PointSet::new((0..100).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect()).unwrap();
+    let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+    assert!(matches!(
+        GeometryTexture::new(&bare, b, UpAxis::Z),
+        Err(QuiltError::InvalidTexture { .. })
+    ));
+    let flat_box = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0));
+    let oriented = bare.clone().with_normals(vec![Vec3::Z; 100]).unwrap();
+    assert!(GeometryTexture::new(&oriented, flat_box, UpAxis::Z).is_err());
+    // Cancellation is honoured.
+    let flag = pointset_core::CancelFlag::new();
+    flag.cancel();
+    let mut ctx = RunContext::new(0).with_cancel_flag(flag);
+    assert!(matches!(
+        quilt(&t, &small_params(), &mut ctx),
+        Err(QuiltError::Core(pointset_core::Error::Cancelled))
+    ));
+}
+
+#[test]
+fn the_shared_height_fields_quilt() {
+    for rel in [
+        "heightfields/StoneWall_200x200.f32le",
+        "heightfields/SainteHelens_317x460.f32le",
+    ] {
+        let Some(path) = shared_data("shared_height_fields_quilt", rel) else {
+            return;
+        };
+        let full = HeightField::read_f32le(&path).unwrap();
+        // Every fourth sample keeps the test fast; heights normalized to a relief of 0.4.
+        let (w, h) = (full.width() / 4, full.height() / 4);
+        let (lo, hi) = full.range();
+        let samples: Vec<f32> = (0..w * h)
+            .map(|i| (full.get(4 * (i % w), 4 * (i / w)).unwrap() - lo) / (hi - lo) * 0.4)
+            .collect();
+        let field = HeightField::new(w, h, samples).unwrap();
+        let t =
+            GeometryTexture::from_heightfield(&field, 4.0 / w as f32, 1.0, w.min(h) / 6).unwrap();
+        let params = small_params();
+        let out = quilt(&t, &params, &mut RunContext::new(9)).unwrap();
+        assert!(out.points.len() > field.width() * field.height());
+        let q = evaluate(&t, &out, &params, 12).unwrap();
+        assert!(
+            q.neighbourhood_error.is_finite()
+                && q.largest_empty_disc < 3.0 * q.exemplar_largest_empty_disc + 1e-3,
+            "{rel}: {q:?}"
+        );
+    }
+}
