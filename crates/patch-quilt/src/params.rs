@@ -60,10 +60,11 @@ pub struct QuiltParams {
     pub epsilon: f32,
     /// Distances are clamped at this many field spacings; default 4.
     pub band: f32,
-    /// Pairing weights and thresholds (Eq. 2); default Table 1's height-field row with
-    /// `max_distance` = [`QuiltParams::pair_distance`] field spacings.
+    /// Pairing weights and thresholds (Eq. 2); default Table 1's height-field row. An
+    /// unlimited `max_distance` (the pairing default) is replaced by
+    /// [`QuiltParams::pair_distance`] field spacings.
     pub pairing: Option<PairingParams>,
-    /// Largest pair length in field spacings when `pairing` is not given; default 0.5. The
+    /// Largest pair length in field spacings unless `pairing` sets a finite one; default 0.5. The
     /// search has already aligned the patch to the node lattice, so true correspondences are
     /// that close; longer pairs drag points onto the wrong features (measured: 0.5 gives the
     /// lowest errors of 0.5, 1 and 1.5 on all four fixtures).

@@ -4,10 +4,9 @@ use std::time::Instant;
 
 use distance_field::{GridSpec, SdfGrid};
 use glam::{Vec2, Vec3};
-use mls_surface::{MlsParams, MlsSurface, RelaxParams, relax, surface_variation};
+use mls_surface::{MlsParams, MlsSurface, RelaxParams, relax};
 use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarType, rng};
 use rand::RngExt;
-use tps_warp::PairingParams;
 
 use crate::blend::{BlendCounts, Overlap, blend};
 use crate::error::{QuiltError, Result};
@@ -134,10 +133,10 @@ pub fn quilt(
     let ex = Exemplar::new(texture, params)?;
     let g = ex.geometry;
     let layout = Layout::new(&ex, params.output);
-    let pairing = params
-        .pairing
-        .clone()
-        .unwrap_or_else(|| PairingParams::default().max_distance(params.pair_distance * g.spacing));
+    let mut pairing = params.pairing.clone().unwrap_or_default();
+    if !pairing.max_distance.is_finite() {
+        pairing.max_distance = params.pair_distance * g.spacing;
+    }
     let mls = MlsParams::default().kernel(ex.kernel);
     let [nx, _, nz] = ex.spec.dims;
     let total = layout.cols * layout.rows;
@@ -265,11 +264,10 @@ pub fn quilt(
             let mut blended = BlendCounts::default();
             if let (Some(surface), Method::Full) = (&n_surface, params.method) {
                 let t = Instant::now();
-                let n_variation = surface_variation(surface.index(), 12)?;
                 let neighbourhood = Neighbourhood {
                     points: &n_points,
                     normals: &n_normals,
-                    variation: &n_variation,
+                    index: surface.index(),
                 };
                 warp = warp_patch(
                     &mut f_points,

@@ -2,8 +2,8 @@
 //! driven by the automatic pairing (paper 000 §5.2).
 
 use glam::{Vec2, Vec3};
-use mls_surface::{ClusterParams, adaptive_clusters};
-use pointset_core::Aabb;
+use mls_surface::{ClusterParams, Covariance, adaptive_clusters};
+use pointset_core::{Aabb, KdIndex};
 use tps_warp::{
     PairingParams, PairingPoint, ThinPlateSpline, TpsParams, anchors_in_regions, pair_points,
 };
@@ -11,11 +11,26 @@ use tps_warp::{
 use crate::blend::Overlap;
 use crate::params::WarpTargets;
 
-/// The neighbourhood `N_k` as oriented points with surface variation.
+/// The neighbourhood `N_k` as oriented points, with a spatial index for the surface
+/// variation of the few points that become targets.
 pub(crate) struct Neighbourhood<'a> {
     pub points: &'a [Vec3],
     pub normals: &'a [Vec3],
-    pub variation: &'a [f32],
+    pub index: &'a KdIndex,
+}
+
+/// Neighbours used for surface variation (as for the exemplar's points).
+const VARIATION_NEIGHBOURS: usize = 12;
+
+impl Neighbourhood<'_> {
+    /// Surface variation of point `i` over its 12 nearest neighbours in `N_k`.
+    fn variation(&self, i: usize) -> f32 {
+        self.index
+            .nearest(self.points[i], VARIATION_NEIGHBOURS)
+            .ok()
+            .and_then(|nn| Covariance::of(self.points, nn.iter().map(|n| n.index)))
+            .map_or(0.0, |c| c.variation())
+    }
 }
 
 /// What one warp did.
@@ -81,7 +96,7 @@ pub(crate) fn warp_patch(
             PairingPoint {
                 position: neighbourhood.points[i],
                 normal: neighbourhood.normals[i],
-                variation: neighbourhood.variation[i],
+                variation: neighbourhood.variation(i),
             }
         })
         .collect();
