@@ -21,6 +21,7 @@
 use std::path::Path;
 
 use glam::Vec3;
+pub use patch_quilt::search;
 pub use patch_quilt::{
     BlendCounts, GeometryTexture, Method, OutputSize, Overlap, PatchGeometry, Placement,
     QualityReport, QuiltError, QuiltOutput, QuiltParams, QuiltStats, UpAxis, WarpCounts,

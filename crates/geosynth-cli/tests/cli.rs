@@ -332,3 +332,90 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("pairs.txt:2"));
 }
+
+#[test]
+fn quilt_writes_output_report_with_baselines_and_preview() {
+    let dir = tempfile::tempdir().unwrap();
+    let exemplar = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
+    let (out, report, preview) = (
+        dir.path().join("q.ply"),
+        dir.path().join("q.json"),
+        dir.path().join("q.png"),
+    );
+    ok(&[
+        "quilt",
+        exemplar.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--scale",
+        "1.3",
+        "--resolution",
+        "24",
+        "--report",
+        report.to_str().unwrap(),
+        "--baselines",
+        "--preview",
+        preview.to_str().unwrap(),
+        "--seed",
+        "3",
+        "-q",
+    ]);
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    for run in ["run", "search_only", "random_placement"] {
+        assert!(
+            r[run]["quality"]["neighbourhood_error"].as_f64().unwrap() >= 0.0,
+            "{run}"
+        );
+        assert!(r[run]["patches"].as_u64().unwrap() > 1);
+    }
+    let stages: Vec<&str> = r["run"]["timings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["stage"].as_str().unwrap())
+        .collect();
+    for s in ["search", "warp", "blend", "other"] {
+        assert!(stages.contains(&s), "{s} in {stages:?}");
+    }
+    assert!(image::open(&preview).is_ok());
+    // The output keeps its box in the comments and can be quilted again.
+    let again = dir.path().join("q2.ply");
+    ok(&[
+        "quilt",
+        out.to_str().unwrap(),
+        "-o",
+        again.to_str().unwrap(),
+        "--scale",
+        "1.1",
+        "--resolution",
+        "20",
+        "-q",
+    ]);
+    // Height fields work directly.
+    let hf = dir.path().join("bumps_64x64.f32le");
+    let heights: Vec<u8> = (0..64 * 64)
+        .flat_map(|i| (((i % 64) as f32 * 0.4).sin() * ((i / 64) as f32 * 0.3).cos()).to_le_bytes())
+        .collect();
+    std::fs::write(&hf, heights).unwrap();
+    ok(&[
+        "quilt",
+        "--heightfield",
+        hf.to_str().unwrap(),
+        "-o",
+        again.to_str().unwrap(),
+        "--resolution",
+        "20",
+        "-q",
+    ]);
+    let bad = geosynth(&[
+        "quilt",
+        exemplar.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--patch",
+        "2",
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("patch_size"));
+}

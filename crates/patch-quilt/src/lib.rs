@@ -86,7 +86,7 @@ mod exemplar;
 mod params;
 mod quality;
 mod quilt;
-mod search;
+pub mod search;
 mod texture;
 mod warp;
 

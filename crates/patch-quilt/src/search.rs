@@ -1,5 +1,6 @@
 //! Step 2: the candidate set `Ψ_k` by exhaustive comparison of distance fields over the
-//! overlap region (paper 000 §5.1).
+//! overlap region (paper 000 §5.1). Public as the hot kernel, for benchmarks and custom
+//! drivers.
 
 use glam::Vec4;
 use rayon::prelude::*;
@@ -7,14 +8,16 @@ use rayon::prelude::*;
 /// One overlap node: its linear offset in `D(T_in)` relative to a patch's corner node, and
 /// its index in the neighbourhood's field.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct OverlapNode {
+pub struct OverlapNode {
+    /// Linear offset in `D(T_in)` from the patch's corner node.
     pub exemplar_offset: usize,
+    /// Index of the same node in the neighbourhood's field.
     pub neighbourhood_index: usize,
 }
 
 /// The distances `d(O^N, O^P) = ‖D(O^N) − D(O^P)‖²` (distance and gradient channels) for
 /// every patch offset `(i, j)`, `0 ≤ i ≤ max_i`, `0 ≤ j ≤ max_j`, row-major in `j`.
-pub(crate) fn distances(
+pub fn distances(
     exemplar: &[Vec4],
     nx: usize,
     max_i: usize,
@@ -39,7 +42,7 @@ pub(crate) fn distances(
 }
 
 /// `Ψ = {P | d(P) ≤ (1 + ε) min d}` as indices into `d`, ascending.
-pub(crate) fn candidates(d: &[f32], epsilon: f32) -> Vec<usize> {
+pub fn candidates(d: &[f32], epsilon: f32) -> Vec<usize> {
     let best = d.iter().copied().fold(f32::INFINITY, f32::min);
     let limit = best * (1.0 + epsilon);
     (0..d.len()).filter(|&c| d[c] <= limit).collect()

@@ -11,10 +11,12 @@ use clap::Args;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::fixtures::{self, Fixture};
 use geosynth::preview::{self, RenderOptions};
+use geosynth::quilt::{Method, OutputSize, QualityReport, QuiltParams};
 use geosynth::reconstruct::{FieldParams, Reconstruct};
 use geosynth::{RunContext, Stage};
 use serde::Serialize;
 
+use crate::commands::quilt::{measured_run, run_json, texture_preview};
 use crate::output::{progress_bar, status};
 use crate::{CliResult, Globals, create_dir};
 
@@ -50,7 +52,22 @@ struct Report {
     stages: Vec<StageTiming>,
     fixtures: Vec<FixtureEntry>,
     reconstructions: Vec<ReconstructionEntry>,
+    quilts: Vec<QuiltEntry>,
     skipped: Vec<String>,
+}
+
+/// One exemplar quilted by the paper's method and the two baselines.
+#[derive(Debug, Serialize)]
+struct QuiltEntry {
+    exemplar: String,
+    input_points: usize,
+    scale: f32,
+    geometry: String,
+    preview: String,
+    full: serde_json::Value,
+    search_only: serde_json::Value,
+    random_placement: serde_json::Value,
+    full_beats_baselines: bool,
 }
 
 /// One point set turned into a mesh.
@@ -211,6 +228,10 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     }
     bar.finish_and_clear();
     timed("reconstructions", t);
+
+    let t = Instant::now();
+    let quilts = quilt_textures(&dir, args, globals)?;
+    timed("quilts", t);
     timed("total", started);
 
     let report = Report {
@@ -222,14 +243,17 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
         stages,
         fixtures: entries,
         reconstructions,
+        quilts,
         skipped,
     };
     write_reports(&report, &args.out)?;
     status(
         globals,
         format!(
-            "demo: {} fixtures rendered; results, previews and report in {}",
+            "demo: {} fixtures rendered, {} reconstructions, {} quilts; results, previews and report in {}",
             report.fixtures.len(),
+            report.reconstructions.len(),
+            report.quilts.len(),
             args.out.display()
         ),
     );
@@ -274,7 +298,27 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
             r.preview
         ));
     }
-    md.push_str("\n## Synthesis families\n\nNo synthesis family is part of this build yet.\n");
+    md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the distance field (0 = like some part of the exemplar, 1 = as different as two unrelated parts); LED = largest empty disc (output / exemplar).\n\n");
+    md.push_str("| exemplar | method | seconds | patches | mean Ψ | mean pairs | points | neighbourhood | seam | interior | LED |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    for q in &report.quilts {
+        for (name, run) in [
+            ("full", &q.full),
+            ("search only", &q.search_only),
+            ("random placement", &q.random_placement),
+        ] {
+            let f = |k: &str| run["quality"][k].as_f64().unwrap_or(f64::NAN);
+            md.push_str(&format!(
+                "| {} | {} | {:.2} | {} | {:.1} | {:.1} | {} | {:.3} | {:.3} | {:.3} | {:.3} / {:.3} |\n",
+                q.exemplar, name, run["seconds"].as_f64().unwrap_or(0.0), run["patches"], run["mean_candidates"].as_f64().unwrap_or(0.0),
+                run["mean_pairs"].as_f64().unwrap_or(0.0), run["output_points"], f("neighbourhood_error"), f("seam_error"),
+                f("interior_error"), f("largest_empty_disc"), f("exemplar_largest_empty_disc")
+            ));
+        }
+    }
+    for q in &report.quilts {
+        md.push_str(&format!("\n![{}]({}) ", q.exemplar, q.preview));
+    }
+    md.push('\n');
     for s in &report.skipped {
         md.push_str(&format!("\nSkipped: {s}\n"));
     }
@@ -346,4 +390,88 @@ fn reconstruct_one(
         geometry: relative(&geometry_path, out),
         preview: relative(&preview_path, out),
     })
+}
+
+/// Quilts every texture fixture with the full method and both baselines.
+fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Vec<QuiltEntry>> {
+    let scale = if args.quick { 1.25 } else { 2.0 };
+    let resolution = if args.quick { 24 } else { 48 };
+    let (w, h) = if args.quick { (320, 240) } else { (560, 420) };
+    let mut entries = Vec::new();
+    for name in [
+        "quilt_bumpy",
+        "quilt_chain_mail",
+        "quilt_weave",
+        "quilt_flowers",
+    ] {
+        let path = dir.join(format!("{name}.ply"));
+        let texture = if path.is_file() {
+            geosynth::quilt::read_texture(&path)?
+        } else {
+            let made = geosynth::fixtures::textures::all(fixtures::FIXTURE_SEED)?;
+            let exemplar = made
+                .iter()
+                .find(|t| t.name == name)
+                .ok_or("missing texture fixture")?;
+            geosynth::quilt::texture_from_exemplar(exemplar)?
+        };
+        let params = QuiltParams::default()
+            .output(OutputSize::Scale(scale))
+            .field_resolution(resolution)
+            .seed(args.seed);
+        let full = measured_run(&texture, &params, globals, name)?;
+        let search = measured_run(
+            &texture,
+            &params.clone().method(Method::SearchOnly),
+            globals,
+            "search only",
+        )?;
+        let random = measured_run(
+            &texture,
+            &params.clone().method(Method::RandomPlacement),
+            globals,
+            "random",
+        )?;
+        let geometry_path = args
+            .out
+            .join("geometry")
+            .join(format!("{name}_quilted.ply"));
+        let mut options =
+            WriteOptions::default().comment(format!("quilted from {name} (seed {})", args.seed));
+        for c in geosynth::quilt::texture_comments(&full.output.bounds, texture.up()) {
+            options = options.comment(c);
+        }
+        io::write_geometry(
+            &geometry_path,
+            &Geometry::Points(full.output.points.clone()),
+            &options,
+        )?;
+        let preview_path = args
+            .out
+            .join("previews")
+            .join(format!("{name}_quilted.png"));
+        texture_preview(
+            &texture,
+            &[&full.output, &random.output],
+            &preview_path,
+            w,
+            h,
+        )?;
+        let (qf, qs, qr) = (&full.quality, &search.quality, &random.quality);
+        let beats = |a: &QualityReport, b: &QualityReport| {
+            a.neighbourhood_error < b.neighbourhood_error && a.seam_error < b.seam_error
+        };
+        entries.push(QuiltEntry {
+            exemplar: name.to_string(),
+            input_points: full.output.stats.input_points,
+            scale,
+            geometry: relative(&geometry_path, &args.out),
+            preview: relative(&preview_path, &args.out),
+            full: run_json(&full),
+            search_only: run_json(&search),
+            random_placement: run_json(&random),
+            full_beats_baselines: beats(qf, qs) && beats(qf, qr),
+        });
+    }
+    Ok(entries)
 }
