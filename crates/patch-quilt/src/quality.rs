@@ -30,6 +30,14 @@ pub struct QualityReport {
     pub seam_error: f32,
     /// The same over windows centred well inside patches (a quarter patch from any seam).
     pub interior_error: f32,
+    /// `seam_error / interior_error`: how much the error concentrates at patch boundaries
+    /// (GUIDE §5's "error concentrated at patch boundaries versus interiors"); 1 = none.
+    pub seam_concentration: f32,
+    /// Fraction of output points that are exact translated copies of exemplar points (within
+    /// 1e-5 of an exemplar point after undoing their patch's translation) — GUIDE §5's
+    /// verbatim copying: a tiled copy scores 1, and a low error with a high fraction means
+    /// the output was copied rather than synthesized.
+    pub verbatim_fraction: f32,
     /// The exemplar's typical window difference used for normalization.
     pub exemplar_window_variation: f32,
     /// Radius of the largest empty disc in the output's projection on the reference plane.
@@ -234,10 +242,38 @@ pub fn evaluate(
         set.par_iter().map(nearest).sum::<f32>() / set.len() as f32 / typical
     };
     let (ex_lo, ex_hi) = texture.footprint();
+    let (seam_error, interior_error) = (mean_error(&seam), mean_error(&interior));
+    let exemplar_index = KdIndex::new(&ex.points)?;
+    let patch_of = output
+        .points
+        .attribute("patch")
+        .map(|a| a.values().to_vec())
+        .unwrap_or_default();
+    let verbatim = pts
+        .par_iter()
+        .zip(patch_of.par_iter())
+        .filter(|(p, k)| {
+            output
+                .placements
+                .get(**k as usize)
+                .is_some_and(|placement| {
+                    let shift =
+                        placement.origin - ex.patch_origin(placement.source.0, placement.source.1);
+                    let source = **p - shift.extend(0.0);
+                    exemplar_index
+                        .nearest_one(source)
+                        .ok()
+                        .flatten()
+                        .is_some_and(|n| n.distance_squared <= 1e-10)
+                })
+        })
+        .count();
     Ok(QualityReport {
         neighbourhood_error: mean_error(&any),
-        seam_error: mean_error(&seam),
-        interior_error: mean_error(&interior),
+        seam_error,
+        interior_error,
+        seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
+        verbatim_fraction: verbatim as f32 / pts.len().max(1) as f32,
         exemplar_window_variation: typical,
         largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
         exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,

@@ -165,7 +165,21 @@ fn baselines_run_through_the_same_code() {
                 .all(|p| p.warp.skipped && p.blend.blended == 0)
         );
         assert!(!out.points.is_empty());
+        // Pasting without warp or blend copies every point verbatim.
+        let q = evaluate(&t, &out, &small_params(), 8).unwrap();
+        assert!(
+            q.verbatim_fraction > 0.999,
+            "{method:?}: {}",
+            q.verbatim_fraction
+        );
     }
+    let full = quilt(&t, &small_params(), &mut RunContext::new(4)).unwrap();
+    let q = evaluate(&t, &full, &small_params(), 8).unwrap();
+    assert!(
+        q.verbatim_fraction < 0.9,
+        "warped and blended points are not verbatim: {}",
+        q.verbatim_fraction
+    );
 }
 
 #[test]

@@ -299,7 +299,7 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
         ));
     }
     md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the distance field (0 = like some part of the exemplar, 1 = as different as two unrelated parts); LED = largest empty disc (output / exemplar).\n\n");
-    md.push_str("| exemplar | method | seconds | patches | mean Ψ | mean pairs | points | neighbourhood | seam | interior | LED |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    md.push_str("| exemplar | method | seconds | patches | mean Ψ | mean pairs | points | neighbourhood | seam | interior | seam / interior | verbatim | LED |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     for q in &report.quilts {
         for (name, run) in [
             ("full", &q.full),
@@ -308,10 +308,10 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
         ] {
             let f = |k: &str| run["quality"][k].as_f64().unwrap_or(f64::NAN);
             md.push_str(&format!(
-                "| {} | {} | {:.2} | {} | {:.1} | {:.1} | {} | {:.3} | {:.3} | {:.3} | {:.3} / {:.3} |\n",
+                "| {} | {} | {:.2} | {} | {:.1} | {:.1} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} | {:.3} / {:.3} |\n",
                 q.exemplar, name, run["seconds"].as_f64().unwrap_or(0.0), run["patches"], run["mean_candidates"].as_f64().unwrap_or(0.0),
                 run["mean_pairs"].as_f64().unwrap_or(0.0), run["output_points"], f("neighbourhood_error"), f("seam_error"),
-                f("interior_error"), f("largest_empty_disc"), f("exemplar_largest_empty_disc")
+                f("interior_error"), f("seam_concentration"), f("verbatim_fraction"), f("largest_empty_disc"), f("exemplar_largest_empty_disc")
             ));
         }
     }

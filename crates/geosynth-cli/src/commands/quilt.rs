@@ -218,6 +218,8 @@ pub fn run_json(run: &MeasuredRun) -> Value {
             "neighbourhood_error": q.neighbourhood_error,
             "seam_error": q.seam_error,
             "interior_error": q.interior_error,
+            "seam_concentration": q.seam_concentration,
+            "verbatim_fraction": q.verbatim_fraction,
             "largest_empty_disc": q.largest_empty_disc,
             "exemplar_largest_empty_disc": q.exemplar_largest_empty_disc,
             "windows_per_class": q.windows,
