@@ -59,5 +59,20 @@ pub enum Error {
     },
 }
 
+impl Error {
+    /// A range error for parameter `name`.
+    pub(crate) fn invalid<T>(
+        name: &'static str,
+        value: impl ToString,
+        expected: &str,
+    ) -> Result<T> {
+        Err(Error::InvalidParameter {
+            name,
+            value: value.to_string(),
+            expected: expected.into(),
+        })
+    }
+}
+
 /// Shorthand for results of the facade.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -52,13 +52,7 @@ impl FieldParams {
 
     /// Checks ranges: resolution 4..=1024, positive margin and band.
     pub fn validate(&self) -> Result<()> {
-        let bad = |name, value: String, expected: &str| {
-            Err(Error::InvalidParameter {
-                name,
-                value,
-                expected: expected.into(),
-            })
-        };
+        let bad = Error::invalid::<()>;
         if !(4..=1024).contains(&self.resolution) {
             return bad("resolution", self.resolution.to_string(), "4 to 1024 nodes");
         }

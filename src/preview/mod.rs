@@ -101,13 +101,7 @@ impl RenderOptions {
 
     /// Checks sizes (1..=8192 pixels), finite angles, colours in `0..=1`, positive splat scale.
     pub fn validate(&self) -> Result<()> {
-        let bad = |name, value: String, expected: &str| {
-            Err(Error::InvalidParameter {
-                name,
-                value,
-                expected: expected.into(),
-            })
-        };
+        let bad = Error::invalid::<()>;
         for (name, v) in [("width", self.width), ("height", self.height)] {
             if !(1..=8192).contains(&v) {
                 return bad(name, v.to_string(), "1 to 8192 pixels");

@@ -96,17 +96,24 @@ proptest! {
     }
 }
 
+/// `bunny_watertight.obj` from the shared data (`None`, after a skip notice, without it).
+fn watertight_bunny(test: &str) -> Option<TriMesh> {
+    let path = shared_data(test, "meshes/bunny_watertight.obj")?;
+    Some(
+        io::read_geometry(&path)
+            .unwrap()
+            .geometry
+            .mesh()
+            .unwrap()
+            .clone(),
+    )
+}
+
 #[test]
 fn bunny_sign_agrees_with_winding_numbers() {
-    let Some(path) = shared_data("bunny_sign", "meshes/bunny_watertight.obj") else {
+    let Some(mesh) = watertight_bunny("bunny_sign") else {
         return;
     };
-    let mesh = io::read_geometry(&path)
-        .unwrap()
-        .geometry
-        .mesh()
-        .unwrap()
-        .clone();
     let surface = MeshSurface::new(&mesh).unwrap();
     let bounds = mesh.bounding_box().unwrap();
     let mut g = rng::rng_from_seed(11);
@@ -440,15 +447,9 @@ fn invalid_parameters_are_errors() {
 
 #[test]
 fn band_limited_bunny_grid_agrees_with_unlimited_queries() {
-    let Some(path) = shared_data("band_limited_bunny_grid", "meshes/bunny_watertight.obj") else {
+    let Some(mesh) = watertight_bunny("band_limited_bunny_grid") else {
         return;
     };
-    let mesh = io::read_geometry(&path)
-        .unwrap()
-        .geometry
-        .mesh()
-        .unwrap()
-        .clone();
     let surface = MeshSurface::new(&mesh).unwrap();
     let spec = GridSpec::covering(mesh.bounding_box().unwrap(), 40, 0.0).unwrap();
     let band = 3.0 * spec.spacing;
