@@ -1,0 +1,26 @@
+//! The error type of `voxel-dfsynth`.
+
+/// Everything that can go wrong in `voxel-dfsynth`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum VoxelError {
+    /// From `pointset-core`.
+    #[error(transparent)]
+    Core(#[from] pointset_core::Error),
+    /// From `distance-field`.
+    #[error(transparent)]
+    Field(#[from] distance_field::FieldError),
+    /// A parameter lies outside its valid range.
+    #[error("parameter `{name}` = {value} is out of range: expected {expected}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// The value given.
+        value: String,
+        /// The accepted range, in words.
+        expected: &'static str,
+    },
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T, E = VoxelError> = std::result::Result<T, E>;

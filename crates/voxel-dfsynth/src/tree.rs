@@ -1,0 +1,480 @@
+//! The search tree of paper 001 §4.1/§4.4 and its best-first search (§4.3, Figure 4).
+//!
+//! Every block pyramid is a path of *chunks*: level 1 (one sample), then each finer level's
+//! eight octants in turn (§4.4's partially identical parents: blocks sharing the first
+//! octants of a level share a node). Blocks whose chunks agree are merged into one node per
+//! prefix (§4.1's identical nodes). A prefix reached by a single block is stored as one
+//! compressed node that refers to the block (nodes reference the global pyramid, not copies).
+//!
+//! Keys of levels below the block itself are the block's level means rounded to 256 levels,
+//! so at most 256 nodes exist at level 1. Rounding makes the stored means differ from the true
+//! means by at most ½ level, which can break Eq. 2 by a hair; the search therefore scores a node
+//! with the lower bound `max(0, |q − b| − ½)²` per sample, which Eq. 2 keeps below the leaf
+//! distance. The best-first search is thus exact: the first block to reach the front of the
+//! queue is a best match under Eq. 1.
+
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashMap};
+
+use crate::error::{Result, VoxelError};
+use crate::field::{BoxMeans, QuantizedField};
+
+/// Node id reserved for "not a node".
+const NONE: u32 = u32::MAX;
+
+#[derive(Debug, Clone)]
+struct Node {
+    /// Chunks fixed so far (0 = root).
+    depth: u16,
+    /// A block position sharing this prefix (to recompute chunk values from the pyramid).
+    rep: u32,
+    children: Vec<u32>,
+    /// For a full path: every block position with identical levels. For a compressed node:
+    /// the single block below it.
+    blocks: Vec<u32>,
+    compressed: bool,
+}
+
+/// Statistics of a built tree.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TreeStats {
+    /// Block size `N`.
+    pub block: usize,
+    /// Block positions indexed.
+    pub blocks: usize,
+    /// Nodes per pyramid level (index 0 = level 1); compressed nodes count at their level.
+    pub nodes_per_level: Vec<usize>,
+    /// Mean number of children of nodes that have children.
+    pub branching_factor: f64,
+    /// Bytes held by the tree (nodes and the pyramid's box means).
+    pub memory_bytes: usize,
+    /// Wall time of the build in seconds.
+    pub build_seconds: f64,
+}
+
+/// The search tree over every `N³` block of a quantized field.
+#[derive(Debug, Clone)]
+pub struct SearchTree {
+    n: usize,
+    levels: usize,
+    positions: [usize; 3],
+    field: QuantizedField,
+    /// Box means for levels 1..L−1 (index l−1 → cell N / 2^(l−1)).
+    means: Vec<BoxMeans>,
+    nodes: Vec<Node>,
+    stats: TreeStats,
+}
+
+/// Where chunk `d` lies: its level (1-based) and octant (`None` for level 1).
+fn chunk_location(d: usize) -> (usize, Option<usize>) {
+    if d == 0 {
+        (1, None)
+    } else {
+        (2 + (d - 1) / 8, Some((d - 1) % 8))
+    }
+}
+
+/// Sample coordinates (within the level, `r` per side) of chunk `octant` of a level.
+fn chunk_samples(r: usize, octant: Option<usize>) -> impl Iterator<Item = [usize; 3]> {
+    let (lo, h) = match octant {
+        None => ([0, 0, 0], 1),
+        Some(o) => {
+            let h = r / 2;
+            ([(o & 1) * h, ((o >> 1) & 1) * h, ((o >> 2) & 1) * h], h)
+        }
+    };
+    (0..h * h * h).map(move |s| [lo[0] + s % h, lo[1] + (s / h) % h, lo[2] + s / (h * h)])
+}
+
+/// A query prepared for scoring: its exact level means and its raw block.
+struct Query {
+    /// Level means per chunk (levels below the block), in chunk sample order.
+    chunks: Vec<Vec<f32>>,
+    block: Vec<u8>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Entry {
+    bound: f32,
+    node: u32,
+    /// Exact block position when this entry is a fully scored block.
+    block: u32,
+    floor: f32,
+    partial: f32,
+}
+
+impl Eq for Entry {}
+impl Ord for Entry {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Min-heap on bound; ties: finished blocks first, then lower ids (deterministic).
+        other
+            .bound
+            .total_cmp(&self.bound)
+            .then_with(|| (other.block == NONE).cmp(&(self.block == NONE)))
+            .then_with(|| other.block.cmp(&self.block))
+            .then_with(|| other.node.cmp(&self.node))
+    }
+}
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// A best match: the block corner and its Eq. 1 distance (in squared quantization levels).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Match {
+    /// Corner of the best block in the source field.
+    pub corner: [usize; 3],
+    /// `dist(B, B')` of Eq. 1.
+    pub distance: f32,
+}
+
+impl SearchTree {
+    /// Builds the tree over every `n³` block of `field` (`n` a power of two ≥ 2).
+    pub fn build(field: &QuantizedField, n: usize) -> Result<Self> {
+        let start = std::time::Instant::now();
+        if !n.is_power_of_two() || n < 2 {
+            return Err(VoxelError::InvalidParameter {
+                name: "block size",
+                value: n.to_string(),
+                expected: "a power of two ≥ 2",
+            });
+        }
+        let positions = field
+            .block_positions(n)
+            .ok_or(VoxelError::InvalidParameter {
+                name: "block size",
+                value: n.to_string(),
+                expected: "a block that fits in the field",
+            })?;
+        let count = positions.iter().product::<usize>();
+        if count > u32::MAX as usize - 1 {
+            return Err(VoxelError::InvalidParameter {
+                name: "field",
+                value: format!("{count} blocks"),
+                expected: "fewer than 2^32 blocks",
+            });
+        }
+        let levels = n.trailing_zeros() as usize + 1;
+        let means = (1..levels)
+            .map(|l| BoxMeans::new(field, n >> (l - 1)))
+            .collect();
+        let mut tree = Self {
+            n,
+            levels,
+            positions,
+            field: field.clone(),
+            means,
+            nodes: Vec::new(),
+            stats: TreeStats {
+                block: n,
+                blocks: count,
+                nodes_per_level: vec![0; levels],
+                branching_factor: 0.0,
+                memory_bytes: 0,
+                build_seconds: 0.0,
+            },
+        };
+        let all: Vec<u32> = (0..count as u32).collect();
+        tree.nodes.push(Node {
+            depth: 0,
+            rep: 0,
+            children: Vec::new(),
+            blocks: Vec::new(),
+            compressed: false,
+        });
+        tree.grow(0, all);
+        tree.finish_stats(start.elapsed().as_secs_f64());
+        Ok(tree)
+    }
+
+    /// Number of chunks on a full path.
+    fn total_chunks(&self) -> usize {
+        1 + 8 * (self.levels - 1)
+    }
+
+    fn corner(&self, id: u32) -> [usize; 3] {
+        let [px, py, _] = self.positions;
+        let id = id as usize;
+        [id % px, (id / px) % py, id / (px * py)]
+    }
+
+    /// The stored key of chunk `d` of block `id`: rounded level means, or raw values at the
+    /// block's own level.
+    fn chunk_key(&self, d: usize, id: u32) -> Vec<u8> {
+        let corner = self.corner(id);
+        let (level, octant) = chunk_location(d);
+        let r = 1usize << (level - 1);
+        if level == self.levels {
+            chunk_samples(r, octant)
+                .map(|s| {
+                    self.field.values()[self.field.index(
+                        corner[0] + s[0],
+                        corner[1] + s[1],
+                        corner[2] + s[2],
+                    )]
+                })
+                .collect()
+        } else {
+            let m = &self.means[level - 1];
+            let c = m.cell();
+            chunk_samples(r, octant)
+                .map(|s| {
+                    m.mean(
+                        corner[0] + s[0] * c,
+                        corner[1] + s[1] * c,
+                        corner[2] + s[2] * c,
+                    )
+                    .round() as u8
+                })
+                .collect()
+        }
+    }
+
+    /// Attaches the children of `node` (which holds the prefix shared by `blocks`).
+    fn grow(&mut self, node: usize, blocks: Vec<u32>) {
+        let depth = self.nodes[node].depth as usize;
+        if depth == self.total_chunks() {
+            self.nodes[node].blocks = blocks;
+            return;
+        }
+        let mut groups: HashMap<Vec<u8>, Vec<u32>> = HashMap::new();
+        for b in blocks {
+            groups.entry(self.chunk_key(depth, b)).or_default().push(b);
+        }
+        let mut groups: Vec<(Vec<u8>, Vec<u32>)> = groups.into_iter().collect();
+        groups.sort_by(|a, b| a.0.cmp(&b.0));
+        for (_, members) in groups {
+            let id = self.nodes.len();
+            let compressed = members.len() == 1 && depth + 1 < self.total_chunks();
+            self.nodes.push(Node {
+                depth: (depth + 1) as u16,
+                rep: members[0],
+                children: Vec::new(),
+                blocks: if compressed {
+                    members.clone()
+                } else {
+                    Vec::new()
+                },
+                compressed,
+            });
+            self.nodes[node].children.push(id as u32);
+            if !compressed {
+                self.grow(id, members);
+            }
+        }
+    }
+
+    fn finish_stats(&mut self, seconds: f64) {
+        let mut per_level = vec![0usize; self.levels];
+        let (mut parents, mut edges) = (0usize, 0usize);
+        for n in &self.nodes[1..] {
+            let (level, _) = chunk_location(n.depth as usize - 1);
+            per_level[level - 1] += 1;
+        }
+        for n in &self.nodes {
+            if !n.children.is_empty() {
+                parents += 1;
+                edges += n.children.len();
+            }
+        }
+        let node_bytes: usize = self
+            .nodes
+            .iter()
+            .map(|n| std::mem::size_of::<Node>() + 4 * (n.children.len() + n.blocks.len()))
+            .sum();
+        let mean_bytes: usize =
+            self.means.iter().map(BoxMeans::bytes).sum::<usize>() + self.field.values().len();
+        self.stats.nodes_per_level = per_level;
+        self.stats.branching_factor = if parents == 0 {
+            0.0
+        } else {
+            edges as f64 / parents as f64
+        };
+        self.stats.memory_bytes = node_bytes + mean_bytes;
+        self.stats.build_seconds = seconds;
+    }
+
+    /// Checks the tree's invariants (for tests; `O(blocks × depth)`): children of a node
+    /// have pairwise different keys for their chunk, and every block below a node has that
+    /// node's key for every chunk on the path — merging never joins different quantized
+    /// nodes. Returns the number of blocks reached, which must equal the number indexed.
+    pub fn verify(&self) -> std::result::Result<usize, String> {
+        let mut reached = 0usize;
+        // (node, keys of the path so far)
+        let mut stack: Vec<(u32, Vec<Vec<u8>>)> = vec![(0, Vec::new())];
+        while let Some((id, path)) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            let below: Vec<u32> = if node.compressed || node.depth as usize == self.total_chunks() {
+                node.blocks.clone()
+            } else {
+                Vec::new()
+            };
+            for &b in &below {
+                for (d, key) in path.iter().enumerate() {
+                    if self.chunk_key(d, b) != *key {
+                        return Err(format!("block {b} under node {id} differs at chunk {d}"));
+                    }
+                }
+            }
+            reached += below.len();
+            let mut keys: Vec<Vec<u8>> = Vec::new();
+            for &c in &node.children {
+                let key = self.chunk_key(node.depth as usize, self.nodes[c as usize].rep);
+                if keys.contains(&key) {
+                    return Err(format!("node {id} has two children with the same key"));
+                }
+                keys.push(key.clone());
+                let mut p = path.clone();
+                p.push(key);
+                stack.push((c, p));
+            }
+        }
+        Ok(reached)
+    }
+
+    /// Build statistics.
+    pub fn stats(&self) -> &TreeStats {
+        &self.stats
+    }
+
+    /// Block size `N`.
+    pub fn block_size(&self) -> usize {
+        self.n
+    }
+
+    fn prepare(&self, query: &[u8]) -> Result<Query> {
+        let n = self.n;
+        let qf = QuantizedField::from_values([n, n, n], query.to_vec())?;
+        let mut chunks = Vec::with_capacity(self.total_chunks());
+        for d in 0..self.total_chunks() {
+            let (level, octant) = chunk_location(d);
+            if level == self.levels {
+                chunks.push(Vec::new());
+                continue;
+            }
+            let r = 1usize << (level - 1);
+            let means = BoxMeans::new(&qf, n / r);
+            let c = means.cell();
+            chunks.push(
+                chunk_samples(r, octant)
+                    .map(|s| means.mean(s[0] * c, s[1] * c, s[2] * c))
+                    .collect(),
+            );
+        }
+        Ok(Query {
+            chunks,
+            block: query.to_vec(),
+        })
+    }
+
+    /// Sum over chunk `d` of block `rep`'s lower-bound terms against the query.
+    fn chunk_score(&self, d: usize, rep: u32, q: &Query) -> f32 {
+        let key = self.chunk_key(d, rep);
+        let (level, octant) = chunk_location(d);
+        if level == self.levels {
+            let r = self.n;
+            chunk_samples(r, octant)
+                .zip(key)
+                .map(|(s, v)| {
+                    let b = f32::from(q.block[s[0] + r * (s[1] + r * s[2])]);
+                    (f32::from(v) - b).powi(2)
+                })
+                .sum()
+        } else {
+            key.iter()
+                .zip(&q.chunks[d])
+                .map(|(&v, &b)| ((f32::from(v) - b).abs() - 0.5).max(0.0).powi(2))
+                .sum()
+        }
+    }
+
+    fn exact(&self, id: u32, query: &[u8]) -> f32 {
+        let block = self.field.block(self.corner(id), self.n);
+        let ssd: u64 = block
+            .iter()
+            .zip(query)
+            .map(|(&a, &b)| u64::from(a.abs_diff(b)).pow(2))
+            .sum();
+        ssd as f32 / (self.n * self.n * self.n) as f32
+    }
+
+    /// The best-matching block for `query` (`N³` levels, x-fastest) by the best-first
+    /// search of Figure 4. Exact; ties go to the lowest block index reached first.
+    pub fn best_match(&self, query: &[u8]) -> Result<Match> {
+        if query.len() != self.n * self.n * self.n {
+            return Err(VoxelError::InvalidParameter {
+                name: "query",
+                value: format!("{} values", query.len()),
+                expected: "N³ values",
+            });
+        }
+        let q = self.prepare(query)?;
+        let mut heap = BinaryHeap::new();
+        heap.push(Entry {
+            bound: 0.0,
+            node: 0,
+            block: NONE,
+            floor: 0.0,
+            partial: 0.0,
+        });
+        while let Some(e) = heap.pop() {
+            if e.block != NONE {
+                return Ok(Match {
+                    corner: self.corner(e.block),
+                    distance: e.bound,
+                });
+            }
+            let node = &self.nodes[e.node as usize];
+            if node.depth as usize == self.total_chunks() {
+                let block = node.blocks.first().copied().unwrap_or(node.rep);
+                heap.push(Entry { block, ..e });
+                continue;
+            }
+            for &child in &node.children {
+                let c = &self.nodes[child as usize];
+                if c.compressed {
+                    let block = c.rep;
+                    heap.push(Entry {
+                        bound: self.exact(block, query),
+                        node: child,
+                        block,
+                        floor: 0.0,
+                        partial: 0.0,
+                    });
+                    continue;
+                }
+                let d = node.depth as usize;
+                let (level, octant) = chunk_location(d);
+                let samples = (1usize << (level - 1)).pow(3) as f32;
+                let score = self.chunk_score(d, c.rep, &q);
+                let first_of_level = octant.is_none_or(|o| o == 0);
+                let (floor, partial) = if first_of_level {
+                    // The previous level is complete: its mean is a floor for everything below.
+                    let previous = if d == 0 {
+                        0.0
+                    } else {
+                        e.partial / ((1usize << (level - 2)).pow(3) as f32)
+                    };
+                    (e.floor.max(previous), score)
+                } else {
+                    (e.floor, e.partial + score)
+                };
+                let bound = floor.max(partial / samples);
+                heap.push(Entry {
+                    bound,
+                    node: child,
+                    block: NONE,
+                    floor,
+                    partial,
+                });
+            }
+        }
+        Err(VoxelError::InvalidParameter {
+            name: "tree",
+            value: "empty".into(),
+            expected: "at least one block",
+        })
+    }
+}
