@@ -11,6 +11,7 @@
 //! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation |
 //! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
 //! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |
+//! | [`voxel`] | `voxel-dfsynth` | paper 001: distance-field block matching (search tree, brute force, FFT) |
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
@@ -129,5 +130,20 @@ pub use pointset_core::{CancelFlag, Progress, ProgressUpdate, RunContext, Stage}
 /// Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub use tps_warp as tps;
+
+/// Distance-field block matching of paper 001 (the `voxel-dfsynth` crate; matching only so
+/// far: search tree, brute force, FFT).
+///
+/// ```
+/// use geosynth::voxel::{BlockMatcher, QuantizedField, SearchTree};
+///
+/// let values: Vec<u8> = (0..16 * 16 * 16).map(|i| ((i * 37) % 251) as u8).collect();
+/// let field = QuantizedField::from_values([16, 16, 16], values)?;
+/// let tree = SearchTree::build(&field, 4)?;
+/// let best = tree.best_match(&field.block([3, 2, 1], 4))?;
+/// assert_eq!(best.distance, 0.0);
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub use voxel_dfsynth as voxel;
 
 pub use error::{Error, Result};
