@@ -73,17 +73,33 @@ fn table1(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("tree", &label), &qs, |b, qs| {
             b.iter(|| {
                 qs.iter()
-                    .map(|q| tree.best_match(black_box(q)).map_or(f32::NAN, |m| m.distance)).sum::<f32>()
+                    .map(|q| {
+                        tree.best_match(black_box(q))
+                            .map_or(f32::NAN, |m| m.distance)
+                    })
+                    .sum::<f32>()
             })
         });
         group.bench_with_input(BenchmarkId::new("brute_force", &label), &qs, |b, qs| {
             b.iter(|| {
                 qs.iter()
-                    .map(|q| brute.best_match(black_box(q)).map_or(f32::NAN, |m| m.distance)).sum::<f32>()
+                    .map(|q| {
+                        brute
+                            .best_match(black_box(q))
+                            .map_or(f32::NAN, |m| m.distance)
+                    })
+                    .sum::<f32>()
             })
         });
         group.bench_with_input(BenchmarkId::new("fft", &label), &qs, |b, qs| {
-            b.iter(|| qs.iter().map(|q| fft.best_match(black_box(q)).map_or(f32::NAN, |m| m.distance)).sum::<f32>())
+            b.iter(|| {
+                qs.iter()
+                    .map(|q| {
+                        fft.best_match(black_box(q))
+                            .map_or(f32::NAN, |m| m.distance)
+                    })
+                    .sum::<f32>()
+            })
         });
     }
     group.finish();
