@@ -16,6 +16,8 @@
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 
+use rayon::prelude::*;
+
 use crate::error::{Result, VoxelError};
 use crate::field::{BoxMeans, QuantizedField};
 
@@ -184,7 +186,7 @@ impl SearchTree {
             blocks: Vec::new(),
             compressed: false,
         });
-        tree.grow(0, all);
+        tree.grow_root(all);
         tree.finish_stats(start.elapsed().as_secs_f64());
         Ok(tree)
     }
@@ -232,37 +234,63 @@ impl SearchTree {
         }
     }
 
-    /// Attaches the children of `node` (which holds the prefix shared by `blocks`).
-    fn grow(&mut self, node: usize, blocks: Vec<u32>) {
-        let depth = self.nodes[node].depth as usize;
-        if depth == self.total_chunks() {
-            self.nodes[node].blocks = blocks;
-            return;
-        }
+    /// Groups `blocks` by their key for chunk `depth`, in key order (deterministic).
+    fn groups(&self, depth: usize, blocks: Vec<u32>) -> Vec<Vec<u32>> {
         let mut groups: HashMap<Vec<u8>, Vec<u32>> = HashMap::new();
         for b in blocks {
             groups.entry(self.chunk_key(depth, b)).or_default().push(b);
         }
         let mut groups: Vec<(Vec<u8>, Vec<u32>)> = groups.into_iter().collect();
         groups.sort_by(|a, b| a.0.cmp(&b.0));
-        for (_, members) in groups {
-            let id = self.nodes.len();
-            let compressed = members.len() == 1 && depth + 1 < self.total_chunks();
-            self.nodes.push(Node {
-                depth: (depth + 1) as u16,
-                rep: members[0],
-                children: Vec::new(),
-                blocks: if compressed {
-                    members.clone()
-                } else {
-                    Vec::new()
-                },
-                compressed,
-            });
-            self.nodes[node].children.push(id as u32);
-            if !compressed {
-                self.grow(id, members);
-            }
+        groups.into_iter().map(|(_, members)| members).collect()
+    }
+
+    /// Builds the subtree for the prefix of length `depth` shared by `blocks` into a local
+    /// arena whose node 0 is the subtree's root (child ids are local).
+    fn subtree(&self, depth: usize, blocks: Vec<u32>) -> Vec<Node> {
+        let total = self.total_chunks();
+        let compressed = blocks.len() == 1 && depth < total;
+        let mut arena = vec![Node {
+            depth: depth as u16,
+            rep: blocks[0],
+            children: Vec::new(),
+            blocks: if compressed || depth == total {
+                blocks.clone()
+            } else {
+                Vec::new()
+            },
+            compressed,
+        }];
+        if compressed || depth == total {
+            return arena;
+        }
+        for members in self.groups(depth, blocks) {
+            let child = self.subtree(depth + 1, members);
+            let offset = arena.len() as u32;
+            arena[0].children.push(offset);
+            arena.extend(child.into_iter().map(|mut n| {
+                n.children.iter_mut().for_each(|c| *c += offset);
+                n
+            }));
+        }
+        arena
+    }
+
+    /// Attaches the root's children: one subtree per level-1 key, built in parallel and
+    /// appended in key order.
+    fn grow_root(&mut self, blocks: Vec<u32>) {
+        let groups = self.groups(0, blocks);
+        let subtrees: Vec<Vec<Node>> = groups
+            .into_par_iter()
+            .map(|members| self.subtree(1, members))
+            .collect();
+        for sub in subtrees {
+            let offset = self.nodes.len() as u32;
+            self.nodes[0].children.push(offset);
+            self.nodes.extend(sub.into_iter().map(|mut n| {
+                n.children.iter_mut().for_each(|c| *c += offset);
+                n
+            }));
         }
     }
 

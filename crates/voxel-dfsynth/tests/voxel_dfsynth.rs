@@ -149,3 +149,33 @@ fn invalid_input_is_an_error() {
     assert!(tree.best_match(&[0u8; 10]).is_err());
     assert!(QuantizedField::from_values([2, 2, 2], vec![0; 7]).is_err());
 }
+
+#[test]
+fn tree_and_matches_do_not_depend_on_thread_count() {
+    let field = balls_field(11, 20);
+    let queries: Vec<Vec<u8>> = (0..5)
+        .map(|i| {
+            field
+                .block([i, 2 * i, 3], 4)
+                .into_iter()
+                .map(|v| v.wrapping_add(i as u8))
+                .collect()
+        })
+        .collect();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let tree = SearchTree::build(&field, 4).unwrap();
+                let stats = tree.stats().clone();
+                let matches: Vec<_> = queries
+                    .iter()
+                    .map(|q| tree.best_match(q).unwrap())
+                    .collect();
+                (stats.nodes_per_level, stats.branching_factor, matches)
+            })
+    };
+    assert_eq!(run(1), run(2));
+}
