@@ -4,10 +4,11 @@
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
 
+mod common;
+
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use geosynth::core::io;
 use geosynth::core::rng;
 use geosynth::fixtures;
 use geosynth::mls::{MlsParams, MlsSurface};
@@ -39,13 +40,9 @@ fn mls_projection(c: &mut Criterion) {
 fn sdf_grids(c: &mut Criterion) {
     let mut group = c.benchmark_group("sdf_grid");
     group.sample_size(10);
-    match std::env::var_os("GEOSYNTH_DATA") {
-        Some(dir) => {
-            let path = std::path::Path::new(&dir).join("meshes/bunny_watertight.obj");
-            let bunny = io::read_geometry(&path)
-                .expect("bunny_watertight.obj")
-                .geometry;
-            let mesh = bunny.mesh().expect("a mesh");
+    match common::watertight_bunny() {
+        Some(bunny) => {
+            let mesh = &bunny;
             let surface = MeshSurface::new(mesh).expect("benchmark setup");
             let bounds = mesh.bounding_box().expect("bounds");
             for n in [64usize, 128] {

@@ -5,10 +5,11 @@
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
 
+mod common;
+
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use geosynth::core::io;
 use geosynth::core::rng;
 use geosynth::sdf::{GridSpec, MeshSurface, Quantizer, SdfGrid};
 use geosynth::voxel::{BlockMatcher, BruteForce, FftMatcher, QuantizedField, SearchTree};
@@ -16,13 +17,9 @@ use rand::RngExt;
 
 /// The source field: the bunny's signed distance at `res³`, quantized over ±4 spacings.
 fn source(res: usize) -> QuantizedField {
-    let dir = std::env::var_os("GEOSYNTH_DATA")
+    let bunny = common::watertight_bunny()
         .expect("set GEOSYNTH_DATA to the shared data folder for this benchmark");
-    let path = std::path::Path::new(&dir).join("meshes/bunny_watertight.obj");
-    let bunny = io::read_geometry(&path)
-        .expect("bunny_watertight.obj")
-        .geometry;
-    let mesh = bunny.mesh().expect("a mesh");
+    let mesh = &bunny;
     let surface = MeshSurface::new(mesh).expect("benchmark setup");
     let bounds = mesh.bounding_box().expect("bounds");
     let spec = GridSpec::covering(bounds, res, 0.0).expect("grid");

@@ -76,6 +76,26 @@ pub fn fft_1d(data: &mut [Complex], inverse: bool) {
     }
 }
 
+/// Transforms the strided lines `start + k·stride`, `k < len`, for every start.
+fn transform_lines(
+    data: &mut [Complex],
+    starts: impl Iterator<Item = usize>,
+    stride: usize,
+    len: usize,
+    inverse: bool,
+) {
+    let mut line = vec![Complex::default(); len];
+    for start in starts {
+        for (k, v) in line.iter_mut().enumerate() {
+            *v = data[start + k * stride];
+        }
+        fft_1d(&mut line, inverse);
+        for (k, v) in line.iter().enumerate() {
+            data[start + k * stride] = *v;
+        }
+    }
+}
+
 /// In-place 3D FFT of an x-fastest `dims` array (each a power of two); the inverse is
 /// normalized by `1 / (nx ny nz)`.
 pub fn fft_3d(data: &mut [Complex], dims: [usize; 3], inverse: bool) {
@@ -83,29 +103,21 @@ pub fn fft_3d(data: &mut [Complex], dims: [usize; 3], inverse: bool) {
     for row in data.chunks_mut(nx) {
         fft_1d(row, inverse);
     }
-    let mut line = vec![Complex::default(); ny.max(nz)];
-    for z in 0..nz {
-        for x in 0..nx {
-            for y in 0..ny {
-                line[y] = data[x + nx * (y + ny * z)];
-            }
-            fft_1d(&mut line[..ny], inverse);
-            for y in 0..ny {
-                data[x + nx * (y + ny * z)] = line[y];
-            }
-        }
-    }
-    for y in 0..ny {
-        for x in 0..nx {
-            for z in 0..nz {
-                line[z] = data[x + nx * (y + ny * z)];
-            }
-            fft_1d(&mut line[..nz], inverse);
-            for z in 0..nz {
-                data[x + nx * (y + ny * z)] = line[z];
-            }
-        }
-    }
+    // Along y: lines start at x + nx·ny·z with stride nx; along z: at x + nx·y, stride nx·ny.
+    transform_lines(
+        data,
+        (0..nz).flat_map(|z| (0..nx).map(move |x| x + nx * ny * z)),
+        nx,
+        ny,
+        inverse,
+    );
+    transform_lines(
+        data,
+        (0..ny).flat_map(|y| (0..nx).map(move |x| x + nx * y)),
+        nx * ny,
+        nz,
+        inverse,
+    );
     if inverse {
         let scale = 1.0 / (nx * ny * nz) as f64;
         for v in data.iter_mut() {

@@ -60,6 +60,15 @@ impl QuantizedField {
         out
     }
 
+    /// Like [`QuantizedField::block_positions`], as a range error when `n` does not fit.
+    pub fn fitting_positions(&self, n: usize) -> Result<[usize; 3]> {
+        self.block_positions(n).ok_or(VoxelError::InvalidParameter {
+            name: "block size",
+            value: n.to_string(),
+            expected: "a block that fits in the field",
+        })
+    }
+
     /// Block corners `0..=dims − n` along each axis (all blocks that fit), as counts.
     pub fn block_positions(&self, n: usize) -> Option<[usize; 3]> {
         let [x, y, z] = self.dims;

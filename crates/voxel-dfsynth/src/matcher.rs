@@ -49,13 +49,7 @@ pub struct BruteForce {
 impl BruteForce {
     /// A brute-force matcher over every `n³` block of `field`.
     pub fn new(field: &QuantizedField, n: usize) -> Result<Self> {
-        let positions = field
-            .block_positions(n)
-            .ok_or(VoxelError::InvalidParameter {
-                name: "block size",
-                value: n.to_string(),
-                expected: "a block that fits in the field",
-            })?;
+        let positions = field.fitting_positions(n)?;
         Ok(Self {
             field: field.clone(),
             n,
@@ -121,13 +115,7 @@ pub struct FftMatcher {
 impl FftMatcher {
     /// Precomputes the spectra of `field` and of its squares for blocks of size `n`.
     pub fn new(field: &QuantizedField, n: usize) -> Result<Self> {
-        field
-            .block_positions(n)
-            .ok_or(VoxelError::InvalidParameter {
-                name: "block size",
-                value: n.to_string(),
-                expected: "a block that fits in the field",
-            })?;
+        field.fitting_positions(n)?;
         let dims = field.dims();
         let padded = dims.map(usize::next_power_of_two);
         let size = padded.iter().product::<usize>();

@@ -143,13 +143,7 @@ impl SearchTree {
                 expected: "a power of two ≥ 2",
             });
         }
-        let positions = field
-            .block_positions(n)
-            .ok_or(VoxelError::InvalidParameter {
-                name: "block size",
-                value: n.to_string(),
-                expected: "a block that fits in the field",
-            })?;
+        let positions = field.fitting_positions(n)?;
         let count = positions.iter().product::<usize>();
         if count > u32::MAX as usize - 1 {
             return Err(VoxelError::InvalidParameter {
