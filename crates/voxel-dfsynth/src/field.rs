@@ -166,3 +166,89 @@ pub fn block_level(means: &BoxMeans, corner: [usize; 3], r: usize) -> Vec<f32> {
     }
     out
 }
+
+/// The source subsampled `drop` times at every offset (§5.2): `S[p]` is the source's mean over
+/// the cell of side `c = 2^drop` at `p`, rounded to a level. The `m³` block at `p` of the
+/// subsampled source is `S[p + c · (i, j, k)]` — the values the search tree with `drop` leaf
+/// levels removed holds for the block at `p` ([`crate::SearchTree::subsampled_block`]).
+#[derive(Debug, Clone)]
+pub struct SubsampledSource {
+    cell: usize,
+    rounded: QuantizedField,
+}
+
+impl SubsampledSource {
+    /// Subsamples `field` `drop` times (`drop = 0` keeps it as is). Errors when the cell does
+    /// not fit in the field.
+    pub fn new(field: &QuantizedField, drop: usize) -> Result<Self> {
+        let cell = 1usize << drop.min(usize::BITS as usize - 1);
+        field.fitting_positions(cell)?;
+        if drop == 0 {
+            return Ok(Self {
+                cell,
+                rounded: field.clone(),
+            });
+        }
+        let means = BoxMeans::new(field, cell);
+        let values = means.means.iter().map(|v| v.round() as u8).collect();
+        Ok(Self {
+            cell,
+            rounded: QuantizedField::from_values(means.dims, values)?,
+        })
+    }
+
+    /// Cell side `c = 2^drop`.
+    pub fn cell(&self) -> usize {
+        self.cell
+    }
+
+    /// Rounded cell means at every cell corner.
+    pub fn rounded(&self) -> &QuantizedField {
+        &self.rounded
+    }
+
+    /// The `m³` subsampled block at full-resolution corner `p` (x-fastest); `None` when it
+    /// does not fit.
+    pub fn block(&self, p: [usize; 3], m: usize) -> Option<Vec<u8>> {
+        let c = self.cell;
+        let dims = self.rounded.dims();
+        if m == 0 || (0..3).any(|a| p[a] + c * (m - 1) >= dims[a]) {
+            return None;
+        }
+        let v = self.rounded.values();
+        let mut out = Vec::with_capacity(m * m * m);
+        for k in 0..m {
+            for j in 0..m {
+                for i in 0..m {
+                    out.push(v[self.rounded.index(p[0] + c * i, p[1] + c * j, p[2] + c * k)]);
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// The regular subsampled field of phase `phase` (each coordinate `< c`): samples
+    /// `S[phase + c · i]`. Every subsampled block is a block of exactly one phase field.
+    pub fn phase_field(&self, phase: [usize; 3]) -> Option<QuantizedField> {
+        let c = self.cell;
+        let dims = self.rounded.dims();
+        if (0..3).any(|a| phase[a] >= c || phase[a] >= dims[a]) {
+            return None;
+        }
+        let pd = [0, 1, 2].map(|a| (dims[a] - phase[a]).div_ceil(c));
+        let v = self.rounded.values();
+        let mut out = Vec::with_capacity(pd[0] * pd[1] * pd[2]);
+        for k in 0..pd[2] {
+            for j in 0..pd[1] {
+                for i in 0..pd[0] {
+                    out.push(
+                        v[self
+                            .rounded
+                            .index(phase[0] + c * i, phase[1] + c * j, phase[2] + c * k)],
+                    );
+                }
+            }
+        }
+        QuantizedField::from_values(pd, out).ok()
+    }
+}

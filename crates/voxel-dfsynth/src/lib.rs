@@ -37,9 +37,15 @@ mod error;
 pub mod fft;
 mod field;
 mod matcher;
+mod radix_heap;
+mod synth;
 mod tree;
 
 pub use error::{Result, VoxelError};
-pub use field::{BoxMeans, QuantizedField, block_level};
+pub use field::{BoxMeans, QuantizedField, SubsampledSource, block_level};
 pub use matcher::{BlockMatcher, BruteForce, FftMatcher};
+pub use synth::{
+    BlockCopy, LevelReport, MatcherKind, Synthesis, VoxelParams, quantize_source, source_quantizer,
+    synthesize,
+};
 pub use tree::{Match, SearchTree, TreeStats};

@@ -13,16 +13,13 @@
 //! distance. The best-first search is thus exact: the first block to reach the front of the
 //! queue is a best match under Eq. 1.
 
-use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::HashMap;
 
 use rayon::prelude::*;
 
 use crate::error::{Result, VoxelError};
 use crate::field::{BoxMeans, QuantizedField};
-
-/// Node id reserved for "not a node".
-const NONE: u32 = u32::MAX;
+use crate::radix_heap::RadixHeap;
 
 #[derive(Debug, Clone)]
 struct Node {
@@ -95,32 +92,18 @@ struct Query {
     block: Vec<u8>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 struct Entry {
+    /// Lower bound of the distance of every block below (exact once the path is complete).
     bound: f32,
     node: u32,
-    /// Exact block position when this entry is a fully scored block.
-    block: u32,
+    /// Chunks scored on this path. Equals the node's depth, except on a compressed node,
+    /// whose single block's chunks are scored one at a time as the entry returns to the front.
+    depth: u16,
+    /// Mean of the last complete level (a lower bound by Eq. 2).
     floor: f32,
+    /// Sum of the scored chunks of the current level.
     partial: f32,
-}
-
-impl Eq for Entry {}
-impl Ord for Entry {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // Min-heap on bound; ties: finished blocks first, then lower ids (deterministic).
-        other
-            .bound
-            .total_cmp(&self.bound)
-            .then_with(|| (other.block == NONE).cmp(&(self.block == NONE)))
-            .then_with(|| other.block.cmp(&self.block))
-            .then_with(|| other.node.cmp(&self.node))
-    }
-}
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
 }
 
 /// A best match: the block corner and its Eq. 1 distance (in squared quantization levels).
@@ -366,18 +349,23 @@ impl SearchTree {
         self.n
     }
 
-    fn prepare(&self, query: &[u8]) -> Result<Query> {
-        let n = self.n;
-        let qf = QuantizedField::from_values([n, n, n], query.to_vec())?;
-        let mut chunks = Vec::with_capacity(self.total_chunks());
-        for d in 0..self.total_chunks() {
+    /// Number of chunks on a path to the leaves of the tree with `drop` levels removed.
+    fn final_depth(&self, drop: usize) -> usize {
+        1 + 8 * (self.levels - 1 - drop)
+    }
+
+    fn prepare(&self, query: &[u8], drop: usize) -> Result<Query> {
+        let m = self.n >> drop;
+        let qf = QuantizedField::from_values([m, m, m], query.to_vec())?;
+        let mut chunks = Vec::with_capacity(self.final_depth(drop));
+        for d in 0..self.final_depth(drop) {
             let (level, octant) = chunk_location(d);
-            if level == self.levels {
+            if level == self.levels - drop {
                 chunks.push(Vec::new());
                 continue;
             }
             let r = 1usize << (level - 1);
-            let means = BoxMeans::new(&qf, n / r);
+            let means = BoxMeans::new(&qf, m / r);
             let c = means.cell();
             chunks.push(
                 chunk_samples(r, octant)
@@ -391,107 +379,189 @@ impl SearchTree {
         })
     }
 
-    /// Sum over chunk `d` of block `rep`'s lower-bound terms against the query.
-    fn chunk_score(&self, d: usize, rep: u32, q: &Query) -> f32 {
-        let key = self.chunk_key(d, rep);
+    /// Sum over chunk `d` of block `rep`'s lower-bound terms against the query, for the
+    /// tree with `drop` levels removed: exact squared differences at its leaf level, and
+    /// `max(0, |q − b| − slack)²` below it, where `slack` bounds how far a stored key can lie
+    /// from the true level mean of the (subsampled) block: ½ for the rounding of the key,
+    /// plus ½ more when the leaf values are themselves rounded means (`drop > 0`).
+    fn chunk_score(&self, d: usize, rep: u32, q: &Query, drop: usize) -> f32 {
+        let corner = self.corner(rep);
         let (level, octant) = chunk_location(d);
+        let r = 1usize << (level - 1);
         if level == self.levels {
-            let r = self.n;
-            chunk_samples(r, octant)
-                .zip(key)
-                .map(|(s, v)| {
+            // Raw samples of the block against the raw query.
+            let v = self.field.values();
+            return chunk_samples(r, octant)
+                .map(|s| {
                     let b = f32::from(q.block[s[0] + r * (s[1] + r * s[2])]);
-                    (f32::from(v) - b).powi(2)
+                    let k =
+                        v[self
+                            .field
+                            .index(corner[0] + s[0], corner[1] + s[1], corner[2] + s[2])];
+                    (f32::from(k) - b).powi(2)
                 })
+                .sum();
+        }
+        let m = &self.means[level - 1];
+        let c = m.cell();
+        let key = |s: [usize; 3]| {
+            m.mean(
+                corner[0] + s[0] * c,
+                corner[1] + s[1] * c,
+                corner[2] + s[2] * c,
+            )
+            .round()
+        };
+        if level == self.levels - drop {
+            chunk_samples(r, octant)
+                .map(|s| (key(s) - f32::from(q.block[s[0] + r * (s[1] + r * s[2])])).powi(2))
                 .sum()
         } else {
-            key.iter()
+            let slack = if drop == 0 { 0.5 } else { 1.0 };
+            chunk_samples(r, octant)
                 .zip(&q.chunks[d])
-                .map(|(&v, &b)| ((f32::from(v) - b).abs() - 0.5).max(0.0).powi(2))
+                .map(|(s, &b)| ((key(s) - b).abs() - slack).max(0.0).powi(2))
                 .sum()
         }
     }
 
-    fn exact(&self, id: u32, query: &[u8]) -> f32 {
-        let block = self.field.block(self.corner(id), self.n);
-        let ssd: u64 = block
-            .iter()
-            .zip(query)
-            .map(|(&a, &b)| u64::from(a.abs_diff(b)).pow(2))
-            .sum();
-        ssd as f32 / (self.n * self.n * self.n) as f32
+    /// The entry for `node` after scoring chunk `d` (of block `rep`) on top of `parent`.
+    fn advance(&self, parent: &Entry, node: u32, d: usize, q: &Query, drop: usize) -> Entry {
+        let rep = self.nodes[node as usize].rep;
+        let (level, octant) = chunk_location(d);
+        let samples = (1usize << (level - 1)).pow(3) as f32;
+        let score = self.chunk_score(d, rep, q, drop);
+        let (floor, partial) = if octant.is_none_or(|o| o == 0) {
+            // The previous level is complete: its mean is a floor for everything below.
+            let previous = if d == 0 {
+                0.0
+            } else {
+                parent.partial / ((1usize << (level - 2)).pow(3) as f32)
+            };
+            (parent.floor.max(previous), score)
+        } else {
+            (parent.floor, parent.partial + score)
+        };
+        Entry {
+            bound: floor.max(partial / samples),
+            node,
+            depth: (d + 1) as u16,
+            floor,
+            partial,
+        }
+    }
+
+    /// Block corners along each axis (every `N³` block that fits in the field).
+    pub fn positions(&self) -> [usize; 3] {
+        self.positions
+    }
+
+    /// Levels `L = log2 N + 1` of every block pyramid.
+    pub fn levels(&self) -> usize {
+        self.levels
+    }
+
+    /// The block at `corner` as seen by the tree with `drop` leaf levels removed (§5.2): its
+    /// pyramid level `L − drop`, `(N / 2^drop)³` values, each the source's mean over a cell of
+    /// side `2^drop` rounded to a quantization level (`drop = 0`: the raw block). These values
+    /// form the subsampled source of the coarser synthesis iterations.
+    ///
+    /// `corner` must be a block position and `drop < L`; other values are clamped.
+    pub fn subsampled_block(&self, corner: [usize; 3], drop: usize) -> Vec<u8> {
+        let drop = drop.min(self.levels - 1);
+        let corner = [0, 1, 2].map(|a| corner[a].min(self.positions[a] - 1));
+        if drop == 0 {
+            return self.field.block(corner, self.n);
+        }
+        let means = &self.means[self.levels - 1 - drop];
+        crate::field::block_level(means, corner, self.n >> drop)
+            .into_iter()
+            .map(|v| v.round() as u8)
+            .collect()
     }
 
     /// The best-matching block for `query` (`N³` levels, x-fastest) by the best-first
     /// search of Figure 4. Exact; ties go to the lowest block index reached first.
     pub fn best_match(&self, query: &[u8]) -> Result<Match> {
-        if query.len() != self.n * self.n * self.n {
+        self.best_match_subsampled(query, 0)
+    }
+
+    /// The best match for a query of `(N / 2^drop)³` levels in the tree with its `drop`
+    /// finest levels removed — the tree of the source subsampled `drop` times (§5.2) — among
+    /// the subsampled blocks of every block position ([`SearchTree::subsampled_block`]).
+    /// Exact under Eq. 1 on those values; `drop = 0` is [`SearchTree::best_match`].
+    pub fn best_match_subsampled(&self, query: &[u8], drop: usize) -> Result<Match> {
+        self.best_match_below(query, drop, None)
+    }
+
+    /// [`SearchTree::best_match_subsampled`] given a block already known to be at distance
+    /// `incumbent.distance` (e.g. the block that continues a synthesized neighbour): entries
+    /// whose lower bound exceeds it are never queued (branch and bound), and the incumbent
+    /// is returned when nothing in the tree is closer. Still exact; only ties may resolve
+    /// differently.
+    pub fn best_match_below(
+        &self,
+        query: &[u8],
+        drop: usize,
+        incumbent: Option<Match>,
+    ) -> Result<Match> {
+        if drop >= self.levels {
+            return Err(VoxelError::InvalidParameter {
+                name: "drop",
+                value: drop.to_string(),
+                expected: "fewer levels than the block pyramid has",
+            });
+        }
+        let m = self.n >> drop;
+        if query.len() != m * m * m {
             return Err(VoxelError::InvalidParameter {
                 name: "query",
                 value: format!("{} values", query.len()),
-                expected: "N³ values",
+                expected: "(N / 2^drop)³ values",
             });
         }
-        let q = self.prepare(query)?;
-        let mut heap = BinaryHeap::new();
-        heap.push(Entry {
-            bound: 0.0,
-            node: 0,
-            block: NONE,
-            floor: 0.0,
-            partial: 0.0,
-        });
-        while let Some(e) = heap.pop() {
-            if e.block != NONE {
+        let q = self.prepare(query, drop)?;
+        let final_depth = self.final_depth(drop);
+        let limit = incumbent.map_or(f32::INFINITY, |m| m.distance);
+        let mut heap = RadixHeap::new();
+        heap.push(
+            0.0,
+            Entry {
+                bound: 0.0,
+                node: 0,
+                depth: 0,
+                floor: 0.0,
+                partial: 0.0,
+            },
+        );
+        while let Some((_, e)) = heap.pop() {
+            let node = &self.nodes[e.node as usize];
+            let d = e.depth as usize;
+            if d == final_depth {
+                // A complete path: its bound is its exact distance, and no entry in the
+                // queue (nor anything below one) can be closer.
+                let block = node.blocks.first().copied().unwrap_or(node.rep);
                 return Ok(Match {
-                    corner: self.corner(e.block),
-                    distance: e.bound,
+                    corner: self.corner(block),
+                    distance: e.partial / (m * m * m) as f32,
                 });
             }
-            let node = &self.nodes[e.node as usize];
-            if node.depth as usize == self.total_chunks() {
-                let block = node.blocks.first().copied().unwrap_or(node.rep);
-                heap.push(Entry { block, ..e });
+            if node.compressed {
+                let next = self.advance(&e, e.node, d, &q, drop);
+                if next.bound <= limit {
+                    heap.push(next.bound, next);
+                }
                 continue;
             }
             for &child in &node.children {
-                let c = &self.nodes[child as usize];
-                if c.compressed {
-                    let block = c.rep;
-                    heap.push(Entry {
-                        bound: self.exact(block, query),
-                        node: child,
-                        block,
-                        floor: 0.0,
-                        partial: 0.0,
-                    });
-                    continue;
+                let next = self.advance(&e, child, d, &q, drop);
+                if next.bound <= limit {
+                    heap.push(next.bound, next);
                 }
-                let d = node.depth as usize;
-                let (level, octant) = chunk_location(d);
-                let samples = (1usize << (level - 1)).pow(3) as f32;
-                let score = self.chunk_score(d, c.rep, &q);
-                let first_of_level = octant.is_none_or(|o| o == 0);
-                let (floor, partial) = if first_of_level {
-                    // The previous level is complete: its mean is a floor for everything below.
-                    let previous = if d == 0 {
-                        0.0
-                    } else {
-                        e.partial / ((1usize << (level - 2)).pow(3) as f32)
-                    };
-                    (e.floor.max(previous), score)
-                } else {
-                    (e.floor, e.partial + score)
-                };
-                let bound = floor.max(partial / samples);
-                heap.push(Entry {
-                    bound,
-                    node: child,
-                    block: NONE,
-                    floor,
-                    partial,
-                });
             }
+        }
+        if let Some(m) = incumbent {
+            return Ok(m);
         }
         Err(VoxelError::InvalidParameter {
             name: "tree",

@@ -7,7 +7,9 @@ use distance_field::{GridSpec, Quantizer, SdfGrid};
 use pointset_core::{Aabb, Surface, SurfacePoint, rng};
 use proptest::prelude::*;
 use rand::RngExt;
-use voxel_dfsynth::{BlockMatcher, BruteForce, FftMatcher, QuantizedField, SearchTree};
+use voxel_dfsynth::{
+    BlockMatcher, BruteForce, FftMatcher, QuantizedField, SearchTree, SubsampledSource,
+};
 
 /// A quantized distance field of random balls (a "pile of balls", paper 001 Figure 6).
 fn balls_field(seed: u64, size: usize) -> QuantizedField {
@@ -93,6 +95,43 @@ proptest! {
         if kind == 0 {
             prop_assert_eq!(a.distance, 0.0);
         }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    /// §5.2: the tree with its finest levels dropped is an exact matcher over the subsampled
+    /// blocks of every position (checked by linear search over `SubsampledSource`).
+    #[test]
+    fn the_tree_without_its_leaves_matches_the_subsampled_source_exactly(seed in any::<u64>(), kind in 0u8..4, drop in 1usize..3) {
+        let n = 8usize;
+        let field = if seed % 2 == 0 { balls_field(seed, 20) } else { noise_field(seed, [14, 12, 11]) };
+        let tree = SearchTree::build(&field, n).unwrap();
+        let sub = SubsampledSource::new(&field, drop).unwrap();
+        let m = n >> drop;
+        let mut g = rng::rng_from_seed(seed ^ 0xc0a5e);
+        let [px, py, pz] = tree.positions();
+        let corner = [g.random_range(0..px), g.random_range(0..py), g.random_range(0..pz)];
+        let exact = sub.block(corner, m).unwrap();
+        prop_assert_eq!(&exact, &tree.subsampled_block(corner, drop));
+        let query: Vec<u8> = match kind {
+            0 => exact,
+            1 => exact.into_iter().map(|v| v.saturating_add(g.random_range(0..30))).collect(),
+            2 => vec![g.random(); m * m * m],
+            _ => (0..m * m * m).map(|_| g.random()).collect(),
+        };
+        let found = tree.best_match_subsampled(&query, drop).unwrap();
+        let dist = |b: &[u8]| b.iter().zip(&query).map(|(&p, &q)| u64::from(p.abs_diff(q)).pow(2)).sum::<u64>() as f32 / query.len() as f32;
+        let mut best = f32::INFINITY;
+        for z in 0..pz {
+            for y in 0..py {
+                for x in 0..px {
+                    best = best.min(dist(&sub.block([x, y, z], m).unwrap()));
+                }
+            }
+        }
+        prop_assert_eq!(found.distance, best);
+        prop_assert_eq!(dist(&sub.block(found.corner, m).unwrap()), best);
     }
 }
 

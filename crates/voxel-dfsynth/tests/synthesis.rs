@@ -1,0 +1,238 @@
+//! Synthesis (paper 001 §5): coverage, determinism, matcher agreement, periodicity.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use distance_field::SdfGrid;
+use glam::{Vec3, Vec4};
+use pointset_core::{Grid3, RunContext, rng};
+use rand::RngExt;
+use voxel_dfsynth::{MatcherKind, VoxelParams, synthesize};
+
+/// An SDF grid (unit spacing) from an analytic distance function.
+fn analytic(dims: [usize; 3], f: impl Fn(Vec3) -> f32) -> SdfGrid {
+    let data = (0..dims.iter().product::<usize>())
+        .map(|i| {
+            let p = Vec3::new(
+                (i % dims[0]) as f32,
+                ((i / dims[0]) % dims[1]) as f32,
+                (i / (dims[0] * dims[1])) as f32,
+            );
+            Vec4::new(f(p), 0.0, 0.0, 0.0)
+        })
+        .collect();
+    SdfGrid::from_grid(Grid3::from_vec(dims, Vec3::ZERO, 1.0, data).unwrap(), 8.0).unwrap()
+}
+
+/// Balls of radius 2.5 on a cubic lattice of period 8 samples.
+fn lattice(dims: [usize; 3]) -> SdfGrid {
+    analytic(dims, |p| {
+        let q = (p + 4.0).rem_euclid(Vec3::splat(8.0)) - 4.0;
+        q.length() - 2.5
+    })
+}
+
+/// Random balls (no symmetry, so ties between different blocks are unlikely).
+fn random_balls(dims: [usize; 3], seed: u64) -> SdfGrid {
+    let mut g = rng::rng_from_seed(seed);
+    let extent = Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+    let balls: Vec<(Vec3, f32)> = (0..40)
+        .map(|_| {
+            let c = Vec3::new(g.random(), g.random(), g.random()) * extent;
+            (c, g.random_range(1.5..4.0))
+        })
+        .collect();
+    analytic(dims, |p| {
+        balls
+            .iter()
+            .map(|&(c, r)| p.distance(c) - r)
+            .fold(f32::INFINITY, f32::min)
+    })
+}
+
+fn params(target: usize, levels: usize, block: usize, matcher: MatcherKind) -> VoxelParams {
+    VoxelParams {
+        target_dims: [target; 3],
+        levels,
+        block,
+        matcher,
+        range: Some(4.0),
+        seed: 7,
+    }
+}
+
+#[test]
+fn every_target_sample_is_written_exactly_once_per_level() {
+    let source = random_balls([24, 24, 24], 3);
+    for p in [
+        params(32, 3, 8, MatcherKind::Tree),
+        params(24, 1, 8, MatcherKind::Tree),
+        VoxelParams {
+            target_dims: [16, 24, 32],
+            ..params(0, 2, 8, MatcherKind::Random)
+        },
+    ] {
+        let out = synthesize(&source, &p, &mut RunContext::new(0)).unwrap();
+        assert_eq!(out.levels.len(), p.levels);
+        for level in &out.levels {
+            assert_eq!((level.min_writes, level.max_writes), (1, 1), "{level:?}");
+        }
+        assert!(out.owner.iter().all(|&o| (o as usize) < out.copies.len()));
+        assert_eq!(out.field.dims(), p.target_dims);
+        // The last iteration's blocks step by half a block (7 octants known, §5.1).
+        let h = p.block / 2;
+        assert!(
+            out.copies
+                .iter()
+                .all(|c| c.target.iter().all(|t| t % h == 0))
+        );
+    }
+}
+
+#[test]
+fn synthesis_is_deterministic_for_a_seed_with_one_or_two_threads() {
+    let source = random_balls([24, 24, 24], 5);
+    let p = params(32, 2, 8, MatcherKind::Tree);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| synthesize(&source, &p, &mut RunContext::new(0)).unwrap())
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.field, b.field);
+    assert_eq!(a.copies, b.copies);
+    let c = synthesize(
+        &source,
+        &VoxelParams { seed: 8, ..p },
+        &mut RunContext::new(0),
+    )
+    .unwrap();
+    assert_ne!(a.field, c.field, "another seed gives another target");
+}
+
+#[test]
+fn tree_brute_force_and_fft_synthesize_the_same_target() {
+    let source = random_balls([20, 20, 20], 11);
+    let run = |m| synthesize(&source, &params(16, 2, 8, m), &mut RunContext::new(0)).unwrap();
+    let (tree, brute, fft) = (
+        run(MatcherKind::Tree),
+        run(MatcherKind::Brute),
+        run(MatcherKind::Fft),
+    );
+    let distances = |s: &voxel_dfsynth::Synthesis| -> Vec<f32> {
+        s.copies.iter().map(|c| c.distance).collect()
+    };
+    assert_eq!(distances(&tree), distances(&brute));
+    assert_eq!(distances(&tree), distances(&fft));
+    assert_eq!(tree.field, brute.field);
+}
+
+#[test]
+fn search_beats_random_blocks_on_the_matching_distance() {
+    let source = random_balls([24, 24, 24], 13);
+    let run = |m| synthesize(&source, &params(32, 2, 8, m), &mut RunContext::new(0)).unwrap();
+    let (tree, random) = (run(MatcherKind::Tree), run(MatcherKind::Random));
+    for (t, r) in tree.levels.iter().zip(&random.levels) {
+        assert!(
+            t.mean_distance < 0.5 * r.mean_distance,
+            "{} vs {}",
+            t.mean_distance,
+            r.mean_distance
+        );
+    }
+}
+
+/// Lag in `lags` with the highest normalized autocorrelation of `f` along `axis`.
+fn dominant_lag(f: &Grid3<f32>, axis: usize, lags: std::ops::Range<usize>) -> usize {
+    let dims = f.dims();
+    let mean = f.data().iter().sum::<f32>() / f.data().len() as f32;
+    let mut best = (f32::NEG_INFINITY, 0);
+    for lag in lags {
+        let (mut num, mut count) = (0.0f32, 0usize);
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    let mut q = [x, y, z];
+                    q[axis] += lag;
+                    if q[axis] >= dims[axis] {
+                        continue;
+                    }
+                    let a = f.get(x, y, z).unwrap() - mean;
+                    let b = f.get(q[0], q[1], q[2]).unwrap() - mean;
+                    num += a * b;
+                    count += 1;
+                }
+            }
+        }
+        let c = num / count as f32;
+        if c > best.0 {
+            best = (c, lag);
+        }
+    }
+    best.1
+}
+
+/// Fraction of samples equal to the sample 8 further along each axis.
+fn period_8_fraction(field: &Grid3<f32>) -> f64 {
+    let dims = field.dims();
+    let (mut same, mut total) = (0usize, 0usize);
+    for z in 0..dims[2] - 8 {
+        for y in 0..dims[1] - 8 {
+            for x in 0..dims[0] - 8 {
+                let v = field.get(x, y, z).unwrap();
+                for q in [[x + 8, y, z], [x, y + 8, z], [x, y, z + 8]] {
+                    same += usize::from(field.get(q[0], q[1], q[2]).unwrap() == v);
+                    total += 1;
+                }
+            }
+        }
+    }
+    same as f64 / total as f64
+}
+
+#[test]
+fn synthesis_of_a_periodic_field_reproduces_the_period() {
+    let source = lattice([32, 32, 32]);
+    let run = |m| {
+        synthesize(&source, &params(48, 2, 8, m), &mut RunContext::new(0))
+            .unwrap()
+            .distances()
+            .unwrap()
+    };
+    let (field, baseline) = (run(MatcherKind::Tree), run(MatcherKind::Random));
+    for axis in 0..3 {
+        assert_eq!(dominant_lag(&field, axis, 4..14), 8, "axis {axis}");
+    }
+    // Not only the dominant lag: most of the output equals itself shifted by one period,
+    // which random blocks of the same lattice do not achieve.
+    let (tree, random) = (period_8_fraction(&field), period_8_fraction(&baseline));
+    assert!(tree > 0.6 && tree > random + 0.3, "{tree} vs {random}");
+}
+
+#[test]
+fn invalid_parameters_are_range_errors() {
+    let source = lattice([16, 16, 16]);
+    let bad = [
+        params(32, 2, 6, MatcherKind::Tree),
+        params(32, 0, 8, MatcherKind::Tree),
+        params(32, 4, 8, MatcherKind::Tree),
+        params(30, 2, 8, MatcherKind::Tree),
+        params(4, 1, 8, MatcherKind::Tree),
+        VoxelParams {
+            range: Some(f32::NAN),
+            ..params(32, 2, 8, MatcherKind::Tree)
+        },
+        // Block larger than the source.
+        params(64, 1, 32, MatcherKind::Tree),
+    ];
+    for p in bad {
+        assert!(
+            synthesize(&source, &p, &mut RunContext::new(0)).is_err(),
+            "{p:?}"
+        );
+    }
+    assert!("kd".parse::<MatcherKind>().is_err());
+    assert_eq!("fft".parse::<MatcherKind>().unwrap(), MatcherKind::Fft);
+}
