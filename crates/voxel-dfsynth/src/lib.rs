@@ -37,13 +37,17 @@ mod error;
 pub mod fft;
 mod field;
 mod matcher;
+mod quality;
 mod radix_heap;
+mod reconstruct;
 mod synth;
 mod tree;
 
 pub use error::{Result, VoxelError};
 pub use field::{BoxMeans, QuantizedField, SubsampledSource, block_level};
 pub use matcher::{BlockMatcher, BruteForce, FftMatcher};
+pub use quality::{QualityParams, VoxelQuality, evaluate, unit_gradient_fraction};
+pub use reconstruct::{CopiedMesh, RelaxParams, copied_mesh, isosurface_mesh};
 pub use synth::{
     BlockCopy, LevelReport, MatcherKind, Synthesis, VoxelParams, quantize_source, source_quantizer,
     synthesize,

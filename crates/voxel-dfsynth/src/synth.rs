@@ -194,6 +194,11 @@ pub struct Synthesis {
     pub quantizer: Quantizer,
     /// Sample spacing of the source (and of the final target) in world units.
     pub spacing: f32,
+    /// World position of target sample `(0, 0, 0)`: the source's origin, so that a block
+    /// copied from source corner `s` to target corner `t` moves by `(t − s) · spacing`.
+    pub origin: glam::Vec3,
+    /// Samples of the source field along x, y, z.
+    pub source_dims: [usize; 3],
     /// The blocks of the last iteration, in scan-line order.
     pub copies: Vec<BlockCopy>,
     /// For every final target sample, the index in `copies` of the block that wrote it.
@@ -207,7 +212,7 @@ pub struct Synthesis {
 }
 
 impl Synthesis {
-    /// The final target as distances in world units, origin at zero.
+    /// The final target as distances in world units, at [`Synthesis::origin`].
     pub fn distances(&self) -> Result<Grid3<f32>> {
         let data = self
             .field
@@ -217,7 +222,7 @@ impl Synthesis {
             .collect();
         Ok(Grid3::from_vec(
             self.field.dims(),
-            glam::Vec3::ZERO,
+            self.origin,
             self.spacing,
             data,
         )?)
@@ -395,6 +400,8 @@ pub fn synthesize(
         field: QuantizedField::from_values(params.target_dims, target)?,
         quantizer,
         spacing: source.grid().spacing(),
+        origin: source.grid().origin(),
+        source_dims: field.dims(),
         copies,
         owner,
         levels,

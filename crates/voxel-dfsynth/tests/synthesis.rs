@@ -236,3 +236,101 @@ fn invalid_parameters_are_range_errors() {
     assert!("kd".parse::<MatcherKind>().is_err());
     assert_eq!("fft".parse::<MatcherKind>().unwrap(), MatcherKind::Fft);
 }
+
+#[test]
+fn synthesis_beats_random_blocks_on_every_quality_measure() {
+    let source = random_balls([32, 32, 32], 17);
+    let p = params(32, 2, 8, MatcherKind::Tree);
+    let quantizer = voxel_dfsynth::source_quantizer(&source, &p).unwrap();
+    let q_source = voxel_dfsynth::quantize_source(&source, &quantizer).unwrap();
+    let qp = voxel_dfsynth::QualityParams {
+        window: 8,
+        windows: 24,
+        seed: 3,
+    };
+    let measure = |m| {
+        let out = synthesize(
+            &source,
+            &VoxelParams {
+                matcher: m,
+                ..p.clone()
+            },
+            &mut RunContext::new(0),
+        )
+        .unwrap();
+        voxel_dfsynth::evaluate(&q_source, &quantizer, &out, &qp).unwrap()
+    };
+    let (tree, random) = (measure(MatcherKind::Tree), measure(MatcherKind::Random));
+    assert!(
+        tree.neighbourhood_error < random.neighbourhood_error,
+        "{tree:?}\n{random:?}"
+    );
+    assert!(tree.seam_error < random.seam_error, "{tree:?}\n{random:?}");
+    assert!(
+        tree.distance_field_fraction > random.distance_field_fraction,
+        "{tree:?}\n{random:?}"
+    );
+    assert!(tree.seam_pairs > 0 && random.seam_pairs > 0);
+    // The source itself is (nearly) a distance field.
+    assert!(tree.source_distance_field_fraction > 0.8, "{tree:?}");
+}
+
+#[test]
+fn isosurface_reconstruction_of_closed_inputs_is_a_closed_manifold() {
+    let source = random_balls([24, 24, 24], 19);
+    let out = synthesize(
+        &source,
+        &params(32, 2, 8, MatcherKind::Tree),
+        &mut RunContext::new(0),
+    )
+    .unwrap();
+    let mesh = voxel_dfsynth::isosurface_mesh(&out, true).unwrap();
+    let topo = mesh.topology();
+    assert!(mesh.face_count() > 100);
+    assert!(topo.is_closed_manifold(), "{topo:?}");
+    // Without closing, the surface is open where it leaves the target box.
+    let open = voxel_dfsynth::isosurface_mesh(&out, false).unwrap();
+    assert!(open.topology().boundary_edges > 0);
+}
+
+#[test]
+fn copied_triangles_are_welded_and_relaxed_onto_the_target() {
+    let source = random_balls([24, 24, 24], 23);
+    let source_mesh = distance_field::isosurface(&source.distances().unwrap(), 0.0).unwrap();
+    let out = synthesize(
+        &source,
+        &params(32, 2, 8, MatcherKind::Tree),
+        &mut RunContext::new(0),
+    )
+    .unwrap();
+    let copied =
+        voxel_dfsynth::copied_mesh(&source_mesh, &out, &voxel_dfsynth::RelaxParams::default())
+            .unwrap();
+    assert!(copied.copied_triangles > 100, "{}", copied.copied_triangles);
+    assert!(copied.welded_vertices > 0);
+    assert!(
+        copied.boundary_edges_after < copied.boundary_edges_before,
+        "{} -> {}",
+        copied.boundary_edges_before,
+        copied.boundary_edges_after
+    );
+    assert!(
+        copied.seam_distance_after < copied.seam_distance_before,
+        "{} -> {}",
+        copied.seam_distance_before,
+        copied.seam_distance_after
+    );
+    // Every vertex lies inside the target box (grown by a spacing for the relaxation).
+    let extent = Vec3::splat(32.0);
+    for p in copied.mesh.positions() {
+        assert!(
+            p.min_element() >= -1.5 && (*p - extent).max_element() <= 1.5,
+            "{p}"
+        );
+    }
+    let bad = voxel_dfsynth::RelaxParams {
+        step: 0.0,
+        ..Default::default()
+    };
+    assert!(voxel_dfsynth::copied_mesh(&source_mesh, &out, &bad).is_err());
+}
