@@ -21,6 +21,9 @@ pub enum Error {
     /// From `patch-quilt`.
     #[error(transparent)]
     Quilt(#[from] patch_quilt::QuiltError),
+    /// From `voxel-dfsynth`.
+    #[error(transparent)]
+    Voxel(#[from] voxel_dfsynth::VoxelError),
     /// A geometry texture file whose box comment cannot be parsed.
     #[error("{path}: {message}")]
     TextureFile {

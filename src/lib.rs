@@ -11,15 +11,15 @@
 //! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation |
 //! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
 //! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |
-//! | [`voxel`] | `voxel-dfsynth` | paper 001: distance-field block matching (search tree, brute force, FFT) |
+//! | [`voxel`] | `voxel-dfsynth` | paper 001: distance-field block matching and synthesis, the `VoxelSynth` stage |
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
 //! | [`imagery`] | (facade) | textures and height fields from PNG/JPEG/raw `f32` files |
 //!
-//! The synthesis families are modules exposed as [`Stage`]s: [`quilt`] (paper 000) today;
-//! `voxel`, `texmesh` and `structure` arrive with their issues.
+//! The synthesis families are modules exposed as [`Stage`]s: [`quilt`] (paper 000) and
+//! [`voxel`] (paper 001) today; `texmesh` and `structure` arrive with their issues.
 //!
 //! ## Cookbook: read, inspect, render
 //!
@@ -76,6 +76,7 @@ pub mod imagery;
 pub mod preview;
 pub mod quilt;
 pub mod reconstruct;
+pub mod voxel;
 
 /// Shared types, I/O and spatial indices (the `pointset-core` crate).
 pub use pointset_core as core;
@@ -130,20 +131,5 @@ pub use pointset_core::{CancelFlag, Progress, ProgressUpdate, RunContext, Stage}
 /// Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub use tps_warp as tps;
-
-/// Distance-field block matching of paper 001 (the `voxel-dfsynth` crate; matching only so
-/// far: search tree, brute force, FFT).
-///
-/// ```
-/// use geosynth::voxel::{BlockMatcher, QuantizedField, SearchTree};
-///
-/// let values: Vec<u8> = (0..16 * 16 * 16).map(|i| ((i * 37) % 251) as u8).collect();
-/// let field = QuantizedField::from_values([16, 16, 16], values)?;
-/// let tree = SearchTree::build(&field, 4)?;
-/// let best = tree.best_match(&field.block([3, 2, 1], 4))?;
-/// assert_eq!(best.distance, 0.0);
-/// Ok::<(), Box<dyn std::error::Error>>(())
-/// ```
-pub use voxel_dfsynth as voxel;
 
 pub use error::{Error, Result};

@@ -38,6 +38,8 @@ enum Command {
     Warp(commands::warp::WarpArgs),
     /// Grow a geometry texture by patch-based synthesis (paper 000).
     Quilt(commands::quilt::QuiltArgs),
+    /// Synthesize a solid by distance-field block matching (paper 001).
+    Voxel(commands::voxel::VoxelArgs),
     /// Write the procedural exemplars used by the tests and the demo.
     Fixtures(commands::fixtures::FixturesArgs),
     /// Run every available synthesis family on the bundled fixtures; write results,
@@ -74,6 +76,7 @@ fn main() -> ExitCode {
         Command::Sdf(args) => commands::reconstruct::run_sdf(&args, globals),
         Command::Warp(args) => commands::warp::run(&args, globals),
         Command::Quilt(args) => commands::quilt::run(&args, globals),
+        Command::Voxel(args) => commands::voxel::run(&args, globals),
         Command::Fixtures(args) => commands::fixtures::run(&args, globals),
         Command::Demo(args) => commands::demo::run(&args, globals),
     };

@@ -8,7 +8,8 @@ use geosynth::fixtures;
 use crate::output::status;
 use crate::{CliResult, Globals};
 
-/// Arguments of `geosynth fixtures`.
+/// Arguments of `geosynth fixtures` (shapes, geometry textures and the distance-field
+/// synthesis solids).
 #[derive(Debug, Args)]
 pub struct FixturesArgs {
     /// Folder to write into (created if missing).
@@ -34,7 +35,9 @@ pub fn run(args: &FixturesArgs, globals: Globals) -> CliResult {
         }
         return Ok(());
     }
-    for path in fixtures::write_all(&args.out, args.seed)? {
+    let mut written = fixtures::write_all(&args.out, args.seed)?;
+    written.extend(fixtures::write_volumes(&args.out, args.seed)?);
+    for path in written {
         status(globals, format!("wrote {}", path.display()));
     }
     Ok(())

@@ -6,4 +6,5 @@ pub mod info;
 pub mod quilt;
 pub mod reconstruct;
 pub mod render;
+pub mod voxel;
 pub mod warp;

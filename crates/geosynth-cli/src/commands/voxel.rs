@@ -1,0 +1,287 @@
+//! `geosynth voxel`: geometry synthesis by distance-field block matching (paper 001).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
+use geosynth::sdf::nrrd;
+use geosynth::voxel::{
+    MatcherKind, QualityParams, VoxelExemplar, VoxelOutput, VoxelParams, VoxelQuality, VoxelSynth,
+    evaluate, quantize_source, read_exemplar, source_quantizer, synthesize,
+};
+use geosynth::{ProgressUpdate, RunContext, Stage};
+use serde_json::{Value, json};
+
+use crate::output::{progress_bar, status};
+use crate::{CliResult, Globals};
+
+/// Block search.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum MatcherArg {
+    /// The paper's search tree.
+    Tree,
+    /// Linear search.
+    Brute,
+    /// Masked SSD by FFT.
+    Fft,
+    /// Random blocks (the baseline; no search).
+    Random,
+}
+
+impl From<MatcherArg> for MatcherKind {
+    fn from(m: MatcherArg) -> Self {
+        match m {
+            MatcherArg::Tree => MatcherKind::Tree,
+            MatcherArg::Brute => MatcherKind::Brute,
+            MatcherArg::Fft => MatcherKind::Fft,
+            MatcherArg::Random => MatcherKind::Random,
+        }
+    }
+}
+
+/// Arguments of `geosynth voxel`.
+#[derive(Debug, Args)]
+pub struct VoxelArgs {
+    /// Exemplar mesh (.ply, .obj, .off); a `texture_box` comment selects the sampled box
+    /// (as `geosynth fixtures` writes it), otherwise the mesh's bounding box.
+    exemplar: PathBuf,
+    /// Output mesh: the source triangles copied block by block, welded and relaxed (the
+    /// paper's reconstruction).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write the closed iso-surface of the synthesized field (.ply, .obj, .off).
+    #[arg(long)]
+    isosurface: Option<PathBuf>,
+    /// Source samples along the exemplar box's longest side.
+    #[arg(long, default_value_t = 64)]
+    source_res: usize,
+    /// Target samples along each axis at the last iteration.
+    #[arg(long, default_value_t = 128)]
+    target_res: usize,
+    /// Iterations (resolution levels).
+    #[arg(long, default_value_t = 3)]
+    levels: usize,
+    /// Block size of the last iteration (a power of two).
+    #[arg(long, default_value_t = 16)]
+    block: usize,
+    /// Block search.
+    #[arg(long, value_enum, default_value_t = MatcherArg::Tree)]
+    matcher: MatcherArg,
+    /// Seed of the random initialisation.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Write the synthesized distance field as NRRD.
+    #[arg(long)]
+    field: Option<PathBuf>,
+    /// Write a JSON report (timings, tree statistics, quality).
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Also synthesize with random blocks and measure that baseline for the report.
+    #[arg(long)]
+    baseline: bool,
+    /// Render exemplar | output mesh | iso-surface to a PNG.
+    #[arg(long)]
+    preview: Option<PathBuf>,
+}
+
+/// One measured run of the stage.
+pub struct VoxelRun {
+    /// What the stage produced.
+    pub output: VoxelOutput,
+    /// `(stage, seconds)`.
+    pub timings: Vec<(String, f64)>,
+    /// Wall time.
+    pub seconds: f64,
+    /// Quality against the source.
+    pub quality: VoxelQuality,
+    /// Quality of the random-block baseline, when measured.
+    pub baseline: Option<VoxelQuality>,
+}
+
+fn context(globals: Globals, seed: u64, label: &str) -> (RunContext, indicatif::ProgressBar) {
+    let bar = progress_bar(globals, 1, label);
+    let sink = bar.clone();
+    let ctx = RunContext::new(seed).with_progress(move |u: &ProgressUpdate<'_>| {
+        if let Some(total) = u.total {
+            sink.set_length(total);
+        }
+        sink.set_message(u.stage.to_string());
+        sink.set_position(u.done);
+    });
+    (ctx, bar)
+}
+
+/// Runs the stage with a progress bar, measures it, and optionally the random baseline.
+pub fn measured_run(
+    exemplar: VoxelExemplar,
+    stage: &VoxelSynth,
+    baseline: bool,
+    globals: Globals,
+) -> CliResult<VoxelRun> {
+    let (mut ctx, bar) = context(globals, stage.params.seed, "blocks");
+    let start = Instant::now();
+    let output = stage.run(exemplar, &mut ctx)?;
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let quantizer = source_quantizer(&output.source, &stage.params)?;
+    let source = quantize_source(&output.source, &quantizer)?;
+    let qp = QualityParams {
+        window: 8.min(stage.params.block),
+        seed: stage.params.seed,
+        ..QualityParams::default()
+    };
+    let quality = evaluate(&source, &quantizer, &output.synthesis, &qp)?;
+    let baseline = if baseline {
+        let params = VoxelParams {
+            matcher: MatcherKind::Random,
+            ..stage.params.clone()
+        };
+        let (mut ctx, bar) = context(globals, params.seed, "baseline");
+        let random = synthesize(&output.source, &params, &mut ctx)?;
+        bar.finish_and_clear();
+        Some(evaluate(&source, &quantizer, &random, &qp)?)
+    } else {
+        None
+    };
+    let timings = ctx
+        .timings()
+        .iter()
+        .map(|(n, d)| (n.clone(), d.as_secs_f64()))
+        .collect();
+    Ok(VoxelRun {
+        output,
+        timings,
+        seconds,
+        quality,
+        baseline,
+    })
+}
+
+/// Quality numbers as JSON.
+pub fn quality_json(q: &VoxelQuality) -> Value {
+    json!({
+        "neighbourhood_error": q.neighbourhood_error,
+        "seam_error": q.seam_error,
+        "seam_pairs": q.seam_pairs,
+        "distance_field_fraction": q.distance_field_fraction,
+        "source_distance_field_fraction": q.source_distance_field_fraction,
+        "verbatim_fraction": q.verbatim_fraction,
+        "window": q.window,
+        "windows": q.windows,
+    })
+}
+
+/// A run as JSON.
+pub fn run_json(run: &VoxelRun, stage: &VoxelSynth) -> Value {
+    let s = &run.output.synthesis;
+    let c = &run.output.copied;
+    json!({
+        "seconds": run.seconds,
+        "matcher": stage.params.matcher.name(),
+        "exact_matches": stage.params.matcher != MatcherKind::Random,
+        "source_dims": s.source_dims,
+        "target_dims": s.field.dims(),
+        "block": stage.params.block,
+        "levels": s.levels.iter().map(|l| json!({
+            "drop": l.drop, "dims": l.dims, "block": l.block, "blocks": l.blocks,
+            "waves": l.waves, "mean_distance": l.mean_distance, "min_writes": l.min_writes,
+            "max_writes": l.max_writes, "seconds": l.seconds,
+        })).collect::<Vec<_>>(),
+        "tree": s.tree.as_ref().map(|t| json!({
+            "blocks": t.blocks, "nodes_per_level": t.nodes_per_level,
+            "branching_factor": t.branching_factor, "memory_bytes": t.memory_bytes,
+            "build_seconds": t.build_seconds,
+        })),
+        "timings": run.timings.iter().map(|(n, t)| json!({"stage": n, "seconds": t})).collect::<Vec<_>>(),
+        "isosurface": { "vertices": run.output.isosurface.vertex_count(), "faces": run.output.isosurface.face_count() },
+        "copied": {
+            "triangles": c.copied_triangles, "boundary_edges_before": c.boundary_edges_before,
+            "boundary_edges_after": c.boundary_edges_after, "welded_vertices": c.welded_vertices,
+            "seam_distance_before": c.seam_distance_before, "seam_distance_after": c.seam_distance_after,
+        },
+        "quality": quality_json(&run.quality),
+        "random_baseline": run.baseline.as_ref().map(quality_json),
+    })
+}
+
+/// Renders exemplar | copied-triangle mesh | iso-surface, Z up.
+pub fn voxel_preview(exemplar: &VoxelExemplar, run: &VoxelRun, path: &Path, w: u32) -> CliResult {
+    let panels = [
+        Geometry::Mesh(exemplar.mesh.clone()),
+        Geometry::Mesh(run.output.copied.mesh.clone()),
+        Geometry::Mesh(run.output.isosurface.clone()),
+    ];
+    let panels: Vec<Panel<'_>> = panels
+        .iter()
+        .map(|g| Panel::Geometry(g, UpAxis::Z))
+        .collect();
+    let image = preview::render_panels(
+        &panels,
+        &RenderOptions::default().size(w, w * 3 / 4).view(30.0, 30.0),
+    )?;
+    preview::save_png(&image, path)?;
+    Ok(())
+}
+
+/// Runs `geosynth voxel`.
+pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
+    let exemplar = read_exemplar(&args.exemplar)?;
+    let stage = VoxelSynth {
+        source_resolution: args.source_res,
+        params: VoxelParams {
+            target_dims: [args.target_res; 3],
+            levels: args.levels,
+            block: args.block,
+            matcher: args.matcher.into(),
+            range: None,
+            seed: args.seed,
+        },
+        ..VoxelSynth::default()
+    };
+    stage.params.validate()?;
+    let run = measured_run(exemplar.clone(), &stage, args.baseline, globals)?;
+    let options = WriteOptions::default().comment(format!(
+        "synthesized by geosynth voxel (seed {}, matcher {})",
+        args.seed,
+        stage.params.matcher.name()
+    ));
+    io::write_geometry(
+        &args.output,
+        &Geometry::Mesh(run.output.copied.mesh.clone()),
+        &options,
+    )?;
+    if let Some(path) = &args.isosurface {
+        io::write_geometry(
+            path,
+            &Geometry::Mesh(run.output.isosurface.clone()),
+            &options,
+        )?;
+    }
+    if let Some(path) = &args.field {
+        let grid = run.output.synthesis.distances()?;
+        nrrd::write_file(path, |f| nrrd::write_scalar(f, &grid))?;
+    }
+    if let Some(path) = &args.preview {
+        voxel_preview(&exemplar, &run, path, 400)?;
+    }
+    if let Some(path) = &args.report {
+        std::fs::write(path, serde_json::to_string_pretty(&run_json(&run, &stage))?)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    let q = &run.quality;
+    status(
+        globals,
+        format!(
+            "wrote {} ({} faces, {:.1}s; neighbourhood error {:.3}, seam error {:.3}, distance-field fraction {:.2})",
+            args.output.display(),
+            run.output.copied.mesh.face_count(),
+            run.seconds,
+            q.neighbourhood_error,
+            q.seam_error,
+            q.distance_field_fraction,
+        ),
+    );
+    Ok(())
+}
