@@ -5,7 +5,7 @@ use rayon::prelude::*;
 
 use crate::error::{Result, VoxelError};
 use crate::fft::{Complex, fft_3d};
-use crate::field::QuantizedField;
+use crate::field::{BoxMeans, QuantizedField};
 use crate::tree::{Match, SearchTree};
 
 /// Finds the source block closest to a query block under paper 001 Eq. 1.
@@ -44,17 +44,134 @@ pub struct BruteForce {
     field: QuantizedField,
     n: usize,
     positions: [usize; 3],
+    /// Box means for pyramid levels 2 and 3 (cells `n/2`, `n/4`) where they exist.
+    filters: Vec<BoxMeans>,
 }
 
 impl BruteForce {
     /// A brute-force matcher over every `n³` block of `field`.
     pub fn new(field: &QuantizedField, n: usize) -> Result<Self> {
         let positions = field.fitting_positions(n)?;
+        let filters = [2, 4]
+            .into_iter()
+            .filter(|&r| n >= 2 * r && n % r == 0)
+            .map(|r| BoxMeans::new(field, n / r))
+            .collect();
         Ok(Self {
             field: field.clone(),
             n,
             positions,
+            filters,
         })
+    }
+
+    /// Eq. 2 as a filter: `n³ · dist(level)` of the block at `corner` against the query's
+    /// level means `q`, a lower bound of the block's sum of squared differences. It is shrunk
+    /// by 10⁻⁴ and ½ against the rounding of the `f32` means (whose effect stays below both
+    /// for blocks up to 32³); sums are integers, so a block is only skipped when its sum
+    /// exceeds the best one.
+    fn level_bound(means: &BoxMeans, corner: [usize; 3], q: &[f32], r: usize) -> f64 {
+        let c = means.cell();
+        let mut sum = 0.0f32;
+        for k in 0..r {
+            for j in 0..r {
+                for i in 0..r {
+                    let b = means.mean(corner[0] + i * c, corner[1] + j * c, corner[2] + k * c);
+                    sum += (b - q[i + r * (j + r * k)]).powi(2);
+                }
+            }
+        }
+        f64::from(sum) * (c * c * c) as f64 * (1.0 - 1e-4) - 0.5
+    }
+}
+
+impl BruteForce {
+    /// The block with the smallest sum of squared differences to `query` among those whose
+    /// sum is below `limit` (`None`: no limit), as `(ssd, position index)`; ties go to the
+    /// lowest index. `None` when no block is below the limit (a caller holding a block at
+    /// `limit` keeps it: ties go to what the caller already has).
+    ///
+    /// Partial distance search: each block's sum is accumulated row by row (z-slice after
+    /// z-slice, so the already synthesized lower octants of a synthesis query come first) and
+    /// abandoned as soon as it reaches the best sum known to its worker, which starts at
+    /// `limit`. Exact: an abandoned block cannot be strictly better than one already found,
+    /// and among equal sums the earlier (lower-index) block wins.
+    ///
+    /// `parallel` splits the positions over threads (slabs along z); without it the search
+    /// runs on the calling thread, for callers that parallelize over many searches.
+    pub fn best_within(
+        &self,
+        query: &[u8],
+        limit: Option<u64>,
+        parallel: bool,
+    ) -> Result<Option<(u64, usize)>> {
+        check_query(query, self.n)?;
+        let n = self.n;
+        let [px, py, pz] = self.positions;
+        let values = self.field.values();
+        let query_field = QuantizedField::from_values([n, n, n], query.to_vec())?;
+        let query_means: Vec<Vec<f32>> = self
+            .filters
+            .iter()
+            .map(|f| {
+                let own = BoxMeans::new(&query_field, f.cell());
+                crate::field::block_level(&own, [0, 0, 0], n / f.cell())
+            })
+            .collect();
+        let slab = |z0: usize| {
+            let mut best: Option<(u64, usize)> = None;
+            let mut bound = limit.unwrap_or(u64::MAX);
+            for y0 in 0..py {
+                'block: for x0 in 0..px {
+                    for (f, q) in self.filters.iter().zip(&query_means) {
+                        if Self::level_bound(f, [x0, y0, z0], q, n / f.cell()) >= bound as f64 {
+                            continue 'block;
+                        }
+                    }
+                    let mut ssd = 0u64;
+                    for z in 0..n {
+                        for y in 0..n {
+                            let row = self.field.index(x0, y0 + y, z0 + z);
+                            let q = &query[n * (y + n * z)..n * (y + n * z) + n];
+                            ssd += u64::from(
+                                values[row..row + n]
+                                    .iter()
+                                    .zip(q)
+                                    .map(|(&a, &b)| {
+                                        let d = i32::from(a) - i32::from(b);
+                                        (d * d) as u32
+                                    })
+                                    .sum::<u32>(),
+                            );
+                            if ssd >= bound {
+                                continue 'block;
+                            }
+                        }
+                    }
+                    // Reached only when `ssd < bound`: strictly better than the limit and
+                    // than every earlier (lower-index) block of this slab.
+                    best = Some((ssd, x0 + px * (y0 + py * z0)));
+                    bound = ssd;
+                }
+            }
+            best
+        };
+        let merge = |a: Option<(u64, usize)>, b: Option<(u64, usize)>| match (a, b) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, None) => a,
+            (None, b) => b,
+        };
+        Ok(if parallel {
+            (0..pz).into_par_iter().map(slab).reduce(|| None, merge)
+        } else {
+            (0..pz).map(slab).fold(None, merge)
+        })
+    }
+
+    /// Corner of position index `id`.
+    pub fn corner(&self, id: usize) -> [usize; 3] {
+        let [px, py, _] = self.positions;
+        [id % px, (id / px) % py, id / (px * py)]
     }
 }
 
@@ -64,37 +181,16 @@ impl BlockMatcher for BruteForce {
     }
 
     fn best_match(&self, query: &[u8]) -> Result<Match> {
-        check_query(query, self.n)?;
-        let n = self.n;
-        let [px, py, pz] = self.positions;
-        let best = (0..px * py * pz)
-            .into_par_iter()
-            .map(|id| {
-                let corner = [id % px, (id / px) % py, id / (px * py)];
-                let mut ssd = 0u64;
-                for z in 0..n {
-                    for y in 0..n {
-                        let row = self.field.index(corner[0], corner[1] + y, corner[2] + z);
-                        let q = &query[n * (y + n * z)..n * (y + n * z) + n];
-                        ssd += self.field.values()[row..row + n]
-                            .iter()
-                            .zip(q)
-                            .map(|(&a, &b)| u64::from(a.abs_diff(b)).pow(2))
-                            .sum::<u64>();
-                    }
-                }
-                (ssd, id)
-            })
-            .min()
-            .ok_or(VoxelError::InvalidParameter {
-                name: "field",
-                value: "no blocks".into(),
-                expected: "at least one block",
-            })?;
-        let id = best.1;
+        let (ssd, id) =
+            self.best_within(query, None, true)?
+                .ok_or(VoxelError::InvalidParameter {
+                    name: "field",
+                    value: "no blocks".into(),
+                    expected: "at least one block",
+                })?;
         Ok(Match {
-            corner: [id % px, (id / px) % py, id / (px * py)],
-            distance: best.0 as f32 / (n * n * n) as f32,
+            corner: self.corner(id),
+            distance: ssd as f32 / (self.n * self.n * self.n) as f32,
         })
     }
 }

@@ -246,9 +246,15 @@ enum LevelSearch<'a> {
         tree: &'a SearchTree,
         drop: usize,
     },
-    Phased {
+    /// Brute force over the regular fields of each phase of the subsampled source.
+    Brute {
         cell: usize,
-        phases: Vec<([usize; 3], Box<dyn BlockMatcher>)>,
+        phases: Vec<([usize; 3], BruteForce)>,
+    },
+    /// FFT over the regular fields of each phase of the subsampled source.
+    Fft {
+        cell: usize,
+        phases: Vec<([usize; 3], FftMatcher)>,
     },
     Random {
         positions: [usize; 3],
@@ -266,7 +272,35 @@ impl LevelSearch<'_> {
     ) -> Result<Match> {
         match self {
             Self::Tree { tree, drop } => tree.best_match_below(query, *drop, incumbent),
-            Self::Phased { cell, phases } => {
+            Self::Brute { cell, phases } => {
+                let volume = query.len() as f32;
+                // The incumbent's exact integer sum (its `f32` distance may be rounded).
+                let limit = incumbent
+                    .and_then(|m| sub.block(m.corner, m_side(query)))
+                    .map(|b| ssd(&b, query));
+                // One phase: parallel inside the search. Several (coarser iterations):
+                // parallel over phases, each searched on one thread.
+                let single = phases.len() == 1;
+                let found = phases
+                    .par_iter()
+                    .map(|(phase, matcher)| {
+                        Ok(matcher.best_within(query, limit, single)?.map(|(s, id)| {
+                            let q = matcher.corner(id);
+                            (s, [0, 1, 2].map(|a| phase[a] + cell * q[a]))
+                        }))
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                let mut best = incumbent.zip(limit);
+                for (s, corner) in found.into_iter().flatten() {
+                    if best.is_none_or(|(_, b)| s < b) {
+                        let distance = s as f32 / volume;
+                        best = Some((Match { corner, distance }, s));
+                    }
+                }
+                let best = best.map(|(m, _)| m);
+                best.ok_or_else(|| invalid("source", "no phase", "a source larger than a block"))
+            }
+            Self::Fft { cell, phases } => {
                 let mut best: Option<Match> = None;
                 for (phase, matcher) in phases {
                     let m = matcher.best_match(query)?;
@@ -282,42 +316,48 @@ impl LevelSearch<'_> {
             Self::Random { positions, seed } => {
                 let mut rng = stream(*seed, block_index as u64);
                 let corner = positions.map(|p| rng.random_range(0..p));
-                let m = (query.len() as f64).cbrt().round() as usize;
-                let block = sub.block(corner, m).ok_or_else(|| {
+                let block = sub.block(corner, m_side(query)).ok_or_else(|| {
                     invalid("source", "too small", "a source larger than a block")
                 })?;
-                let ssd: u64 = block
-                    .iter()
-                    .zip(query)
-                    .map(|(&a, &b)| u64::from(a.abs_diff(b)).pow(2))
-                    .sum();
                 Ok(Match {
                     corner,
-                    distance: ssd as f32 / query.len() as f32,
+                    distance: ssd(&block, query) as f32 / query.len() as f32,
                 })
             }
         }
     }
 }
 
-fn phased(
+/// Side of a cubic block of `values.len()` samples.
+fn m_side(values: &[u8]) -> usize {
+    (values.len() as f64).cbrt().round() as usize
+}
+
+/// Sum of squared differences of two blocks (exact).
+fn ssd(a: &[u8], b: &[u8]) -> u64 {
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| u64::from(x.abs_diff(y)).pow(2))
+        .sum()
+}
+
+/// One matcher per phase field of `sub` that holds an `m³` block.
+fn phased<M: Send>(
     sub: &SubsampledSource,
     m: usize,
-    build: impl Fn(&QuantizedField, usize) -> Result<Box<dyn BlockMatcher>> + Sync,
-) -> Result<LevelSearch<'static>> {
+    build: impl Fn(&QuantizedField, usize) -> Result<M> + Sync,
+) -> Result<Vec<([usize; 3], M)>> {
     let c = sub.cell();
     let all: Vec<[usize; 3]> = (0..c * c * c)
         .map(|i| [i % c, (i / c) % c, i / (c * c)])
         .collect();
-    let phases = all
-        .into_par_iter()
+    all.into_par_iter()
         .filter_map(|phase| {
             let field = sub.phase_field(phase)?;
             field.block_positions(m)?;
             Some(build(&field, m).map(|matcher| (phase, matcher)))
         })
-        .collect::<Result<Vec<_>>>()?;
-    Ok(LevelSearch::Phased { cell: c, phases })
+        .collect()
 }
 
 /// Synthesizes a target distance field from `source` (paper 001 §5.1–5.2).
@@ -371,16 +411,18 @@ pub fn synthesize(
         let sub = SubsampledSource::new(&field, drop)?;
         let search = match (params.matcher, &tree) {
             (MatcherKind::Tree, Some(tree)) => LevelSearch::Tree { tree, drop },
-            (MatcherKind::Fft, _) => phased(&sub, m, |f, m| {
-                Ok(Box::new(FftMatcher::new(f, m)?) as Box<dyn BlockMatcher>)
-            })?,
+            (MatcherKind::Fft, _) => LevelSearch::Fft {
+                cell: c,
+                phases: phased(&sub, m, FftMatcher::new)?,
+            },
             (MatcherKind::Random, _) => LevelSearch::Random {
                 positions,
                 seed: pointset_core::rng::mix64(params.seed ^ (k as u64 + 1)),
             },
-            _ => phased(&sub, m, |f, m| {
-                Ok(Box::new(BruteForce::new(f, m)?) as Box<dyn BlockMatcher>)
-            })?,
+            _ => LevelSearch::Brute {
+                cell: c,
+                phases: phased(&sub, m, BruteForce::new)?,
+            },
         };
         target = if k == 0 {
             random_seed(&sub, dims, params.seed)
@@ -494,12 +536,7 @@ fn continuation(
         let Some(block) = sub.block(corner, m) else {
             continue;
         };
-        let ssd: u64 = block
-            .iter()
-            .zip(query)
-            .map(|(&a, &q)| u64::from(a.abs_diff(q)).pow(2))
-            .sum();
-        let distance = ssd as f32 / query.len() as f32;
+        let distance = ssd(&block, query) as f32 / query.len() as f32;
         if best.is_none_or(|x| distance < x.distance) {
             best = Some(Match { corner, distance });
         }

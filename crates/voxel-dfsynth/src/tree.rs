@@ -101,9 +101,10 @@ struct Entry {
     /// whose single block's chunks are scored one at a time as the entry returns to the front.
     depth: u16,
     /// Mean of the last complete level (a lower bound by Eq. 2).
-    floor: f32,
-    /// Sum of the scored chunks of the current level.
-    partial: f32,
+    floor: f64,
+    /// Sum of the scored chunks of the current level (`f64`: sums of squared levels exceed
+    /// the integers `f32` holds exactly).
+    partial: f64,
 }
 
 /// A best match: the block corner and its Eq. 1 distance (in squared quantization levels).
@@ -384,7 +385,7 @@ impl SearchTree {
     /// `max(0, |q − b| − slack)²` below it, where `slack` bounds how far a stored key can lie
     /// from the true level mean of the (subsampled) block: ½ for the rounding of the key,
     /// plus ½ more when the leaf values are themselves rounded means (`drop > 0`).
-    fn chunk_score(&self, d: usize, rep: u32, q: &Query, drop: usize) -> f32 {
+    fn chunk_score(&self, d: usize, rep: u32, q: &Query, drop: usize) -> f64 {
         let corner = self.corner(rep);
         let (level, octant) = chunk_location(d);
         let r = 1usize << (level - 1);
@@ -398,7 +399,7 @@ impl SearchTree {
                         v[self
                             .field
                             .index(corner[0] + s[0], corner[1] + s[1], corner[2] + s[2])];
-                    (f32::from(k) - b).powi(2)
+                    f64::from((f32::from(k) - b).powi(2))
                 })
                 .sum();
         }
@@ -414,13 +415,15 @@ impl SearchTree {
         };
         if level == self.levels - drop {
             chunk_samples(r, octant)
-                .map(|s| (key(s) - f32::from(q.block[s[0] + r * (s[1] + r * s[2])])).powi(2))
+                .map(|s| {
+                    f64::from((key(s) - f32::from(q.block[s[0] + r * (s[1] + r * s[2])])).powi(2))
+                })
                 .sum()
         } else {
             let slack = if drop == 0 { 0.5 } else { 1.0 };
             chunk_samples(r, octant)
                 .zip(&q.chunks[d])
-                .map(|(s, &b)| ((key(s) - b).abs() - slack).max(0.0).powi(2))
+                .map(|(s, &b)| f64::from(((key(s) - b).abs() - slack).max(0.0).powi(2)))
                 .sum()
         }
     }
@@ -429,21 +432,21 @@ impl SearchTree {
     fn advance(&self, parent: &Entry, node: u32, d: usize, q: &Query, drop: usize) -> Entry {
         let rep = self.nodes[node as usize].rep;
         let (level, octant) = chunk_location(d);
-        let samples = (1usize << (level - 1)).pow(3) as f32;
+        let samples = (1usize << (level - 1)).pow(3) as f64;
         let score = self.chunk_score(d, rep, q, drop);
         let (floor, partial) = if octant.is_none_or(|o| o == 0) {
             // The previous level is complete: its mean is a floor for everything below.
             let previous = if d == 0 {
                 0.0
             } else {
-                parent.partial / ((1usize << (level - 2)).pow(3) as f32)
+                parent.partial / ((1usize << (level - 2)).pow(3) as f64)
             };
             (parent.floor.max(previous), score)
         } else {
             (parent.floor, parent.partial + score)
         };
         Entry {
-            bound: floor.max(partial / samples),
+            bound: floor.max(partial / samples) as f32,
             node,
             depth: (d + 1) as u16,
             floor,
@@ -543,7 +546,7 @@ impl SearchTree {
                 let block = node.blocks.first().copied().unwrap_or(node.rep);
                 return Ok(Match {
                     corner: self.corner(block),
-                    distance: e.partial / (m * m * m) as f32,
+                    distance: (e.partial / (m * m * m) as f64) as f32,
                 });
             }
             if node.compressed {
