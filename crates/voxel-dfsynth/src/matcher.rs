@@ -54,7 +54,7 @@ impl BruteForce {
         let positions = field.fitting_positions(n)?;
         let filters = [2, 4]
             .into_iter()
-            .filter(|&r| n >= 2 * r && n % r == 0)
+            .filter(|&r| n >= 2 * r && n.is_multiple_of(r))
             .map(|r| BoxMeans::new(field, n / r))
             .collect();
         Ok(Self {
