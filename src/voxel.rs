@@ -85,7 +85,7 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
 }
 
 /// The exemplar's signed distance field with `resolution` samples along the box's longest
-/// side. Distances are exact within 9 spacings (beyond the default quantization range).
+/// side, exact everywhere (the band is the box's diagonal).
 pub fn source_field(exemplar: &VoxelExemplar, resolution: usize) -> Result<SdfGrid> {
     if !(4..=512).contains(&resolution) {
         return Err(Error::InvalidParameter {
@@ -96,7 +96,13 @@ pub fn source_field(exemplar: &VoxelExemplar, resolution: usize) -> Result<SdfGr
     }
     let spec = GridSpec::covering(exemplar.bounds, resolution, 0.0)?;
     let surface = MeshSurface::new(&exemplar.mesh)?;
-    Ok(SdfGrid::from_surface(&surface, &spec, 9.0 * spec.spacing)?)
+    let diagonal = exemplar.bounds.extent().length().max(2.0 * spec.spacing);
+    Ok(SdfGrid::from_surface(&surface, &spec, diagonal)?)
+}
+
+/// Samples along x, y, z of [`source_field`] at `resolution`.
+pub fn source_dims(exemplar: &VoxelExemplar, resolution: usize) -> Result<[usize; 3]> {
+    Ok(GridSpec::covering(exemplar.bounds, resolution, 0.0)?.dims)
 }
 
 /// Stage: exemplar → synthesized field and both reconstructions.

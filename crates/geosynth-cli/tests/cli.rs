@@ -208,6 +208,79 @@ fn demo_quick_writes_report_geometry_and_previews() {
             .contains("| stage | seconds |")
     );
     assert!(Path::new(&out.join("fixtures.png")).is_file());
+    // Distance-field synthesis: every Figure 6 solid, search beating random blocks.
+    let volumes = report["volumes"].as_array().unwrap();
+    assert_eq!(volumes.len(), 5);
+    for v in volumes {
+        assert!(v["beats_baseline"].as_bool().unwrap(), "{v}");
+        for key in ["preview", "geometry", "isosurface", "exemplar_geometry"] {
+            assert!(out.join(v[key].as_str().unwrap()).is_file(), "{key}");
+        }
+    }
+}
+
+#[test]
+fn voxel_synthesizes_a_fixture_and_rejects_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    ok(&["fixtures", "--quiet", "--out", dir.path().to_str().unwrap()]);
+    let exemplar = dir.path().join("voxel_grid.ply");
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    ok(&[
+        "voxel",
+        exemplar.to_str().unwrap(),
+        "-o",
+        &path("v.ply"),
+        "--isosurface",
+        &path("v_iso.obj"),
+        "--source-res",
+        "20",
+        "--target-res",
+        "24",
+        "--levels",
+        "2",
+        "--block",
+        "8",
+        "--field",
+        &path("v.nrrd"),
+        "--report",
+        &path("v.json"),
+        "--baseline",
+        "--preview",
+        &path("v.png"),
+        "-q",
+    ]);
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path("v.json")).unwrap()).unwrap();
+    assert_eq!(r["target_dims"], serde_json::json!([24, 24, 24]));
+    assert_eq!(r["levels"].as_array().unwrap().len(), 2);
+    for level in r["levels"].as_array().unwrap() {
+        assert_eq!(level["min_writes"], 1);
+        assert_eq!(level["max_writes"], 1);
+    }
+    let q = |k: &str, run: &str| r[run][k].as_f64().unwrap();
+    assert!(q("neighbourhood_error", "quality") < q("neighbourhood_error", "random_baseline"));
+    let iso = geosynth::core::io::read_geometry(path("v_iso.obj")).unwrap();
+    assert!(iso.geometry.mesh().unwrap().topology().is_closed_manifold());
+    let field = geosynth::sdf::nrrd::read_file(Path::new(&path("v.nrrd"))).unwrap();
+    assert_eq!(field.scalar_grid().unwrap().dims(), [24, 24, 24]);
+    assert!(image::open(path("v.png")).is_ok());
+    // A point set is not a solid; a block that is not a power of two is a range error.
+    for args in [
+        vec!["voxel", &path("sphere_points.ply"), "-o", &path("x.ply")],
+        vec![
+            "voxel",
+            exemplar.to_str().unwrap(),
+            "-o",
+            &path("x.ply"),
+            "--block",
+            "6",
+        ],
+    ] {
+        let out = geosynth(&args.iter().map(|s| s.as_ref()).collect::<Vec<&str>>());
+        assert!(!out.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("error") && !err.contains("panicked"), "{err}");
+    }
 }
 
 #[test]

@@ -92,8 +92,8 @@ pub struct VoxelParams {
     pub block: usize,
     /// Block search.
     pub matcher: MatcherKind,
-    /// Half-range of the 256-level quantization in world units; `None` uses 8 source
-    /// spacings (distances beyond it saturate).
+    /// Half-range of the 256-level quantization in world units; `None` uses the source's
+    /// largest |distance| (distances beyond the range saturate).
     pub range: Option<f32>,
     /// Seed of the random target initialisation (and of the random baseline's picks).
     pub seed: u64,
@@ -234,10 +234,24 @@ pub fn quantize_source(source: &SdfGrid, quantizer: &Quantizer) -> Result<Quanti
     Ok(QuantizedField::from_grid(&source.distances()?, quantizer))
 }
 
-/// The quantizer [`synthesize`] uses for `source` under `params`.
+/// The quantizer [`synthesize`] uses for `source` under `params`: `params.range`, or by
+/// default the largest |distance| in the source (all of the field's range in 256 levels, as
+/// §4.1 reads; a smaller range saturates the far field, which then carries no information
+/// about where the surface is).
 pub fn source_quantizer(source: &SdfGrid, params: &VoxelParams) -> Result<Quantizer> {
-    let spacing = source.grid().spacing();
-    Ok(Quantizer::new(params.range.unwrap_or(8.0 * spacing))?)
+    let range = match params.range {
+        Some(r) => r,
+        None => {
+            let largest = source
+                .distances()?
+                .data()
+                .iter()
+                .filter(|d| d.is_finite())
+                .fold(0.0f32, |m, d| m.max(d.abs()));
+            largest.max(source.grid().spacing())
+        }
+    };
+    Ok(Quantizer::new(range)?)
 }
 
 /// How blocks are chosen at one iteration.

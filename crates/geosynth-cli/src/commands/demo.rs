@@ -337,19 +337,23 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
         md.push_str(&format!("\n![{}]({}) ", q.exemplar, q.preview));
     }
     md.push_str("\n## Distance-field synthesis (paper 001)\n\nNeighbourhood and seam errors are normalized by the source's own window / sample variation (0 = like the source); DF = share of samples whose gradient has unit length (source in brackets); verbatim = neighbouring blocks copied together.\n\n");
-    md.push_str("| exemplar | method | seconds | neighbourhood | seam | DF | verbatim | faces (copied) | open edges before → after |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n");
+    md.push_str("| exemplar | method | seconds | neighbourhood | seam | DF | verbatim | copied triangles | open edges before → after weld |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n");
     for v in &report.volumes {
         let r = &v.run;
-        for (name, q) in [
-            ("search", &r["quality"]),
-            ("random blocks", &r["random_baseline"]),
+        for (name, q, seconds) in [
+            (
+                "search",
+                &r["quality"],
+                format!("{:.1}", r["seconds"].as_f64().unwrap_or(0.0)),
+            ),
+            ("random blocks", &r["random_baseline"], "–".to_string()),
         ] {
             let f = |k: &str| q[k].as_f64().unwrap_or(f64::NAN);
             md.push_str(&format!(
-                "| {} | {} | {:.1} | {:.3} | {:.3} | {:.2} ({:.2}) | {:.2} | {} | {} → {} |\n",
+                "| {} | {} | {} | {:.3} | {:.3} | {:.2} ({:.2}) | {:.2} | {} | {} → {} |\n",
                 v.exemplar,
                 name,
-                r["seconds"].as_f64().unwrap_or(0.0),
+                seconds,
                 f("neighbourhood_error"),
                 f("seam_error"),
                 f("distance_field_fraction"),
@@ -526,26 +530,35 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
 /// baseline beside it.
 fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<VolumeEntry>> {
     use geosynth::voxel::{MatcherKind, VoxelExemplar, VoxelParams, VoxelSynth};
+    // Full: the paper's setting (§6: source 64³, target 128³, 3 iterations, final block 16).
     let (source_resolution, target, levels, block) = if args.quick {
-        (24, 32, 2, 8)
-    } else {
         (32, 64, 2, 8)
-    };
-    let stage = VoxelSynth {
-        source_resolution,
-        params: VoxelParams {
-            target_dims: [target; 3],
-            levels,
-            block,
-            matcher: MatcherKind::Brute,
-            range: None,
-            seed: args.seed,
-        },
-        ..VoxelSynth::default()
+    } else {
+        (64, 128, 3, 16)
     };
     let mut entries = Vec::new();
     for volume in fixtures::volumes::all(fixtures::FIXTURE_SEED)? {
         let exemplar = VoxelExemplar::from(&volume);
+        // Twice the source along x and y; along z too for the cubic solids, while the flat
+        // terrain keeps its height (rounded down to whole half blocks).
+        let dims = geosynth::voxel::source_dims(&exemplar, source_resolution)?;
+        let z = if dims[2] < dims[0] {
+            (dims[2] / (block / 2) * (block / 2)).max(block)
+        } else {
+            target
+        };
+        let stage = VoxelSynth {
+            source_resolution,
+            params: VoxelParams {
+                target_dims: [target, target, z],
+                levels,
+                block,
+                matcher: MatcherKind::Brute,
+                range: None,
+                seed: args.seed,
+            },
+            ..VoxelSynth::default()
+        };
         let run = crate::commands::voxel::measured_run(exemplar.clone(), &stage, true, globals)?;
         let dir = args.out.join("geometry");
         let write = |suffix: &str, mesh: &geosynth::core::TriMesh| -> CliResult<PathBuf> {

@@ -60,6 +60,10 @@ pub struct VoxelArgs {
     /// Target samples along each axis at the last iteration.
     #[arg(long, default_value_t = 128)]
     target_res: usize,
+    /// Target samples along x, y, z (`X,Y,Z`), instead of a cube of `--target-res`; e.g.
+    /// keep a terrain's height with `128,128,64` from a 64³ source.
+    #[arg(long, value_parser = parse_dims)]
+    target_dims: Option<[usize; 3]>,
     /// Iterations (resolution levels).
     #[arg(long, default_value_t = 3)]
     levels: usize,
@@ -84,6 +88,18 @@ pub struct VoxelArgs {
     /// Render exemplar | output mesh | iso-surface to a PNG.
     #[arg(long)]
     preview: Option<PathBuf>,
+}
+
+fn parse_dims(s: &str) -> Result<[usize; 3], String> {
+    let v: Vec<usize> = s
+        .split(',')
+        .map(|p| p.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{s}` is not X,Y,Z"))?;
+    match v[..] {
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(format!("`{s}` needs three sizes X,Y,Z")),
+    }
 }
 
 /// One measured run of the stage.
@@ -231,7 +247,7 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     let stage = VoxelSynth {
         source_resolution: args.source_res,
         params: VoxelParams {
-            target_dims: [args.target_res; 3],
+            target_dims: args.target_dims.unwrap_or([args.target_res; 3]),
             levels: args.levels,
             block: args.block,
             matcher: args.matcher.into(),
