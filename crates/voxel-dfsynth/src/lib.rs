@@ -1,11 +1,19 @@
 //! # voxel-dfsynth
 //!
 //! Geometry synthesis by distance-field block matching — Lagae, Dumont & Dutré, *Geometry
-//! Synthesis* (paper 001). **This crate currently implements the geometry-matching half
-//! (§4):** the quantized source field, the global subsampled pyramid, the search tree with
-//! merged identical and partially identical nodes, the exact best-first search of Figure 4,
-//! and two other exact matchers behind one [`BlockMatcher`] trait (brute force; masked SSD by
-//! FFT). Synthesis (§5) and geometry reconstruction (§5.3) are not implemented yet.
+//! Synthesis* (paper 001), complete:
+//!
+//! - **analysis and matching (§4)**: the quantized source field, the global subsampled
+//!   pyramid, the search tree with merged identical and partially identical nodes and its
+//!   exact best-first search (Figure 4), and two other exact matchers behind one
+//!   [`BlockMatcher`] trait (linear search, pruned by partial distances and Eq. 2 filters;
+//!   masked SSD by FFT);
+//! - **synthesis (§5.1–5.2)**: [`synthesize`] — multiresolution, the coarser trees obtained
+//!   by dropping leaf levels, blocks in scan-line order with 7 of 8 octants known, random
+//!   seeding, exact best match at every step, deterministic and parallel;
+//! - **reconstruction (§5.3)**: [`isosurface_mesh`] and [`copied_mesh`] (source triangles
+//!   copied block by block, welded and relaxed);
+//! - **quality**: [`evaluate`], against the same numbers for random blocks.
 //!
 //! ```
 //! use voxel_dfsynth::{BlockMatcher, BruteForce, FftMatcher, QuantizedField, SearchTree};
@@ -23,13 +31,22 @@
 //!
 //! ## Choices where the paper leaves room
 //!
-//! - Quantization: distances map to 256 levels over `[−range, range]`
-//!   (`distance_field::Quantizer`); tree keys below the block level are level means rounded to
-//!   those levels (so level 1 has at most 256 nodes) and nodes are scored with the lower bound
-//!   `max(0, |q − b| − ½)²` per sample, keeping the search exact despite rounding.
+//! - Quantization: distances map to 256 levels over `[−range, range]`, by default the
+//!   source's largest |distance| (`distance_field::Quantizer`); tree keys below the block
+//!   level are level means rounded to those levels (so level 1 has at most 256 nodes) and
+//!   nodes are scored with the lower bound `max(0, |q − b| − ½)²` per sample, keeping the
+//!   search exact despite rounding.
 //! - Partial identity (§4.4): each level's eight octants are successive tree levels.
-//! - A prefix shared by one block is a single compressed node scored exactly when reached.
-//! - The Eq. 3 queue pruning is not implemented yet.
+//! - A prefix shared by one block is a single compressed node, scored chunk by chunk.
+//! - Coarser iterations search the same tree with leaf levels dropped, over the rounded cell
+//!   means at every offset ([`SubsampledSource`]); blocks keep their extent across
+//!   iterations; the previous result is upsampled trilinearly.
+//! - Eq. 3 queue pruning ([`SearchTree::best_match_pruned`]): the paper's ε, "the squared
+//!   maximum distance between neighbouring samples", is taken per level step as
+//!   `(2 · (√3 · c · slope + 1½))²` for child cells of side `c` (mean differences across a
+//!   cell plus rounding), with an optional tolerance (§5.2).
+//!
+//! More in `docs/voxel-dfsynth.md`.
 
 #![deny(missing_docs)]
 
@@ -52,4 +69,4 @@ pub use synth::{
     BlockCopy, LevelReport, MatcherKind, Synthesis, VoxelParams, quantize_source, source_quantizer,
     synthesize,
 };
-pub use tree::{Match, SearchTree, TreeStats};
+pub use tree::{Eq3Pruning, Match, SearchStats, SearchTree, TreeStats};

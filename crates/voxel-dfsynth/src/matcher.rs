@@ -168,6 +168,49 @@ impl BruteForce {
         })
     }
 
+    /// The paper's linear search, as Table 1 compares against: the full sum of squared
+    /// differences of every block, no early exit, no filter (parallel; ties go to the lowest
+    /// index). Same result as [`BlockMatcher::best_match`], which prunes.
+    pub fn exhaustive(&self, query: &[u8]) -> Result<Match> {
+        check_query(query, self.n)?;
+        let n = self.n;
+        let [px, py, pz] = self.positions;
+        let values = self.field.values();
+        let best = (0..px * py * pz)
+            .into_par_iter()
+            .map(|id| {
+                let [x0, y0, z0] = self.corner(id);
+                let mut ssd = 0u64;
+                for z in 0..n {
+                    for y in 0..n {
+                        let row = self.field.index(x0, y0 + y, z0 + z);
+                        let q = &query[n * (y + n * z)..n * (y + n * z) + n];
+                        ssd += values[row..row + n]
+                            .iter()
+                            .zip(q)
+                            .map(|(&a, &b)| u64::from(a.abs_diff(b)).pow(2))
+                            .sum::<u64>();
+                    }
+                }
+                (ssd, id)
+            })
+            .min();
+        self.to_match(best)
+    }
+
+    /// The match for a `(sum, position index)` result; an error when there is none.
+    fn to_match(&self, best: Option<(u64, usize)>) -> Result<Match> {
+        let (ssd, id) = best.ok_or(VoxelError::InvalidParameter {
+            name: "field",
+            value: "no blocks".into(),
+            expected: "at least one block",
+        })?;
+        Ok(Match {
+            corner: self.corner(id),
+            distance: ssd as f32 / (self.n * self.n * self.n) as f32,
+        })
+    }
+
     /// Corner of position index `id`.
     pub fn corner(&self, id: usize) -> [usize; 3] {
         let [px, py, _] = self.positions;
@@ -181,17 +224,7 @@ impl BlockMatcher for BruteForce {
     }
 
     fn best_match(&self, query: &[u8]) -> Result<Match> {
-        let (ssd, id) =
-            self.best_within(query, None, true)?
-                .ok_or(VoxelError::InvalidParameter {
-                    name: "field",
-                    value: "no blocks".into(),
-                    expected: "at least one block",
-                })?;
-        Ok(Match {
-            corner: self.corner(id),
-            distance: ssd as f32 / (self.n * self.n * self.n) as f32,
-        })
+        self.to_match(self.best_within(query, None, true)?)
     }
 }
 

@@ -45,6 +45,11 @@ impl<T> RadixHeap<T> {
         self.len += 1;
     }
 
+    /// Items queued.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
     /// Removes an item with the smallest key.
     pub(crate) fn pop(&mut self) -> Option<(f32, T)> {
         if self.len == 0 {

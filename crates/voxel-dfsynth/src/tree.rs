@@ -107,6 +107,30 @@ struct Entry {
     partial: f64,
 }
 
+/// Eq. 3 queue pruning (§4.3, §5.2) for [`SearchTree::best_match_pruned`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Eq3Pruning {
+    /// Largest change of the field between neighbouring samples, in quantization levels
+    /// (a distance field changes by at most one spacing per spacing: `255 · spacing /
+    /// (2 · range)`).
+    pub slope: f32,
+    /// Squared levels added to every upper bound before pruning (0: prune as soon as Eq. 3
+    /// allows).
+    pub tolerance: f32,
+}
+
+/// What one tree search did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SearchStats {
+    /// Entries taken from the queue.
+    pub expanded: usize,
+    /// Largest number of entries queued at once.
+    pub max_queue: usize,
+    /// Entries not queued because their lower bound exceeded the limit (the incumbent or
+    /// the Eq. 3 bound).
+    pub pruned: usize,
+}
+
 /// A best match: the block corner and its Eq. 1 distance (in squared quantization levels).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Match {
@@ -508,6 +532,44 @@ impl SearchTree {
         drop: usize,
         incumbent: Option<Match>,
     ) -> Result<Match> {
+        Ok(self.search(query, drop, incumbent, None)?.0)
+    }
+
+    /// The best-first search with the Eq. 3 queue pruning of §4.3: an entry that completes
+    /// level `l` with mean distance `d_l` bounds every leaf below it by
+    /// `U = d_l + Σ ε_k` over the remaining level steps, and entries whose lower bound
+    /// exceeds the smallest such `U` plus `pruning.tolerance` are not queued. Exact when the
+    /// query is a valid distance field and the source's slope bound holds; otherwise (e.g.
+    /// synthesis queries with unsynthesized samples, §5.2) the result may be a near-best
+    /// match, within the tolerance in the worst case the paper accepts; should the bound be
+    /// so wrong that every path is pruned, the search is repeated without pruning. Returns
+    /// the search statistics beside the match.
+    pub fn best_match_pruned(
+        &self,
+        query: &[u8],
+        drop: usize,
+        pruning: &Eq3Pruning,
+    ) -> Result<(Match, SearchStats)> {
+        self.search(query, drop, None, Some(pruning))
+    }
+
+    /// ε of Eq. 3 for the step from level `l` to `l + 1` (squared levels): twice the largest
+    /// difference between a child cell's mean and its parent's — cells `√3 · c` apart at
+    /// most, `c` the child's side in samples, at `slope` levels per sample, plus 1½ levels
+    /// for the rounding of keys and values.
+    fn eq3_epsilon(&self, l: usize, slope: f32) -> f64 {
+        let child = (self.n >> l).max(1) as f64;
+        let delta = 3f64.sqrt() * child * f64::from(slope) + 1.5;
+        (2.0 * delta).powi(2)
+    }
+
+    fn search(
+        &self,
+        query: &[u8],
+        drop: usize,
+        incumbent: Option<Match>,
+        pruning: Option<&Eq3Pruning>,
+    ) -> Result<(Match, SearchStats)> {
         if drop >= self.levels {
             return Err(VoxelError::InvalidParameter {
                 name: "drop",
@@ -525,7 +587,18 @@ impl SearchTree {
         }
         let q = self.prepare(query, drop)?;
         let final_depth = self.final_depth(drop);
-        let limit = incumbent.map_or(f32::INFINITY, |m| m.distance);
+        let mut limit = incumbent.map_or(f32::INFINITY, |m| m.distance);
+        let leaf_level = self.levels - drop;
+        // Σ ε from level l to the leaf level, for every complete level l.
+        let remaining: Vec<f64> = (0..=leaf_level)
+            .map(|l| match pruning {
+                Some(p) => (l.max(1)..leaf_level)
+                    .map(|k| self.eq3_epsilon(k, p.slope))
+                    .sum(),
+                None => 0.0,
+            })
+            .collect();
+        let mut stats = SearchStats::default();
         let mut heap = RadixHeap::new();
         heap.push(
             0.0,
@@ -537,34 +610,73 @@ impl SearchTree {
                 partial: 0.0,
             },
         );
+        let push =
+            |heap: &mut RadixHeap<Entry>, next: Entry, limit: &mut f32, stats: &mut SearchStats| {
+                if next.bound > *limit {
+                    stats.pruned += 1;
+                    return;
+                }
+                if let Some(p) = pruning {
+                    let d = next.depth as usize;
+                    // An entry that completes level l (its last chunk is the level's last).
+                    if d >= 1 && (d - 1) % 8 == 0 {
+                        let l = 1 + (d - 1) / 8;
+                        let samples = (1usize << (l - 1)).pow(3) as f64;
+                        let upper = next.partial / samples + remaining[l.min(leaf_level)];
+                        *limit = limit.min((upper + f64::from(p.tolerance)) as f32);
+                    }
+                }
+                heap.push(next.bound, next);
+                stats.max_queue = stats.max_queue.max(heap.len());
+            };
         while let Some((_, e)) = heap.pop() {
+            stats.expanded += 1;
             let node = &self.nodes[e.node as usize];
             let d = e.depth as usize;
             if d == final_depth {
                 // A complete path: its bound is its exact distance, and no entry in the
                 // queue (nor anything below one) can be closer.
                 let block = node.blocks.first().copied().unwrap_or(node.rep);
-                return Ok(Match {
+                let found = Match {
                     corner: self.corner(block),
                     distance: (e.partial / (m * m * m) as f64) as f32,
-                });
+                };
+                return Ok((found, stats));
             }
             if node.compressed {
-                let next = self.advance(&e, e.node, d, &q, drop);
-                if next.bound <= limit {
-                    heap.push(next.bound, next);
+                let mut next = self.advance(&e, e.node, d, &q, drop);
+                // At the leaf level the single block is scored to the end at once: its
+                // remaining octants are what the exact distance needs anyway, and queueing
+                // each of them costs more than scoring it.
+                if chunk_location(d).0 == leaf_level {
+                    while (next.depth as usize) < final_depth {
+                        next = self.advance(&next, e.node, next.depth as usize, &q, drop);
+                    }
                 }
+                push(&mut heap, next, &mut limit, &mut stats);
                 continue;
             }
             for &child in &node.children {
-                let next = self.advance(&e, child, d, &q, drop);
-                if next.bound <= limit {
-                    heap.push(next.bound, next);
-                }
+                push(
+                    &mut heap,
+                    self.advance(&e, child, d, &q, drop),
+                    &mut limit,
+                    &mut stats,
+                );
             }
         }
         if let Some(m) = incumbent {
-            return Ok(m);
+            return Ok((m, stats));
+        }
+        if pruning.is_some() {
+            // Eq. 3 did not hold for this query and pruned every path: search again without.
+            let (found, again) = self.search(query, drop, None, None)?;
+            let total = SearchStats {
+                expanded: stats.expanded + again.expanded,
+                max_queue: stats.max_queue.max(again.max_queue),
+                pruned: stats.pruned + again.pruned,
+            };
+            return Ok((found, total));
         }
         Err(VoxelError::InvalidParameter {
             name: "tree",

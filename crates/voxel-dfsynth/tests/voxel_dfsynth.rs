@@ -218,3 +218,43 @@ fn tree_and_matches_do_not_depend_on_thread_count() {
     };
     assert_eq!(run(1), run(2));
 }
+
+#[test]
+fn eq3_pruning_keeps_exact_answers_for_distance_field_queries() {
+    let field = balls_field(5, 20);
+    let tree = SearchTree::build(&field, 8).unwrap();
+    // The balls field: range 0.3 over 255 levels, spacing 1/19.
+    let slope = 255.0 * (1.0 / 19.0) / 0.6;
+    let pruning = voxel_dfsynth::Eq3Pruning {
+        slope,
+        tolerance: 0.0,
+    };
+    let mut g = rng::rng_from_seed(9);
+    let [px, py, pz] = tree.positions();
+    for _ in 0..20 {
+        let corner = [
+            g.random_range(0..px),
+            g.random_range(0..py),
+            g.random_range(0..pz),
+        ];
+        let shift: u8 = g.random_range(0..3);
+        // A source block raised by a constant is still a distance field (of a shifted level set).
+        let query: Vec<u8> = field
+            .block(corner, 8)
+            .into_iter()
+            .map(|v| v.saturating_add(shift))
+            .collect();
+        let exact = tree.best_match(&query).unwrap();
+        let (pruned, stats) = tree.best_match_pruned(&query, 0, &pruning).unwrap();
+        assert_eq!(pruned.distance, exact.distance);
+        assert!(stats.expanded > 0 && stats.max_queue > 0);
+    }
+    // A bound that is far too tight (slope 0) prunes entries: the mechanism acts.
+    let tight = voxel_dfsynth::Eq3Pruning {
+        slope: 0.0,
+        tolerance: 0.0,
+    };
+    let query: Vec<u8> = (0..512).map(|i| (i * 7 % 256) as u8).collect();
+    let (_, stats) = tree.best_match_pruned(&query, 0, &tight).unwrap();
+    assert!(stats.pruned > 0, "{stats:?}");
+}

@@ -70,8 +70,9 @@ pub struct VoxelArgs {
     /// Block size of the last iteration (a power of two).
     #[arg(long, default_value_t = 16)]
     block: usize,
-    /// Block search.
-    #[arg(long, value_enum, default_value_t = MatcherArg::Tree)]
+    /// Block search (tree, brute and fft are exact and give the same result; brute — a
+    /// linear search with partial distances and pyramid filters — is the fastest here).
+    #[arg(long, value_enum, default_value_t = MatcherArg::Brute)]
     matcher: MatcherArg,
     /// Seed of the random initialisation.
     #[arg(long, default_value_t = 0)]
