@@ -619,7 +619,7 @@ impl SearchTree {
                 if let Some(p) = pruning {
                     let d = next.depth as usize;
                     // An entry that completes level l (its last chunk is the level's last).
-                    if d >= 1 && (d - 1) % 8 == 0 {
+                    if d >= 1 && (d - 1).is_multiple_of(8) {
                         let l = 1 + (d - 1) / 8;
                         let samples = (1usize << (l - 1)).pow(3) as f64;
                         let upper = next.partial / samples + remaining[l.min(leaf_level)];
@@ -644,15 +644,7 @@ impl SearchTree {
                 return Ok((found, stats));
             }
             if node.compressed {
-                let mut next = self.advance(&e, e.node, d, &q, drop);
-                // At the leaf level the single block is scored to the end at once: its
-                // remaining octants are what the exact distance needs anyway, and queueing
-                // each of them costs more than scoring it.
-                if chunk_location(d).0 == leaf_level {
-                    while (next.depth as usize) < final_depth {
-                        next = self.advance(&next, e.node, next.depth as usize, &q, drop);
-                    }
-                }
+                let next = self.advance(&e, e.node, d, &q, drop);
                 push(&mut heap, next, &mut limit, &mut stats);
                 continue;
             }
