@@ -340,17 +340,24 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
     md.push_str("| exemplar | method | seconds | neighbourhood | seam | DF | verbatim | copied triangles | open edges before → after weld |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n");
     for v in &report.volumes {
         let r = &v.run;
-        for (name, q, seconds) in [
+        let c = &r["copied"];
+        let mesh = format!(
+            "{} | {} → {}",
+            c["triangles"], c["boundary_edges_before"], c["boundary_edges_after"]
+        );
+        let seconds = format!("{:.1}", r["seconds"].as_f64().unwrap_or(0.0));
+        for (name, q, seconds, mesh) in [
+            ("search", &r["quality"], seconds, mesh),
             (
-                "search",
-                &r["quality"],
-                format!("{:.1}", r["seconds"].as_f64().unwrap_or(0.0)),
+                "random blocks",
+                &r["random_baseline"],
+                "–".to_string(),
+                "– | –".to_string(),
             ),
-            ("random blocks", &r["random_baseline"], "–".to_string()),
         ] {
             let f = |k: &str| q[k].as_f64().unwrap_or(f64::NAN);
             md.push_str(&format!(
-                "| {} | {} | {} | {:.3} | {:.3} | {:.2} ({:.2}) | {:.2} | {} | {} → {} |\n",
+                "| {} | {} | {} | {:.3} | {:.3} | {:.2} ({:.2}) | {:.2} | {} |\n",
                 v.exemplar,
                 name,
                 seconds,
@@ -359,9 +366,7 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
                 f("distance_field_fraction"),
                 f("source_distance_field_fraction"),
                 f("verbatim_fraction"),
-                r["copied"]["triangles"],
-                r["copied"]["boundary_edges_before"],
-                r["copied"]["boundary_edges_after"]
+                mesh
             ));
         }
     }
