@@ -93,16 +93,25 @@ fn every_target_sample_is_written_exactly_once_per_level() {
 fn synthesis_is_deterministic_for_a_seed_with_one_or_two_threads() {
     let source = random_balls([24, 24, 24], 5);
     let p = params(32, 2, 8, MatcherKind::Tree);
-    let run = |threads: usize| {
+    let run = |threads: usize, p: &VoxelParams| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| synthesize(&source, &p, &mut RunContext::new(0)).unwrap())
+            .install(|| synthesize(&source, p, &mut RunContext::new(0)).unwrap())
     };
-    let (a, b) = (run(1), run(2));
+    let (a, b) = (run(1, &p), run(2, &p));
     assert_eq!(a.field, b.field);
     assert_eq!(a.copies, b.copies);
+    // The default matcher splits each search over threads too (and over phases at the
+    // coarser iteration): still the same result.
+    let brute = VoxelParams {
+        matcher: MatcherKind::Brute,
+        ..p.clone()
+    };
+    let (x, y) = (run(1, &brute), run(2, &brute));
+    assert_eq!(x.field, y.field);
+    assert_eq!(x.copies, y.copies);
     let c = synthesize(
         &source,
         &VoxelParams { seed: 8, ..p },
