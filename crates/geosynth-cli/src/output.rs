@@ -1,5 +1,6 @@
 //! Console output helpers: progress bars and status lines that respect `--quiet`.
 
+use geosynth::{ProgressUpdate, RunContext};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::Globals;
@@ -35,4 +36,26 @@ pub(crate) fn spinner(globals: Globals, label: &str) -> ProgressBar {
     bar.set_message(label.to_string());
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     bar
+}
+
+/// A run context for `seed` whose progress reports drive a bar labelled `label` (hidden with
+/// `--quiet`); with `show_stage`, the bar's label follows the reporting stage's name.
+pub(crate) fn progress_context(
+    globals: Globals,
+    seed: u64,
+    label: &str,
+    show_stage: bool,
+) -> (RunContext, ProgressBar) {
+    let bar = progress_bar(globals, 1, label);
+    let sink = bar.clone();
+    let ctx = RunContext::new(seed).with_progress(move |u: &ProgressUpdate<'_>| {
+        if let Some(total) = u.total {
+            sink.set_length(total);
+        }
+        if show_stage {
+            sink.set_message(u.stage.to_string());
+        }
+        sink.set_position(u.done);
+    });
+    (ctx, bar)
 }

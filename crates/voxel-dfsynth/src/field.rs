@@ -76,6 +76,14 @@ impl QuantizedField {
     }
 }
 
+/// Sum of squared differences of two equally long blocks of levels (exact).
+pub(crate) fn block_ssd(a: &[u8], b: &[u8]) -> u64 {
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| u64::from(x.abs_diff(y)).pow(2))
+        .sum()
+}
+
 /// Box means of a field over `c³` cells, for every cell corner (`G_c[p] = mean of f over
 /// [p, p + c)³`), the global subsampled pyramid every block's levels are read from: level `l`
 /// of the `n³` block at `p` is `G_{n/2^(l−1)}[p + c · (i, j, k)]`.

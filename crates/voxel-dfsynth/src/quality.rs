@@ -22,7 +22,7 @@ use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::error::{Result, VoxelError};
-use crate::field::QuantizedField;
+use crate::field::{QuantizedField, block_ssd};
 use crate::synth::Synthesis;
 use crate::tree::SearchTree;
 
@@ -69,14 +69,6 @@ pub struct VoxelQuality {
     pub windows: usize,
 }
 
-fn ssd(a: &[u8], b: &[u8]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(&x, &y)| f64::from(x.abs_diff(y)).powi(2))
-        .sum::<f64>()
-        / a.len() as f64
-}
-
 /// Measures `synthesis` against its quantized `source` (see the module docs).
 pub fn evaluate(
     source: &QuantizedField,
@@ -113,7 +105,7 @@ pub fn evaluate(
         .map(|_| {
             let a = source.block(random_corner(&mut rng, src_pos), w);
             let b = source.block(random_corner(&mut rng, src_pos), w);
-            ssd(&a, &b)
+            block_ssd(&a, &b) as f64 / a.len() as f64
         })
         .sum::<f64>()
         / f64::from(pairs);

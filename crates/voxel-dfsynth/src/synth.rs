@@ -31,7 +31,7 @@ use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::error::{Result, VoxelError};
-use crate::field::{QuantizedField, SubsampledSource};
+use crate::field::{QuantizedField, SubsampledSource, block_ssd};
 use crate::matcher::{BlockMatcher, BruteForce, FftMatcher};
 use crate::tree::{Match, SearchTree, TreeStats};
 
@@ -280,9 +280,11 @@ enum LevelSearch<'a> {
 }
 
 impl LevelSearch<'_> {
+    /// The block for `query` (`m³` levels), block `block_index` of its iteration.
     fn find(
         &self,
         query: &[u8],
+        m: usize,
         block_index: usize,
         sub: &SubsampledSource,
         incumbent: Option<Match>,
@@ -293,8 +295,8 @@ impl LevelSearch<'_> {
                 let volume = query.len() as f32;
                 // The incumbent's exact integer sum (its `f32` distance may be rounded).
                 let limit = incumbent
-                    .and_then(|m| sub.block(m.corner, m_side(query)))
-                    .map(|b| ssd(&b, query));
+                    .and_then(|known| sub.block(known.corner, m))
+                    .map(|b| block_ssd(&b, query));
                 // One phase: parallel inside the search. Several (coarser iterations):
                 // parallel over phases, each searched on one thread.
                 let single = phases.len() == 1;
@@ -333,29 +335,16 @@ impl LevelSearch<'_> {
             Self::Random { positions, seed } => {
                 let mut rng = stream(*seed, block_index as u64);
                 let corner = positions.map(|p| rng.random_range(0..p));
-                let block = sub.block(corner, m_side(query)).ok_or_else(|| {
+                let block = sub.block(corner, m).ok_or_else(|| {
                     invalid("source", "too small", "a source larger than a block")
                 })?;
                 Ok(Match {
                     corner,
-                    distance: ssd(&block, query) as f32 / query.len() as f32,
+                    distance: block_ssd(&block, query) as f32 / query.len() as f32,
                 })
             }
         }
     }
-}
-
-/// Side of a cubic block of `values.len()` samples.
-fn m_side(values: &[u8]) -> usize {
-    (values.len() as f64).cbrt().round() as usize
-}
-
-/// Sum of squared differences of two blocks (exact).
-fn ssd(a: &[u8], b: &[u8]) -> u64 {
-    a.iter()
-        .zip(b)
-        .map(|(&x, &y)| u64::from(x.abs_diff(y)).pow(2))
-        .sum()
 }
 
 /// One matcher per phase field of `sub` that holds an `m³` block.
@@ -553,7 +542,7 @@ fn continuation(
         let Some(block) = sub.block(corner, m) else {
             continue;
         };
-        let distance = ssd(&block, query) as f32 / query.len() as f32;
+        let distance = block_ssd(&block, query) as f32 / query.len() as f32;
         if best.is_none_or(|x| distance < x.distance) {
             best = Some(Match { corner, distance });
         }
@@ -614,7 +603,7 @@ fn synthesize_level(
             .map(|&b| {
                 let query = read_block(shared, dims, corner_of(b), m);
                 let incumbent = continuation(&query, b, nb, &copies, h, m, sub);
-                search.find(&query, b, sub, incumbent)
+                search.find(&query, m, b, sub, incumbent)
             })
             .collect::<Result<Vec<Match>>>()?;
         for (&b, found) in wave.iter().zip(found) {

@@ -12,10 +12,10 @@ use geosynth::quilt::{
     WarpTargets, evaluate, quilt, read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
-use geosynth::{ProgressUpdate, RunContext};
+
 use serde_json::{Value, json};
 
-use crate::output::{progress_bar, status};
+use crate::output::{progress_context, status};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -162,14 +162,7 @@ pub fn measured_run(
     globals: Globals,
     label: &str,
 ) -> CliResult<MeasuredRun> {
-    let bar = progress_bar(globals, 1, label);
-    let sink = bar.clone();
-    let mut ctx = RunContext::new(params.seed).with_progress(move |u: &ProgressUpdate<'_>| {
-        if let Some(total) = u.total {
-            sink.set_length(total);
-        }
-        sink.set_position(u.done);
-    });
+    let (mut ctx, bar) = progress_context(globals, params.seed, label, false);
     let start = Instant::now();
     let output = quilt(texture, params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();

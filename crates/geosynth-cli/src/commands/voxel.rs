@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
+use geosynth::Stage;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::nrrd;
@@ -11,10 +12,9 @@ use geosynth::voxel::{
     MatcherKind, QualityParams, VoxelExemplar, VoxelOutput, VoxelParams, VoxelQuality, VoxelSynth,
     evaluate, quantize_source, read_exemplar, source_quantizer, synthesize,
 };
-use geosynth::{ProgressUpdate, RunContext, Stage};
 use serde_json::{Value, json};
 
-use crate::output::{progress_bar, status};
+use crate::output::{progress_context, status};
 use crate::{CliResult, Globals};
 
 /// Block search.
@@ -117,19 +117,6 @@ pub struct VoxelRun {
     pub baseline: Option<VoxelQuality>,
 }
 
-fn context(globals: Globals, seed: u64, label: &str) -> (RunContext, indicatif::ProgressBar) {
-    let bar = progress_bar(globals, 1, label);
-    let sink = bar.clone();
-    let ctx = RunContext::new(seed).with_progress(move |u: &ProgressUpdate<'_>| {
-        if let Some(total) = u.total {
-            sink.set_length(total);
-        }
-        sink.set_message(u.stage.to_string());
-        sink.set_position(u.done);
-    });
-    (ctx, bar)
-}
-
 /// Runs the stage with a progress bar, measures it, and optionally the random baseline.
 pub fn measured_run(
     exemplar: VoxelExemplar,
@@ -137,7 +124,7 @@ pub fn measured_run(
     baseline: bool,
     globals: Globals,
 ) -> CliResult<VoxelRun> {
-    let (mut ctx, bar) = context(globals, stage.params.seed, "blocks");
+    let (mut ctx, bar) = progress_context(globals, stage.params.seed, "blocks", true);
     let start = Instant::now();
     let output = stage.run(exemplar, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
@@ -155,7 +142,7 @@ pub fn measured_run(
             matcher: MatcherKind::Random,
             ..stage.params.clone()
         };
-        let (mut ctx, bar) = context(globals, params.seed, "baseline");
+        let (mut ctx, bar) = progress_context(globals, params.seed, "baseline", true);
         let random = synthesize(&output.source, &params, &mut ctx)?;
         bar.finish_and_clear();
         Some(evaluate(&source, &quantizer, &random, &qp)?)
