@@ -13,6 +13,7 @@ use geosynth::fixtures::{self, Fixture};
 use geosynth::preview::{self, RenderOptions};
 use geosynth::quilt::{Method, OutputSize, QualityReport, QuiltParams};
 use geosynth::reconstruct::{FieldParams, Reconstruct};
+use geosynth::tps::{PairingParams, Table1Preset};
 use geosynth::{RunContext, Stage};
 use serde::Serialize;
 
@@ -453,11 +454,12 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
     let resolution = if args.quick { 24 } else { 48 };
     let (w, h) = if args.quick { (320, 240) } else { (560, 420) };
     let mut entries = Vec::new();
-    for name in [
-        "quilt_bumpy",
-        "quilt_chain_mail",
-        "quilt_weave",
-        "quilt_flowers",
+    // Each exemplar with the pairing weights of its Table 1 row.
+    for (name, preset) in [
+        ("quilt_bumpy", Table1Preset::HeightField),
+        ("quilt_chain_mail", Table1Preset::ChainMail),
+        ("quilt_weave", Table1Preset::Weave),
+        ("quilt_flowers", Table1Preset::Flowers),
     ] {
         let path = dir.join(format!("{name}.ply"));
         let texture = if path.is_file() {
@@ -473,6 +475,7 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
         let params = QuiltParams::default()
             .output(OutputSize::Scale(scale))
             .field_resolution(resolution)
+            .pairing(PairingParams::table1(preset))
             .seed(args.seed);
         let full = measured_run(&texture, &params, globals, name)?;
         let search = measured_run(

@@ -1,15 +1,18 @@
 //! Objective quality of a quilt (GUIDE §5): neighbourhood error, seams, coverage.
 //!
 //! Windows are `w × w × n_z` blocks of distance-field nodes (`w` = half a patch, full
-//! height) on the same lattice as `D(T_in)`. The output's field is computed from the
-//! output's own MLS surface over the output box. A window's error is the mean squared
-//! difference (all four channels) to its nearest exemplar window, searched exhaustively;
-//! errors are divided by the exemplar's typical window variation — the mean difference
-//! between random non-overlapping exemplar windows — so 0 means "exactly like some part of
-//! the exemplar" and 1 means "as different as two unrelated parts of it".
+//! height) with the spacing of `D(T_in)`. The output's field is computed from the output's
+//! own MLS surface over the output box. A window's error is the mean squared difference
+//! (all four channels) to its nearest exemplar window — at any position, not only at the
+//! nodes of `D(T_in)` ([`windows`]); errors are divided by the exemplar's typical window
+//! variation — the mean difference between random non-overlapping exemplar windows — so 0
+//! means "exactly like some part of the exemplar" and 1 means "as different as two unrelated
+//! parts of it".
+
+pub mod windows;
 
 use distance_field::{GridSpec, SdfGrid};
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec3};
 use mls_surface::{MlsParams, MlsSurface};
 use pointset_core::{KdIndex, PointSet, rng};
 use rand::RngExt;
@@ -20,6 +23,7 @@ use crate::exemplar::Exemplar;
 use crate::params::QuiltParams;
 use crate::quilt::QuiltOutput;
 use crate::texture::GeometryTexture;
+use windows::{ExemplarWindows, Field};
 
 /// The measured quality of one output.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,34 +50,6 @@ pub struct QualityReport {
     pub exemplar_largest_empty_disc: f32,
     /// Windows measured per class.
     pub windows: usize,
-}
-
-struct Field<'a> {
-    data: &'a [Vec4],
-    dims: [usize; 3],
-}
-
-impl Field<'_> {
-    fn window_error(
-        &self,
-        at: (usize, usize),
-        other: &Field<'_>,
-        other_at: (usize, usize),
-        w: usize,
-    ) -> f32 {
-        let nz = self.dims[2].min(other.dims[2]);
-        let mut sum = 0.0f32;
-        for c in 0..nz {
-            for b in 0..w {
-                let row = (at.0) + self.dims[0] * (at.1 + b + self.dims[1] * c);
-                let orow = (other_at.0) + other.dims[0] * (other_at.1 + b + other.dims[1] * c);
-                for a in 0..w {
-                    sum += (self.data[row + a] - other.data[orow + a]).length_squared();
-                }
-            }
-        }
-        sum / (w * w * nz) as f32
-    }
 }
 
 /// Radius of the largest empty disc of the points' (x, y) inside `[lo, hi]`, sampled on a
@@ -157,18 +133,11 @@ pub fn evaluate(
         spacing: s,
     };
     let out_field = SdfGrid::from_surface(&surface, &spec, params.band * s)?;
-    let exf = Field {
-        data: ex.field.grid().data(),
-        dims: ex.spec.dims,
-    };
-    let outf = Field {
-        data: out_field.grid().data(),
-        dims,
-    };
+    let outf = Field::distances(&out_field);
     let w = (g.patch_nodes / 2).max(3);
-    let ex_positions: Vec<(usize, usize)> = (0..=ex.spec.dims[1].saturating_sub(w))
-        .flat_map(|j| (0..=ex.spec.dims[0].saturating_sub(w)).map(move |i| (i, j)))
-        .collect();
+    let exemplar_surface = MlsSurface::new(texture.canonical_points(), &MlsParams::default())?;
+    let exemplar = ExemplarWindows::new(&ex, &exemplar_surface, params.band * s, w)?;
+    let ex_positions = exemplar.positions();
     // Typical exemplar variation: random pairs of non-overlapping windows.
     let mut r = rng::stream(params.seed ^ 0x9a11, 0);
     let mut pair_errors = Vec::new();
@@ -176,7 +145,7 @@ pub fn evaluate(
         let a = ex_positions[r.random_range(0..ex_positions.len())];
         let b = ex_positions[r.random_range(0..ex_positions.len())];
         if a.0.abs_diff(b.0) >= w || a.1.abs_diff(b.1) >= w {
-            pair_errors.push(exf.window_error(a, &exf, b, w));
+            pair_errors.push(exemplar.aligned_error(a, b));
         }
     }
     let typical =
@@ -229,20 +198,18 @@ pub fn evaluate(
             interior.push(at);
         }
     }
-    let nearest = |at: &(usize, usize)| {
-        ex_positions
-            .iter()
-            .map(|e| outf.window_error(*at, &exf, *e, w))
-            .fold(f32::INFINITY, f32::min)
-    };
-    let mean_error = |set: &[(usize, usize)]| {
+    let mean_error = |set: &[(usize, usize)]| -> Result<f32> {
         if set.is_empty() {
-            return 0.0;
+            return Ok(0.0);
         }
-        set.par_iter().map(nearest).sum::<f32>() / set.len() as f32 / typical
+        let errors = set
+            .par_iter()
+            .map(|&at| exemplar.nearest(&outf, at))
+            .collect::<Result<Vec<f32>>>()?;
+        Ok(errors.iter().sum::<f32>() / set.len() as f32 / typical)
     };
     let (ex_lo, ex_hi) = texture.footprint();
-    let (seam_error, interior_error) = (mean_error(&seam), mean_error(&interior));
+    let (seam_error, interior_error) = (mean_error(&seam)?, mean_error(&interior)?);
     let exemplar_index = KdIndex::new(&ex.points)?;
     let patch_of = output
         .points
@@ -269,7 +236,7 @@ pub fn evaluate(
         })
         .count();
     Ok(QualityReport {
-        neighbourhood_error: mean_error(&any),
+        neighbourhood_error: mean_error(&any)?,
         seam_error,
         interior_error,
         seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
