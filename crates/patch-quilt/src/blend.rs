@@ -28,6 +28,27 @@ impl Overlap {
         inside && ((self.left && d.x <= self.width) || (self.bottom && d.y <= self.width))
     }
 
+    /// The strips as rectangles `(lo, hi)` in the reference plane.
+    fn strips(&self) -> impl Iterator<Item = (Vec2, Vec2)> + '_ {
+        let o = self.origin;
+        let left = self
+            .left
+            .then(|| (o, o + Vec2::new(self.width, self.patch)));
+        let bottom = self
+            .bottom
+            .then(|| (o, o + Vec2::new(self.patch, self.width)));
+        left.into_iter().chain(bottom)
+    }
+
+    /// Whether the rectangle `[lo, hi]` shares area with the overlap region (touching a
+    /// strip along an edge or at a corner does not count).
+    pub fn overlaps_rect(&self, lo: Vec2, hi: Vec2) -> bool {
+        self.strips().any(|(a, b)| {
+            let (l, h) = (lo.max(a), hi.min(b));
+            l.x < h.x && l.y < h.y
+        })
+    }
+
     /// The ramp of Figure 3c: 1 at the overlap's outer edge (fully the neighbourhood), falling
     /// linearly to 0 at its inner edge (fully the patch), 0 beyond; the larger of the two
     /// strips' values. A strip runs along the patch's side only (not into the extra region
@@ -161,6 +182,26 @@ mod tests {
             assert!(p.z >= last - 1e-6, "heights must not decrease inward");
             last = p.z;
         }
+    }
+
+    #[test]
+    fn rectangles_touching_a_strip_do_not_overlap_it() {
+        let o = Overlap {
+            origin: Vec2::ZERO,
+            width: 0.2,
+            patch: 1.0,
+            left: true,
+            bottom: true,
+        };
+        // The corners beyond the strips' ends touch them only along an edge.
+        assert!(!o.overlaps_rect(Vec2::new(0.0, 1.0), Vec2::new(0.3, 1.3)));
+        assert!(!o.overlaps_rect(Vec2::new(1.0, 0.0), Vec2::new(1.3, 0.3)));
+        assert!(!o.overlaps_rect(Vec2::new(1.0, 1.0), Vec2::new(1.3, 1.3)));
+        assert!(o.overlaps_rect(Vec2::new(0.1, 0.9), Vec2::new(0.4, 1.2)));
+        assert!(o.overlaps_rect(Vec2::new(0.9, 0.1), Vec2::new(1.2, 0.4)));
+        let left_only = Overlap { bottom: false, ..o };
+        assert!(!left_only.overlaps_rect(Vec2::new(0.5, 0.0), Vec2::new(0.8, 0.15)));
+        assert!(left_only.overlaps_rect(Vec2::new(-0.1, 0.5), Vec2::new(0.1, 0.6)));
     }
 
     #[test]

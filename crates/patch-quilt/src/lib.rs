@@ -64,7 +64,9 @@
 //!   definition.
 //! - A patch with fewer than 4 pairs, or a degenerate spline, is pasted unwarped and counted
 //!   ([`QuiltStats::warps_skipped`]).
-//! - Anchors: up to 4 points in each `w_E × w_E` corner of `B_k` not touched by the overlap.
+//! - Anchors: up to 4 points in each `w_E × w_E` corner of `B_k` that shares no area with the
+//!   overlap — three corners for an interior patch (the strips run along the patch's sides
+//!   only, so the corners beyond their ends are free).
 //! - The first patch of each later row overlaps only the row below; the first row only its
 //!   left neighbour.
 //!

@@ -58,7 +58,8 @@ pub struct WarpCounts {
 ///
 /// `Q` = representatives of adaptive clusters of the neighbourhood's points inside the
 /// overlap region; anchors = up to `anchors_per_corner` points of `S` in each `w_E × w_E`
-/// corner of `B_k`'s footprint that does not touch the overlap. The spline maps each paired
+/// corner of `B_k`'s footprint that shares no area with the overlap (three for an interior
+/// patch: the strips run along the patch's sides only). The spline maps each paired
 /// source to its target ([`WarpTargets`]). A patch with fewer than four pairs, or whose
 /// spline cannot be fitted, is left unwarped (reported, not an error).
 #[allow(clippy::too_many_arguments)]
@@ -116,18 +117,7 @@ pub(crate) fn warp_patch(
     ];
     let free: Vec<Aabb> = corners
         .iter()
-        .filter(|c| {
-            let probes = [
-                **c,
-                **c + Vec2::new(corner, 0.0),
-                **c + Vec2::new(0.0, corner),
-                **c + Vec2::splat(corner),
-                **c + Vec2::splat(0.5 * corner),
-            ];
-            !probes
-                .iter()
-                .any(|p| overlap.contains(*p) || overlap.ramp(*p) > 0.0)
-        })
+        .filter(|c| !overlap.overlaps_rect(**c, **c + Vec2::splat(corner)))
         .map(|c| {
             Aabb::new(
                 c.extend(f32::MIN / 4.0),

@@ -317,7 +317,7 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
             r.preview
         ));
     }
-    md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the distance field (0 = like some part of the exemplar, 1 = as different as two unrelated parts); LED = largest empty disc (output / exemplar).\n\n");
+    md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the signed distance, the nearest window searched at continuous offsets (0 = like some part of the exemplar, 1 = as different as two unrelated parts); LED = largest empty disc (output / exemplar). Each exemplar uses the pairing weights of its Table 1 row.\n\n");
     md.push_str("| exemplar | method | seconds | patches | mean Ψ | mean pairs | points | neighbourhood | seam | interior | seam / interior | verbatim | LED |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     for q in &report.quilts {
         for (name, run) in [

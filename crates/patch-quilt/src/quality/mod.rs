@@ -44,7 +44,8 @@ pub struct QualityReport {
     pub verbatim_fraction: f32,
     /// The exemplar's typical window difference used for normalization.
     pub exemplar_window_variation: f32,
-    /// Radius of the largest empty disc in the output's projection on the reference plane.
+    /// Radius of the largest empty disc in the output's projection on the reference plane,
+    /// centred at least one field spacing inside the output box.
     pub largest_empty_disc: f32,
     /// The same for the exemplar's box.
     pub exemplar_largest_empty_disc: f32,
@@ -52,8 +53,8 @@ pub struct QualityReport {
     pub windows: usize,
 }
 
-/// Radius of the largest empty disc of the points' (x, y) inside `[lo, hi]`, sampled on a
-/// lattice of step `step`.
+/// Radius of the largest empty disc of the points' (x, y) centred inside `[lo, hi]`, sampled
+/// on a lattice of step `step`.
 fn largest_empty_disc(points: &[Vec3], lo: Vec2, hi: Vec2, step: f32) -> Result<f32> {
     let flat: Vec<Vec3> = points.iter().map(|p| p.truncate().extend(0.0)).collect();
     let index = KdIndex::new(&flat)?;
@@ -209,6 +210,10 @@ pub fn evaluate(
         Ok(errors.iter().sum::<f32>() / set.len() as f32 / typical)
     };
     let (ex_lo, ex_hi) = texture.footprint();
+    // Discs are centred at least one spacing inside both boxes: the output is trimmed at its
+    // box, wherever that cuts the sampling, while the exemplar's padding continues beyond its
+    // own; a disc at the very edge would measure that cut, not a hole.
+    let inset = Vec2::splat(s);
     let (seam_error, interior_error) = (mean_error(&seam)?, mean_error(&interior)?);
     let exemplar_index = KdIndex::new(&ex.points)?;
     let patch_of = output
@@ -242,8 +247,13 @@ pub fn evaluate(
         seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
         verbatim_fraction: verbatim as f32 / pts.len().max(1) as f32,
         exemplar_window_variation: typical,
-        largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
-        exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
+        largest_empty_disc: largest_empty_disc(&pts, out_lo + inset, out_hi - inset, 0.5 * s)?,
+        exemplar_largest_empty_disc: largest_empty_disc(
+            &ex.points,
+            ex_lo + inset,
+            ex_hi - inset,
+            0.5 * s,
+        )?,
         windows,
     })
 }
