@@ -152,18 +152,15 @@ pub fn evaluate(
     let typical =
         (pair_errors.iter().sum::<f32>() / pair_errors.len().max(1) as f32).max(f32::MIN_POSITIVE);
     // Seam lines: the middle of each overlap strip.
-    let seams_x: Vec<f32> = output
-        .placements
-        .iter()
-        .filter(|p| p.cell.0 > 0)
-        .map(|p| p.origin.x + 0.5 * g.overlap())
-        .collect();
-    let seams_y: Vec<f32> = output
-        .placements
-        .iter()
-        .filter(|p| p.cell.1 > 0)
-        .map(|p| p.origin.y + 0.5 * g.overlap())
-        .collect();
+    let seam_lines = |axis: usize| -> Vec<f32> {
+        output
+            .placements
+            .iter()
+            .filter(|p| [p.cell.0, p.cell.1][axis] > 0)
+            .map(|p| p.origin[axis] + 0.5 * g.overlap())
+            .collect()
+    };
+    let (seams_x, seams_y) = (seam_lines(0), seam_lines(1));
     let seam_distance = |c: Vec2| {
         let dx = seams_x
             .iter()

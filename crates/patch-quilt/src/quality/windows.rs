@@ -318,11 +318,13 @@ mod tests {
     use crate::params::QuiltParams;
     use crate::texture::GeometryTexture;
 
-    fn windows_of(texture: &GeometryTexture) -> (Exemplar, usize) {
-        let params = QuiltParams::default().field_resolution(20);
-        let ex = Exemplar::new(texture, &params).unwrap();
+    /// Runs `check` on the windows (and `w`) of a bumpy height-field texture.
+    fn with_windows(check: impl FnOnce(&ExemplarWindows<'_>, usize)) {
+        let texture = bumps();
+        let surface = MlsSurface::new(texture.canonical_points(), &MlsParams::default()).unwrap();
+        let ex = Exemplar::new(&texture, &QuiltParams::default().field_resolution(20)).unwrap();
         let w = ex.geometry.patch_nodes / 2;
-        (ex, w)
+        check(&ExemplarWindows::new(&ex, &surface, 0.4, w).unwrap(), w);
     }
 
     fn bumps() -> GeometryTexture {
@@ -339,56 +341,52 @@ mod tests {
 
     #[test]
     fn exact_windows_at_fine_nodes_are_the_fine_field() {
-        let texture = bumps();
-        let surface = MlsSurface::new(texture.canonical_points(), &MlsParams::default()).unwrap();
-        let (ex, w) = windows_of(&texture);
-        let windows = ExemplarWindows::new(&ex, &surface, 0.4, w).unwrap();
-        for node in [[4, 4, 4], [9, 17, 3], [21, 6, 5]] {
-            let exact = windows.exact(Vec3::from(node.map(|n| n as f32))).unwrap();
-            let error = exact.window_error(
-                WindowAt::at_node([0; 3], 1),
-                &windows.fine,
-                WindowAt::at_node(node, SUBSTEPS),
-                windows.shape,
-                f32::MAX,
-            );
-            assert!(error < 1e-10, "{node:?}: {error}");
-        }
+        with_windows(|windows, _| {
+            for node in [[4, 4, 4], [9, 17, 3], [21, 6, 5]] {
+                let exact = windows.exact(Vec3::from(node.map(|n| n as f32))).unwrap();
+                let error = exact.window_error(
+                    WindowAt::at_node([0; 3], 1),
+                    &windows.fine,
+                    WindowAt::at_node(node, SUBSTEPS),
+                    windows.shape,
+                    f32::MAX,
+                );
+                assert!(error < 1e-10, "{node:?}: {error}");
+            }
+        });
     }
 
     #[test]
     fn a_window_at_a_continuous_offset_is_found() {
-        let texture = bumps();
-        let surface = MlsSurface::new(texture.canonical_points(), &MlsParams::default()).unwrap();
-        let (ex, w) = windows_of(&texture);
-        let windows = ExemplarWindows::new(&ex, &surface, 0.4, w).unwrap();
-        let typical = windows.aligned_error((0, 0), (w, w));
-        for start in [(2usize, 3usize), (5, 1)] {
-            let node = windows.aligned(start).node.map(|n| n as f32);
-            let position = Vec3::from(node) + Vec3::new(1.37, -2.6, 0.9);
-            let cut = windows.exact(position).unwrap();
-            let found = windows.nearest(&cut, (0, 0)).unwrap();
-            let on_nodes = windows
-                .positions()
-                .iter()
-                .map(|&p| {
-                    cut.window_error(
-                        WindowAt::at_node([0; 3], 1),
-                        &windows.fine,
-                        windows.aligned(p),
-                        windows.shape,
-                        f32::MAX,
-                    )
-                })
-                .fold(f32::INFINITY, f32::min);
-            assert!(
-                found < 2e-3 * typical,
-                "{start:?}: {found} vs typical {typical}"
-            );
-            assert!(
-                on_nodes > 20.0 * found,
-                "{start:?}: nodes only {on_nodes}, found {found}"
-            );
-        }
+        with_windows(|windows, w| {
+            let typical = windows.aligned_error((0, 0), (w, w));
+            for start in [(2usize, 3usize), (5, 1)] {
+                let node = windows.aligned(start).node.map(|n| n as f32);
+                let position = Vec3::from(node) + Vec3::new(1.37, -2.6, 0.9);
+                let cut = windows.exact(position).unwrap();
+                let found = windows.nearest(&cut, (0, 0)).unwrap();
+                let on_nodes = windows
+                    .positions()
+                    .iter()
+                    .map(|&p| {
+                        cut.window_error(
+                            WindowAt::at_node([0; 3], 1),
+                            &windows.fine,
+                            windows.aligned(p),
+                            windows.shape,
+                            f32::MAX,
+                        )
+                    })
+                    .fold(f32::INFINITY, f32::min);
+                assert!(
+                    found < 2e-3 * typical,
+                    "{start:?}: {found} vs typical {typical}"
+                );
+                assert!(
+                    on_nodes > 20.0 * found,
+                    "{start:?}: nodes only {on_nodes}, found {found}"
+                );
+            }
+        });
     }
 }
