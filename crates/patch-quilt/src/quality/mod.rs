@@ -44,17 +44,19 @@ pub struct QualityReport {
     pub verbatim_fraction: f32,
     /// The exemplar's typical window difference used for normalization.
     pub exemplar_window_variation: f32,
-    /// Radius of the largest empty disc in the output's projection on the reference plane,
-    /// centred at least one field spacing inside the output box.
+    /// Radius of the largest disc inside the output box free of the output's points
+    /// (projected on the reference plane).
     pub largest_empty_disc: f32,
-    /// The same for the exemplar's box.
+    /// The same for the exemplar's points and box.
     pub exemplar_largest_empty_disc: f32,
     /// Windows measured per class.
     pub windows: usize,
 }
 
-/// Radius of the largest empty disc of the points' (x, y) centred inside `[lo, hi]`, sampled
-/// on a lattice of step `step`.
+/// Radius of the largest disc inside `[lo, hi]` that contains none of the points' (x, y),
+/// its centre sampled on a lattice of step `step`. Requiring the disc to lie inside the box
+/// measures an exemplar (whose padding continues beyond its box) and a trimmed output alike:
+/// where a box edge cuts the sampling, the disc is bounded by the edge, not by points beyond.
 fn largest_empty_disc(points: &[Vec3], lo: Vec2, hi: Vec2, step: f32) -> Result<f32> {
     let flat: Vec<Vec3> = points.iter().map(|p| p.truncate().extend(0.0)).collect();
     let index = KdIndex::new(&flat)?;
@@ -68,11 +70,12 @@ fn largest_empty_disc(points: &[Vec3], lo: Vec2, hi: Vec2, step: f32) -> Result<
     let radius = cells
         .par_iter()
         .map(|q| {
+            let to_edge = (q.truncate() - lo).min(hi - q.truncate()).min_element();
             index
                 .nearest_one(*q)
                 .ok()
                 .flatten()
-                .map_or(0.0, |n| n.distance_squared.sqrt())
+                .map_or(0.0, |n| n.distance_squared.sqrt().min(to_edge))
         })
         .reduce(|| 0.0f32, f32::max);
     Ok(radius)
@@ -207,10 +210,6 @@ pub fn evaluate(
         Ok(errors.iter().sum::<f32>() / set.len() as f32 / typical)
     };
     let (ex_lo, ex_hi) = texture.footprint();
-    // Discs are centred at least one spacing inside both boxes: the output is trimmed at its
-    // box, wherever that cuts the sampling, while the exemplar's padding continues beyond its
-    // own; a disc at the very edge would measure that cut, not a hole.
-    let inset = Vec2::splat(s);
     let (seam_error, interior_error) = (mean_error(&seam)?, mean_error(&interior)?);
     let exemplar_index = KdIndex::new(&ex.points)?;
     let patch_of = output
@@ -244,13 +243,47 @@ pub fn evaluate(
         seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
         verbatim_fraction: verbatim as f32 / pts.len().max(1) as f32,
         exemplar_window_variation: typical,
-        largest_empty_disc: largest_empty_disc(&pts, out_lo + inset, out_hi - inset, 0.5 * s)?,
-        exemplar_largest_empty_disc: largest_empty_disc(
-            &ex.points,
-            ex_lo + inset,
-            ex_hi - inset,
-            0.5 * s,
-        )?,
+        largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
+        exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
         windows,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    fn lattice(step: f32, n: i32, skip: Option<(i32, i32)>) -> Vec<Vec3> {
+        (0..n)
+            .flat_map(|j| (0..n).map(move |i| (i, j)))
+            .filter(|&c| Some(c) != skip)
+            .map(|(i, j)| Vec3::new(i as f32 * step, j as f32 * step, 0.0))
+            .collect()
+    }
+
+    #[test]
+    fn the_largest_empty_disc_stays_inside_the_box() {
+        let full = lattice(0.1, 21, None);
+        let (lo, hi) = (Vec2::splat(0.5), Vec2::splat(1.5));
+        let r = largest_empty_disc(&full, lo, hi, 0.005).unwrap();
+        // A square lattice: half the cell diagonal.
+        assert!((r - 0.1 / 2f32.sqrt()).abs() < 0.005, "{r}");
+        // A missing point inside the box opens a disc about one step wide.
+        let holed = lattice(0.1, 21, Some((10, 10)));
+        let r = largest_empty_disc(&holed, lo, hi, 0.005).unwrap();
+        assert!(r > 0.095 && r < 0.105, "{r}");
+        // Points trimmed at a box that cuts the lattice between samples: the edge bounds the
+        // disc, so the trimmed set measures like the untrimmed one.
+        let (lo, hi) = (Vec2::splat(0.53), Vec2::splat(1.47));
+        let trimmed: Vec<Vec3> = full
+            .iter()
+            .copied()
+            .filter(|p| p.truncate().cmpge(lo).all() && p.truncate().cmple(hi).all())
+            .collect();
+        let a = largest_empty_disc(&trimmed, lo, hi, 0.005).unwrap();
+        let b = largest_empty_disc(&full, lo, hi, 0.005).unwrap();
+        assert!((a - b).abs() < 0.005 && a < 0.075, "{a} vs {b}");
+    }
 }
