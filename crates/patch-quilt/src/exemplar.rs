@@ -45,7 +45,8 @@ pub(crate) struct Exemplar {
     bins: BucketGrid<u32>,
     pub field: SdfGrid,
     pub spec: GridSpec,
-    pub kernel: f32,
+    /// The exemplar's MLS surface (its kernel is used for every other surface of the run).
+    pub surface: MlsSurface,
     pub bounds: Aabb,
     pub geometry: PatchGeometry,
     /// Valid patch offsets (in nodes): `0..=max_i`, `0..=max_j`.
@@ -135,7 +136,7 @@ impl Exemplar {
             bins,
             field,
             spec,
-            kernel: surface.kernel(),
+            surface,
             bounds,
             geometry,
             max_i,

@@ -137,7 +137,7 @@ pub fn quilt(
     if !pairing.max_distance.is_finite() {
         pairing.max_distance = params.pair_distance * g.spacing;
     }
-    let mls = MlsParams::default().kernel(ex.kernel);
+    let mls = MlsParams::default().kernel(ex.surface.kernel());
     let [nx, _, nz] = ex.spec.dims;
     let total = layout.cols * layout.rows;
     let mut out: BucketGrid<OutPoint> = BucketGrid::new(2.0 * g.spacing)?;

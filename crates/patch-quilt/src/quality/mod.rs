@@ -103,7 +103,7 @@ pub fn evaluate(
         .map(|n| n.iter().map(|&v| up.to_canonical(v)).collect())
         .unwrap_or_default();
     let set = PointSet::new(pts.clone())?.with_normals(nrm)?;
-    let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.kernel))?;
+    let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.surface.kernel()))?;
     let lo = Vec3::new(
         up.to_canonical(output.bounds.min)
             .x
@@ -139,8 +139,7 @@ pub fn evaluate(
     let out_field = SdfGrid::from_surface(&surface, &spec, params.band * s)?;
     let outf = Field::distances(&out_field);
     let w = (g.patch_nodes / 2).max(3);
-    let exemplar_surface = MlsSurface::new(texture.canonical_points(), &MlsParams::default())?;
-    let exemplar = ExemplarWindows::new(&ex, &exemplar_surface, params.band * s, w)?;
+    let exemplar = ExemplarWindows::new(&ex, params.band * s, w)?;
     let ex_positions = exemplar.positions();
     // Typical exemplar variation: random pairs of non-overlapping windows.
     let mut r = rng::stream(params.seed ^ 0x9a11, 0);

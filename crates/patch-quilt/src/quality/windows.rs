@@ -148,8 +148,9 @@ pub(super) struct ExemplarWindows<'a> {
 }
 
 impl<'a> ExemplarWindows<'a> {
-    /// Samples the fine field of `surface` (the exemplar's MLS surface) around `ex`'s box.
-    pub fn new(ex: &Exemplar, surface: &'a MlsSurface, band: f32, w: usize) -> Result<Self> {
+    /// Samples the fine field of the exemplar's MLS surface around its box.
+    pub fn new(ex: &'a Exemplar, band: f32, w: usize) -> Result<Self> {
+        let surface = &ex.surface;
         let coarse = ex.spec.dims;
         let spacing = ex.spec.spacing;
         let spec = GridSpec {
@@ -311,7 +312,6 @@ fn neighbour_offsets() -> impl Iterator<Item = Vec3> {
 mod tests {
     #![allow(clippy::unwrap_used)]
 
-    use mls_surface::MlsParams;
     use pointset_core::HeightField;
 
     use super::*;
@@ -321,10 +321,9 @@ mod tests {
     /// Runs `check` on the windows (and `w`) of a bumpy height-field texture.
     fn with_windows(check: impl FnOnce(&ExemplarWindows<'_>, usize)) {
         let texture = bumps();
-        let surface = MlsSurface::new(texture.canonical_points(), &MlsParams::default()).unwrap();
         let ex = Exemplar::new(&texture, &QuiltParams::default().field_resolution(20)).unwrap();
         let w = ex.geometry.patch_nodes / 2;
-        check(&ExemplarWindows::new(&ex, &surface, 0.4, w).unwrap(), w);
+        check(&ExemplarWindows::new(&ex, 0.4, w).unwrap(), w);
     }
 
     fn bumps() -> GeometryTexture {
