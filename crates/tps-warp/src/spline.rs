@@ -26,8 +26,10 @@ pub enum AffineRegularization {
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct TpsParams {
-    /// Smoothing `λ ≥ 0` added to the kernel diagonal (regularized TPS; 0 = interpolation,
-    /// the default).
+    /// Smoothing `λ ≥ 0` (regularized TPS; 0 = interpolation, the default): the spline
+    /// minimizes `Σ |W(sᵢ) − qᵢ|² + λ E(W)` with `E` =
+    /// [`ThinPlateSpline::bending_energy`], so it tends to the least-squares affine map as
+    /// `λ` grows. `λ` has units of length (the kernel is `φ(r) = r`).
     pub smoothing: f64,
     /// Handling of control points that do not span 3D; default
     /// [`AffineRegularization::TowardIdentity`].
@@ -144,7 +146,9 @@ impl ThinPlateSpline {
             for j in 0..n {
                 m[(i, j)] = s[i].distance(s[j]);
             }
-            m[(i, i)] += params.smoothing;
+            // `φ(r) = r` is the 3D biharmonic Green's function up to the negative factor
+            // `−1/8π`, so the smoothing that penalizes bending enters with a minus sign.
+            m[(i, i)] -= params.smoothing;
             let row = [1.0, s[i].x, s[i].y, s[i].z];
             for (c, v) in row.iter().enumerate() {
                 m[(i, n + c)] = *v;

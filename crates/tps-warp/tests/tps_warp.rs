@@ -79,6 +79,81 @@ proptest! {
     }
 }
 
+/// `Σ |W(sᵢ) − qᵢ|²` of a fitted spline.
+fn squared_residual(w: &ThinPlateSpline, s: &[Vec3], q: &[Vec3]) -> f64 {
+    s.iter()
+        .zip(q)
+        .map(|(a, b)| w.eval_f64(a.as_dvec3()).distance_squared(b.as_dvec3()))
+        .sum()
+}
+
+proptest! {
+    #[test]
+    fn smoothing_minimizes_residual_plus_lambda_times_bending(seed in any::<u64>(), n in 6usize..30) {
+        let mut g = rng::rng_from_seed(seed);
+        let s = random_points(&mut g, n, 1.0);
+        let q: Vec<Vec3> = s.iter().map(|p| *p + Vec3::new(g.random(), g.random(), g.random()) * 0.2).collect();
+        let fit = |lambda: f64| ThinPlateSpline::fit(&s, &q, &strict().smoothing(lambda)).unwrap();
+        let lambdas = [0.0, 0.01, 0.1, 1.0, 10.0];
+        let fits: Vec<ThinPlateSpline> = lambdas.iter().map(|&l| fit(l)).collect();
+        let objective = |w: &ThinPlateSpline, lambda: f64| squared_residual(w, &s, &q) + lambda * w.bending_energy();
+        for (i, &lambda) in lambdas.iter().enumerate() {
+            let own = objective(&fits[i], lambda);
+            prop_assert!(fits[i].bending_energy() >= -1e-9);
+            // Every other spline of the same centres (the other λ's fits) does no better.
+            for other in &fits {
+                let theirs = objective(other, lambda);
+                prop_assert!(own <= theirs + 1e-9 * theirs.max(1.0), "λ {lambda}: {own} > {theirs}");
+            }
+            if i > 0 {
+                let (prev, cur) = (&fits[i - 1], &fits[i]);
+                prop_assert!(squared_residual(cur, &s, &q) >= squared_residual(prev, &s, &q) - 1e-9);
+                prop_assert!(cur.bending_energy() <= prev.bending_energy() + 1e-9);
+            }
+        }
+    }
+}
+
+#[test]
+fn heavy_smoothing_tends_to_the_least_squares_affine_map() {
+    let mut g = rng::rng_from_seed(11);
+    let s = random_points(&mut g, 30, 1.0);
+    let q: Vec<Vec3> = s
+        .iter()
+        .map(|p| {
+            Mat3::from_cols_array(&[1.1, 0.1, 0.0, -0.2, 0.9, 0.1, 0.0, 0.3, 1.2]) * *p
+                + Vec3::new(g.random(), g.random(), g.random()) * 0.2
+        })
+        .collect();
+    // Independent reference: normal equations of the 4-parameter affine fit per coordinate.
+    let rows: Vec<[f64; 4]> = s
+        .iter()
+        .map(|p| [1.0, f64::from(p.x), f64::from(p.y), f64::from(p.z)])
+        .collect();
+    let ata = nalgebra::Matrix4::from_fn(|i, j| rows.iter().map(|r| r[i] * r[j]).sum::<f64>());
+    let inverse = ata.try_inverse().unwrap();
+    let coefficients: Vec<nalgebra::Vector4<f64>> = (0..3)
+        .map(|c| {
+            let atb = nalgebra::Vector4::from_fn(|i, _| {
+                rows.iter()
+                    .zip(&q)
+                    .map(|(r, t)| r[i] * f64::from(t[c]))
+                    .sum::<f64>()
+            });
+            inverse * atb
+        })
+        .collect();
+    let w = ThinPlateSpline::fit(&s, &q, &strict().smoothing(1e7)).unwrap();
+    for x in random_points(&mut g, 20, 1.5) {
+        let r = [1.0, f64::from(x.x), f64::from(x.y), f64::from(x.z)];
+        let reference = DVec3::from_array(std::array::from_fn(|c| {
+            (0..4).map(|i| coefficients[c][i] * r[i]).sum::<f64>()
+        }));
+        let err = w.eval_f64(x.as_dvec3()).distance(reference);
+        assert!(err < 1e-4, "{err}");
+    }
+}
+
 #[test]
 fn jacobian_matches_central_differences() {
     let mut g = rng::rng_from_seed(3);
