@@ -71,6 +71,15 @@ impl Overlap {
     }
 }
 
+/// How one point's target was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Outcome {
+    Ray,
+    Projection,
+    Unmatched,
+    BeyondReach,
+}
+
 /// Counts of what blending did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct BlendCounts {
@@ -82,18 +91,26 @@ pub struct BlendCounts {
     pub by_projection: usize,
     /// Of those, no target (no neighbourhood surface nearby): left unchanged.
     pub unmatched: usize,
+    /// Of those, a target farther than the reach: different geometry, not a gap; left
+    /// unchanged.
+    pub beyond_reach: usize,
 }
 
 /// Moves each point with ramp value `t > 0` to `p + t (g − p)` and its normal to
 /// `normalize((1 − t) n + t n_g)`, where `g, n_g` is the point's target on the
-/// neighbourhood's surface: the closer hit of rays along `±n`, else the projection.
+/// neighbourhood's surface: the closer hit of rays along `±n` (cast as far as the surface's
+/// support radius), else the projection. The paper blends the *gaps* the warp leaves, which
+/// "should be small" (§5.3); a target farther than `reach` is another part of the geometry
+/// (a ring or thread the neighbourhood has and the patch has not), and pulling the point
+/// onto it would leave points in mid-air, so such a point is left as it is.
 pub(crate) fn blend(
     points: &mut [Vec3],
     normals: &mut [Vec3],
     overlap: &Overlap,
     neighbourhood: &MlsSurface,
+    reach: f32,
 ) -> BlendCounts {
-    let results: Vec<Option<(Vec3, Vec3, bool)>> = points
+    let results: Vec<Option<(Vec3, Vec3, Outcome)>> = points
         .par_iter()
         .zip(normals.par_iter())
         .map(|(&p, &n)| {
@@ -107,29 +124,31 @@ pub(crate) fn blend(
                 (Some(a), Some(b)) => Some(if a.t <= b.t { a } else { b }),
                 (a, b) => a.or(b),
             };
-            let (target, target_normal, by_ray) = match hit {
-                Some(h) => (h.point, h.normal, true),
+            let (target, target_normal, outcome) = match hit {
+                Some(h) => (h.point, h.normal, Outcome::Ray),
                 None => match neighbourhood.project(p) {
-                    Some(q) => (q.point, q.normal, false),
-                    None => return Some((p, n, false)),
+                    Some(q) => (q.point, q.normal, Outcome::Projection),
+                    None => return Some((p, n, Outcome::Unmatched)),
                 },
             };
+            if target.distance(p) > reach {
+                return Some((p, n, Outcome::BeyondReach));
+            }
             let blended_normal = ((1.0 - t) * n + t * target_normal)
                 .try_normalize()
                 .unwrap_or(n);
-            Some((p + t * (target - p), blended_normal, by_ray))
+            Some((p + t * (target - p), blended_normal, outcome))
         })
         .collect();
     let mut counts = BlendCounts::default();
     for (i, r) in results.into_iter().enumerate() {
-        let Some((p, n, by_ray)) = r else { continue };
+        let Some((p, n, outcome)) = r else { continue };
         counts.blended += 1;
-        if p == points[i] && n == normals[i] {
-            counts.unmatched += 1;
-        } else if by_ray {
-            counts.by_ray += 1;
-        } else {
-            counts.by_projection += 1;
+        match outcome {
+            Outcome::Ray => counts.by_ray += 1,
+            Outcome::Projection => counts.by_projection += 1,
+            Outcome::Unmatched => counts.unmatched += 1,
+            Outcome::BeyondReach => counts.beyond_reach += 1,
         }
         points[i] = p;
         normals[i] = n;
@@ -172,7 +191,12 @@ mod tests {
             .collect();
         let mut normals = vec![Vec3::Z; points.len()];
         let before = points.clone();
-        let counts = blend(&mut points, &mut normals, &o, &surface);
+        // A gap of 0.1 beyond a reach of 0.05 is not a gap: nothing moves.
+        let (mut far, mut far_normals) = (points.clone(), normals.clone());
+        let counts = blend(&mut far, &mut far_normals, &o, &surface, 0.05);
+        assert!(counts.blended > 0 && counts.beyond_reach == counts.blended);
+        assert_eq!(far, before);
+        let counts = blend(&mut points, &mut normals, &o, &surface, 0.2);
         assert!(counts.blended > 0 && counts.by_ray == counts.blended);
         let mut last = -1.0f32;
         for (p, q) in points.iter().zip(&before) {

@@ -285,7 +285,13 @@ pub fn quilt(
                 );
                 ctx.record_timing("warp", t.elapsed());
                 let t = Instant::now();
-                blended = blend(&mut f_points, &mut f_normals, &overlap, surface);
+                blended = blend(
+                    &mut f_points,
+                    &mut f_normals,
+                    &overlap,
+                    surface,
+                    params.blend_reach * surface.support_radius(),
+                );
                 ctx.record_timing("blend", t.elapsed());
             }
 

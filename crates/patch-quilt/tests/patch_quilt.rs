@@ -193,6 +193,8 @@ fn invalid_input_is_an_error() {
         QuiltParams::default().output(OutputSize::Scale(0.0)),
         QuiltParams::default().output(OutputSize::Absolute(-1.0, 2.0)),
         QuiltParams::default().pair_distance(0.0),
+        QuiltParams::default().blend_reach(f32::NAN),
+        QuiltParams::default().blend_reach(0.0),
     ] {
         assert!(
             matches!(

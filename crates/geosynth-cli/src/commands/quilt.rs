@@ -98,6 +98,10 @@ pub struct QuiltArgs {
     /// Smoothing λ of the warp's spline, relative to the patch size (0 = interpolate).
     #[arg(long, default_value_t = 0.0)]
     smoothing: f32,
+    /// Largest gap the blend closes, as a fraction of the MLS support radius; points facing
+    /// farther geometry are left as they are.
+    #[arg(long, default_value_t = 0.25)]
+    blend_reach: f32,
     /// Relaxation rounds after synthesis.
     #[arg(long, default_value_t = 0)]
     relax: usize,
@@ -263,7 +267,8 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         .patch_size(args.patch)
         .relaxation_rounds(args.relax)
         .pair_distance(args.pair_distance)
-        .smoothing(args.smoothing);
+        .smoothing(args.smoothing)
+        .blend_reach(args.blend_reach);
     if args.normal_offsets {
         params = params.warp_targets(WarpTargets::NormalOffset);
     }
