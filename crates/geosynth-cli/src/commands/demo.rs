@@ -317,8 +317,8 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
             r.preview
         ));
     }
-    md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the signed distance, the nearest window searched at continuous offsets (0 = like some part of the exemplar, 1 = as different as two unrelated parts); LED = largest empty disc (output / exemplar). Each exemplar uses the pairing weights of its Table 1 row.\n\n");
-    md.push_str("| exemplar | method | seconds | patches | mean Ψ | mean pairs | points | neighbourhood | seam | interior | seam / interior | verbatim | LED |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the signed distance, the nearest window searched at continuous offsets (0 = like some part of the exemplar, 1 = as different as two unrelated parts); continued = share of seams where the two patches are neighbours in the exemplar too (one intact region copied across the seam); LED = largest empty disc (output / exemplar). Each exemplar uses the pairing weights of its Table 1 row.\n\n");
+    md.push_str("| exemplar | method | seconds | patches | mean Ψ | mean pairs | points | neighbourhood | seam | interior | seam / interior | verbatim | continued | LED |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     for q in &report.quilts {
         for (name, run) in [
             ("full", &q.full),
@@ -327,10 +327,10 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
         ] {
             let f = |k: &str| run["quality"][k].as_f64().unwrap_or(f64::NAN);
             md.push_str(&format!(
-                "| {} | {} | {:.2} | {} | {:.1} | {:.1} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} | {:.3} / {:.3} |\n",
+                "| {} | {} | {:.2} | {} | {:.1} | {:.1} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} | {:.2} | {:.3} / {:.3} |\n",
                 q.exemplar, name, run["seconds"].as_f64().unwrap_or(0.0), run["patches"], run["mean_candidates"].as_f64().unwrap_or(0.0),
                 run["mean_pairs"].as_f64().unwrap_or(0.0), run["output_points"], f("neighbourhood_error"), f("seam_error"),
-                f("interior_error"), f("seam_concentration"), f("verbatim_fraction"), f("largest_empty_disc"), f("exemplar_largest_empty_disc")
+                f("interior_error"), f("seam_concentration"), f("verbatim_fraction"), f("continued_seams"), f("largest_empty_disc"), f("exemplar_largest_empty_disc")
             ));
         }
     }

@@ -217,6 +217,7 @@ pub fn run_json(run: &MeasuredRun) -> Value {
             "interior_error": q.interior_error,
             "seam_concentration": q.seam_concentration,
             "verbatim_fraction": q.verbatim_fraction,
+            "continued_seams": q.continued_seams,
             "largest_empty_disc": q.largest_empty_disc,
             "exemplar_largest_empty_disc": q.exemplar_largest_empty_disc,
             "windows_per_class": q.windows,

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::exemplar::Exemplar;
 use crate::params::QuiltParams;
-use crate::quilt::QuiltOutput;
+use crate::quilt::{Placement, QuiltOutput};
 use crate::texture::GeometryTexture;
 use windows::{ExemplarWindows, Field};
 
@@ -42,6 +42,12 @@ pub struct QualityReport {
     /// verbatim copying: a tiled copy scores 1, and a low error with a high fraction means
     /// the output was copied rather than synthesized.
     pub verbatim_fraction: f32,
+    /// Fraction of seams between neighbouring patches (left–right and below–above) whose
+    /// sources continue each other in the exemplar: the second patch is the exemplar region
+    /// right next to the first, so the two copy one larger intact region and their seam is
+    /// invisible (GUIDE §5, "large intact exemplar regions"). On near-periodic exemplars the
+    /// search finds such continuations often, which is why pasting scores so well there.
+    pub continued_seams: f32,
     /// The exemplar's typical window difference used for normalization.
     pub exemplar_window_variation: f32,
     /// Radius of the largest disc inside the output box free of the output's points
@@ -79,6 +85,29 @@ fn largest_empty_disc(points: &[Vec3], lo: Vec2, hi: Vec2, step: f32) -> Result<
         })
         .reduce(|| 0.0f32, f32::max);
     Ok(radius)
+}
+
+/// Fraction of neighbouring patch pairs whose sources (node offsets in `D(T_in)`) differ by
+/// exactly the layout step (`step_nodes` along the pair's axis, 0 across it).
+fn continued_seams(placements: &[Placement], step_nodes: usize) -> f32 {
+    let source_at: std::collections::HashMap<(usize, usize), (usize, usize)> =
+        placements.iter().map(|p| (p.cell, p.source)).collect();
+    let (mut pairs, mut continued) = (0usize, 0usize);
+    for p in placements {
+        let (col, row) = p.cell;
+        let (i, j) = p.source;
+        let neighbours = [
+            ((col + 1, row), (i + step_nodes, j)),
+            ((col, row + 1), (i, j + step_nodes)),
+        ];
+        for (cell, continuation) in neighbours {
+            if let Some(&source) = source_at.get(&cell) {
+                pairs += 1;
+                continued += usize::from(source == continuation);
+            }
+        }
+    }
+    continued as f32 / pairs.max(1) as f32
 }
 
 /// Measures `output` against `texture` (the parameters must be those of the run).
@@ -241,6 +270,7 @@ pub fn evaluate(
         interior_error,
         seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
         verbatim_fraction: verbatim as f32 / pts.len().max(1) as f32,
+        continued_seams: continued_seams(&output.placements, g.patch_nodes - g.overlap_nodes),
         exemplar_window_variation: typical,
         largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
         exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
@@ -260,6 +290,30 @@ mod tests {
             .filter(|&c| Some(c) != skip)
             .map(|(i, j)| Vec3::new(i as f32 * step, j as f32 * step, 0.0))
             .collect()
+    }
+
+    #[test]
+    fn continued_seams_count_sources_that_sit_side_by_side_in_the_exemplar() {
+        let at = |cell: (usize, usize), source: (usize, usize)| Placement {
+            index: 0,
+            cell,
+            origin: Vec2::ZERO,
+            source,
+            candidates: 1,
+            distance: 0.0,
+            warp: crate::warp::WarpCounts::default(),
+            blend: crate::blend::BlendCounts::default(),
+        };
+        // 2 × 2 layout, step 5: (0,0) → (1,0) continues along x; (0,0) → (0,1) is off by
+        // one node; the other two seams are unrelated.
+        let layout = [
+            at((0, 0), (3, 4)),
+            at((1, 0), (8, 4)),
+            at((0, 1), (3, 10)),
+            at((1, 1), (0, 0)),
+        ];
+        assert_eq!(continued_seams(&layout, 5), 0.25);
+        assert_eq!(continued_seams(&layout[..1], 5), 0.0);
     }
 
     #[test]
