@@ -2,8 +2,8 @@
 //!
 //! Windows are `w × w × n_z` blocks of distance-field nodes (`w` = half a patch, full
 //! height) with the spacing of `D(T_in)`. The output's field is computed from the output's
-//! own MLS surface over the output box. A window's error is the mean squared difference
-//! (all four channels) to its nearest exemplar window — at any position, not only at the
+//! own MLS surface over the output box. A window's error is the mean squared difference of
+//! the signed distance to its nearest exemplar window — at any position, not only at the
 //! nodes of `D(T_in)` ([`windows`]); errors are divided by the exemplar's typical window
 //! variation — the mean difference between random non-overlapping exemplar windows — so 0
 //! means "exactly like some part of the exemplar" and 1 means "as different as two unrelated
@@ -133,27 +133,11 @@ pub fn evaluate(
         .unwrap_or_default();
     let set = PointSet::new(pts.clone())?.with_normals(nrm)?;
     let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.surface.kernel()))?;
-    let lo = Vec3::new(
-        up.to_canonical(output.bounds.min)
-            .x
-            .min(up.to_canonical(output.bounds.max).x),
-        0.0,
-        0.0,
+    let (a, b) = (
+        up.to_canonical(output.bounds.min).truncate(),
+        up.to_canonical(output.bounds.max).truncate(),
     );
-    let out_lo = Vec2::new(
-        lo.x,
-        up.to_canonical(output.bounds.min)
-            .y
-            .min(up.to_canonical(output.bounds.max).y),
-    );
-    let out_hi = Vec2::new(
-        up.to_canonical(output.bounds.min)
-            .x
-            .max(up.to_canonical(output.bounds.max).x),
-        up.to_canonical(output.bounds.min)
-            .y
-            .max(up.to_canonical(output.bounds.max).y),
-    );
+    let (out_lo, out_hi) = (a.min(b), a.max(b));
     let s = g.spacing;
     let dims = [
         ((out_hi.x - out_lo.x) / s).floor() as usize + 1,
