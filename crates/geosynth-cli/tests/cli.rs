@@ -435,7 +435,12 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     ]);
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
-    for run in ["run", "search_only", "random_placement"] {
+    for run in [
+        "run",
+        "search_only",
+        "random_placement",
+        "same_layout_pasted",
+    ] {
         assert!(
             r[run]["quality"]["neighbourhood_error"].as_f64().unwrap() >= 0.0,
             "{run}"

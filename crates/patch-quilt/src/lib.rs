@@ -70,6 +70,14 @@
 //! - The first patch of each later row overlaps only the row below; the first row only its
 //!   left neighbour.
 //!
+//! ## Baselines and the same-layout control
+//!
+//! [`Method::SearchOnly`] and [`Method::RandomPlacement`] run the same loop without steps
+//! 4–5 (and, for random placement, without the search). [`QuiltParams::layout`] replays
+//! the sources of an earlier run ([`QuiltOutput::sources`]): pasting the full run's own
+//! layout gives the one comparison in which only the warp and the blend differ, since the
+//! two baselines also choose different patches.
+//!
 //! ## Determinism
 //!
 //! Patch `k` draws from the stream `(seed, k)`; searches reduce in a fixed order; the output

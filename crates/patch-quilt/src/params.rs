@@ -94,6 +94,16 @@ pub struct QuiltParams {
     pub method: Method,
     /// A fixed seed patch (node offsets in `D(T_in)`); default random.
     pub seed_patch: Option<(usize, usize)>,
+    /// Every patch's source given in advance (node offsets in `D(T_in)`, in synthesis order,
+    /// e.g. [`QuiltOutput::sources`](crate::QuiltOutput::sources) of an earlier run with the
+    /// same exemplar, patch geometry and output size): steps 1–3 take them instead of
+    /// searching or picking at random; the other steps run as `method` says. Default none.
+    ///
+    /// Re-running one layout with another method isolates what the warp and blend do: the
+    /// full method and [`Method::SearchOnly`] on the same layout differ only in steps 4–5.
+    /// The run fails with [`QuiltError::InvalidParameter`](crate::QuiltError) when the
+    /// layout's length is not the run's patch count or a source lies outside the exemplar.
+    pub layout: Option<Vec<(usize, usize)>>,
 }
 
 impl Default for QuiltParams {
@@ -117,6 +127,7 @@ impl Default for QuiltParams {
             relaxation_rounds: 0,
             method: Method::Full,
             seed_patch: None,
+            layout: None,
         }
     }
 }
@@ -185,6 +196,12 @@ impl QuiltParams {
     /// Sets the blend's reach (fraction of the MLS support radius; default 0.25).
     pub fn blend_reach(mut self, fraction: f32) -> Self {
         self.blend_reach = fraction;
+        self
+    }
+
+    /// Gives every patch's source in advance (see [`QuiltParams::layout`]).
+    pub fn layout(mut self, sources: Vec<(usize, usize)>) -> Self {
+        self.layout = Some(sources);
         self
     }
 

@@ -9,7 +9,7 @@ use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarTyp
 use rand::RngExt;
 
 use crate::blend::{BlendCounts, Overlap, blend};
-use crate::error::{QuiltError, Result};
+use crate::error::{QuiltError, Result, invalid};
 use crate::exemplar::{Exemplar, PatchGeometry};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
@@ -77,6 +77,14 @@ pub struct QuiltOutput {
     pub stats: QuiltStats,
 }
 
+impl QuiltOutput {
+    /// Every patch's source (node offsets in `D(T_in)`), in synthesis order: the layout
+    /// [`QuiltParams::layout`] takes to repeat this run's choices under another method.
+    pub fn sources(&self) -> Vec<(usize, usize)> {
+        self.placements.iter().map(|p| p.source).collect()
+    }
+}
+
 /// A point of `T_out`: normal and the patch it came from.
 type OutPoint = (Vec3, u32);
 
@@ -122,6 +130,33 @@ fn vec4_field(sdf: &SdfGrid) -> &[glam::Vec4] {
     sdf.grid().data()
 }
 
+/// Checks a given layout: one source per patch, each inside `[0, max_i] × [0, max_j]`.
+fn check_layout(
+    sources: &[(usize, usize)],
+    patches: usize,
+    (max_i, max_j): (usize, usize),
+) -> Result<()> {
+    if sources.len() != patches {
+        return Err(invalid(
+            "layout",
+            format!("{} sources", sources.len()),
+            format!("one source per patch of this run: {patches}"),
+        ));
+    }
+    match sources
+        .iter()
+        .enumerate()
+        .find(|(_, s)| s.0 > max_i || s.1 > max_j)
+    {
+        Some((k, s)) => Err(invalid(
+            "layout",
+            format!("({}, {}) for patch {k}", s.0, s.1),
+            format!("node offsets up to ({max_i}, {max_j})"),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Runs the synthesis.
 pub fn quilt(
     texture: &GeometryTexture,
@@ -140,6 +175,9 @@ pub fn quilt(
     let mls = MlsParams::default().kernel(ex.surface.kernel());
     let [nx, _, nz] = ex.spec.dims;
     let total = layout.cols * layout.rows;
+    if let Some(sources) = &params.layout {
+        check_layout(sources, total, (ex.max_i, ex.max_j))?;
+    }
     let mut out: BucketGrid<OutPoint> = BucketGrid::new(2.0 * g.spacing)?;
     let mut placements = Vec::with_capacity(total);
     ctx.record_timing("other", t0.elapsed());
@@ -176,7 +214,14 @@ pub fn quilt(
                 }
             }
             let first = k == 0 || n_points.len() < 8;
-            let n_surface = if first || params.method == Method::RandomPlacement {
+            let given = params.layout.as_ref().and_then(|l| l.get(k).copied());
+            let needs_surface = !first
+                && match params.method {
+                    Method::Full => true,
+                    Method::SearchOnly => given.is_none(),
+                    Method::RandomPlacement => false,
+                };
+            let n_surface = if !needs_surface {
                 None
             } else {
                 let set = PointSet::new(n_points.clone())?.with_normals(n_normals.clone())?;
@@ -186,11 +231,12 @@ pub fn quilt(
 
             // Steps 2–3: choose the patch.
             let t = Instant::now();
-            let (source, count, distance) = match (&n_surface, params.seed_patch) {
-                (None, Some(seed)) if k == 0 => {
+            let (source, count, distance) = match (given, &n_surface, params.seed_patch) {
+                (Some(source), _, _) => (source, 1, 0.0),
+                (None, None, Some(seed)) if k == 0 => {
                     ((seed.0.min(ex.max_i), seed.1.min(ex.max_j)), 1, 0.0)
                 }
-                (None, _) => (
+                (None, None, _) => (
                     (
                         rng.random_range(0..=ex.max_i),
                         rng.random_range(0..=ex.max_j),
@@ -198,7 +244,7 @@ pub fn quilt(
                     1,
                     0.0,
                 ),
-                (Some(surface), _) => {
+                (None, Some(surface), _) => {
                     let spec = GridSpec {
                         dims: [g.patch_nodes + 1, g.patch_nodes + 1, nz],
                         origin: origin.extend(ex.spec.origin.z),

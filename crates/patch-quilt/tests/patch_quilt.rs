@@ -183,6 +183,38 @@ fn baselines_run_through_the_same_code() {
 }
 
 #[test]
+fn a_given_layout_is_followed_and_isolates_warp_and_blend() {
+    let t = texture(|x, y| 0.1 * (4.0 * x).sin() * (3.0 * y).cos(), 40, 0.05);
+    let run = |p: QuiltParams| quilt(&t, &p, &mut RunContext::new(3));
+    let search = run(small_params().method(Method::SearchOnly).seed(3)).unwrap();
+    let layout = search.sources();
+    assert_eq!(layout.len(), search.placements.len());
+    // Pasting search-only's own layout under another seed reproduces it point for point.
+    let again = run(small_params()
+        .method(Method::SearchOnly)
+        .seed(9)
+        .layout(layout.clone()))
+    .unwrap();
+    assert_eq!(again.points, search.points);
+    // The full method on that layout places the same patches, then warps and blends them.
+    let full = run(small_params().seed(9).layout(layout.clone())).unwrap();
+    assert_eq!(full.sources(), layout);
+    assert!(full.placements.iter().any(|p| !p.warp.skipped));
+    assert!(full.placements.iter().any(|p| p.blend.blended > 0));
+    assert_ne!(full.points, search.points);
+    // A layout of the wrong length or with a source outside the exemplar is refused.
+    let short = layout[1..].to_vec();
+    let mut outside = layout.clone();
+    outside[2] = (10_000, 0);
+    for bad in [short, outside, Vec::new()] {
+        assert!(matches!(
+            run(small_params().layout(bad)),
+            Err(QuiltError::InvalidParameter { name: "layout", .. })
+        ));
+    }
+}
+
+#[test]
 fn invalid_input_is_an_error() {
     let t = texture(|_, _| 0.0, 40, 0.05);
     for bad in [

@@ -70,7 +70,7 @@ struct VolumeEntry {
     beats_baseline: bool,
 }
 
-/// One exemplar quilted by the paper's method and the two baselines.
+/// One exemplar quilted by the paper's method, the two baselines and the same-layout control.
 #[derive(Debug, Serialize)]
 struct QuiltEntry {
     exemplar: String,
@@ -81,6 +81,8 @@ struct QuiltEntry {
     full: serde_json::Value,
     search_only: serde_json::Value,
     random_placement: serde_json::Value,
+    /// The full run's patches pasted without warp or blend (the control for steps 4–5).
+    same_layout_pasted: serde_json::Value,
     full_beats_baselines: bool,
 }
 
@@ -317,13 +319,14 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
             r.preview
         ));
     }
-    md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the signed distance, the nearest window searched at continuous offsets (0 = like some part of the exemplar, 1 = as different as two unrelated parts); continued = share of seams where the two patches are neighbours in the exemplar too (one intact region copied across the seam); LED = largest empty disc (output / exemplar). Each exemplar uses the pairing weights of its Table 1 row.\n\n");
+    md.push_str("\n## Patch quilting (paper 000)\n\nErrors are normalized nearest-exemplar-window errors of the signed distance, the nearest window searched at continuous offsets (0 = like some part of the exemplar, 1 = as different as two unrelated parts); continued = share of seams where the two patches are neighbours in the exemplar too (one intact region copied across the seam); LED = largest empty disc (output / exemplar). Each exemplar uses the pairing weights of its Table 1 row. \"full's layout, pasted\" pastes the full run's patches without warp or blend: the difference to \"full\" is what steps 4–5 (warp, blend) did.\n\n");
     md.push_str("| exemplar | method | seconds | patches | mean Ψ | mean pairs | points | neighbourhood | seam | interior | seam / interior | verbatim | continued | LED |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     for q in &report.quilts {
         for (name, run) in [
             ("full", &q.full),
             ("search only", &q.search_only),
             ("random placement", &q.random_placement),
+            ("full's layout, pasted", &q.same_layout_pasted),
         ] {
             let f = |k: &str| run["quality"][k].as_f64().unwrap_or(f64::NAN);
             md.push_str(&format!(
@@ -490,6 +493,15 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
             globals,
             "random",
         )?;
+        let pasted = measured_run(
+            &texture,
+            &params
+                .clone()
+                .method(Method::SearchOnly)
+                .layout(full.output.sources()),
+            globals,
+            "same layout, pasted",
+        )?;
         let geometry_path = args
             .out
             .join("geometry")
@@ -528,6 +540,7 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
             full: run_json(&full),
             search_only: run_json(&search),
             random_placement: run_json(&random),
+            same_layout_pasted: run_json(&pasted),
             full_beats_baselines: beats(qf, qs) && beats(qf, qr),
         });
     }

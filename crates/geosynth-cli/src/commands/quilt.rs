@@ -108,7 +108,8 @@ pub struct QuiltArgs {
     /// Write a JSON report (timings, counts, quality).
     #[arg(long)]
     report: Option<PathBuf>,
-    /// Also run and measure the random-placement and search-only baselines for the report.
+    /// Also run and measure the random-placement and search-only baselines for the report,
+    /// and (for the full method) its own patches pasted without warp or blend.
     #[arg(long)]
     baselines: bool,
     /// Render exemplar | output to a PNG.
@@ -314,6 +315,15 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
                 let baseline =
                     measured_run(&texture, &params.clone().method(method), globals, name)?;
                 report[name] = run_json(&baseline);
+            }
+            if params.method == Method::Full {
+                // The control: the same patches pasted, so only the warp and blend differ.
+                let pasted = params
+                    .clone()
+                    .method(Method::SearchOnly)
+                    .layout(main.output.sources());
+                let control = measured_run(&texture, &pasted, globals, "same layout, pasted")?;
+                report["same_layout_pasted"] = run_json(&control);
             }
         }
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
