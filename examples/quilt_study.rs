@@ -1,0 +1,132 @@
+//! Mean quality of patch quilting over several seeds: the full method, both baselines and the
+//! same-layout control (the full run's patches pasted without warp or blend). This is the
+//! driver behind the multi-seed tables in `docs/patch-quilt.md`; one seed is too noisy to
+//! compare methods on.
+//!
+//! ```text
+//! cargo run --release --example quilt_study -- [--seeds N] [--windows W] FIXTURE.ply...
+//! ```
+//!
+//! Each fixture gets the pairing weights of its Table 1 row, chosen from the file name
+//! (`chain_mail`, `weave`, `flowers`; anything else: the height-field row), and otherwise the
+//! default parameters (output twice the exemplar). Seeds run from 1 to N (default 8) with `W`
+//! windows per class (default 128). Prints neighbourhood / seam / interior error per method.
+
+use std::error::Error;
+use std::path::{Path, PathBuf};
+
+use geosynth::core::RunContext;
+use geosynth::quilt::{Method, QualityReport, QuiltParams, evaluate, quilt, read_texture};
+use geosynth::tps::{PairingParams, Table1Preset};
+
+/// The four runs compared for every seed.
+const RUNS: [&str; 4] = [
+    "full",
+    "search only",
+    "random placement",
+    "full's layout, pasted",
+];
+
+/// Command-line settings.
+struct Study {
+    seeds: u64,
+    windows: usize,
+    fixtures: Vec<PathBuf>,
+}
+
+fn parse() -> Result<Study, Box<dyn Error>> {
+    let mut study = Study {
+        seeds: 8,
+        windows: 128,
+        fixtures: Vec::new(),
+    };
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--seeds" => study.seeds = args.next().ok_or("--seeds needs a number")?.parse()?,
+            "--windows" => {
+                study.windows = args.next().ok_or("--windows needs a number")?.parse()?;
+            }
+            _ => study.fixtures.push(PathBuf::from(arg)),
+        }
+    }
+    if study.fixtures.is_empty() || study.seeds == 0 || study.windows == 0 {
+        return Err("usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] FIXTURE.ply...".into());
+    }
+    Ok(study)
+}
+
+/// The Table 1 row for a fixture, from its file name.
+fn preset_for(path: &Path) -> Table1Preset {
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    if name.contains("chain") {
+        Table1Preset::ChainMail
+    } else if name.contains("weave") {
+        Table1Preset::Weave
+    } else if name.contains("flower") {
+        Table1Preset::Flowers
+    } else {
+        Table1Preset::HeightField
+    }
+}
+
+/// The four reports of one seed, in the order of [`RUNS`].
+fn one_seed(
+    texture: &geosynth::quilt::GeometryTexture,
+    params: &QuiltParams,
+    windows: usize,
+) -> Result<[QualityReport; 4], Box<dyn Error>> {
+    let run = |p: &QuiltParams| -> Result<_, Box<dyn Error>> {
+        let out = quilt(texture, p, &mut RunContext::new(p.seed))?;
+        let report = evaluate(texture, &out, p, windows)?;
+        Ok((out, report))
+    };
+    let (full, full_report) = run(params)?;
+    let (_, search) = run(&params.clone().method(Method::SearchOnly))?;
+    let (_, random) = run(&params.clone().method(Method::RandomPlacement))?;
+    let pasted = params
+        .clone()
+        .method(Method::SearchOnly)
+        .layout(full.sources());
+    let (_, control) = run(&pasted)?;
+    Ok([full_report, search, random, control])
+}
+
+fn main() -> Result<(), Box<dyn Error>> {
+    let study = parse()?;
+    println!(
+        "seeds 1..={}, {} windows per class; neighbourhood / seam / interior error (mean over seeds)",
+        study.seeds, study.windows
+    );
+    for path in &study.fixtures {
+        let texture = read_texture(path)?;
+        let mut sums = [[0.0f64; 3]; 4];
+        for seed in 1..=study.seeds {
+            let params = QuiltParams::default()
+                .seed(seed)
+                .pairing(PairingParams::table1(preset_for(path)));
+            for (sum, q) in sums
+                .iter_mut()
+                .zip(one_seed(&texture, &params, study.windows)?)
+            {
+                sum[0] += f64::from(q.neighbourhood_error);
+                sum[1] += f64::from(q.seam_error);
+                sum[2] += f64::from(q.interior_error);
+            }
+        }
+        let k = study.seeds as f64;
+        for (name, sum) in RUNS.iter().zip(sums) {
+            println!(
+                "{} | {name} | {:.4} / {:.4} / {:.4}",
+                path.display(),
+                sum[0] / k,
+                sum[1] / k,
+                sum[2] / k
+            );
+        }
+    }
+    Ok(())
+}
