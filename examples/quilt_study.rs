@@ -87,11 +87,7 @@ fn one_seed(
     let (full, full_report) = run(params)?;
     let (_, search) = run(&params.clone().method(Method::SearchOnly))?;
     let (_, random) = run(&params.clone().method(Method::RandomPlacement))?;
-    let pasted = params
-        .clone()
-        .method(Method::SearchOnly)
-        .layout(full.sources());
-    let (_, control) = run(&pasted)?;
+    let (_, control) = run(&params.same_layout_control(&full))?;
     Ok([full_report, search, random, control])
 }
 

@@ -4,6 +4,7 @@ use mls_surface::ClusterParams;
 use tps_warp::PairingParams;
 
 use crate::error::{Result, invalid};
+use crate::quilt::QuiltOutput;
 
 /// Which parts of the algorithm run. [`Method::Full`] is the paper; the others are the
 /// baselines the quality report compares against, computed by the same code.
@@ -203,6 +204,15 @@ impl QuiltParams {
     pub fn layout(mut self, sources: Vec<(usize, usize)>) -> Self {
         self.layout = Some(sources);
         self
+    }
+
+    /// The same-layout control for a run of these parameters: `output`'s patches pasted
+    /// without warp or blend ([`Method::SearchOnly`] on [`QuiltOutput::sources`]), so that
+    /// comparing the two runs shows what steps 4–5 did.
+    pub fn same_layout_control(&self, output: &QuiltOutput) -> Self {
+        self.clone()
+            .method(Method::SearchOnly)
+            .layout(output.sources())
     }
 
     /// Sets `ε` (default 0.1).

@@ -221,11 +221,11 @@ pub fn quilt(
                     Method::SearchOnly => given.is_none(),
                     Method::RandomPlacement => false,
                 };
-            let n_surface = if !needs_surface {
-                None
-            } else {
+            let n_surface = if needs_surface {
                 let set = PointSet::new(n_points.clone())?.with_normals(n_normals.clone())?;
                 Some(MlsSurface::new(&set, &mls)?)
+            } else {
+                None
             };
             ctx.record_timing("other", t.elapsed());
 

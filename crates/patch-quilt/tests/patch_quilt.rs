@@ -199,6 +199,9 @@ fn a_given_layout_is_followed_and_isolates_warp_and_blend() {
     // The full method on that layout places the same patches, then warps and blends them.
     let full = run(small_params().seed(9).layout(layout.clone())).unwrap();
     assert_eq!(full.sources(), layout);
+    // Its control pastes those patches again: the search-only output, point for point.
+    let control = run(small_params().seed(9).same_layout_control(&full)).unwrap();
+    assert_eq!(control.points, search.points);
     assert!(full.placements.iter().any(|p| !p.warp.skipped));
     assert!(full.placements.iter().any(|p| p.blend.blended > 0));
     assert_ne!(full.points, search.points);

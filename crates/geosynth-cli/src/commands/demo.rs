@@ -495,10 +495,7 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
         )?;
         let pasted = measured_run(
             &texture,
-            &params
-                .clone()
-                .method(Method::SearchOnly)
-                .layout(full.output.sources()),
+            &params.same_layout_control(&full.output),
             globals,
             "same layout, pasted",
         )?;

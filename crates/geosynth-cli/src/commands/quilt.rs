@@ -318,10 +318,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             }
             if params.method == Method::Full {
                 // The control: the same patches pasted, so only the warp and blend differ.
-                let pasted = params
-                    .clone()
-                    .method(Method::SearchOnly)
-                    .layout(main.output.sources());
+                let pasted = params.same_layout_control(&main.output);
                 let control = measured_run(&texture, &pasted, globals, "same layout, pasted")?;
                 report["same_layout_pasted"] = run_json(&control);
             }
