@@ -2,7 +2,7 @@
 //! neighbours tangentially and are re-projected, evening out the sampling density.
 
 use glam::Vec3;
-use pointset_core::{KdIndex, rng::mix64};
+use pointset_core::{KdIndex, Surface, rng::mix64};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
@@ -88,7 +88,7 @@ fn separation(i: usize, j: usize) -> Vec3 {
 }
 
 /// Relaxes `positions` on `surface`. Points are first projected onto the surface (those
-/// that cannot be are kept where they are, with the surface's nearest normal). Each round
+/// that cannot be are kept where they are, with the normal of the nearest sample). Each round
 /// moves every point (in parallel, from the previous round's positions) along the tangent
 /// plane, away from neighbours within the repulsion radius with weight `(1 − d/r)²`, then
 /// projects it back. Deterministic for any thread count.
@@ -109,7 +109,14 @@ pub fn relax(surface: &MlsSurface, positions: &[Vec3], params: &RelaxParams) -> 
         .par_iter()
         .map(|&p| match surface.project(p) {
             Some(q) => (q.point, q.normal),
-            None => (p, surface.normal(p).unwrap_or(Vec3::Z)),
+            // Not projectable (too few samples within the support): kept in place with the
+            // normal of the nearest sample, which is oriented like the surface there.
+            None => (
+                p,
+                surface
+                    .closest_point(p)
+                    .map_or(Vec3::Z, |nearest| nearest.normal),
+            ),
         })
         .collect();
     let (mut pts, mut nrm): (Vec<Vec3>, Vec<Vec3>) = initial.into_iter().unzip();

@@ -315,6 +315,34 @@ fn relaxation_evens_out_a_clumpy_sampling() {
 }
 
 #[test]
+fn relaxation_keeps_the_orientation_where_the_surface_has_gaps() {
+    // A sparse random sphere and a strict neighbour count: some points have too few samples
+    // within the support to be projected. They must keep an outward normal (the nearest
+    // sample's), not a fixed direction that points inward on half the sphere.
+    let mut g = rng::rng_from_seed(8);
+    let dirs: Vec<Vec3> = (0..400).map(|_| random_unit(&mut g)).collect();
+    let points = PointSet::new(dirs.clone())
+        .unwrap()
+        .with_normals(dirs)
+        .unwrap();
+    let params = MlsParams::default().min_neighbours(8);
+    let surface = MlsSurface::new(&points, &params).unwrap();
+    let positions = points.positions();
+    let unprojectable = positions
+        .iter()
+        .filter(|p| surface.project(**p).is_none())
+        .count();
+    assert!(
+        unprojectable > 10,
+        "{unprojectable} points without projection"
+    );
+    let relaxed = relax(&surface, positions, &RelaxParams::default().iterations(2)).unwrap();
+    for (p, n) in relaxed.positions.iter().zip(&relaxed.normals) {
+        assert!(n.dot(p.normalize()) > 0.5, "normal {n} at {p}");
+    }
+}
+
+#[test]
 fn parallel_results_do_not_depend_on_thread_count() {
     let points = sphere(5000, 1.0);
     let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
