@@ -9,6 +9,7 @@ use patch_quilt::{
 };
 use pointset_core::testdata::shared_data;
 use pointset_core::{Aabb, HeightField, PointSet, RunContext};
+use rand::RngExt;
 
 fn texture(f: impl Fn(f32, f32) -> f32, n: usize, spacing: f32) -> GeometryTexture {
     let h: Vec<f32> = (0..n * n)
@@ -61,6 +62,35 @@ fn a_flat_plane_stays_flat_and_whole() {
         q.largest_empty_disc,
         q.exemplar_largest_empty_disc
     );
+}
+
+#[test]
+fn relaxation_keeps_the_orientation_of_surfaces_that_face_down() {
+    // The underside of a sheet, sampled at random: some samples have too few neighbours for
+    // the MLS projection. The relaxed output must keep every normal pointing down, as the
+    // exemplar's do (an unprojectable point once fell back to +Z).
+    let mut g = pointset_core::rng::rng_from_seed(11);
+    let positions: Vec<Vec3> = (0..2500)
+        .map(|_| Vec3::new(g.random_range(-0.6..2.6), g.random_range(-0.6..2.6), 0.0))
+        .collect();
+    let normals = vec![Vec3::NEG_Z; positions.len()];
+    let set = PointSet::new(positions)
+        .unwrap()
+        .with_normals(normals)
+        .unwrap();
+    let bounds = Aabb::new(Vec3::new(0.0, 0.0, -0.1), Vec3::new(2.0, 2.0, 0.1));
+    let t = GeometryTexture::new(&set, bounds, UpAxis::Z).unwrap();
+    let params = small_params().relaxation_rounds(2);
+    let out = quilt(&t, &params, &mut RunContext::new(2)).unwrap();
+    assert!(out.stats.relaxation_spread.is_some());
+    for (p, n) in out
+        .points
+        .positions()
+        .iter()
+        .zip(out.points.normals().unwrap())
+    {
+        assert!(n.z < -0.99, "normal {n} at {p}");
+    }
 }
 
 /// Dominant period along x of a height field sampled from points (autocorrelation peak).
