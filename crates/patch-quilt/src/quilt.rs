@@ -97,8 +97,14 @@ struct Layout {
     out_hi: Vec2,
 }
 
+/// Largest output side as a multiple of the exemplar box's side (as for
+/// [`OutputSize::Scale`]).
+const MAX_OUTPUT_SCALE: f32 = 64.0;
+
 impl Layout {
-    fn new(ex: &Exemplar, output: OutputSize) -> Self {
+    /// The scan-line layout covering `output`; an absolute size beyond
+    /// [`MAX_OUTPUT_SCALE`] times the exemplar box is refused.
+    fn new(ex: &Exemplar, output: OutputSize) -> Result<Self> {
         let g = ex.geometry;
         let lo = ex.bounds.min.truncate();
         let ext = ex.bounds.extent().truncate();
@@ -106,19 +112,29 @@ impl Layout {
             OutputSize::Absolute(w, h) => Vec2::new(w, h),
             OutputSize::Scale(s) => ext * s,
         };
+        if (size / ext).max_element() > MAX_OUTPUT_SCALE {
+            return Err(invalid(
+                "output",
+                format!("{} x {}", size.x, size.y),
+                format!(
+                    "at most {MAX_OUTPUT_SCALE} times the exemplar's box ({} x {}) per side",
+                    ext.x, ext.y
+                ),
+            ));
+        }
         let start = lo - Vec2::splat(g.extra());
         let step = g.patch() - g.overlap();
         let count =
             |span: f32| ((span + g.extra() - g.patch()) / step).ceil().max(0.0) as usize + 1;
         // Cover [start, lo + size + w_E]: the trim removes w_E on every side.
-        Self {
+        Ok(Self {
             start,
             step,
             cols: count(size.x + g.extra()),
             rows: count(size.y + g.extra()),
             out_lo: lo,
             out_hi: lo + size,
-        }
+        })
     }
 
     fn origin(&self, col: usize, row: usize) -> Vec2 {
@@ -167,7 +183,7 @@ pub fn quilt(
     let t0 = Instant::now();
     let ex = Exemplar::new(texture, params)?;
     let g = ex.geometry;
-    let layout = Layout::new(&ex, params.output);
+    let layout = Layout::new(&ex, params.output)?;
     let mut pairing = params.pairing.clone().unwrap_or_default();
     if !pairing.max_distance.is_finite() {
         pairing.max_distance = params.pair_distance * g.spacing;

@@ -257,6 +257,9 @@ fn invalid_input_is_an_error() {
         QuiltParams::default().field_resolution(3),
         QuiltParams::default().output(OutputSize::Scale(0.0)),
         QuiltParams::default().output(OutputSize::Absolute(-1.0, 2.0)),
+        // Larger than 64 exemplar boxes per side (the box here is about 1.3 wide).
+        QuiltParams::default().output(OutputSize::Absolute(1e30, 2.0)),
+        QuiltParams::default().output(OutputSize::Absolute(2.0, 100.0)),
         QuiltParams::default().pair_distance(0.0),
         QuiltParams::default().blend_reach(f32::NAN),
         QuiltParams::default().blend_reach(0.0),
