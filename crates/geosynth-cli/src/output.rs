@@ -1,9 +1,47 @@
 //! Console output helpers: progress bars and status lines that respect `--quiet`.
 
+use std::path::Path;
+
+use geosynth::core::io::FileFormat;
 use geosynth::{ProgressUpdate, RunContext};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::Globals;
+use crate::{CliResult, Globals};
+
+/// Refuses to start work whose results could not be saved: the directory of every output
+/// path must exist, and geometry outputs need an extension the writers know (`.ply`,
+/// `.obj`, `.off`). Checked before a run, so a typo does not cost the run.
+pub(crate) fn check_output_paths<'a>(
+    geometry: impl IntoIterator<Item = &'a Path>,
+    other: impl IntoIterator<Item = &'a Path>,
+) -> CliResult {
+    let geometry: Vec<&Path> = geometry.into_iter().collect();
+    for path in &geometry {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if FileFormat::from_extension(ext).is_none() {
+            return Err(format!(
+                "cannot write {}: geometry files must end in .ply, .obj or .off",
+                path.display()
+            )
+            .into());
+        }
+    }
+    for path in geometry.into_iter().chain(other) {
+        let dir = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            return Err(format!(
+                "cannot write {}: the directory {} does not exist",
+                path.display(),
+                dir.display()
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
 
 /// A progress bar over `total` steps, hidden with `--quiet` or when stderr is not a terminal.
 pub(crate) fn progress_bar(globals: Globals, total: u64, label: &str) -> ProgressBar {

@@ -166,6 +166,42 @@ fn bad_input_fails_with_a_message_not_a_panic() {
         assert!(err.contains("error"), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
+    // Outputs that could not be written are refused before the run, not after it.
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/quilt_bumpy.ply");
+    let fixture = fixture.to_str().unwrap();
+    let missing = dir.path().join("missing/out.ply");
+    let missing = missing.to_str().unwrap();
+    let report_in_missing = dir.path().join("missing/report.json");
+    let unknown = dir.path().join("out.xyz");
+    for (args, message) in [
+        (vec!["quilt", fixture, "-o", missing], "does not exist"),
+        (
+            vec![
+                "quilt",
+                fixture,
+                "-o",
+                dir.path().join("q.ply").to_str().unwrap(),
+                "--report",
+                report_in_missing.to_str().unwrap(),
+            ],
+            "does not exist",
+        ),
+        (
+            vec!["quilt", fixture, "-o", unknown.to_str().unwrap()],
+            ".ply, .obj or .off",
+        ),
+        (
+            vec!["reconstruct", fixture, "-o", missing],
+            "does not exist",
+        ),
+    ] {
+        let out = geosynth(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} should fail");
+        assert!(err.contains(message), "{args:?}: {err}");
+    }
+    // The quilt whose report had nowhere to go never ran: its output was not written either.
+    assert!(!dir.path().join("q.ply").exists());
     assert!(
         !geosynth(&[
             "--threads",

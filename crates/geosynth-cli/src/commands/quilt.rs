@@ -15,7 +15,7 @@ use geosynth::tps::{PairingParams, Table1Preset};
 
 use serde_json::{Value, json};
 
-use crate::output::{progress_context, status};
+use crate::output::{check_output_paths, progress_context, status};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -255,6 +255,13 @@ pub fn texture_preview(
 
 /// Runs `geosynth quilt`.
 pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
+    check_output_paths(
+        [args.output.as_path()],
+        args.report
+            .iter()
+            .chain(&args.preview)
+            .map(PathBuf::as_path),
+    )?;
     let texture = load(args)?;
     let output = match (args.size, args.scale) {
         (Some((w, h)), _) => OutputSize::Absolute(w, h),

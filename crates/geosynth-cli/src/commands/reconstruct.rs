@@ -8,7 +8,7 @@ use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
 use geosynth::sdf::nrrd;
 use geosynth::{RunContext, Stage};
 
-use crate::output::{spinner, status};
+use crate::output::{check_output_paths, spinner, status};
 use crate::{CliResult, Globals};
 
 /// Grid settings shared by both commands.
@@ -51,6 +51,7 @@ pub struct ReconstructArgs {
 
 /// Runs `geosynth reconstruct`.
 pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
+    check_output_paths([args.output.as_path()], [])?;
     let params = args.grid.params()?;
     let points = io::read_geometry(&args.input)?.geometry.points().clone();
     let bar = spinner(globals, "reconstructing");
@@ -97,6 +98,7 @@ pub struct SdfArgs {
 
 /// Runs `geosynth sdf`.
 pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
+    check_output_paths([], [args.output.as_path()])?;
     let params = args.grid.params()?;
     let geometry = io::read_geometry(&args.input)?.geometry;
     let bar = spinner(globals, "sampling distances");

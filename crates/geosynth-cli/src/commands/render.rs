@@ -7,7 +7,7 @@ use geosynth::core::io::{self, Geometry};
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 
-use crate::output::status;
+use crate::output::{check_output_paths, status};
 use crate::{CliResult, Globals};
 
 /// The up axis, as a command-line value.
@@ -131,6 +131,7 @@ fn load(path: &Path, args: &RenderArgs) -> CliResult<Input> {
 
 /// Runs `geosynth render`.
 pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
+    check_output_paths([], [args.output.as_path()])?;
     if !(args.relief.is_finite() && args.relief > 0.0) {
         return Err(format!("--relief must be a positive number, not {}", args.relief).into());
     }

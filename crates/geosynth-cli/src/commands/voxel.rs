@@ -14,7 +14,7 @@ use geosynth::voxel::{
 };
 use serde_json::{Value, json};
 
-use crate::output::{progress_context, status};
+use crate::output::{check_output_paths, progress_context, status};
 use crate::{CliResult, Globals};
 
 /// Block search.
@@ -231,6 +231,13 @@ pub fn voxel_preview(exemplar: &VoxelExemplar, run: &VoxelRun, path: &Path, w: u
 
 /// Runs `geosynth voxel`.
 pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
+    check_output_paths(
+        std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()),
+        [&args.field, &args.report, &args.preview]
+            .into_iter()
+            .flatten()
+            .map(PathBuf::as_path),
+    )?;
     let exemplar = read_exemplar(&args.exemplar)?;
     let stage = VoxelSynth {
         source_resolution: args.source_res,

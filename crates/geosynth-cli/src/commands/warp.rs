@@ -8,7 +8,7 @@ use geosynth::core::{PointSet, TriMesh};
 use geosynth::tps::{ThinPlateSpline, TpsParams};
 use glam::Vec3;
 
-use crate::output::status;
+use crate::output::{check_output_paths, status};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth warp`.
@@ -84,6 +84,7 @@ fn rebuild(
 
 /// Runs `geosynth warp`.
 pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
+    check_output_paths([args.output.as_path()], [])?;
     let text = std::fs::read_to_string(&args.pairs)
         .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
     let (from, to) = parse_pairs(&text, &args.pairs)?;
