@@ -506,6 +506,25 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         "20",
         "-q",
     ]);
+    // An output too narrow for a quality window is still written; the report says why it
+    // has no quality figures.
+    let narrow = dir.path().join("narrow.ply");
+    ok(&[
+        "quilt",
+        exemplar.to_str().unwrap(),
+        "-o",
+        narrow.to_str().unwrap(),
+        "--size",
+        "0.1,2",
+        "--report",
+        report.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(narrow.exists());
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let reason = r["run"]["quality"]["not_measured"].as_str().unwrap();
+    assert!(reason.contains("quality window"), "{reason}");
     // Height fields work directly.
     let hf = dir.path().join("bumps_64x64.f32le");
     let heights: Vec<u8> = (0..64 * 64)

@@ -360,3 +360,39 @@ fn a_translated_verbatim_copy_scores_like_the_copy() {
         "{r:?}\n{b:?}"
     );
 }
+
+#[test]
+fn quality_reports_the_windows_it_measured() {
+    let t = texture(|x, y| 0.1 * (4.0 * x).sin() * (3.0 * y + x).cos(), 40, 0.05);
+    let params = small_params().method(Method::SearchOnly);
+    let out = quilt(&t, &params, &mut RunContext::new(4)).unwrap();
+    let q = evaluate(&t, &out, &params, 12).unwrap();
+    assert_eq!(
+        (q.windows, q.seam_windows, q.interior_windows),
+        (12, 12, 12)
+    );
+    assert!(matches!(
+        evaluate(&t, &out, &params, 0),
+        Err(QuiltError::InvalidParameter {
+            name: "windows",
+            ..
+        })
+    ));
+    // A single patch has no seams: no seam window, so its seam error of 0 means "not
+    // measured", which the count says.
+    let g = out.stats.geometry;
+    let side = g.patch() - 2.0 * g.extra();
+    let single = params.clone().output(OutputSize::Absolute(side, side));
+    let one = quilt(&t, &single, &mut RunContext::new(4)).unwrap();
+    assert_eq!(one.stats.patches, 1);
+    let q = evaluate(&t, &one, &single, 12).unwrap();
+    assert_eq!((q.seam_windows, q.seam_error), (0, 0.0));
+    assert!(q.interior_windows > 0);
+    // An output narrower than one window cannot be measured: an error, not a panic.
+    let tiny = params.clone().output(OutputSize::Absolute(0.05, 1.0));
+    let out = quilt(&t, &tiny, &mut RunContext::new(4)).unwrap();
+    assert!(matches!(
+        evaluate(&t, &out, &tiny, 12),
+        Err(QuiltError::InvalidParameter { name: "output", .. })
+    ));
+}

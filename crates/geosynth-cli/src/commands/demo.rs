@@ -524,7 +524,12 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
             w,
             h,
         )?;
-        let (qf, qs, qr) = (&full.quality, &search.quality, &random.quality);
+        // The demo's outputs are twice the exemplar, always room for quality windows.
+        let (qf, qs, qr) = (
+            full.quality.as_ref().map_err(String::clone)?,
+            search.quality.as_ref().map_err(String::clone)?,
+            random.quality.as_ref().map_err(String::clone)?,
+        );
         let beats = |a: &QualityReport, b: &QualityReport| {
             a.neighbourhood_error < b.neighbourhood_error && a.seam_error < b.seam_error
         };

@@ -156,8 +156,9 @@ pub struct MeasuredRun {
     pub timings: Vec<(String, f64)>,
     /// Wall time of the synthesis.
     pub seconds: f64,
-    /// Quality against the exemplar.
-    pub quality: QualityReport,
+    /// Quality against the exemplar, or why it could not be measured (an output smaller
+    /// than one quality window); the output is kept either way.
+    pub quality: Result<QualityReport, String>,
 }
 
 /// Runs `quilt` with a progress bar, then measures it.
@@ -172,7 +173,7 @@ pub fn measured_run(
     let output = quilt(texture, params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let quality = evaluate(texture, &output, params, 48)?;
+    let quality = evaluate(texture, &output, params, 48).map_err(|e| e.to_string());
     let timings = ctx
         .timings()
         .iter()
@@ -194,7 +195,22 @@ fn mean(values: impl Iterator<Item = f32>) -> f32 {
 /// A run as JSON.
 pub fn run_json(run: &MeasuredRun) -> Value {
     let s = &run.output.stats;
-    let q = &run.quality;
+    let quality = match &run.quality {
+        Ok(q) => json!({
+            "neighbourhood_error": q.neighbourhood_error,
+            "seam_error": q.seam_error,
+            "interior_error": q.interior_error,
+            "seam_concentration": q.seam_concentration,
+            "verbatim_fraction": q.verbatim_fraction,
+            "continued_seams": q.continued_seams,
+            "largest_empty_disc": q.largest_empty_disc,
+            "exemplar_largest_empty_disc": q.exemplar_largest_empty_disc,
+            "windows_per_class": q.windows,
+            "seam_windows": q.seam_windows,
+            "interior_windows": q.interior_windows,
+        }),
+        Err(reason) => json!({ "not_measured": reason }),
+    };
     json!({
         "seconds": run.seconds,
         "timings": run.timings.iter().map(|(n, t)| json!({"stage": n, "seconds": t})).collect::<Vec<_>>(),
@@ -212,17 +228,7 @@ pub fn run_json(run: &MeasuredRun) -> Value {
         "field_dims": s.field_dims,
         "field_bytes": s.field_bytes,
         "relaxation_spread": s.relaxation_spread,
-        "quality": {
-            "neighbourhood_error": q.neighbourhood_error,
-            "seam_error": q.seam_error,
-            "interior_error": q.interior_error,
-            "seam_concentration": q.seam_concentration,
-            "verbatim_fraction": q.verbatim_fraction,
-            "continued_seams": q.continued_seams,
-            "largest_empty_disc": q.largest_empty_disc,
-            "exemplar_largest_empty_disc": q.exemplar_largest_empty_disc,
-            "windows_per_class": q.windows,
-        },
+        "quality": quality,
     })
 }
 
@@ -333,17 +339,21 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
-    let q = &main.quality;
+    let quality = match &main.quality {
+        Ok(q) => format!(
+            "neighbourhood error {:.3}, seam error {:.3}",
+            q.neighbourhood_error, q.seam_error
+        ),
+        Err(reason) => format!("quality not measured: {reason}"),
+    };
     status(
         globals,
         format!(
-            "wrote {} ({} points, {} patches, {:.2}s; neighbourhood error {:.3}, seam error {:.3})",
+            "wrote {} ({} points, {} patches, {:.2}s; {quality})",
             args.output.display(),
             main.output.points.len(),
             main.output.stats.patches,
             main.seconds,
-            q.neighbourhood_error,
-            q.seam_error
         ),
     );
     Ok(())

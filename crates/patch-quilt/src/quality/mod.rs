@@ -18,7 +18,7 @@ use pointset_core::{KdIndex, PointSet, rng};
 use rand::RngExt;
 use rayon::prelude::*;
 
-use crate::error::Result;
+use crate::error::{Result, invalid};
 use crate::exemplar::Exemplar;
 use crate::params::QuiltParams;
 use crate::quilt::{Placement, QuiltOutput};
@@ -55,8 +55,14 @@ pub struct QualityReport {
     pub largest_empty_disc: f32,
     /// The same for the exemplar's points and box.
     pub exemplar_largest_empty_disc: f32,
-    /// Windows measured per class.
+    /// Random windows measured for `neighbourhood_error` (the number asked for).
     pub windows: usize,
+    /// Seam windows found for `seam_error`: up to `windows`, fewer when the output has few
+    /// seams, none for a single patch (whose `seam_error` is then 0).
+    pub seam_windows: usize,
+    /// Interior windows found for `interior_error`: up to `windows`, fewer when the patches
+    /// leave little room a quarter patch away from every seam.
+    pub interior_windows: usize,
 }
 
 /// Radius of the largest disc inside `[lo, hi]` that contains none of the points' (x, y),
@@ -110,13 +116,19 @@ fn continued_seams(placements: &[Placement], step_nodes: usize) -> f32 {
     continued as f32 / pairs.max(1) as f32
 }
 
-/// Measures `output` against `texture` (the parameters must be those of the run).
+/// Measures `output` against `texture` (the parameters must be those of the run) with
+/// `windows` random windows per class. Errors: `windows` = 0, an output smaller than one
+/// window (half a patch) along either side, and whatever rebuilding the exemplar or the
+/// output's surface fails on.
 pub fn evaluate(
     texture: &GeometryTexture,
     output: &QuiltOutput,
     params: &QuiltParams,
     windows: usize,
 ) -> Result<QualityReport> {
+    if windows == 0 {
+        return Err(invalid("windows", 0, "at least 1 window per class"));
+    }
     let ex = Exemplar::new(texture, params)?;
     let g = ex.geometry;
     let up = texture.up();
@@ -152,6 +164,16 @@ pub fn evaluate(
     let out_field = SdfGrid::from_surface(&surface, &spec, params.band * s)?;
     let outf = Field::distances(&out_field);
     let w = (g.patch_nodes / 2).max(3);
+    if dims[0] < w || dims[1] < w {
+        return Err(invalid(
+            "output",
+            format!("{} x {}", out_hi.x - out_lo.x, out_hi.y - out_lo.y),
+            format!(
+                "room for one quality window ({w} × {w} field nodes, {:.3} wide) to measure",
+                (w - 1) as f32 * s
+            ),
+        ));
+    }
     let exemplar = ExemplarWindows::new(&ex, params.band * s, w)?;
     let ex_positions = exemplar.positions();
     // Typical exemplar variation: random pairs of non-overlapping windows.
@@ -259,6 +281,8 @@ pub fn evaluate(
         largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
         exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
         windows,
+        seam_windows: seam.len(),
+        interior_windows: interior.len(),
     })
 }
 
