@@ -66,7 +66,7 @@ pub use matcher::{BlockMatcher, BruteForce, FftMatcher};
 pub use quality::{QualityParams, VoxelQuality, evaluate, unit_gradient_fraction};
 pub use reconstruct::{CopiedMesh, RelaxParams, copied_mesh, isosurface_mesh};
 pub use synth::{
-    BlockCopy, LevelReport, MatcherKind, Synthesis, VoxelParams, quantize_source, source_quantizer,
-    synthesize,
+    BlockCopy, LevelReport, MAX_TARGET_SAMPLES, MatcherKind, Synthesis, VoxelParams,
+    quantize_source, source_quantizer, synthesize,
 };
 pub use tree::{Eq3Pruning, Match, SearchStats, SearchTree, TreeStats};

@@ -123,6 +123,10 @@ fn invalid(name: &'static str, value: impl ToString, expected: &'static str) -> 
     }
 }
 
+/// Largest target, in samples (512³): each target grid of `f32` then takes 512 MiB, and a run
+/// holds a few of them. The paper's targets were 128³.
+pub const MAX_TARGET_SAMPLES: usize = 1 << 27;
+
 impl VoxelParams {
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<()> {
@@ -144,6 +148,17 @@ impl VoxelParams {
                     "each ≥ block and a multiple of block / 2",
                 ));
             }
+        }
+        let samples = self
+            .target_dims
+            .iter()
+            .try_fold(1usize, |n, &t| n.checked_mul(t));
+        if samples.is_none_or(|n| n > MAX_TARGET_SAMPLES) {
+            return Err(invalid(
+                "target dims",
+                format!("{:?}", self.target_dims),
+                "at most 512³ = 134,217,728 samples in all (MAX_TARGET_SAMPLES)",
+            ));
         }
         if let Some(r) = self.range
             && !(r.is_finite() && r > 0.0)

@@ -235,6 +235,12 @@ fn invalid_parameters_are_range_errors() {
         },
         // Block larger than the source.
         params(64, 1, 32, MatcherKind::Tree),
+        // Too many samples to allocate (2048³), and a product that overflows usize.
+        params(2048, 2, 8, MatcherKind::Tree),
+        VoxelParams {
+            target_dims: [16, 16, usize::MAX / 8 * 4],
+            ..params(32, 2, 8, MatcherKind::Tree)
+        },
     ];
     for p in bad {
         assert!(
