@@ -1,5 +1,6 @@
 //! Console output helpers: progress bars and status lines that respect `--quiet`.
 
+use std::io::Write;
 use std::path::Path;
 
 use geosynth::core::io::FileFormat;
@@ -58,10 +59,20 @@ pub(crate) fn progress_bar(globals: Globals, total: u64, label: &str) -> Progres
     bar
 }
 
-/// Prints a status line unless `--quiet`.
+/// Writes `line` to stdout. A reader that has gone away (`geosynth info x.ply | head -3`)
+/// only wants no more output, so a broken pipe is not an error; other write errors are.
+pub(crate) fn print_line(line: &str) -> std::io::Result<()> {
+    match writeln!(std::io::stdout().lock(), "{line}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
+    }
+}
+
+/// Prints a status line unless `--quiet`. Status lines are informational: failing to print
+/// one does not stop the work.
 pub(crate) fn status(globals: Globals, line: impl AsRef<str>) {
     if !globals.quiet {
-        println!("{}", line.as_ref());
+        let _ = print_line(line.as_ref());
     }
 }
 

@@ -122,6 +122,29 @@ fn info_and_render_work_on_every_shared_file() {
 }
 
 #[test]
+fn output_into_a_closed_pipe_is_not_a_panic() {
+    // `geosynth info x.ply | head -1`: the reader leaves before the output is written.
+    let fixture = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");
+    for json in [false, true] {
+        let mut args = vec!["info", fixture.to_str().unwrap()];
+        if json {
+            args.push("--json");
+        }
+        let mut child = Command::new(env!("CARGO_BIN_EXE_geosynth"))
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(out.status.success(), "{args:?}: {err}");
+    }
+}
+
+#[test]
 fn info_reports_kept_attributes() {
     let Some(path) = shared_data(
         "info_reports_kept_attributes",

@@ -7,7 +7,7 @@ use geosynth::core::io::{self, Geometry, LoadedGeometry};
 use geosynth::imagery;
 use serde::Serialize;
 
-use crate::output::status;
+use crate::output::{print_line, status};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth info`.
@@ -213,7 +213,7 @@ impl GridInfo {
 
 fn print(globals: Globals, json: bool, value: &impl Serialize, text: String) -> CliResult {
     if json {
-        println!("{}", serde_json::to_string_pretty(value)?);
+        print_line(&serde_json::to_string_pretty(value)?)?;
     } else {
         status(globals, text);
     }
