@@ -48,7 +48,8 @@ fn search_kernel(c: &mut Criterion) {
                 max_j,
                 &overlap,
                 &neighbourhood,
-            );
+            )
+            .expect("the overlap lies inside both fields");
             candidates(&d, 0.1)
         })
     });

@@ -290,8 +290,16 @@ pub fn quilt(
                         ex.max_j,
                         &nodes,
                         vec4_field(&local),
-                    );
+                    )?;
                     let psi = candidates(&d, params.epsilon);
+                    if psi.is_empty() {
+                        return Err(QuiltError::InvalidTexture {
+                            reason: format!(
+                                "no patch position has a finite distance to patch {k}'s \
+                                 neighbourhood"
+                            ),
+                        });
+                    }
                     let pick = psi[rng.random_range(0..psi.len())];
                     let width = ex.max_i + 1;
                     ((pick % width, pick / width), psi.len(), d[pick])

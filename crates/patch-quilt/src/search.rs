@@ -5,6 +5,8 @@
 use glam::Vec4;
 use rayon::prelude::*;
 
+use crate::error::{Result, invalid};
+
 /// One overlap node: its linear offset in `D(T_in)` relative to a patch's corner node, and
 /// its index in the neighbourhood's field.
 #[derive(Debug, Clone, Copy)]
@@ -16,7 +18,11 @@ pub struct OverlapNode {
 }
 
 /// The distances `d(O^N, O^P) = ‖D(O^N) − D(O^P)‖²` (distance and gradient channels) for
-/// every patch offset `(i, j)`, `0 ≤ i ≤ max_i`, `0 ≤ j ≤ max_j`, row-major in `j`.
+/// every patch offset `(i, j)`, `0 ≤ i ≤ max_i`, `0 ≤ j ≤ max_j`, row-major in `j`. The
+/// exemplar field is `nx` nodes wide.
+///
+/// Errors with [`QuiltError::InvalidParameter`](crate::QuiltError) when `max_i ≥ nx` or an
+/// overlap node would read outside either field for some offset.
 pub fn distances(
     exemplar: &[Vec4],
     nx: usize,
@@ -24,9 +30,30 @@ pub fn distances(
     max_j: usize,
     overlap: &[OverlapNode],
     neighbourhood: &[Vec4],
-) -> Vec<f32> {
+) -> Result<Vec<f32>> {
+    let last_corner = nx.checked_mul(max_j).and_then(|r| r.checked_add(max_i));
+    let inside = |o: &OverlapNode| {
+        o.neighbourhood_index < neighbourhood.len()
+            && last_corner
+                .and_then(|c| c.checked_add(o.exemplar_offset))
+                .is_some_and(|last| last < exemplar.len())
+    };
+    if max_i >= nx || !overlap.iter().all(inside) {
+        return Err(invalid(
+            "overlap",
+            format!(
+                "{} nodes over offsets up to ({max_i}, {max_j}) in a field {nx} wide",
+                overlap.len()
+            ),
+            format!(
+                "nodes inside both fields ({} exemplar, {} neighbourhood values)",
+                exemplar.len(),
+                neighbourhood.len()
+            ),
+        ));
+    }
     let width = max_i + 1;
-    (0..width * (max_j + 1))
+    Ok((0..width * (max_j + 1))
         .into_par_iter()
         .map(|c| {
             let base = c % width + nx * (c / width);
@@ -38,10 +65,11 @@ pub fn distances(
                 })
                 .sum()
         })
-        .collect()
+        .collect())
 }
 
-/// `Ψ = {P | d(P) ≤ (1 + ε) min d}` as indices into `d`, ascending.
+/// `Ψ = {P | d(P) ≤ (1 + ε) min d}` as indices into `d`, ascending; NaN distances are never
+/// candidates (so `Ψ` is empty only when `d` is empty or all NaN).
 pub fn candidates(d: &[f32], epsilon: f32) -> Vec<usize> {
     let best = d.iter().copied().fold(f32::INFINITY, f32::min);
     let limit = best * (1.0 + epsilon);
@@ -50,6 +78,8 @@ pub fn candidates(d: &[f32], epsilon: f32) -> Vec<usize> {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
+
     use super::*;
 
     #[test]
@@ -58,6 +88,8 @@ mod tests {
         assert_eq!(candidates(&d, 0.1), vec![1, 2, 4]);
         assert_eq!(candidates(&d, 0.0), vec![1]);
         assert_eq!(candidates(&[0.0, 0.0, 1.0], 0.5), vec![0, 1]);
+        assert_eq!(candidates(&[f32::NAN, 2.0, f32::NAN], 0.1), vec![1]);
+        assert!(candidates(&[f32::NAN, f32::NAN], 0.1).is_empty());
     }
 
     #[test]
@@ -80,7 +112,12 @@ mod tests {
             },
         ];
         let nb = [Vec4::splat(2.0), Vec4::splat(3.0)];
-        let d = distances(&ex, 4, 2, 0, &overlap, &nb);
+        let d = distances(&ex, 4, 2, 0, &overlap, &nb).unwrap();
         assert_eq!(d, vec![32.0, 8.0, 0.0]);
+        // Offsets that would read past either field are refused, not a panic.
+        assert!(distances(&ex, 4, 3, 0, &overlap, &nb).is_err());
+        assert!(distances(&ex, 4, 4, 0, &overlap, &nb).is_err());
+        assert!(distances(&ex, 4, 2, 0, &overlap, &nb[..1]).is_err());
+        assert!(distances(&ex, usize::MAX, 2, usize::MAX, &overlap, &nb).is_err());
     }
 }
