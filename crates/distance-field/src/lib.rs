@@ -71,5 +71,5 @@ mod triangle;
 pub use error::{FieldError, Result};
 pub use iso::{isosurface, sdf_isosurface};
 pub use mesh_surface::{MeshHit, MeshSurface};
-pub use pyramid::{BlockPyramid, Quantizer, downsample, mean_squared_difference};
+pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};
 pub use sdf::{GridSpec, SdfGrid};

@@ -57,21 +57,26 @@ impl BlockPyramid {
     /// `dist(B{l}, B'{l})` of paper 001 Eq. 1 at level `l` (mean squared difference).
     pub fn level_distance(&self, other: &Self, l: usize) -> Option<f32> {
         let (a, b) = (self.level(l)?, other.level(l)?);
-        (a.len() == b.len()).then(|| mean_squared_difference(a, b))
+        mean_squared_difference(a, b)
     }
 }
 
-/// Mean of `(a_i − b_i)²` (paper 001 Eq. 1 for equal-size blocks); 0 for empty slices.
-pub fn mean_squared_difference(a: &[f32], b: &[f32]) -> f32 {
+/// Mean of `(a_i − b_i)²` (paper 001 Eq. 1 for equal-size blocks); 0 for empty slices,
+/// `None` when the lengths differ.
+pub fn mean_squared_difference(a: &[f32], b: &[f32]) -> Option<f32> {
+    if a.len() != b.len() {
+        return None;
+    }
     if a.is_empty() {
-        return 0.0;
+        return Some(0.0);
     }
     let sum: f64 = a.iter().zip(b).map(|(x, y)| f64::from(x - y).powi(2)).sum();
-    (sum / a.len() as f64) as f32
+    Some((sum / a.len() as f64) as f32)
 }
 
-/// Averages 2×2×2 cells of an `n³` block into an `(n/2)³` block (x-fastest).
-pub fn downsample(block: &[f32], n: usize) -> Vec<f32> {
+/// Averages 2×2×2 cells of an `n³` block into an `(n/2)³` block (x-fastest); the caller
+/// guarantees `block.len() == n³`.
+fn downsample(block: &[f32], n: usize) -> Vec<f32> {
     let h = n / 2;
     let mut out = Vec::with_capacity(h * h * h);
     for k in 0..h {

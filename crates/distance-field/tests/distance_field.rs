@@ -277,6 +277,20 @@ proptest! {
     }
 }
 
+#[test]
+fn block_distances_of_unequal_sizes_are_refused() {
+    use distance_field::mean_squared_difference;
+    assert_eq!(mean_squared_difference(&[1.0, 2.0], &[1.0, 0.0]), Some(2.0));
+    assert_eq!(mean_squared_difference(&[], &[]), Some(0.0));
+    assert_eq!(mean_squared_difference(&[1.0, 2.0], &[1.0]), None);
+    let small = BlockPyramid::new(&[0.5; 8], 2).unwrap();
+    let large = BlockPyramid::new(&[0.5; 64], 4).unwrap();
+    // Level 2 has 2³ samples in both; level 3 exists in the larger pyramid only.
+    assert_eq!(small.level_distance(&large, 2), Some(0.0));
+    assert_eq!(small.level_distance(&large, 3), None);
+    assert!(BlockPyramid::new(&[0.5; 7], 2).is_err());
+}
+
 // ------------------------------------------------------------ iso-surfaces
 
 fn analytic_grid(n: usize, half: f32, f: impl Fn(Vec3) -> f32) -> Grid3<f32> {

@@ -20,12 +20,13 @@ pub struct Covariance {
 }
 
 impl Covariance {
-    /// Covariance of the points at `indices` (computed in `f64`); `None` when empty.
+    /// Covariance of the points at `indices` (computed in `f64`); `None` when empty or when
+    /// an index lies outside `points`.
     pub fn of(points: &[Vec3], indices: impl IntoIterator<Item = usize> + Clone) -> Option<Self> {
         let mut n = 0usize;
         let mut sum = [0f64; 3];
         for i in indices.clone() {
-            let p = points[i];
+            let p = *points.get(i)?;
             sum[0] += f64::from(p.x);
             sum[1] += f64::from(p.y);
             sum[2] += f64::from(p.z);
@@ -37,7 +38,7 @@ impl Covariance {
         let c = sum.map(|s| s / n as f64);
         let mut m = Matrix3::<f64>::zeros();
         for i in indices {
-            let p = points[i];
+            let p = *points.get(i)?;
             let d = [
                 f64::from(p.x) - c[0],
                 f64::from(p.y) - c[1],

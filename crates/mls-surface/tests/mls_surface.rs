@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use mls_surface::{
-    ClusterParams, MlsError, MlsParams, MlsSurface, RelaxParams, adaptive_clusters,
+    ClusterParams, Covariance, MlsError, MlsParams, MlsSurface, RelaxParams, adaptive_clusters,
     nearest_neighbour_spread, relax, surface_variation,
 };
 use pointset_core::{KdIndex, PointSet, Surface, rng};
@@ -262,6 +262,11 @@ fn surface_variation_is_zero_on_planes_and_positive_on_curved_or_random_sets() {
         "mean {mean}"
     );
     assert!(surface_variation(&KdIndex::new(&plane).unwrap(), 2).is_err());
+    // The covariance of a few plane points is flat; an index past the points is refused.
+    let c = Covariance::of(&plane, [0, 1, 30, 31]).unwrap();
+    assert!(c.variation() < 1e-6);
+    assert!(Covariance::of(&plane, [0, 1, 900]).is_none());
+    assert!(Covariance::of(&plane, []).is_none());
 }
 
 proptest! {
