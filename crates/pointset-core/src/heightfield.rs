@@ -124,8 +124,10 @@ impl HeightField {
         )
     }
 
-    /// Unit surface normal at a sample from central differences (one-sided at borders).
+    /// Unit surface normal at a sample from central differences (one-sided at borders);
+    /// like [`HeightField::position`], indices past the border are clamped to it.
     pub fn normal(&self, col: usize, row: usize, spacing: f32, scale: f32) -> Vec3 {
+        let (col, row) = (col.min(self.width - 1), row.min(self.height - 1));
         let at = |c: usize, r: usize| self.heights[r * self.width + c] * scale;
         let (c0, c1) = (col.saturating_sub(1), (col + 1).min(self.width - 1));
         let (r0, r1) = (row.saturating_sub(1), (row + 1).min(self.height - 1));
@@ -190,6 +192,9 @@ mod tests {
             }
         }
         assert_eq!(hf.position(0, 0, 1.0, 1.0), Vec3::new(0.0, 1.0, 0.0));
+        // Past the border: clamped to it, like positions.
+        assert_eq!(hf.normal(5, 7, 1.0, 1.0), hf.normal(2, 1, 1.0, 1.0));
+        assert_eq!(hf.position(5, 7, 1.0, 1.0), hf.position(2, 1, 1.0, 1.0));
         let mesh = hf.to_mesh(1.0, 1.0).unwrap();
         assert_eq!(mesh.face_count(), 4);
         for n in mesh.face_normals() {
