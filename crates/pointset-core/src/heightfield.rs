@@ -125,7 +125,8 @@ impl HeightField {
     }
 
     /// Unit surface normal at a sample from central differences (one-sided at borders);
-    /// like [`HeightField::position`], indices past the border are clamped to it.
+    /// indices past the border read the border's samples, as [`HeightField::position`]
+    /// does for its height.
     pub fn normal(&self, col: usize, row: usize, spacing: f32, scale: f32) -> Vec3 {
         let (col, row) = (col.min(self.width - 1), row.min(self.height - 1));
         let at = |c: usize, r: usize| self.heights[r * self.width + c] * scale;
@@ -192,9 +193,9 @@ mod tests {
             }
         }
         assert_eq!(hf.position(0, 0, 1.0, 1.0), Vec3::new(0.0, 1.0, 0.0));
-        // Past the border: clamped to it, like positions.
+        // Past the border: the border's samples are read, as for positions' heights.
         assert_eq!(hf.normal(5, 7, 1.0, 1.0), hf.normal(2, 1, 1.0, 1.0));
-        assert_eq!(hf.position(5, 7, 1.0, 1.0), hf.position(2, 1, 1.0, 1.0));
+        assert_eq!(hf.position(5, 7, 1.0, 1.0).z, hf.position(2, 1, 1.0, 1.0).z);
         let mesh = hf.to_mesh(1.0, 1.0).unwrap();
         assert_eq!(mesh.face_count(), 4);
         for n in mesh.face_normals() {
