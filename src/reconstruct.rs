@@ -6,7 +6,7 @@
 //! (exactly) into an [`SdfGrid`].
 
 use distance_field::{GridSpec, MeshSurface, SdfGrid, sdf_isosurface};
-use mls_surface::{MlsParams, MlsSurface};
+use mls_surface::{MlsError, MlsParams, MlsSurface, median_spacing};
 use pointset_core::io::Geometry;
 use pointset_core::{PointSet, RunContext, Stage, Surface, TriMesh};
 
@@ -90,6 +90,11 @@ impl FieldParams {
 
 /// Samples the signed distance of `geometry`: meshes exactly, point sets through their MLS
 /// surface (which needs normals).
+///
+/// An explicit kernel whose support radius is below the points' median spacing is refused
+/// (`MlsError::InvalidParameter`): almost no point would have a neighbour in reach, the
+/// surface would be undefined nearly everywhere, and the grid would fall back to distances
+/// to single samples.
 pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfGrid> {
     params.validate()?;
     let spec = params.grid_for(geometry)?;
@@ -101,7 +106,23 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
             if let Some(h) = params.kernel {
                 mls = mls.kernel(h);
             }
-            Box::new(MlsSurface::new(points, &mls)?)
+            let surface = MlsSurface::new(points, &mls)?;
+            if params.kernel.is_some() {
+                let spacing = median_spacing(surface.index())?;
+                if surface.support_radius() < spacing {
+                    return Err(MlsError::InvalidParameter {
+                        name: "kernel",
+                        value: format!(
+                            "{} (support radius {}, the points' median spacing {spacing})",
+                            surface.kernel(),
+                            surface.support_radius()
+                        ),
+                        expected: "a support radius at least the points' median spacing",
+                    }
+                    .into());
+                }
+            }
+            Box::new(surface)
         }
     };
     Ok(SdfGrid::from_surface(surface.as_ref(), &spec, band)?)

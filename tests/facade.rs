@@ -264,6 +264,21 @@ fn bunny_points_reconstruct_to_one_closed_genus_zero_mesh() {
 }
 
 #[test]
+fn a_kernel_too_small_for_the_sampling_is_refused() {
+    use geosynth::reconstruct::{FieldParams, signed_distance};
+    let sphere = Geometry::Points(fixtures::sphere_points(800).unwrap());
+    let tiny = FieldParams::default().resolution(16).kernel(Some(1e-6));
+    assert!(matches!(
+        signed_distance(&sphere, &tiny),
+        Err(geosynth::Error::Mls(
+            geosynth::mls::MlsError::InvalidParameter { name: "kernel", .. }
+        ))
+    ));
+    let usual = FieldParams::default().resolution(16).kernel(Some(0.2));
+    assert!(signed_distance(&sphere, &usual).is_ok());
+}
+
+#[test]
 fn figure_6_solids_are_closed_manifolds_filling_their_boxes() {
     for v in fixtures::volumes::all(fixtures::FIXTURE_SEED).unwrap() {
         let topo = v.mesh.topology();
