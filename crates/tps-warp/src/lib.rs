@@ -71,4 +71,4 @@ pub use pairing::{
     Pair, PairedWarp, Pairing, PairingParams, PairingPoint, Table1Preset, anchors_in_regions,
     pair_and_fit, pair_points,
 };
-pub use spline::{AffineRegularization, ThinPlateSpline, TpsParams};
+pub use spline::{AffineRegularization, MAX_CONTROL_POINTS, ThinPlateSpline, TpsParams};

@@ -63,6 +63,10 @@ impl TpsParams {
     }
 }
 
+/// Most control points (pairs) [`ThinPlateSpline::fit`] accepts: its dense system needs
+/// `n²` memory (512 MiB at this size) and `n³` time. Paper 000's warps use tens to hundreds.
+pub const MAX_CONTROL_POINTS: usize = 8192;
+
 /// `W(x) = c + A x + Σ wᵢ φ(|x − sᵢ|)` with the 3D biharmonic kernel `φ(r) = r`, fitted with
 /// the side conditions `Σ wᵢ = 0`, `Σ wᵢ sᵢᵀ = 0`.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,6 +125,14 @@ impl ThinPlateSpline {
         if sources.is_empty() {
             return Err(TpsError::EmptyInput {
                 what: "control point set",
+            });
+        }
+        if sources.len() > MAX_CONTROL_POINTS {
+            return Err(TpsError::InvalidParameter {
+                name: "control points",
+                value: sources.len().to_string(),
+                expected: "at most MAX_CONTROL_POINTS (8192) pairs: the dense system takes n² \
+                           memory and n³ time",
             });
         }
         check_finite(sources, "source point")?;

@@ -302,6 +302,17 @@ fn degenerate_control_points_are_errors_or_documented_regularization() {
         Err(TpsError::LengthMismatch { .. })
     ));
     assert!(ThinPlateSpline::fit(&square, &bumped, &TpsParams::default().smoothing(-1.0)).is_err());
+    // More pairs than the dense solve is meant for.
+    let many: Vec<Vec3> = (0..=tps_warp::MAX_CONTROL_POINTS)
+        .map(|i| Vec3::new(i as f32, (i % 7) as f32, (i % 5) as f32))
+        .collect();
+    assert!(matches!(
+        ThinPlateSpline::fit(&many, &many, &strict()),
+        Err(TpsError::InvalidParameter {
+            name: "control points",
+            ..
+        })
+    ));
 }
 
 // ------------------------------------------------------------ pairing
