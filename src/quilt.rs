@@ -66,6 +66,9 @@ pub fn parse_texture_comments(
             let [x0, y0, z0, x1, y1, z1] = v[..] else {
                 return Err(format!("`{c}`: texture_box needs six numbers"));
             };
+            if !v.iter().all(|x| x.is_finite()) {
+                return Err(format!("`{c}`: texture_box needs finite numbers"));
+            }
             bounds = Some(Aabb::new(Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1)));
         } else if let Some(rest) = c.trim().strip_prefix("texture_up") {
             up = match rest.trim() {
@@ -140,5 +143,36 @@ impl Stage for Quilt {
 
     fn run(&self, input: GeometryTexture, ctx: &mut RunContext) -> Result<QuiltOutput> {
         Ok(quilt(&input, &self.params, ctx)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(lines: &[&str]) -> std::result::Result<Option<(Aabb, UpAxis)>, String> {
+        parse_texture_comments(&lines.iter().map(|l| l.to_string()).collect::<Vec<_>>())
+    }
+
+    #[test]
+    fn texture_comments_give_box_and_up_axis_or_say_what_is_wrong() {
+        let box_and_up = parse(&["texture_box 0 0 -1 4 4 1", "texture_up y"]);
+        assert_eq!(
+            box_and_up,
+            Ok(Some((
+                Aabb::new(Vec3::new(0.0, 0.0, -1.0), Vec3::new(4.0, 4.0, 1.0)),
+                UpAxis::Y
+            )))
+        );
+        assert_eq!(parse(&["made by hand"]), Ok(None));
+        for bad in [
+            "texture_box 0 0 -1 4 4",
+            "texture_box 0 0 -1 4 4 one",
+            "texture_box nan 0 -1 4 4 1",
+            "texture_box 0 0 -1 inf 4 1",
+            "texture_up w",
+        ] {
+            assert!(parse(&[bad]).is_err(), "{bad}");
+        }
     }
 }
