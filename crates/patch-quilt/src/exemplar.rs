@@ -107,7 +107,12 @@ impl Exemplar {
             return Err(QuiltError::InvalidParameter {
                 name: "patch_size",
                 value: params.patch_size.to_string(),
-                expected: "a patch smaller than the exemplar box".into(),
+                expected: format!(
+                    "a patch smaller than the exemplar box: the patch spans {} field nodes, the \
+                     box's shorter side {} (raise field_resolution, or use a squarer box)",
+                    patch_nodes + 1,
+                    dims[0].min(dims[1])
+                ),
             });
         }
         let max_i = limit(spec.origin.x, dims[0] - patch_nodes, all.max.x);
