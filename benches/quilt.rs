@@ -57,7 +57,7 @@ fn search_kernel(c: &mut Criterion) {
 }
 
 fn synthesis(c: &mut Criterion) {
-    let exemplar = textures::bumpy(textures::TEXTURE_DENSITY, 1).expect("benchmark setup");
+    let exemplar = textures::bumpy(textures::TEXTURE_DENSITY, 1, 1).expect("benchmark setup");
     let texture = texture_from_exemplar(&exemplar).expect("benchmark setup");
     let params = QuiltParams::default().output(OutputSize::Scale(1.5));
     let mut group = c.benchmark_group("quilt_full");

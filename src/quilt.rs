@@ -10,7 +10,7 @@
 //! use geosynth::quilt::{Quilt, QuiltParams, OutputSize, texture_from_exemplar};
 //! use geosynth::{fixtures, RunContext, Stage};
 //!
-//! let exemplar = fixtures::textures::bumpy(60.0, 1)?;
+//! let exemplar = fixtures::textures::bumpy(60.0, 1, 1)?;
 //! let texture = texture_from_exemplar(&exemplar)?;
 //! let stage = Quilt { params: QuiltParams::default().output(OutputSize::Scale(1.25)).field_resolution(20) };
 //! let out = stage.run(texture, &mut RunContext::new(3))?;

@@ -170,6 +170,34 @@ fn committed_fixtures_match_the_generators_bit_for_bit() {
 }
 
 #[test]
+fn a_texture_sampled_anew_keeps_its_surface() {
+    use geosynth::fixtures::textures;
+    use geosynth::mls::{MlsParams, MlsSurface};
+    let original = textures::bumpy(textures::TEXTURE_DENSITY, 1, 1).unwrap();
+    let anew = textures::bumpy(textures::TEXTURE_DENSITY, 1, 2).unwrap();
+    let other_geometry = textures::bumpy(textures::TEXTURE_DENSITY, 2, 2).unwrap();
+    assert_eq!(anew.points.len(), original.points.len());
+    assert_eq!(anew.bounds.min.truncate(), original.bounds.min.truncate());
+    assert_ne!(anew.points.positions(), original.points.positions());
+    let surface = MlsSurface::new(&original.points, &MlsParams::default()).unwrap();
+    // Median distance of the points to the original's surface (much of the texture is the
+    // flat base, where other geometry coincides too; its bumps are up to 0.6 high); points
+    // the MLS surface cannot project (its holes) are left out.
+    let median_distance = |t: &textures::TextureExemplar| {
+        let mut d: Vec<f32> = t
+            .points
+            .positions()
+            .iter()
+            .filter_map(|p| surface.signed_distance(*p).map(f32::abs))
+            .collect();
+        d.sort_by(f32::total_cmp);
+        d[d.len() / 2]
+    };
+    let (same, other) = (median_distance(&anew), median_distance(&other_geometry));
+    assert!(same < 0.002 && other > 0.01, "{same} vs {other}");
+}
+
+#[test]
 fn fixture_meshes_are_closed_and_outward() {
     for mesh in [
         fixtures::icosphere_mesh(3).unwrap(),

@@ -22,6 +22,11 @@ pub struct FixturesArgs {
     /// committed ones use 300; about 700 gives the paper's 70k-point chain mail).
     #[arg(long)]
     texture_density: Option<f32>,
+    /// With `--texture-density`: seed of the sample positions (default: `--seed`, as
+    /// committed). Another value samples the same surfaces anew, a control for measures
+    /// that should not depend on where the samples fall.
+    #[arg(long, requires = "texture_density")]
+    sampling_seed: Option<u64>,
 }
 
 /// Runs `geosynth fixtures`.
@@ -30,7 +35,8 @@ pub fn run(args: &FixturesArgs, globals: Globals) -> CliResult {
         if !(density.is_finite() && density > 0.0 && density <= 1e5) {
             return Err(format!("--texture-density must be in (0, 100000], not {density}").into());
         }
-        for path in fixtures::write_textures(&args.out, args.seed, density)? {
+        let sampling_seed = args.sampling_seed.unwrap_or(args.seed);
+        for path in fixtures::write_textures(&args.out, args.seed, sampling_seed, density)? {
             status(globals, format!("wrote {}", path.display()));
         }
         return Ok(());
