@@ -4,8 +4,14 @@
 //! compare methods on.
 //!
 //! ```text
-//! cargo run --release --example quilt_study -- [--seeds N] [--windows W] FIXTURE.ply...
+//! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR] FIXTURE.ply...
 //! ```
+//!
+//! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
+//! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
+//! search-only's own layout from the resampled exemplar: the same surfaces with other
+//! samples, measured against the original. It shows how much of the measure depends on the
+//! sampling rather than on the geometry.
 //!
 //! Each fixture gets the pairing weights of its Table 1 row, chosen from the file name
 //! (`chain_mail`, `weave`, `flowers`; anything else: the height-field row), and otherwise the
@@ -16,21 +22,25 @@ use std::error::Error;
 use std::path::{Path, PathBuf};
 
 use geosynth::core::RunContext;
-use geosynth::quilt::{Method, QualityReport, QuiltParams, evaluate, quilt, read_texture};
+use geosynth::quilt::{
+    GeometryTexture, Method, QualityReport, QuiltParams, evaluate, quilt, read_texture,
+};
 use geosynth::tps::{PairingParams, Table1Preset};
 
-/// The four runs compared for every seed.
-const RUNS: [&str; 4] = [
+/// The runs compared for every seed (the last only with `--resampled`).
+const RUNS: [&str; 5] = [
     "full",
     "search only",
     "random placement",
     "full's layout, pasted",
+    "search only's layout, resampled exemplar",
 ];
 
 /// Command-line settings.
 struct Study {
     seeds: u64,
     windows: usize,
+    resampled: Option<PathBuf>,
     fixtures: Vec<PathBuf>,
 }
 
@@ -38,6 +48,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
     let mut study = Study {
         seeds: 8,
         windows: 128,
+        resampled: None,
         fixtures: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
@@ -47,11 +58,17 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "--windows" => {
                 study.windows = args.next().ok_or("--windows needs a number")?.parse()?;
             }
+            "--resampled" => {
+                study.resampled = Some(args.next().ok_or("--resampled needs a folder")?.into());
+            }
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
     if study.fixtures.is_empty() || study.seeds == 0 || study.windows == 0 {
-        return Err("usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] FIXTURE.ply...".into());
+        return Err(
+            "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] FIXTURE.ply..."
+                .into(),
+        );
     }
     Ok(study)
 }
@@ -73,22 +90,29 @@ fn preset_for(path: &Path) -> Table1Preset {
     }
 }
 
-/// The four reports of one seed, in the order of [`RUNS`].
+/// The reports of one seed, in the order of [`RUNS`]; the last only with `resampled`.
 fn one_seed(
-    texture: &geosynth::quilt::GeometryTexture,
+    texture: &GeometryTexture,
+    resampled: Option<&GeometryTexture>,
     params: &QuiltParams,
     windows: usize,
-) -> Result<[QualityReport; 4], Box<dyn Error>> {
-    let run = |p: &QuiltParams| -> Result<_, Box<dyn Error>> {
-        let out = quilt(texture, p, &mut RunContext::new(p.seed))?;
+) -> Result<Vec<QualityReport>, Box<dyn Error>> {
+    // Quilts `source` and measures the result against `texture`.
+    let run = |source: &GeometryTexture, p: &QuiltParams| -> Result<_, Box<dyn Error>> {
+        let out = quilt(source, p, &mut RunContext::new(p.seed))?;
         let report = evaluate(texture, &out, p, windows)?;
         Ok((out, report))
     };
-    let (full, full_report) = run(params)?;
-    let (_, search) = run(&params.clone().method(Method::SearchOnly))?;
-    let (_, random) = run(&params.clone().method(Method::RandomPlacement))?;
-    let (_, control) = run(&params.same_layout_control(&full))?;
-    Ok([full_report, search, random, control])
+    let (full, full_report) = run(texture, params)?;
+    let (search, search_report) = run(texture, &params.clone().method(Method::SearchOnly))?;
+    let (_, random) = run(texture, &params.clone().method(Method::RandomPlacement))?;
+    let (_, control) = run(texture, &params.same_layout_control(&full))?;
+    let mut reports = vec![full_report, search_report, random, control];
+    if let Some(other) = resampled {
+        let (_, anew) = run(other, &params.same_layout_control(&search))?;
+        reports.push(anew);
+    }
+    Ok(reports)
 }
 
 fn main() -> Result<(), Box<dyn Error>> {
@@ -99,22 +123,29 @@ fn main() -> Result<(), Box<dyn Error>> {
     );
     for path in &study.fixtures {
         let texture = read_texture(path)?;
-        let mut sums = [[0.0f64; 3]; 4];
+        let resampled = match (&study.resampled, path.file_name()) {
+            (Some(dir), Some(name)) => Some(read_texture(&dir.join(name))?),
+            _ => None,
+        };
+        let mut sums = [[0.0f64; 3]; RUNS.len()];
         for seed in 1..=study.seeds {
             let params = QuiltParams::default()
                 .seed(seed)
                 .pairing(PairingParams::table1(preset_for(path)));
-            for (sum, q) in sums
-                .iter_mut()
-                .zip(one_seed(&texture, &params, study.windows)?)
-            {
+            for (sum, q) in sums.iter_mut().zip(one_seed(
+                &texture,
+                resampled.as_ref(),
+                &params,
+                study.windows,
+            )?) {
                 sum[0] += f64::from(q.neighbourhood_error);
                 sum[1] += f64::from(q.seam_error);
                 sum[2] += f64::from(q.interior_error);
             }
         }
         let k = study.seeds as f64;
-        for (name, sum) in RUNS.iter().zip(sums) {
+        let shown = if resampled.is_some() { 5 } else { 4 };
+        for (name, sum) in RUNS.iter().zip(sums).take(shown) {
             println!(
                 "{} | {name} | {:.4} / {:.4} / {:.4}",
                 path.display(),
