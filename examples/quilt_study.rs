@@ -4,8 +4,12 @@
 //! compare methods on.
 //!
 //! ```text
-//! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR] FIXTURE.ply...
+//! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
+//!     [--surface-gap] FIXTURE.ply...
 //! ```
+//!
+//! `--surface-gap` runs the full method (and so its same-layout control) with
+//! [`WarpTargets::SurfaceGap`] instead of the paper's exact targets.
 //!
 //! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
 //! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
@@ -23,7 +27,7 @@ use std::path::{Path, PathBuf};
 
 use geosynth::core::RunContext;
 use geosynth::quilt::{
-    GeometryTexture, Method, QualityReport, QuiltParams, evaluate, quilt, read_texture,
+    GeometryTexture, Method, QualityReport, QuiltParams, WarpTargets, evaluate, quilt, read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -41,6 +45,7 @@ struct Study {
     seeds: u64,
     windows: usize,
     resampled: Option<PathBuf>,
+    warp_targets: WarpTargets,
     fixtures: Vec<PathBuf>,
 }
 
@@ -49,6 +54,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         seeds: 8,
         windows: 128,
         resampled: None,
+        warp_targets: WarpTargets::Exact,
         fixtures: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
@@ -61,12 +67,14 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "--resampled" => {
                 study.resampled = Some(args.next().ok_or("--resampled needs a folder")?.into());
             }
+            "--surface-gap" => study.warp_targets = WarpTargets::SurfaceGap,
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
     if study.fixtures.is_empty() || study.seeds == 0 || study.windows == 0 {
         return Err(
-            "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] FIXTURE.ply..."
+            "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
+             [--surface-gap] FIXTURE.ply..."
                 .into(),
         );
     }
@@ -118,8 +126,9 @@ fn one_seed(
 fn main() -> Result<(), Box<dyn Error>> {
     let study = parse()?;
     println!(
-        "seeds 1..={}, {} windows per class; neighbourhood / seam / interior error (mean over seeds)",
-        study.seeds, study.windows
+        "seeds 1..={}, {} windows per class, warp targets {:?}; neighbourhood / seam / interior \
+         error (mean over seeds)",
+        study.seeds, study.windows, study.warp_targets
     );
     for path in &study.fixtures {
         let texture = read_texture(path)?;
@@ -131,7 +140,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         for seed in 1..=study.seeds {
             let params = QuiltParams::default()
                 .seed(seed)
-                .pairing(PairingParams::table1(preset_for(path)));
+                .pairing(PairingParams::table1(preset_for(path)))
+                .warp_targets(study.warp_targets);
             for (sum, q) in sums.iter_mut().zip(one_seed(
                 &texture,
                 resampled.as_ref(),

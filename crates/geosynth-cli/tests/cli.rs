@@ -516,8 +516,10 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         assert!(stages.contains(&s), "{s} in {stages:?}");
     }
     assert!(image::open(&preview).is_ok());
-    // The output keeps its box in the comments and can be quilted again.
+    // The output keeps its box in the comments and can be quilted again, here with the
+    // surface-gap warp targets.
     let again = dir.path().join("q2.ply");
+    let again_report = dir.path().join("q2.json");
     ok(&[
         "quilt",
         out.to_str().unwrap(),
@@ -527,8 +529,20 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         "1.1",
         "--resolution",
         "20",
+        "--warp-targets",
+        "surface-gap",
+        "--report",
+        again_report.to_str().unwrap(),
         "-q",
     ]);
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&again_report).unwrap()).unwrap();
+    assert!(r["run"]["dropped_pairs"].is_u64(), "{}", r["run"]);
+    assert!(
+        r["run"]["warps_skipped"].as_u64().unwrap() + 1 < r["run"]["patches"].as_u64().unwrap(),
+        "{}",
+        r["run"]
+    );
     // An output too narrow for a quality window is still written; the report says why it
     // has no quality figures.
     let narrow = dir.path().join("narrow.ply");

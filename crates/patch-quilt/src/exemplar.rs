@@ -8,6 +8,7 @@ use pointset_core::{Aabb, BucketGrid};
 use crate::error::{QuiltError, Result};
 use crate::params::QuiltParams;
 use crate::texture::GeometryTexture;
+use crate::warp::foot_offsets;
 
 /// Patch geometry in field nodes: patch `np`, overlap `no`, extra region `ne`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,6 +43,10 @@ pub(crate) struct Exemplar {
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub variation: Vec<f32>,
+    /// Signed offset along each sample's normal from the sample to its foot point on
+    /// [`Self::surface`] (0 where it cannot be projected): the warp's
+    /// [`crate::WarpTargets::SurfaceGap`] measures gaps from the foot points.
+    pub foot_offset: Vec<f32>,
     bins: BucketGrid<u32>,
     pub field: SdfGrid,
     pub spec: GridSpec,
@@ -67,6 +72,7 @@ impl Exemplar {
         let bounds = texture.canonical_bounds();
         let surface = MlsSurface::new(set, &MlsParams::default())?;
         let variation = surface_variation(surface.index(), 12)?;
+        let foot_offset = foot_offsets(&surface, &points, &normals);
         let ext = bounds.extent();
         let spacing = ext.x.max(ext.y) / (params.field_resolution - 1) as f32;
         let dims = [
@@ -138,6 +144,7 @@ impl Exemplar {
             points,
             normals,
             variation,
+            foot_offset,
             bins,
             field,
             spec,

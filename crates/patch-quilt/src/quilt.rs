@@ -14,7 +14,7 @@ use crate::exemplar::{Exemplar, PatchGeometry};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
-use crate::warp::{Neighbourhood, WarpCounts, warp_patch};
+use crate::warp::{Neighbourhood, SourceAttributes, WarpCounts, warp_patch};
 
 /// Where one patch went and how it was chosen.
 #[derive(Debug, Clone, PartialEq)]
@@ -324,6 +324,7 @@ pub fn quilt(
             let mut f_points: Vec<Vec3> = idx.iter().map(|&i| ex.points[i] + shift).collect();
             let mut f_normals: Vec<Vec3> = idx.iter().map(|&i| ex.normals[i]).collect();
             let f_variation: Vec<f32> = idx.iter().map(|&i| ex.variation[i]).collect();
+            let f_foot: Vec<f32> = idx.iter().map(|&i| ex.foot_offset[i]).collect();
             ctx.record_timing("other", t.elapsed());
 
             // Steps 4–5.
@@ -337,12 +338,15 @@ pub fn quilt(
                 let neighbourhood = Neighbourhood {
                     points: &n_points,
                     normals: &n_normals,
-                    index: surface.index(),
+                    surface,
                 };
                 warp = warp_patch(
                     &mut f_points,
                     &mut f_normals,
-                    &f_variation,
+                    &SourceAttributes {
+                        variation: &f_variation,
+                        foot_offset: &f_foot,
+                    },
                     &neighbourhood,
                     &overlap,
                     (origin, far),

@@ -2,8 +2,8 @@
 //! driven by the automatic pairing (paper 000 §5.2).
 
 use glam::{Vec2, Vec3};
-use mls_surface::{ClusterParams, Covariance, adaptive_clusters};
-use pointset_core::{Aabb, KdIndex};
+use mls_surface::{ClusterParams, Covariance, MlsSurface, adaptive_clusters};
+use pointset_core::Aabb;
 use tps_warp::{
     PairingParams, PairingPoint, ThinPlateSpline, TpsParams, anchors_in_regions, pair_points,
 };
@@ -11,12 +11,21 @@ use tps_warp::{
 use crate::blend::Overlap;
 use crate::params::WarpTargets;
 
-/// The neighbourhood `N_k` as oriented points, with a spatial index for the surface
-/// variation of the few points that become targets.
+/// The neighbourhood `N_k` as oriented points and their MLS surface (whose spatial index
+/// gives the surface variation of the few points that become targets).
 pub(crate) struct Neighbourhood<'a> {
     pub points: &'a [Vec3],
     pub normals: &'a [Vec3],
-    pub index: &'a KdIndex,
+    pub surface: &'a MlsSurface,
+}
+
+/// Per-point attributes of the source set `S` (the extended, translated `F_k`), carried
+/// over from the exemplar.
+pub(crate) struct SourceAttributes<'a> {
+    /// Surface variation.
+    pub variation: &'a [f32],
+    /// Signed offset along the normal to the point's foot on the exemplar's MLS surface.
+    pub foot_offset: &'a [f32],
 }
 
 /// Neighbours used for surface variation (as for the exemplar's points).
@@ -25,7 +34,8 @@ const VARIATION_NEIGHBOURS: usize = 12;
 impl Neighbourhood<'_> {
     /// Surface variation of point `i` over its 12 nearest neighbours in `N_k`.
     fn variation(&self, i: usize) -> f32 {
-        self.index
+        self.surface
+            .index()
             .nearest(self.points[i], VARIATION_NEIGHBOURS)
             .ok()
             .and_then(|nn| Covariance::of(self.points, nn.iter().map(|n| n.index)))
@@ -38,6 +48,9 @@ impl Neighbourhood<'_> {
 pub struct WarpCounts {
     /// Pairs used (anchors not included).
     pub pairs: usize,
+    /// Pairs of the pairing dropped because `N_k` has no surface within the pair distance
+    /// limit along the source's normal ([`WarpTargets::SurfaceGap`] only).
+    pub dropped_pairs: usize,
     /// Anchor points mapped to themselves.
     pub anchors: usize,
     /// Targets `|Q|`.
@@ -66,7 +79,7 @@ pub struct WarpCounts {
 pub(crate) fn warp_patch(
     points: &mut [Vec3],
     normals: &mut [Vec3],
-    variation: &[f32],
+    source: &SourceAttributes<'_>,
     neighbourhood: &Neighbourhood<'_>,
     overlap: &Overlap,
     footprint: (Vec2, Vec2),
@@ -105,7 +118,7 @@ pub(crate) fn warp_patch(
         .map(|i| PairingPoint {
             position: points[i],
             normal: normals[i],
-            variation: variation[i],
+            variation: source.variation[i],
         })
         .collect();
     let (lo, hi) = footprint;
@@ -135,28 +148,38 @@ pub(crate) fn warp_patch(
     if q.len() < 4 {
         return counts;
     }
+    let limit = pairing.max_distance;
     let Ok(pairing) = pair_points(&s, &q, pairing) else {
         return counts;
     };
-    counts.pairs = pairing.pairs.len();
     counts.cost = pairing.cost;
+    let mut from = Vec::with_capacity(pairing.pairs.len() + anchors.len());
+    let mut to = Vec::with_capacity(pairing.pairs.len() + anchors.len());
+    for pair in &pairing.pairs {
+        let (s_k, q_k) = (&s[pair.source], &q[pair.target]);
+        let target = match targets {
+            WarpTargets::Exact => Some(q_k.position),
+            WarpTargets::SurfaceGap => surface_gap(
+                neighbourhood.surface,
+                s_k.position,
+                s_k.normal,
+                source.foot_offset[pair.source],
+                limit,
+            )
+            .map(|gap| s_k.position + gap),
+        };
+        match target {
+            Some(t) => {
+                from.push(s_k.position);
+                to.push(t);
+            }
+            None => counts.dropped_pairs += 1,
+        }
+    }
+    counts.pairs = from.len();
     if counts.pairs < 4 {
         return counts;
     }
-    let mut from: Vec<Vec3> = pairing.pairs.iter().map(|p| s[p.source].position).collect();
-    let mut to: Vec<Vec3> = pairing
-        .pairs
-        .iter()
-        .map(|p| {
-            let (source, target) = (s[p.source].position, q[p.target]);
-            match targets {
-                WarpTargets::Exact => target.position,
-                WarpTargets::NormalOffset => {
-                    source + (target.position - source).dot(target.normal) * target.normal
-                }
-            }
-        })
-        .collect();
     counts.mean_pair_length = from
         .iter()
         .zip(&to)
@@ -169,8 +192,7 @@ pub(crate) fn warp_patch(
     else {
         return counts;
     };
-    let fitted = spline;
-    let (moved, turned) = fitted.warp(points, Some(normals));
+    let (moved, turned) = spline.warp(points, Some(normals));
     if moved.iter().any(|p| !p.is_finite()) {
         return counts;
     }
@@ -187,4 +209,181 @@ pub(crate) fn warp_patch(
     }
     counts.skipped = false;
     counts
+}
+
+/// Signed offset along each point's normal from the point to its foot on `surface` (0 where
+/// it cannot be projected): the foot points [`WarpTargets::SurfaceGap`] measures gaps from.
+pub(crate) fn foot_offsets(surface: &MlsSurface, points: &[Vec3], normals: &[Vec3]) -> Vec<f32> {
+    surface
+        .project_all(points)
+        .iter()
+        .zip(points.iter().zip(normals))
+        .map(|(f, (p, n))| f.map_or(0.0, |f| (f.point - *p).dot(*n)))
+        .collect()
+}
+
+/// The gap [`WarpTargets::SurfaceGap`] closes at source point `s` (normal `n`, foot point
+/// `s + foot_offset · n` on the exemplar's MLS surface): from the foot point to the closer
+/// hit of the two rays along `±n` on the neighbourhood's surface, else to its projection.
+/// `None` when there is no such point or it lies farther than `limit`.
+fn surface_gap(
+    neighbourhood: &MlsSurface,
+    s: Vec3,
+    n: Vec3,
+    foot_offset: f32,
+    limit: f32,
+) -> Option<Vec3> {
+    let foot = s + foot_offset * n;
+    let hit = neighbourhood.snap_along_normal(foot, n)?;
+    let gap = hit.point - foot;
+    (gap.length() <= limit).then_some(gap)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mls_surface::{MlsParams, surface_variation};
+    use pointset_core::{PointSet, rng};
+    use rand::RngExt;
+
+    /// The wavy height field `z = 0.05 sin(6x) cos(5y)` with its unit normal.
+    fn wave(x: f32, y: f32) -> (Vec3, Vec3) {
+        let z = 0.05 * (6.0 * x).sin() * (5.0 * y).cos();
+        let dzdx = 0.3 * (6.0 * x).cos() * (5.0 * y).cos();
+        let dzdy = -0.25 * (6.0 * x).sin() * (5.0 * y).sin();
+        (Vec3::new(x, y, z), Vec3::new(-dzdx, -dzdy, 1.0).normalize())
+    }
+
+    /// 6000 samples of the wave over `[-0.5, 2.5]²`, uniformly at random, lifted by `lift`.
+    fn sampled(seed: u64, lift: f32) -> (Vec<Vec3>, Vec<Vec3>) {
+        let mut r = rng::rng_from_seed(seed);
+        (0..6000)
+            .map(|_| {
+                let (p, n) = wave(r.random_range(-0.5..2.5), r.random_range(-0.5..2.5));
+                (p + Vec3::Z * lift, n)
+            })
+            .unzip()
+    }
+
+    /// Warps a patch sampled with `seed` and lifted by `lift` onto the neighbourhood
+    /// sampled with seed 1; returns the points before and after, and the counts.
+    fn warp_wave(seed: u64, lift: f32, targets: WarpTargets) -> (Vec<Vec3>, Vec<Vec3>, WarpCounts) {
+        let mls = MlsParams::default();
+        let (n_points, n_normals) = sampled(1, 0.0);
+        let n_set = PointSet::new(n_points.clone())
+            .and_then(|s| s.with_normals(n_normals.clone()))
+            .unwrap();
+        let n_surface = MlsSurface::new(&n_set, &mls).unwrap();
+        let (before, mut normals) = sampled(seed, lift);
+        let f_set = PointSet::new(before.clone())
+            .and_then(|s| s.with_normals(normals.clone()))
+            .unwrap();
+        let f_surface = MlsSurface::new(&f_set, &mls).unwrap();
+        let variation = surface_variation(f_surface.index(), 12).unwrap();
+        let foot_offset = foot_offsets(&f_surface, &before, &normals);
+        let overlap = Overlap {
+            origin: Vec2::ZERO,
+            width: 0.3,
+            patch: 1.5,
+            left: true,
+            bottom: true,
+        };
+        let mut points = before.clone();
+        let counts = warp_patch(
+            &mut points,
+            &mut normals,
+            &SourceAttributes {
+                variation: &variation,
+                foot_offset: &foot_offset,
+            },
+            &Neighbourhood {
+                points: &n_points,
+                normals: &n_normals,
+                surface: &n_surface,
+            },
+            &overlap,
+            (Vec2::ZERO, Vec2::splat(2.0)),
+            0.45,
+            &ClusterParams::default().max_points(12).max_variation(0.1),
+            &PairingParams::default().max_distance(0.06),
+            4,
+            targets,
+            0.0,
+        );
+        (before, points, counts)
+    }
+
+    fn mean_shift_in_overlap(before: &[Vec3], after: &[Vec3]) -> Vec3 {
+        let inside: Vec<Vec3> = before
+            .iter()
+            .zip(after)
+            .filter(|(b, _)| {
+                let q = b.truncate();
+                q.min_element() >= 0.0 && q.max_element() <= 1.5 && q.min_element() <= 0.3
+            })
+            .map(|(b, a)| *a - *b)
+            .collect();
+        inside.iter().sum::<Vec3>() / inside.len() as f32
+    }
+
+    fn mean_distance(before: &[Vec3], after: &[Vec3]) -> f32 {
+        before
+            .iter()
+            .zip(after)
+            .map(|(b, a)| a.distance(*b))
+            .sum::<f32>()
+            / before.len() as f32
+    }
+
+    #[test]
+    fn surface_gap_targets_leave_a_resampled_copy_of_the_neighbourhood_nearly_in_place() {
+        // The patch is the neighbourhood's surface sampled anew: nothing to correct. Exact
+        // targets drag every paired sample onto another random sample; surface gaps do not.
+        let (before, exact, counts) = warp_wave(2, 0.0, WarpTargets::Exact);
+        assert!(!counts.skipped && counts.pairs >= 20, "{counts:?}");
+        let (_, gap, counts) = warp_wave(2, 0.0, WarpTargets::SurfaceGap);
+        assert!(!counts.skipped && counts.pairs >= 20, "{counts:?}");
+        let (moved_exact, moved_gap) =
+            (mean_distance(&before, &exact), mean_distance(&before, &gap));
+        assert!(
+            moved_gap < 0.25 * moved_exact,
+            "surface gap moved {moved_gap}, exact {moved_exact}"
+        );
+        assert!(counts.mean_pair_length < 0.003, "{counts:?}");
+    }
+
+    #[test]
+    fn surface_gap_targets_close_a_lifted_patch_onto_the_neighbourhood() {
+        let lift = 0.02;
+        let (before, after, counts) = warp_wave(2, lift, WarpTargets::SurfaceGap);
+        assert!(!counts.skipped && counts.pairs >= 20, "{counts:?}");
+        assert!(
+            (counts.mean_pair_length - lift).abs() < 0.2 * lift,
+            "{counts:?}"
+        );
+        let shift = mean_shift_in_overlap(&before, &after);
+        assert!(
+            (shift.z + lift).abs() < 0.3 * lift && shift.truncate().length() < 0.2 * lift,
+            "mean shift in the overlap {shift}"
+        );
+    }
+
+    #[test]
+    fn a_surface_gap_runs_from_the_foot_point_and_respects_the_limit() {
+        let (points, normals) = sampled(1, 0.0);
+        let set = PointSet::new(points)
+            .and_then(|s| s.with_normals(normals))
+            .unwrap();
+        let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
+        let (on, n) = wave(1.0, 1.0);
+        // 0.03 above the surface, foot point on it: the gap is the way back down.
+        let gap = surface_gap(&surface, on + 0.03 * n, n, -0.03, 0.1).unwrap();
+        assert!(gap.length() < 2e-3, "{gap}");
+        // Foot point taken as the sample itself: the gap is the whole 0.03.
+        let gap = surface_gap(&surface, on + 0.03 * n, n, 0.0, 0.1).unwrap();
+        assert!((gap + 0.03 * n).length() < 3e-3, "{gap}");
+        assert!(surface_gap(&surface, on + 0.03 * n, n, 0.0, 0.02).is_none());
+        // Nothing of the surface near: no gap.
+        assert!(surface_gap(&surface, Vec3::new(9.0, 9.0, 0.0), Vec3::Z, 0.0, 1.0).is_none());
+    }
 }

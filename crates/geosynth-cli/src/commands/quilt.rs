@@ -39,6 +39,25 @@ impl From<MethodArg> for Method {
     }
 }
 
+/// Where the warp sends paired points.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum WarpTargetsArg {
+    /// Onto the paired neighbourhood point exactly (paper 000 §5.2; default).
+    Exact,
+    /// By the gap between the exemplar's and the neighbourhood's surfaces at the source:
+    /// better on thin tubes (chain mail, weave), worse on flowers (docs/patch-quilt.md).
+    SurfaceGap,
+}
+
+impl From<WarpTargetsArg> for WarpTargets {
+    fn from(t: WarpTargetsArg) -> Self {
+        match t {
+            WarpTargetsArg::Exact => WarpTargets::Exact,
+            WarpTargetsArg::SurfaceGap => WarpTargets::SurfaceGap,
+        }
+    }
+}
+
 /// Table 1 weight presets.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum PresetArg {
@@ -91,10 +110,9 @@ pub struct QuiltArgs {
     /// Largest pair length of the warp, in distance-field spacings.
     #[arg(long, default_value_t = 0.5)]
     pair_distance: f32,
-    /// Warp paired points by the normal component of their offset only (not in the paper;
-    /// see docs/patch-quilt.md).
-    #[arg(long)]
-    normal_offsets: bool,
+    /// Where the warp sends paired points.
+    #[arg(long, value_enum, default_value_t = WarpTargetsArg::Exact)]
+    warp_targets: WarpTargetsArg,
     /// Smoothing λ of the warp's spline, relative to the patch size (0 = interpolate).
     #[arg(long, default_value_t = 0.0)]
     smoothing: f32,
@@ -218,6 +236,7 @@ pub fn run_json(run: &MeasuredRun) -> Value {
         "mean_candidates": s.mean_candidates,
         "mean_pairs": s.mean_pairs,
         "warps_skipped": s.warps_skipped,
+        "dropped_pairs": run.output.placements.iter().map(|p| p.warp.dropped_pairs).sum::<usize>(),
         "warp_displacement": {
             "mean": mean(run.output.placements.iter().filter(|p| !p.warp.skipped).map(|p| p.warp.mean_displacement)),
             "max": run.output.placements.iter().map(|p| p.warp.max_displacement).fold(0.0f32, f32::max),
@@ -283,10 +302,8 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         .relaxation_rounds(args.relax)
         .pair_distance(args.pair_distance)
         .smoothing(args.smoothing)
-        .blend_reach(args.blend_reach);
-    if args.normal_offsets {
-        params = params.warp_targets(WarpTargets::NormalOffset);
-    }
+        .blend_reach(args.blend_reach)
+        .warp_targets(args.warp_targets.into());
     if let Some(p) = args.preset {
         let preset = match p {
             PresetArg::Heightfield => Table1Preset::HeightField,
