@@ -6,7 +6,7 @@ use mls_surface::{MlsParams, MlsSurface, surface_variation};
 use pointset_core::{Aabb, BucketGrid};
 
 use crate::error::{QuiltError, Result};
-use crate::params::QuiltParams;
+use crate::params::{Method, QuiltParams, WarpTargets};
 use crate::texture::GeometryTexture;
 use crate::warp::foot_offsets;
 
@@ -45,7 +45,8 @@ pub(crate) struct Exemplar {
     pub variation: Vec<f32>,
     /// Signed offset along each sample's normal from the sample to its foot point on
     /// [`Self::surface`] (0 where it cannot be projected): the warp's
-    /// [`crate::WarpTargets::SurfaceGap`] measures gaps from the foot points.
+    /// [`WarpTargets::SurfaceGap`] measures gaps from the foot points. Computed only for
+    /// that warp (all 0 otherwise, where nothing reads them).
     pub foot_offset: Vec<f32>,
     bins: BucketGrid<u32>,
     pub field: SdfGrid,
@@ -72,7 +73,12 @@ impl Exemplar {
         let bounds = texture.canonical_bounds();
         let surface = MlsSurface::new(set, &MlsParams::default())?;
         let variation = surface_variation(surface.index(), 12)?;
-        let foot_offset = foot_offsets(&surface, &points, &normals);
+        let foot_offset =
+            if params.method == Method::Full && params.warp_targets == WarpTargets::SurfaceGap {
+                foot_offsets(&surface, &points, &normals)
+            } else {
+                vec![0.0; points.len()]
+            };
         let ext = bounds.extent();
         let spacing = ext.x.max(ext.y) / (params.field_resolution - 1) as f32;
         let dims = [
