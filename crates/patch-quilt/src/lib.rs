@@ -69,6 +69,11 @@
 //!   only, so the corners beyond their ends are free).
 //! - The first patch of each later row overlaps only the row below; the first row only its
 //!   left neighbour.
+//! - Each paired source goes onto its target `q` ([`WarpTargets::Exact`], the default). The
+//!   option [`WarpTargets::SurfaceGap`] (not in the paper) moves it instead by the gap
+//!   between the exemplar's and `N_k`'s MLS surfaces along its normal, which ignores the
+//!   tangential sampling offset between the two samples of a pair: lower error on thin
+//!   tubes, higher on the flowers (8-seed means in `docs/patch-quilt.md`).
 //!
 //! ## Baselines and the same-layout control
 //!
