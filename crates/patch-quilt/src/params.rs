@@ -38,7 +38,8 @@ pub enum WarpTargets {
     /// normal is dropped. Not in the paper. Measured over 8 seeds in `docs/patch-quilt.md`
     /// ("Surface-gap warp targets"): lower error than [`WarpTargets::Exact`] on the thin
     /// tubes of the chain mail and the weave, about equal on the bumpy height field, higher
-    /// on the flowers, whose petals need the tangential alignment exact targets give.
+    /// on the flowers (probably because sideways-shifted petals need the tangential moves
+    /// exact targets make; not shown).
     SurfaceGap,
 }
 
