@@ -84,6 +84,6 @@ pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
 pub use params::MlsParams;
 pub use pca::{Covariance, surface_variation};
-pub use ray::RayHit;
+pub use ray::{RayHit, Snap, SnapMethod};
 pub use relax::{RelaxParams, Relaxed, nearest_neighbour_spread, relax};
 pub use surface::{LocalFit, MlsSurface, Projection, median_spacing};

@@ -22,6 +22,25 @@ pub struct RayHit {
     pub normal: Vec3,
 }
 
+/// How [`MlsSurface::snap`] found its surface point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SnapMethod {
+    /// The closer hit of the two rays along `±n`.
+    Ray,
+    /// Neither ray hit within the kernel support: the projection.
+    Projection,
+}
+
+/// A point snapped onto the surface by [`MlsSurface::snap`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Snap {
+    /// The surface point, its normal and the signed offset along `n` (0 iterations for a
+    /// ray hit).
+    pub projection: Projection,
+    /// Whether a ray or the projection found it.
+    pub method: SnapMethod,
+}
+
 impl MlsSurface {
     /// The first intersection of the ray `origin + t·direction`, `0 ≤ t ≤ max_t`, with the
     /// surface. `direction` need not be unit length (it is normalized); `None` when there is
@@ -88,6 +107,32 @@ impl MlsSurface {
     /// keeps the closer hit, and falls back to [`MlsSurface::project`] when neither ray hits.
     /// The returned signed distance is `p`'s offset from the hit along `n`.
     pub fn snap_along_normal(&self, p: Vec3, n: Vec3) -> Option<Projection> {
+        self.snap(p, n).map(|snap| snap.projection)
+    }
+
+    /// [`MlsSurface::snap_along_normal`], also telling whether a ray or the projection
+    /// found the point.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use mls_surface::{MlsParams, MlsSurface, SnapMethod};
+    /// use pointset_core::PointSet;
+    ///
+    /// let plane: Vec<Vec3> = (0..400)
+    ///     .map(|i| Vec3::new((i % 20) as f32 * 0.05, (i / 20) as f32 * 0.05, 0.0))
+    ///     .collect();
+    /// let set = PointSet::new(plane)?.with_normals(vec![Vec3::Z; 400])?;
+    /// let surface = MlsSurface::new(&set, &MlsParams::default())?;
+    /// let snap = surface.snap(Vec3::new(0.5, 0.5, 0.02), Vec3::Z).unwrap();
+    /// assert_eq!(snap.method, SnapMethod::Ray);
+    /// assert!(snap.projection.point.z.abs() < 1e-3);
+    /// // Rays along the plane never cross it: the projection finds the point instead.
+    /// let beside = surface.snap(Vec3::new(0.5, 0.5, 0.02), Vec3::X).unwrap();
+    /// assert_eq!(beside.method, SnapMethod::Projection);
+    /// assert!(beside.projection.point.z.abs() < 1e-3);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn snap(&self, p: Vec3, n: Vec3) -> Option<Snap> {
         let max_t = self.support_radius();
         let forward = self.intersect_ray(p, n, max_t);
         let backward = self.intersect_ray(p, -n, max_t);
@@ -98,14 +143,20 @@ impl MlsSurface {
             (None, None) => None,
         };
         match best {
-            Some((hit, sign)) => Some(Projection {
-                point: hit.point,
-                normal: hit.normal,
-                signed_distance: sign * hit.t,
-                iterations: 0,
-                converged: true,
+            Some((hit, sign)) => Some(Snap {
+                projection: Projection {
+                    point: hit.point,
+                    normal: hit.normal,
+                    signed_distance: sign * hit.t,
+                    iterations: 0,
+                    converged: true,
+                },
+                method: SnapMethod::Ray,
             }),
-            None => self.project(p),
+            None => self.project(p).map(|projection| Snap {
+                projection,
+                method: SnapMethod::Projection,
+            }),
         }
     }
 }

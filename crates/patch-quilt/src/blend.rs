@@ -2,7 +2,7 @@
 //! (paper 000 §5.3, Figure 3c).
 
 use glam::{Vec2, Vec3};
-use mls_surface::MlsSurface;
+use mls_surface::{MlsSurface, SnapMethod};
 use rayon::prelude::*;
 
 /// The overlap of one patch: which strips exist and where.
@@ -118,18 +118,13 @@ pub(crate) fn blend(
             if t <= 0.0 {
                 return None;
             }
-            let forward = neighbourhood.intersect_ray(p, n, neighbourhood.support_radius());
-            let backward = neighbourhood.intersect_ray(p, -n, neighbourhood.support_radius());
-            let hit = match (forward, backward) {
-                (Some(a), Some(b)) => Some(if a.t <= b.t { a } else { b }),
-                (a, b) => a.or(b),
+            let Some(snap) = neighbourhood.snap(p, n) else {
+                return Some((p, n, Outcome::Unmatched));
             };
-            let (target, target_normal, outcome) = match hit {
-                Some(h) => (h.point, h.normal, Outcome::Ray),
-                None => match neighbourhood.project(p) {
-                    Some(q) => (q.point, q.normal, Outcome::Projection),
-                    None => return Some((p, n, Outcome::Unmatched)),
-                },
+            let (target, target_normal) = (snap.projection.point, snap.projection.normal);
+            let outcome = match snap.method {
+                SnapMethod::Ray => Outcome::Ray,
+                SnapMethod::Projection => Outcome::Projection,
             };
             if target.distance(p) > reach {
                 return Some((p, n, Outcome::BeyondReach));
