@@ -20,7 +20,11 @@
 //! Each fixture gets the pairing weights of its Table 1 row, chosen from the file name
 //! (`chain_mail`, `weave`, `flowers`; anything else: the height-field row), and otherwise the
 //! default parameters (output twice the exemplar). Seeds run from 1 to N (default 8) with `W`
-//! windows per class (default 128). Prints neighbourhood / seam / interior error per method.
+//! windows per class (default 128). Prints neighbourhood / seam / interior error per method
+//! (means over the seeds), then the full method's paired difference from each other run,
+//! seed by seed, as mean ± standard error of the mean (neighbourhood / seam): the methods
+//! differ by less than the spread between seeds, so only a difference several standard
+//! errors from 0 ranks them.
 
 use std::error::Error;
 use std::path::{Path, PathBuf};
@@ -123,6 +127,18 @@ fn one_seed(
     Ok(reports)
 }
 
+/// Mean of `values` and its standard error (sample standard deviation / √n; 0 for fewer
+/// than two values).
+fn mean_and_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n.max(1.0);
+    if values.len() < 2 {
+        return (mean, 0.0);
+    }
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (variance / n).sqrt())
+}
+
 fn main() -> Result<(), Box<dyn Error>> {
     let study = parse()?;
     println!(
@@ -136,32 +152,45 @@ fn main() -> Result<(), Box<dyn Error>> {
             (Some(dir), Some(name)) => Some(read_texture(&dir.join(name))?),
             _ => None,
         };
-        let mut sums = [[0.0f64; 3]; RUNS.len()];
+        // errors[run][class] = one value per seed.
+        let mut errors = vec![[Vec::new(), Vec::new(), Vec::new()]; RUNS.len()];
         for seed in 1..=study.seeds {
             let params = QuiltParams::default()
                 .seed(seed)
                 .pairing(PairingParams::table1(preset_for(path)))
                 .warp_targets(study.warp_targets);
-            for (sum, q) in sums.iter_mut().zip(one_seed(
+            for (run, q) in errors.iter_mut().zip(one_seed(
                 &texture,
                 resampled.as_ref(),
                 &params,
                 study.windows,
             )?) {
-                sum[0] += f64::from(q.neighbourhood_error);
-                sum[1] += f64::from(q.seam_error);
-                sum[2] += f64::from(q.interior_error);
+                run[0].push(f64::from(q.neighbourhood_error));
+                run[1].push(f64::from(q.seam_error));
+                run[2].push(f64::from(q.interior_error));
             }
         }
-        let k = study.seeds as f64;
         let shown = if resampled.is_some() { 5 } else { 4 };
-        for (name, sum) in RUNS.iter().zip(sums).take(shown) {
+        for (name, run) in RUNS.iter().zip(&errors).take(shown) {
+            let [n, s, i] = [0, 1, 2].map(|class| mean_and_error(&run[class]).0);
+            println!("{} | {name} | {n:.4} / {s:.4} / {i:.4}", path.display());
+        }
+        for (name, run) in RUNS.iter().zip(&errors).take(shown).skip(1) {
+            let [n, s] = [0, 1].map(|class| {
+                let differences: Vec<f64> = errors[0][class]
+                    .iter()
+                    .zip(&run[class])
+                    .map(|(full, other)| full - other)
+                    .collect();
+                mean_and_error(&differences)
+            });
             println!(
-                "{} | {name} | {:.4} / {:.4} / {:.4}",
+                "{} | full − {name} | {:+.4} ± {:.4} / {:+.4} ± {:.4}",
                 path.display(),
-                sum[0] / k,
-                sum[1] / k,
-                sum[2] / k
+                n.0,
+                n.1,
+                s.0,
+                s.1
             );
         }
     }
