@@ -215,9 +215,16 @@ impl SdfGrid {
 }
 
 /// Gives every node still marked unknown `±band`, with the sign of its 6-connected region of
-/// unknown nodes (taken from the first known neighbour met in a breadth-first walk from the
-/// region's lowest index, or one unlimited surface query). Returns the number of nodes left
-/// undefined.
+/// unknown nodes: the majority sign of the known nodes bordering the region (each contact
+/// between a region node and a known neighbour counts once; a tie counts as outside), or
+/// one unlimited surface query when the region borders no known node. Returns the number of
+/// nodes left undefined.
+///
+/// Majority, not the first neighbour met: for a closed, consistently oriented surface every
+/// border node has the region's sign and the two agree. For open sheets (petals, a ground
+/// plane's rim) a few border nodes can carry the other side's sign. Taking the first one met
+/// then flipped the whole air above a quilted flower field to `−band` (search-only output,
+/// flowers fixture, seed 11: window errors above 1 for a verbatim copy).
 fn fill_far_signs(
     data: &mut [Vec4],
     spec: &GridSpec,
@@ -235,7 +242,7 @@ fn fill_far_signs(
         region.clear();
         region.push(seed);
         visited[seed] = true;
-        let mut sign: Option<f32> = None;
+        let (mut outside, mut inside) = (0usize, 0usize);
         let mut head = 0;
         while head < region.len() {
             let n = region[head];
@@ -252,8 +259,10 @@ fn fill_far_signs(
             for m in neighbours.into_iter().flatten() {
                 let d = data[m].x;
                 if d != UNKNOWN {
-                    if sign.is_none() && d != 0.0 {
-                        sign = Some(d.signum());
+                    if d > 0.0 {
+                        outside += 1;
+                    } else if d < 0.0 {
+                        inside += 1;
                     }
                 } else if !visited[m] {
                     visited[m] = true;
@@ -261,7 +270,8 @@ fn fill_far_signs(
                 }
             }
         }
-        let sign = sign.or_else(|| {
+        let majority = (outside + inside > 0).then_some(if inside > outside { -1.0 } else { 1.0 });
+        let sign = majority.or_else(|| {
             let (i, j, k) = (seed % nx, (seed / nx) % ny, seed / (nx * ny));
             surface
                 .signed_distance(spec.node(i, j, k))
@@ -275,4 +285,46 @@ fn fill_far_signs(
         }
     }
     undefined
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    /// A surface that answers nothing: the fill must rely on the known border nodes.
+    struct Silent;
+
+    impl Surface for Silent {
+        fn closest_point(&self, _: Vec3) -> Option<pointset_core::SurfacePoint> {
+            None
+        }
+    }
+
+    #[test]
+    fn a_far_region_takes_the_majority_sign_of_its_border() {
+        // A 3 × 3 × 1 slab: the centre is unknown, its four 6-connected neighbours are known,
+        // and only the first the walk meets (the left one) is inside.
+        let spec = GridSpec {
+            dims: [3, 3, 1],
+            origin: Vec3::ZERO,
+            spacing: 1.0,
+        };
+        let mut data = vec![Vec4::new(0.5, 0.0, 0.0, 1.0); 9];
+        data[3] = Vec4::new(-0.5, 0.0, 0.0, -1.0); // left of the centre: met first
+        data[4] = Vec4::new(UNKNOWN, 0.0, 0.0, 0.0);
+        let undefined = fill_far_signs(&mut data, &spec, 2.0, &Silent);
+        assert_eq!(undefined, 0);
+        assert_eq!(data[4].x, 2.0, "three outside contacts outvote one inside");
+        // All contacts inside: the region is inside.
+        let mut data = vec![Vec4::new(-0.5, 0.0, 0.0, -1.0); 9];
+        data[4] = Vec4::new(UNKNOWN, 0.0, 0.0, 0.0);
+        fill_far_signs(&mut data, &spec, 2.0, &Silent);
+        assert_eq!(data[4].x, -2.0);
+        // No known node and a silent surface: undefined, held at +band.
+        let mut data = vec![Vec4::new(UNKNOWN, 0.0, 0.0, 0.0); 9];
+        assert_eq!(fill_far_signs(&mut data, &spec, 2.0, &Silent), 9);
+        assert!(data.iter().all(|v| v.x == 2.0));
+    }
 }
