@@ -123,11 +123,15 @@ impl MlsSurface {
     ///     .collect();
     /// let set = PointSet::new(plane)?.with_normals(vec![Vec3::Z; 400])?;
     /// let surface = MlsSurface::new(&set, &MlsParams::default())?;
-    /// let snap = surface.snap(Vec3::new(0.5, 0.5, 0.02), Vec3::Z).unwrap();
+    /// let snap = surface
+    ///     .snap(Vec3::new(0.5, 0.5, 0.02), Vec3::Z)
+    ///     .ok_or("no surface near the point")?;
     /// assert_eq!(snap.method, SnapMethod::Ray);
     /// assert!(snap.projection.point.z.abs() < 1e-3);
     /// // Rays along the plane never cross it: the projection finds the point instead.
-    /// let beside = surface.snap(Vec3::new(0.5, 0.5, 0.02), Vec3::X).unwrap();
+    /// let beside = surface
+    ///     .snap(Vec3::new(0.5, 0.5, 0.02), Vec3::X)
+    ///     .ok_or("no surface near the point")?;
     /// assert_eq!(beside.method, SnapMethod::Projection);
     /// assert!(beside.projection.point.z.abs() < 1e-3);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
