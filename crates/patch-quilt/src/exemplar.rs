@@ -45,9 +45,9 @@ pub(crate) struct Exemplar {
     pub variation: Vec<f32>,
     /// Signed offset along each sample's normal from the sample to its foot point on
     /// [`Self::surface`] (0 where it cannot be projected): the warp's
-    /// [`WarpTargets::SurfaceGap`] measures gaps from the foot points. Computed only for
-    /// that warp (all 0 otherwise, where nothing reads them).
-    pub foot_offset: Vec<f32>,
+    /// [`WarpTargets::SurfaceGap`] measures gaps from the foot points. `Some` only for a
+    /// full run with that warp, the one reader.
+    pub foot_offset: Option<Vec<f32>>,
     bins: BucketGrid<u32>,
     pub field: SdfGrid,
     pub spec: GridSpec,
@@ -61,7 +61,18 @@ pub(crate) struct Exemplar {
 }
 
 impl Exemplar {
+    /// Everything a run with `params` needs, foot offsets included when its warp reads them.
     pub fn new(texture: &GeometryTexture, params: &QuiltParams) -> Result<Self> {
+        let feet = params.method == Method::Full && params.warp_targets == WarpTargets::SurfaceGap;
+        Self::build(texture, params, feet)
+    }
+
+    /// The same without foot offsets, for measuring a run's output against the exemplar.
+    pub fn for_measure(texture: &GeometryTexture, params: &QuiltParams) -> Result<Self> {
+        Self::build(texture, params, false)
+    }
+
+    fn build(texture: &GeometryTexture, params: &QuiltParams, feet: bool) -> Result<Self> {
         let set = texture.canonical_points();
         let points = set.positions().to_vec();
         let normals =
@@ -73,12 +84,7 @@ impl Exemplar {
         let bounds = texture.canonical_bounds();
         let surface = MlsSurface::new(set, &MlsParams::default())?;
         let variation = surface_variation(surface.index(), 12)?;
-        let foot_offset =
-            if params.method == Method::Full && params.warp_targets == WarpTargets::SurfaceGap {
-                foot_offsets(&surface, &points, &normals)
-            } else {
-                vec![0.0; points.len()]
-            };
+        let foot_offset = feet.then(|| foot_offsets(&surface, &points, &normals));
         let ext = bounds.extent();
         let spacing = ext.x.max(ext.y) / (params.field_resolution - 1) as f32;
         let dims = [

@@ -14,7 +14,7 @@ use crate::exemplar::{Exemplar, PatchGeometry};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
-use crate::warp::{Neighbourhood, SourceAttributes, WarpCounts, warp_patch};
+use crate::warp::{Neighbourhood, PairTargets, SourceAttributes, WarpCounts, warp_patch};
 
 /// Where one patch went and how it was chosen.
 #[derive(Debug, Clone, PartialEq)]
@@ -324,7 +324,10 @@ pub fn quilt(
             let mut f_points: Vec<Vec3> = idx.iter().map(|&i| ex.points[i] + shift).collect();
             let mut f_normals: Vec<Vec3> = idx.iter().map(|&i| ex.normals[i]).collect();
             let f_variation: Vec<f32> = idx.iter().map(|&i| ex.variation[i]).collect();
-            let f_foot: Vec<f32> = idx.iter().map(|&i| ex.foot_offset[i]).collect();
+            let f_foot: Option<Vec<f32>> = ex
+                .foot_offset
+                .as_ref()
+                .map(|feet| idx.iter().map(|&i| feet[i]).collect());
             ctx.record_timing("other", t.elapsed());
 
             // Steps 4–5.
@@ -345,7 +348,10 @@ pub fn quilt(
                     &mut f_normals,
                     &SourceAttributes {
                         variation: &f_variation,
-                        foot_offset: &f_foot,
+                        targets: match &f_foot {
+                            Some(foot_offset) => PairTargets::SurfaceGap { foot_offset },
+                            None => PairTargets::Exact,
+                        },
                     },
                     &neighbourhood,
                     &overlap,
@@ -354,7 +360,6 @@ pub fn quilt(
                     &params.clusters,
                     &pairing,
                     params.anchors_per_corner,
-                    params.warp_targets,
                     f64::from(params.smoothing * g.patch()),
                 );
                 ctx.record_timing("warp", t.elapsed());

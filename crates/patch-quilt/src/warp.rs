@@ -9,6 +9,7 @@ use tps_warp::{
 };
 
 use crate::blend::Overlap;
+#[cfg(doc)]
 use crate::params::WarpTargets;
 
 /// The neighbourhood `N_k` as oriented points and their MLS surface (whose spatial index
@@ -24,8 +25,22 @@ pub(crate) struct Neighbourhood<'a> {
 pub(crate) struct SourceAttributes<'a> {
     /// Surface variation.
     pub variation: &'a [f32],
-    /// Signed offset along the normal to the point's foot on the exemplar's MLS surface.
-    pub foot_offset: &'a [f32],
+    /// Where a paired source goes, with the per-point data that needs.
+    pub targets: PairTargets<'a>,
+}
+
+/// Where the spline maps a paired source `s`: the run's [`WarpTargets`] with the per-point
+/// data it needs.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum PairTargets<'a> {
+    /// Onto its partner `q` (the paper).
+    Exact,
+    /// By the gap from its foot point to the neighbourhood's surface.
+    SurfaceGap {
+        /// Per source: signed offset along the normal to its foot on the exemplar's MLS
+        /// surface.
+        foot_offset: &'a [f32],
+    },
 }
 
 /// Neighbours used for surface variation (as for the exemplar's points).
@@ -87,7 +102,6 @@ pub(crate) fn warp_patch(
     clusters: &ClusterParams,
     pairing: &PairingParams,
     anchors_per_corner: usize,
-    targets: WarpTargets,
     smoothing: f64,
 ) -> WarpCounts {
     let in_overlap: Vec<usize> = (0..neighbourhood.points.len())
@@ -157,13 +171,13 @@ pub(crate) fn warp_patch(
     let mut to = Vec::with_capacity(pairing.pairs.len() + anchors.len());
     for pair in &pairing.pairs {
         let (s_k, q_k) = (&s[pair.source], &q[pair.target]);
-        let target = match targets {
-            WarpTargets::Exact => Some(q_k.position),
-            WarpTargets::SurfaceGap => surface_gap(
+        let target = match source.targets {
+            PairTargets::Exact => Some(q_k.position),
+            PairTargets::SurfaceGap { foot_offset } => surface_gap(
                 neighbourhood.surface,
                 s_k.position,
                 s_k.normal,
-                source.foot_offset[pair.source],
+                foot_offset[pair.source],
                 limit,
             )
             .map(|gap| s_k.position + gap),
@@ -242,6 +256,7 @@ fn surface_gap(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::params::WarpTargets;
     use mls_surface::{MlsParams, surface_variation};
     use pointset_core::{PointSet, rng};
     use rand::RngExt;
@@ -294,7 +309,12 @@ mod tests {
             &mut normals,
             &SourceAttributes {
                 variation: &variation,
-                foot_offset: &foot_offset,
+                targets: match targets {
+                    WarpTargets::Exact => PairTargets::Exact,
+                    WarpTargets::SurfaceGap => PairTargets::SurfaceGap {
+                        foot_offset: &foot_offset,
+                    },
+                },
             },
             &Neighbourhood {
                 points: &n_points,
@@ -307,7 +327,6 @@ mod tests {
             &ClusterParams::default().max_points(12).max_variation(0.1),
             &PairingParams::default().max_distance(0.06),
             4,
-            targets,
             0.0,
         );
         (before, points, counts)

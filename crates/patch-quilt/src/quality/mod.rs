@@ -129,7 +129,7 @@ pub fn evaluate(
     if windows == 0 {
         return Err(invalid("windows", 0, "at least 1 window per class"));
     }
-    let ex = Exemplar::new(texture, params)?;
+    let ex = Exemplar::for_measure(texture, params)?;
     let g = ex.geometry;
     let up = texture.up();
     let pts: Vec<Vec3> = output
