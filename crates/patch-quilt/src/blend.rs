@@ -78,6 +78,7 @@ enum Outcome {
     Projection,
     Unmatched,
     BeyondReach,
+    FacingAway,
 }
 
 /// Counts of what blending did.
@@ -94,6 +95,10 @@ pub struct BlendCounts {
     /// Of those, a target farther than the reach: different geometry, not a gap; left
     /// unchanged.
     pub beyond_reach: usize,
+    /// Of those, a target within reach on a surface facing another way (normals further
+    /// apart than the normal agreement allows): a different sheet, not a gap; left
+    /// unchanged.
+    pub facing_away: usize,
 }
 
 /// Moves each point with ramp value `t > 0` to `p + t (g − p)` and its normal to
@@ -102,13 +107,17 @@ pub struct BlendCounts {
 /// support radius), else the projection. The paper blends the *gaps* the warp leaves, which
 /// "should be small" (§5.3); a target farther than `reach` is another part of the geometry
 /// (a ring or thread the neighbourhood has and the patch has not), and pulling the point
-/// onto it would leave points in mid-air, so such a point is left as it is.
+/// onto it would leave points in mid-air, so such a point is left as it is. So is a point
+/// whose target's normal makes a cosine below `normal_agreement` with its own: the
+/// surface there faces another way (another petal, a crossing thread's underside), and
+/// interpolating the two normals would describe neither.
 pub(crate) fn blend(
     points: &mut [Vec3],
     normals: &mut [Vec3],
     overlap: &Overlap,
     neighbourhood: &MlsSurface,
     reach: f32,
+    normal_agreement: f32,
 ) -> BlendCounts {
     let results: Vec<Option<(Vec3, Vec3, Outcome)>> = points
         .par_iter()
@@ -129,6 +138,9 @@ pub(crate) fn blend(
             if target.distance(p) > reach {
                 return Some((p, n, Outcome::BeyondReach));
             }
+            if n.dot(target_normal) < normal_agreement {
+                return Some((p, n, Outcome::FacingAway));
+            }
             let blended_normal = ((1.0 - t) * n + t * target_normal)
                 .try_normalize()
                 .unwrap_or(n);
@@ -144,6 +156,7 @@ pub(crate) fn blend(
             Outcome::Projection => counts.by_projection += 1,
             Outcome::Unmatched => counts.unmatched += 1,
             Outcome::BeyondReach => counts.beyond_reach += 1,
+            Outcome::FacingAway => counts.facing_away += 1,
         }
         points[i] = p;
         normals[i] = n;
@@ -188,10 +201,20 @@ mod tests {
         let before = points.clone();
         // A gap of 0.1 beyond a reach of 0.05 is not a gap: nothing moves.
         let (mut far, mut far_normals) = (points.clone(), normals.clone());
-        let counts = blend(&mut far, &mut far_normals, &o, &surface, 0.05);
+        let counts = blend(&mut far, &mut far_normals, &o, &surface, 0.05, -1.0);
         assert!(counts.blended > 0 && counts.beyond_reach == counts.blended);
         assert_eq!(far, before);
-        let counts = blend(&mut points, &mut normals, &o, &surface, 0.2);
+        // The same gap seen from points facing down: the plane faces away from them, a
+        // different sheet rather than a gap, and nothing moves unless the test is off.
+        let down = vec![-Vec3::Z; points.len()];
+        let (mut away, mut away_normals) = (points.clone(), down.clone());
+        let counts = blend(&mut away, &mut away_normals, &o, &surface, 0.2, 0.8);
+        assert!(counts.blended > 0 && counts.facing_away == counts.blended);
+        assert_eq!(away, before);
+        let (mut any, mut any_normals) = (points.clone(), down);
+        blend(&mut any, &mut any_normals, &o, &surface, 0.2, -1.0);
+        assert_ne!(any, before);
+        let counts = blend(&mut points, &mut normals, &o, &surface, 0.2, 0.8);
         assert!(counts.blended > 0 && counts.by_ray == counts.blended);
         let mut last = -1.0f32;
         for (p, q) in points.iter().zip(&before) {

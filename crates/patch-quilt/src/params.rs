@@ -91,6 +91,15 @@ pub struct QuiltParams {
     /// Measured over 8 seeds: lower neighbourhood and seam error than unlimited reach on
     /// bumpy, chain mail and flowers, equal on the weave (`docs/patch-quilt.md`).
     pub blend_reach: f32,
+    /// Smallest cosine between a point's normal and the normal of the neighbourhood's
+    /// surface where its gap ends, for the blend to close that gap (and, with
+    /// [`WarpTargets::SurfaceGap`], for the pair to count); default 0.8 (about 37°). A
+    /// surface facing another way is a different sheet — another petal, the underside of a
+    /// crossing thread — not the far side of a small gap, so the point is left as it is.
+    /// `-1` turns the test off. Measured over 8 seeds on the flowers: it halves what the
+    /// blend costs on the same patches, and changes nothing measurable on the other
+    /// fixtures (`docs/patch-quilt.md`).
+    pub normal_agreement: f32,
     /// Adaptive clustering limits for the target set `Q`; default `n_max` 12, `σ_max` 0.1.
     pub clusters: ClusterParams,
     /// Anchor points mapped to themselves per free corner of `F_k`; default 4.
@@ -131,6 +140,7 @@ impl Default for QuiltParams {
             warp_targets: WarpTargets::Exact,
             smoothing: 0.0,
             blend_reach: 0.25,
+            normal_agreement: 0.8,
             clusters: ClusterParams::default().max_points(12).max_variation(0.1),
             anchors_per_corner: 4,
             output: OutputSize::Scale(2.0),
@@ -210,6 +220,12 @@ impl QuiltParams {
         self
     }
 
+    /// Sets the normal agreement a closed gap needs (a cosine in `[-1, 1]`; default 0.8).
+    pub fn normal_agreement(mut self, cosine: f32) -> Self {
+        self.normal_agreement = cosine;
+        self
+    }
+
     /// Gives every patch's source in advance (see [`QuiltParams::layout`]).
     pub fn layout(mut self, sources: Vec<(usize, usize)>) -> Self {
         self.layout = Some(sources);
@@ -246,6 +262,13 @@ impl QuiltParams {
         fraction("band", self.band, 1.0, 1e3)?;
         fraction("pair_distance", self.pair_distance, 0.0, 1e3)?;
         fraction("blend_reach", self.blend_reach, 0.0, 1e3)?;
+        if !(-1.0..=1.0).contains(&self.normal_agreement) {
+            return Err(invalid(
+                "normal_agreement",
+                self.normal_agreement,
+                "a cosine in [-1, 1]",
+            ));
+        }
         if !(self.smoothing.is_finite() && self.smoothing >= 0.0) {
             return Err(invalid("smoothing", self.smoothing, "a finite number ≥ 0"));
         }

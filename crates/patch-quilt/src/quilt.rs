@@ -349,7 +349,10 @@ pub fn quilt(
                     &SourceAttributes {
                         variation: &f_variation,
                         targets: match &f_foot {
-                            Some(foot_offset) => PairTargets::SurfaceGap { foot_offset },
+                            Some(foot_offset) => PairTargets::SurfaceGap {
+                                foot_offset,
+                                normal_agreement: params.normal_agreement,
+                            },
                             None => PairTargets::Exact,
                         },
                     },
@@ -370,6 +373,7 @@ pub fn quilt(
                     &overlap,
                     surface,
                     params.blend_reach * surface.support_radius(),
+                    params.normal_agreement,
                 );
                 ctx.record_timing("blend", t.elapsed());
             }

@@ -40,6 +40,9 @@ pub(crate) enum PairTargets<'a> {
         /// Per source: signed offset along the normal to its foot on the exemplar's MLS
         /// surface.
         foot_offset: &'a [f32],
+        /// Smallest cosine between the source's normal and the neighbourhood surface's
+        /// where the gap ends ([`QuiltParams::normal_agreement`](crate::QuiltParams)).
+        normal_agreement: f32,
     },
 }
 
@@ -173,12 +176,18 @@ pub(crate) fn warp_patch(
         let (s_k, q_k) = (&s[pair.source], &q[pair.target]);
         let target = match source.targets {
             PairTargets::Exact => Some(q_k.position),
-            PairTargets::SurfaceGap { foot_offset } => surface_gap(
+            PairTargets::SurfaceGap {
+                foot_offset,
+                normal_agreement,
+            } => surface_gap(
                 neighbourhood.surface,
                 s_k.position,
                 s_k.normal,
                 foot_offset[pair.source],
-                limit,
+                GapLimits {
+                    distance: limit,
+                    normal_agreement,
+                },
             )
             .map(|gap| s_k.position + gap),
         };
@@ -239,18 +248,28 @@ pub(crate) fn foot_offsets(surface: &MlsSurface, points: &[Vec3], normals: &[Vec
 /// The gap [`WarpTargets::SurfaceGap`] closes at source point `s` (normal `n`, foot point
 /// `s + foot_offset · n` on the exemplar's MLS surface): from the foot point to the closer
 /// hit of the two rays along `±n` on the neighbourhood's surface, else to its projection.
-/// `None` when there is no such point or it lies farther than `limit`.
+/// `None` when there is no such point, when it lies farther than the limit, or when the
+/// surface there faces another way than `n` (a different sheet, not the far side of a gap).
 fn surface_gap(
     neighbourhood: &MlsSurface,
     s: Vec3,
     n: Vec3,
     foot_offset: f32,
-    limit: f32,
+    limits: GapLimits,
 ) -> Option<Vec3> {
     let foot = s + foot_offset * n;
     let hit = neighbourhood.snap_along_normal(foot, n)?;
     let gap = hit.point - foot;
-    (gap.length() <= limit).then_some(gap)
+    (gap.length() <= limits.distance && n.dot(hit.normal) >= limits.normal_agreement).then_some(gap)
+}
+
+/// Which gaps [`surface_gap`] accepts.
+#[derive(Debug, Clone, Copy)]
+struct GapLimits {
+    /// Longest gap.
+    distance: f32,
+    /// Smallest cosine between the source's normal and the surface's where the gap ends.
+    normal_agreement: f32,
 }
 
 #[cfg(test)]
@@ -313,6 +332,7 @@ mod tests {
                     WarpTargets::Exact => PairTargets::Exact,
                     WarpTargets::SurfaceGap => PairTargets::SurfaceGap {
                         foot_offset: &foot_offset,
+                        normal_agreement: 0.8,
                     },
                 },
             },
@@ -387,8 +407,16 @@ mod tests {
         );
     }
 
+    /// Gap limits: `distance`, and normals at most about 37° apart.
+    fn within(distance: f32) -> GapLimits {
+        GapLimits {
+            distance,
+            normal_agreement: 0.8,
+        }
+    }
+
     #[test]
-    fn a_surface_gap_runs_from_the_foot_point_and_respects_the_limit() {
+    fn a_surface_gap_runs_from_the_foot_point_and_respects_the_limits() {
         let (points, normals) = sampled(1, 0.0);
         let set = PointSet::new(points)
             .and_then(|s| s.with_normals(normals))
@@ -396,13 +424,30 @@ mod tests {
         let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
         let (on, n) = wave(1.0, 1.0);
         // 0.03 above the surface, foot point on it: the gap is the way back down.
-        let gap = surface_gap(&surface, on + 0.03 * n, n, -0.03, 0.1).unwrap();
+        let gap = surface_gap(&surface, on + 0.03 * n, n, -0.03, within(0.1)).unwrap();
         assert!(gap.length() < 2e-3, "{gap}");
         // Foot point taken as the sample itself: the gap is the whole 0.03.
-        let gap = surface_gap(&surface, on + 0.03 * n, n, 0.0, 0.1).unwrap();
+        let gap = surface_gap(&surface, on + 0.03 * n, n, 0.0, within(0.1)).unwrap();
         assert!((gap + 0.03 * n).length() < 3e-3, "{gap}");
-        assert!(surface_gap(&surface, on + 0.03 * n, n, 0.0, 0.02).is_none());
+        assert!(surface_gap(&surface, on + 0.03 * n, n, 0.0, within(0.02)).is_none());
+        // The same gap seen from a source facing the other way ends on a surface that faces
+        // away from it: another sheet, not a gap — unless the test is off.
+        assert!(surface_gap(&surface, on + 0.03 * n, -n, 0.0, within(0.1)).is_none());
+        let any_facing = GapLimits {
+            distance: 0.1,
+            normal_agreement: -1.0,
+        };
+        assert!(surface_gap(&surface, on + 0.03 * n, -n, 0.0, any_facing).is_some());
         // Nothing of the surface near: no gap.
-        assert!(surface_gap(&surface, Vec3::new(9.0, 9.0, 0.0), Vec3::Z, 0.0, 1.0).is_none());
+        assert!(
+            surface_gap(
+                &surface,
+                Vec3::new(9.0, 9.0, 0.0),
+                Vec3::Z,
+                0.0,
+                within(1.0)
+            )
+            .is_none()
+        );
     }
 }

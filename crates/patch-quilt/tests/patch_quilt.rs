@@ -263,6 +263,8 @@ fn invalid_input_is_an_error() {
         QuiltParams::default().pair_distance(0.0),
         QuiltParams::default().blend_reach(f32::NAN),
         QuiltParams::default().blend_reach(0.0),
+        QuiltParams::default().normal_agreement(1.5),
+        QuiltParams::default().normal_agreement(f32::NAN),
     ] {
         assert!(
             matches!(

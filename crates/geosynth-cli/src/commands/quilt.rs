@@ -120,6 +120,10 @@ pub struct QuiltArgs {
     /// farther geometry are left as they are.
     #[arg(long, default_value_t = 0.25)]
     blend_reach: f32,
+    /// Smallest cosine between a point's normal and the surface's where its gap ends, for
+    /// the blend (and surface-gap targets) to close it; -1 turns the test off.
+    #[arg(long, default_value_t = 0.8, allow_negative_numbers = true)]
+    normal_agreement: f32,
     /// Relaxation rounds after synthesis.
     #[arg(long, default_value_t = 0)]
     relax: usize,
@@ -303,6 +307,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         .pair_distance(args.pair_distance)
         .smoothing(args.smoothing)
         .blend_reach(args.blend_reach)
+        .normal_agreement(args.normal_agreement)
         .warp_targets(args.warp_targets.into());
     if let Some(p) = args.preset {
         let preset = match p {
