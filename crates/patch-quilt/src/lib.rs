@@ -72,8 +72,14 @@
 //! - Each paired source goes onto its target `q` ([`WarpTargets::Exact`], the default). The
 //!   option [`WarpTargets::SurfaceGap`] (not in the paper) moves it instead by the gap
 //!   between the exemplar's and `N_k`'s MLS surfaces along its normal, which ignores the
-//!   tangential sampling offset between the two samples of a pair: lower error on thin
-//!   tubes, higher on the flowers (8-seed means in `docs/patch-quilt.md`).
+//!   tangential sampling offset between the two samples of a pair. After the 2026-12-01
+//!   distance-field fix it scores lower than exact targets on all four demo fixtures
+//!   (16-seed means in `docs/patch-quilt.md`); the default stays the paper's.
+//! - Step 5 closes *gaps*, which "should be small" (§5.3): a point whose target lies
+//!   farther than [`QuiltParams::blend_reach`], or on a surface whose normal is further
+//!   from the point's than [`QuiltParams::normal_agreement`] allows (another petal, a
+//!   crossing thread's underside), faces different geometry and is left as it is
+//!   ([`BlendCounts`]). Surface-gap targets apply the same normal test to each pair.
 //!
 //! ## Baselines and the same-layout control
 //!
