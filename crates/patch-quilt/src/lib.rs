@@ -74,7 +74,7 @@
 //!   between the exemplar's and `N_k`'s MLS surfaces along its normal, which ignores the
 //!   tangential sampling offset between the two samples of a pair. After the 2026-12-01
 //!   distance-field fix it scores lower than exact targets on all four demo fixtures
-//!   (16-seed means in `docs/patch-quilt.md`); the default stays the paper's.
+//!   (means over 8–16 seeds in `docs/patch-quilt.md`); the default stays the paper's.
 //! - Step 5 closes *gaps*, which "should be small" (§5.3): a point whose target lies
 //!   farther than [`QuiltParams::blend_reach`], or on a surface whose normal is further
 //!   from the point's than [`QuiltParams::normal_agreement`] allows (another petal, a

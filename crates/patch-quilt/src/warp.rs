@@ -67,7 +67,8 @@ pub struct WarpCounts {
     /// Pairs used (anchors not included).
     pub pairs: usize,
     /// Pairs of the pairing dropped because `N_k` has no surface within the pair distance
-    /// limit along the source's normal ([`WarpTargets::SurfaceGap`] only).
+    /// limit along the source's normal, or only one facing another way
+    /// ([`WarpTargets::SurfaceGap`] only).
     pub dropped_pairs: usize,
     /// Anchor points mapped to themselves.
     pub anchors: usize,
