@@ -101,14 +101,48 @@ pub struct BlendCounts {
     pub facing_away: usize,
 }
 
+/// Which gaps steps 4–5 close: the paper's gaps "should be small" (§5.3) and join two
+/// versions of one surface. Shared by the blend and by surface-gap warp targets.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct GapLimits {
+    /// Longest gap.
+    pub distance: f32,
+    /// Smallest cosine between the point's normal and the surface's where the gap ends.
+    pub normal_agreement: f32,
+}
+
+/// Why a gap is not closed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum GapRefusal {
+    /// Longer than [`GapLimits::distance`]: other geometry, not a gap.
+    TooFar,
+    /// The surface at its end faces another way: a different sheet, not a gap.
+    FacingAway,
+}
+
+impl GapLimits {
+    /// `None` when the gap `gap` from a point with normal `n` to a surface point with normal
+    /// `target_normal` is one to close, else why not.
+    pub fn refusal(&self, gap: Vec3, n: Vec3, target_normal: Vec3) -> Option<GapRefusal> {
+        if gap.length() > self.distance {
+            Some(GapRefusal::TooFar)
+        } else if n.dot(target_normal) < self.normal_agreement {
+            Some(GapRefusal::FacingAway)
+        } else {
+            None
+        }
+    }
+}
+
 /// Moves each point with ramp value `t > 0` to `p + t (g − p)` and its normal to
 /// `normalize((1 − t) n + t n_g)`, where `g, n_g` is the point's target on the
 /// neighbourhood's surface: the closer hit of rays along `±n` (cast as far as the surface's
 /// support radius), else the projection. The paper blends the *gaps* the warp leaves, which
-/// "should be small" (§5.3); a target farther than `reach` is another part of the geometry
-/// (a ring or thread the neighbourhood has and the patch has not), and pulling the point
-/// onto it would leave points in mid-air, so such a point is left as it is. So is a point
-/// whose target's normal makes a cosine below `normal_agreement` with its own: the
+/// "should be small" (§5.3); a target farther than `limits.distance` (the reach) is another
+/// part of the geometry (a ring or thread the neighbourhood has and the patch has not),
+/// and pulling the point onto it would leave points in mid-air, so such a point is left as
+/// it is. So is a point
+/// whose target's normal makes a cosine below `limits.normal_agreement` with its own: the
 /// surface there faces another way (another petal, a crossing thread's underside), and
 /// interpolating the two normals would describe neither.
 pub(crate) fn blend(
@@ -116,8 +150,7 @@ pub(crate) fn blend(
     normals: &mut [Vec3],
     overlap: &Overlap,
     neighbourhood: &MlsSurface,
-    reach: f32,
-    normal_agreement: f32,
+    limits: GapLimits,
 ) -> BlendCounts {
     let results: Vec<Option<(Vec3, Vec3, Outcome)>> = points
         .par_iter()
@@ -135,11 +168,10 @@ pub(crate) fn blend(
                 SnapMethod::Ray => Outcome::Ray,
                 SnapMethod::Projection => Outcome::Projection,
             };
-            if target.distance(p) > reach {
-                return Some((p, n, Outcome::BeyondReach));
-            }
-            if n.dot(target_normal) < normal_agreement {
-                return Some((p, n, Outcome::FacingAway));
+            match limits.refusal(target - p, n, target_normal) {
+                Some(GapRefusal::TooFar) => return Some((p, n, Outcome::BeyondReach)),
+                Some(GapRefusal::FacingAway) => return Some((p, n, Outcome::FacingAway)),
+                None => {}
             }
             let blended_normal = ((1.0 - t) * n + t * target_normal)
                 .try_normalize()
@@ -169,6 +201,13 @@ mod tests {
     use super::*;
     use mls_surface::MlsParams;
     use pointset_core::PointSet;
+
+    fn limits(distance: f32, normal_agreement: f32) -> GapLimits {
+        GapLimits {
+            distance,
+            normal_agreement,
+        }
+    }
 
     #[test]
     fn blending_moves_points_toward_the_neighbourhood_monotonically_across_the_ramp() {
@@ -201,20 +240,20 @@ mod tests {
         let before = points.clone();
         // A gap of 0.1 beyond a reach of 0.05 is not a gap: nothing moves.
         let (mut far, mut far_normals) = (points.clone(), normals.clone());
-        let counts = blend(&mut far, &mut far_normals, &o, &surface, 0.05, -1.0);
+        let counts = blend(&mut far, &mut far_normals, &o, &surface, limits(0.05, -1.0));
         assert!(counts.blended > 0 && counts.beyond_reach == counts.blended);
         assert_eq!(far, before);
         // The same gap seen from points facing down: the plane faces away from them, a
         // different sheet rather than a gap, and nothing moves unless the test is off.
         let down = vec![-Vec3::Z; points.len()];
         let (mut away, mut away_normals) = (points.clone(), down.clone());
-        let counts = blend(&mut away, &mut away_normals, &o, &surface, 0.2, 0.8);
+        let counts = blend(&mut away, &mut away_normals, &o, &surface, limits(0.2, 0.8));
         assert!(counts.blended > 0 && counts.facing_away == counts.blended);
         assert_eq!(away, before);
         let (mut any, mut any_normals) = (points.clone(), down);
-        blend(&mut any, &mut any_normals, &o, &surface, 0.2, -1.0);
+        blend(&mut any, &mut any_normals, &o, &surface, limits(0.2, -1.0));
         assert_ne!(any, before);
-        let counts = blend(&mut points, &mut normals, &o, &surface, 0.2, 0.8);
+        let counts = blend(&mut points, &mut normals, &o, &surface, limits(0.2, 0.8));
         assert!(counts.blended > 0 && counts.by_ray == counts.blended);
         let mut last = -1.0f32;
         for (p, q) in points.iter().zip(&before) {

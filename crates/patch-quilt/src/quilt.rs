@@ -8,7 +8,7 @@ use mls_surface::{MlsParams, MlsSurface, RelaxParams, relax};
 use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarType, rng};
 use rand::RngExt;
 
-use crate::blend::{BlendCounts, Overlap, blend};
+use crate::blend::{BlendCounts, GapLimits, Overlap, blend};
 use crate::error::{QuiltError, Result, invalid};
 use crate::exemplar::{Exemplar, PatchGeometry};
 use crate::params::{Method, OutputSize, QuiltParams};
@@ -372,8 +372,10 @@ pub fn quilt(
                     &mut f_normals,
                     &overlap,
                     surface,
-                    params.blend_reach * surface.support_radius(),
-                    params.normal_agreement,
+                    GapLimits {
+                        distance: params.blend_reach * surface.support_radius(),
+                        normal_agreement: params.normal_agreement,
+                    },
                 );
                 ctx.record_timing("blend", t.elapsed());
             }

@@ -8,7 +8,7 @@ use tps_warp::{
     PairingParams, PairingPoint, ThinPlateSpline, TpsParams, anchors_in_regions, pair_points,
 };
 
-use crate::blend::Overlap;
+use crate::blend::{GapLimits, Overlap};
 #[cfg(doc)]
 use crate::params::WarpTargets;
 
@@ -261,16 +261,7 @@ fn surface_gap(
     let foot = s + foot_offset * n;
     let hit = neighbourhood.snap_along_normal(foot, n)?;
     let gap = hit.point - foot;
-    (gap.length() <= limits.distance && n.dot(hit.normal) >= limits.normal_agreement).then_some(gap)
-}
-
-/// Which gaps [`surface_gap`] accepts.
-#[derive(Debug, Clone, Copy)]
-struct GapLimits {
-    /// Longest gap.
-    distance: f32,
-    /// Smallest cosine between the source's normal and the surface's where the gap ends.
-    normal_agreement: f32,
+    limits.refusal(gap, n, hit.normal).is_none().then_some(gap)
 }
 
 #[cfg(test)]
