@@ -515,6 +515,26 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     for s in ["search", "warp", "blend", "other"] {
         assert!(stages.contains(&s), "{s} in {stages:?}");
     }
+    // Step 5's counts: the full run blends, the baselines do not; every blended point is
+    // accounted for by exactly one outcome.
+    let blend = &r["run"]["blend"];
+    let count = |k: &str| blend[k].as_u64().unwrap();
+    assert!(count("blended_points") > 0, "{blend}");
+    assert_eq!(
+        count("blended_points"),
+        [
+            "by_ray",
+            "by_projection",
+            "unmatched",
+            "beyond_reach",
+            "facing_away"
+        ]
+        .iter()
+        .map(|k| count(k))
+        .sum::<u64>(),
+        "{blend}"
+    );
+    assert_eq!(r["search_only"]["blend"]["blended_points"], 0);
     assert!(image::open(&preview).is_ok());
     // The output keeps its box in the comments and can be quilted again, here with the
     // surface-gap warp targets.

@@ -101,6 +101,20 @@ pub struct BlendCounts {
     pub facing_away: usize,
 }
 
+impl std::iter::Sum for BlendCounts {
+    /// Totals over several blends, e.g. all placements of a run.
+    fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
+        iter.fold(Self::default(), |a, b| Self {
+            blended: a.blended + b.blended,
+            by_ray: a.by_ray + b.by_ray,
+            by_projection: a.by_projection + b.by_projection,
+            unmatched: a.unmatched + b.unmatched,
+            beyond_reach: a.beyond_reach + b.beyond_reach,
+            facing_away: a.facing_away + b.facing_away,
+        })
+    }
+}
+
 /// Which gaps steps 4–5 close: the paper's gaps "should be small" (§5.3) and join two
 /// versions of one surface. Shared by the blend and by surface-gap warp targets.
 #[derive(Debug, Clone, Copy)]

@@ -8,8 +8,8 @@ use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
-    GeometryTexture, Method, OutputSize, QualityReport, QuiltOutput, QuiltParams, UpAxis,
-    WarpTargets, evaluate, quilt, read_texture,
+    BlendCounts, GeometryTexture, Method, OutputSize, QualityReport, QuiltOutput, QuiltParams,
+    UpAxis, WarpTargets, evaluate, quilt, read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -214,6 +214,18 @@ fn mean(values: impl Iterator<Item = f32>) -> f32 {
     if n == 0 { 0.0 } else { sum / n as f32 }
 }
 
+/// What the blends of a run did, totalled over its placements (step 5).
+fn blend_json(b: BlendCounts) -> Value {
+    json!({
+        "blended_points": b.blended,
+        "by_ray": b.by_ray,
+        "by_projection": b.by_projection,
+        "unmatched": b.unmatched,
+        "beyond_reach": b.beyond_reach,
+        "facing_away": b.facing_away,
+    })
+}
+
 /// A run as JSON.
 pub fn run_json(run: &MeasuredRun) -> Value {
     let s = &run.output.stats;
@@ -246,6 +258,7 @@ pub fn run_json(run: &MeasuredRun) -> Value {
             "max": run.output.placements.iter().map(|p| p.warp.max_displacement).fold(0.0f32, f32::max),
             "mean_pair_length": mean(run.output.placements.iter().filter(|p| !p.warp.skipped).map(|p| p.warp.mean_pair_length)),
         },
+        "blend": blend_json(run.output.placements.iter().map(|p| p.blend).sum()),
         "input_points": s.input_points,
         "output_points": s.output_points,
         "field_dims": s.field_dims,
