@@ -5,11 +5,12 @@
 //!
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
-//!     [--surface-gap] FIXTURE.ply...
+//!     [--surface-gap] [--normal-agreement C] FIXTURE.ply...
 //! ```
 //!
 //! `--surface-gap` runs the full method (and so its same-layout control) with
-//! [`WarpTargets::SurfaceGap`] instead of the paper's exact targets.
+//! [`WarpTargets::SurfaceGap`] instead of the paper's exact targets. `--normal-agreement C`
+//! sets the blend's normal test ([`QuiltParams::normal_agreement`], default 0.8).
 //!
 //! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
 //! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
@@ -50,6 +51,7 @@ struct Study {
     windows: usize,
     resampled: Option<PathBuf>,
     warp_targets: WarpTargets,
+    normal_agreement: f32,
     fixtures: Vec<PathBuf>,
 }
 
@@ -59,6 +61,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         windows: 128,
         resampled: None,
         warp_targets: WarpTargets::Exact,
+        normal_agreement: QuiltParams::default().normal_agreement,
         fixtures: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
@@ -72,13 +75,19 @@ fn parse() -> Result<Study, Box<dyn Error>> {
                 study.resampled = Some(args.next().ok_or("--resampled needs a folder")?.into());
             }
             "--surface-gap" => study.warp_targets = WarpTargets::SurfaceGap,
+            "--normal-agreement" => {
+                study.normal_agreement = args
+                    .next()
+                    .ok_or("--normal-agreement needs a cosine")?
+                    .parse()?;
+            }
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
     if study.fixtures.is_empty() || study.seeds == 0 || study.windows == 0 {
         return Err(
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
-             [--surface-gap] FIXTURE.ply..."
+             [--surface-gap] [--normal-agreement C] FIXTURE.ply..."
                 .into(),
         );
     }
@@ -142,9 +151,9 @@ fn mean_and_error(values: &[f64]) -> (f64, f64) {
 fn main() -> Result<(), Box<dyn Error>> {
     let study = parse()?;
     println!(
-        "seeds 1..={}, {} windows per class, warp targets {:?}; neighbourhood / seam / interior \
-         error (mean over seeds)",
-        study.seeds, study.windows, study.warp_targets
+        "seeds 1..={}, {} windows per class, warp targets {:?}, normal agreement {}; \
+         neighbourhood / seam / interior error (mean over seeds)",
+        study.seeds, study.windows, study.warp_targets, study.normal_agreement
     );
     for path in &study.fixtures {
         let texture = read_texture(path)?;
@@ -158,7 +167,8 @@ fn main() -> Result<(), Box<dyn Error>> {
             let params = QuiltParams::default()
                 .seed(seed)
                 .pairing(PairingParams::table1(preset_for(path)))
-                .warp_targets(study.warp_targets);
+                .warp_targets(study.warp_targets)
+                .normal_agreement(study.normal_agreement);
             for (run, q) in errors.iter_mut().zip(one_seed(
                 &texture,
                 resampled.as_ref(),
