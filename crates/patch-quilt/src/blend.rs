@@ -155,10 +155,10 @@ impl GapLimits {
 /// "should be small" (§5.3); a target farther than `limits.distance` (the reach) is another
 /// part of the geometry (a ring or thread the neighbourhood has and the patch has not),
 /// and pulling the point onto it would leave points in mid-air, so such a point is left as
-/// it is. So is a point
-/// whose target's normal makes a cosine below `limits.normal_agreement` with its own: the
-/// surface there faces another way (another petal, a crossing thread's underside), and
-/// interpolating the two normals would describe neither.
+/// it is. So is a point whose target's normal makes a cosine below
+/// `limits.normal_agreement` with its own: the surface there faces another way (another
+/// petal, a crossing thread's underside), and interpolating the two normals would describe
+/// neither.
 pub(crate) fn blend(
     points: &mut [Vec3],
     normals: &mut [Vec3],

@@ -102,30 +102,34 @@ pub struct QuiltArgs {
     #[arg(long, value_enum)]
     preset: Option<PresetArg>,
     /// Nodes of the exemplar's distance field along its longer side.
-    #[arg(long, default_value_t = 48)]
+    #[arg(long, default_value_t = QuiltParams::default().field_resolution)]
     resolution: usize,
     /// Patch size as a fraction of the exemplar box's smaller side.
-    #[arg(long, default_value_t = 0.4)]
+    #[arg(long, default_value_t = QuiltParams::default().patch_size)]
     patch: f32,
     /// Largest pair length of the warp, in distance-field spacings.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = QuiltParams::default().pair_distance)]
     pair_distance: f32,
     /// Where the warp sends paired points.
     #[arg(long, value_enum, default_value_t = WarpTargetsArg::Exact)]
     warp_targets: WarpTargetsArg,
     /// Smoothing λ of the warp's spline, relative to the patch size (0 = interpolate).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = QuiltParams::default().smoothing)]
     smoothing: f32,
     /// Largest gap the blend closes, as a fraction of the MLS support radius; points facing
     /// farther geometry are left as they are.
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, default_value_t = QuiltParams::default().blend_reach)]
     blend_reach: f32,
     /// Smallest cosine between a point's normal and the surface's where its gap ends, for
     /// the blend (and surface-gap targets) to close it; -1 turns the test off.
-    #[arg(long, default_value_t = 0.8, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        default_value_t = QuiltParams::default().normal_agreement,
+        allow_negative_numbers = true
+    )]
     normal_agreement: f32,
     /// Relaxation rounds after synthesis.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = QuiltParams::default().relaxation_rounds)]
     relax: usize,
     /// Write a JSON report (timings, counts, quality).
     #[arg(long)]
