@@ -32,7 +32,8 @@ use std::path::{Path, PathBuf};
 
 use geosynth::core::RunContext;
 use geosynth::quilt::{
-    GeometryTexture, Method, QualityReport, QuiltParams, WarpTargets, evaluate, quilt, read_texture,
+    GeometryTexture, Method, QualityMeasure, QualityReport, QuiltParams, WarpTargets, quilt,
+    read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -119,9 +120,10 @@ fn one_seed(
     windows: usize,
 ) -> Result<Vec<QualityReport>, Box<dyn Error>> {
     // Quilts `source` and measures the result against `texture`.
+    let measure = QualityMeasure::new(texture, params)?;
     let run = |source: &GeometryTexture, p: &QuiltParams| -> Result<_, Box<dyn Error>> {
         let out = quilt(source, p, &mut RunContext::new(p.seed))?;
-        let report = evaluate(texture, &out, p, windows)?;
+        let report = measure.evaluate(&out, windows)?;
         Ok((out, report))
     };
     let (full, full_report) = run(texture, params)?;

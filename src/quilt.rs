@@ -24,8 +24,8 @@ use glam::Vec3;
 pub use patch_quilt::search;
 pub use patch_quilt::{
     BlendCounts, GeometryTexture, Method, OutputSize, Overlap, PatchGeometry, Placement,
-    QualityReport, QuiltError, QuiltOutput, QuiltParams, QuiltStats, UpAxis, WarpCounts,
-    WarpTargets, evaluate, quilt,
+    QualityMeasure, QualityReport, QuiltError, QuiltOutput, QuiltParams, QuiltStats, UpAxis,
+    WarpCounts, WarpTargets, evaluate, quilt,
 };
 use pointset_core::io::{self, Geometry};
 use pointset_core::{Aabb, RunContext, Stage};

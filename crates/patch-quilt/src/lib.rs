@@ -115,7 +115,7 @@ pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
 pub use exemplar::PatchGeometry;
 pub use params::{Method, OutputSize, QuiltParams, WarpTargets};
-pub use quality::{QualityReport, evaluate};
+pub use quality::{QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};
 pub use texture::{GeometryTexture, UpAxis};
 pub use warp::WarpCounts;

@@ -5,7 +5,8 @@
 
 use glam::{Vec2, Vec3};
 use patch_quilt::{
-    GeometryTexture, Method, OutputSize, QuiltError, QuiltParams, UpAxis, evaluate, quilt,
+    GeometryTexture, Method, OutputSize, QualityMeasure, QuiltError, QuiltParams, UpAxis, evaluate,
+    quilt,
 };
 use pointset_core::testdata::shared_data;
 use pointset_core::{Aabb, HeightField, PointSet, RunContext};
@@ -396,5 +397,32 @@ fn quality_reports_the_windows_it_measured() {
     assert!(matches!(
         evaluate(&t, &out, &tiny, 12),
         Err(QuiltError::InvalidParameter { name: "output", .. })
+    ));
+}
+
+#[test]
+fn one_measure_reused_for_several_outputs_reports_what_evaluate_does() {
+    let t = texture(
+        |x, y| 0.1 * (4.0 * x).sin() * (3.0 * y + 0.3 * x).cos(),
+        40,
+        0.05,
+    );
+    let params = small_params().seed(9);
+    let measure = QualityMeasure::new(&t, &params).unwrap();
+    let mut errors = Vec::new();
+    for method in [Method::Full, Method::SearchOnly, Method::RandomPlacement] {
+        let p = params.clone().method(method);
+        let out = quilt(&t, &p, &mut RunContext::new(9)).unwrap();
+        let reused = measure.evaluate(&out, 8).unwrap();
+        assert_eq!(reused, evaluate(&t, &out, &p, 8).unwrap(), "{method:?}");
+        errors.push(reused.neighbourhood_error);
+    }
+    assert!(
+        errors[2] > errors[1],
+        "the measure still tells random placement from search: {errors:?}"
+    );
+    assert!(matches!(
+        measure.evaluate(&quilt(&t, &params, &mut RunContext::new(9)).unwrap(), 0),
+        Err(QuiltError::InvalidParameter { .. })
     ));
 }

@@ -17,7 +17,7 @@ use geosynth::tps::{PairingParams, Table1Preset};
 use geosynth::{RunContext, Stage};
 use serde::Serialize;
 
-use crate::commands::quilt::{measured_run, run_json, texture_preview};
+use crate::commands::quilt::{measure_for, measured_run, run_json, texture_preview};
 use crate::output::{progress_bar, status};
 use crate::{CliResult, Globals, create_dir};
 
@@ -480,22 +480,26 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
             .field_resolution(resolution)
             .pairing(PairingParams::table1(preset))
             .seed(args.seed);
-        let full = measured_run(&texture, &params, globals, name)?;
+        let measure = measure_for(&texture, &params);
+        let full = measured_run(&texture, &params, &measure, globals, name)?;
         let search = measured_run(
             &texture,
             &params.clone().method(Method::SearchOnly),
+            &measure,
             globals,
             "search only",
         )?;
         let random = measured_run(
             &texture,
             &params.clone().method(Method::RandomPlacement),
+            &measure,
             globals,
             "random",
         )?;
         let pasted = measured_run(
             &texture,
             &params.same_layout_control(&full.output),
+            &measure,
             globals,
             "same layout, pasted",
         )?;

@@ -8,8 +8,8 @@ use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
-    BlendCounts, GeometryTexture, Method, OutputSize, QualityReport, QuiltOutput, QuiltParams,
-    UpAxis, WarpTargets, evaluate, quilt, read_texture,
+    BlendCounts, GeometryTexture, Method, OutputSize, QualityMeasure, QualityReport, QuiltOutput,
+    QuiltParams, UpAxis, WarpTargets, quilt, read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -187,10 +187,20 @@ pub struct MeasuredRun {
     pub quality: Result<QualityReport, String>,
 }
 
-/// Runs `quilt` with a progress bar, then measures it.
+/// The quality measure of one exemplar, shared by every run measured against it, or why it
+/// could not be built (the runs then go on unmeasured).
+pub type Measure<'t> = Result<QualityMeasure<'t>, String>;
+
+/// The [`Measure`] of `texture` for runs with `params`' seed and geometry.
+pub fn measure_for<'t>(texture: &'t GeometryTexture, params: &QuiltParams) -> Measure<'t> {
+    QualityMeasure::new(texture, params).map_err(|e| e.to_string())
+}
+
+/// Runs `quilt` with a progress bar, then measures it with `measure`.
 pub fn measured_run(
     texture: &GeometryTexture,
     params: &QuiltParams,
+    measure: &Measure<'_>,
     globals: Globals,
     label: &str,
 ) -> CliResult<MeasuredRun> {
@@ -199,7 +209,10 @@ pub fn measured_run(
     let output = quilt(texture, params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let quality = evaluate(texture, &output, params, 48).map_err(|e| e.to_string());
+    let quality = measure
+        .as_ref()
+        .map_err(Clone::clone)
+        .and_then(|m| m.evaluate(&output, 48).map_err(|e| e.to_string()));
     let timings = ctx
         .timings()
         .iter()
@@ -336,7 +349,8 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         params = params.pairing(PairingParams::table1(preset));
     }
     params.validate()?;
-    let main = measured_run(&texture, &params, globals, "patches")?;
+    let measure = measure_for(&texture, &params);
+    let main = measured_run(&texture, &params, &measure, globals, "patches")?;
     let mut comments = vec![format!(
         "quilted by geosynth (seed {}, {:?})",
         args.seed, params.method
@@ -364,14 +378,20 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
                 ("search_only", Method::SearchOnly),
                 ("random_placement", Method::RandomPlacement),
             ] {
-                let baseline =
-                    measured_run(&texture, &params.clone().method(method), globals, name)?;
+                let baseline = measured_run(
+                    &texture,
+                    &params.clone().method(method),
+                    &measure,
+                    globals,
+                    name,
+                )?;
                 report[name] = run_json(&baseline);
             }
             if params.method == Method::Full {
                 // The control: the same patches pasted, so only the warp and blend differ.
                 let pasted = params.same_layout_control(&main.output);
-                let control = measured_run(&texture, &pasted, globals, "same layout, pasted")?;
+                let control =
+                    measured_run(&texture, &pasted, &measure, globals, "same layout, pasted")?;
                 report["same_layout_pasted"] = run_json(&control);
             }
         }

@@ -120,170 +120,238 @@ fn continued_seams(placements: &[Placement], step_nodes: usize) -> f32 {
 /// `windows` random windows per class. Errors: `windows` = 0, an output smaller than one
 /// window (half a patch) along either side, and whatever rebuilding the exemplar or the
 /// output's surface fails on.
+///
+/// This rebuilds the exemplar's side of the measure on every call; to measure several
+/// outputs of one exemplar (methods, baselines, parameter sweeps), build a
+/// [`QualityMeasure`] once instead.
 pub fn evaluate(
     texture: &GeometryTexture,
     output: &QuiltOutput,
     params: &QuiltParams,
     windows: usize,
 ) -> Result<QualityReport> {
-    if windows == 0 {
-        return Err(invalid("windows", 0, "at least 1 window per class"));
+    QualityMeasure::new(texture, params)?.evaluate(output, windows)
+}
+
+/// The exemplar's side of the quality measure — its MLS surface, `D(T_in)` and the finely
+/// sampled signed distance the nearest windows are searched in — built once and reused for
+/// every output measured against it. Measuring with it gives exactly what [`evaluate`]
+/// gives.
+///
+/// ```
+/// use patch_quilt::{GeometryTexture, Method, QualityMeasure, QuiltParams, quilt};
+/// use pointset_core::{HeightField, RunContext};
+///
+/// let n = 24;
+/// let heights: Vec<f32> = (0..n * n)
+///     .map(|i| 0.1 * ((i % n) as f32 * 0.7).sin() * ((i / n) as f32 * 0.5).cos())
+///     .collect();
+/// let texture = GeometryTexture::from_heightfield(&HeightField::new(n, n, heights)?, 0.05, 1.0, 4)?;
+/// let params = QuiltParams::default().field_resolution(16).seed(3);
+/// let measure = QualityMeasure::new(&texture, &params)?;
+/// for method in [Method::Full, Method::SearchOnly] {
+///     let p = params.clone().method(method);
+///     let output = quilt(&texture, &p, &mut RunContext::new(3))?;
+///     let report = measure.evaluate(&output, 8)?;
+///     assert!(report.neighbourhood_error.is_finite());
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct QualityMeasure<'t> {
+    texture: &'t GeometryTexture,
+    params: QuiltParams,
+    ex: Exemplar,
+    exemplar_windows: ExemplarWindows,
+    /// The exemplar's points, for the verbatim-copy test.
+    exemplar_index: KdIndex,
+    /// The exemplar's largest empty disc inside its footprint.
+    exemplar_largest_empty_disc: f32,
+    /// Window width in field nodes (half a patch, at least 3).
+    w: usize,
+}
+
+impl<'t> QualityMeasure<'t> {
+    /// Prepares the measure for outputs of `texture` quilted with `params` (any
+    /// [`Method`](crate::Method): only the parameters shaping the exemplar's field, the
+    /// patch and the windows, and the seed that draws the windows, are used). Errors: a
+    /// texture without normals and whatever building its surface or fields fails on.
+    pub fn new(texture: &'t GeometryTexture, params: &QuiltParams) -> Result<Self> {
+        let ex = Exemplar::for_measure(texture, params)?;
+        let w = (ex.geometry.patch_nodes / 2).max(3);
+        let s = ex.geometry.spacing;
+        let exemplar_windows = ExemplarWindows::new(&ex, params.band * s, w)?;
+        let (ex_lo, ex_hi) = texture.footprint();
+        Ok(Self {
+            texture,
+            params: params.clone(),
+            exemplar_windows,
+            exemplar_index: KdIndex::new(&ex.points)?,
+            exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
+            ex,
+            w,
+        })
     }
-    let ex = Exemplar::for_measure(texture, params)?;
-    let g = ex.geometry;
-    let up = texture.up();
-    let pts: Vec<Vec3> = output
-        .points
-        .positions()
-        .iter()
-        .map(|&p| up.to_canonical(p))
-        .collect();
-    let nrm: Vec<Vec3> = output
-        .points
-        .normals()
-        .map(|n| n.iter().map(|&v| up.to_canonical(v)).collect())
-        .unwrap_or_default();
-    let set = PointSet::new(pts.clone())?.with_normals(nrm)?;
-    let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.surface.kernel()))?;
-    let (a, b) = (
-        up.to_canonical(output.bounds.min).truncate(),
-        up.to_canonical(output.bounds.max).truncate(),
-    );
-    let (out_lo, out_hi) = (a.min(b), a.max(b));
-    let s = g.spacing;
-    let dims = [
-        ((out_hi.x - out_lo.x) / s).floor() as usize + 1,
-        ((out_hi.y - out_lo.y) / s).floor() as usize + 1,
-        ex.spec.dims[2],
-    ];
-    let spec = GridSpec {
-        dims,
-        origin: out_lo.extend(ex.spec.origin.z),
-        spacing: s,
-    };
-    let out_field = SdfGrid::from_surface(&surface, &spec, params.band * s)?;
-    let outf = Field::distances(&out_field);
-    let w = (g.patch_nodes / 2).max(3);
-    if dims[0] < w || dims[1] < w {
-        return Err(invalid(
-            "output",
-            format!("{} x {}", out_hi.x - out_lo.x, out_hi.y - out_lo.y),
-            format!(
-                "room for one quality window ({w} × {w} field nodes, {:.3} wide) to measure",
-                (w - 1) as f32 * s
-            ),
-        ));
-    }
-    let exemplar = ExemplarWindows::new(&ex, params.band * s, w)?;
-    let ex_positions = exemplar.positions();
-    // Typical exemplar variation: random pairs of non-overlapping windows.
-    let mut r = rng::stream(params.seed ^ 0x9a11, 0);
-    let mut pair_errors = Vec::new();
-    for _ in 0..(8 * windows) {
-        let a = ex_positions[r.random_range(0..ex_positions.len())];
-        let b = ex_positions[r.random_range(0..ex_positions.len())];
-        if a.0.abs_diff(b.0) >= w || a.1.abs_diff(b.1) >= w {
-            pair_errors.push(exemplar.aligned_error(a, b));
+
+    /// Measures `output` with `windows` random windows per class. Errors: `windows` = 0,
+    /// an output smaller than one window (half a patch) along either side, and whatever
+    /// building the output's surface fails on.
+    pub fn evaluate(&self, output: &QuiltOutput, windows: usize) -> Result<QualityReport> {
+        let (texture, params, ex, w) = (self.texture, &self.params, &self.ex, self.w);
+        let exemplar = &self.exemplar_windows;
+        if windows == 0 {
+            return Err(invalid("windows", 0, "at least 1 window per class"));
         }
-    }
-    let typical =
-        (pair_errors.iter().sum::<f32>() / pair_errors.len().max(1) as f32).max(f32::MIN_POSITIVE);
-    // Seam lines: the middle of each overlap strip.
-    let seam_lines = |axis: usize| -> Vec<f32> {
-        output
-            .placements
+        let g = ex.geometry;
+        let up = texture.up();
+        let pts: Vec<Vec3> = output
+            .points
+            .positions()
             .iter()
-            .filter(|p| [p.cell.0, p.cell.1][axis] > 0)
-            .map(|p| p.origin[axis] + 0.5 * g.overlap())
-            .collect()
-    };
-    let (seams_x, seams_y) = (seam_lines(0), seam_lines(1));
-    let seam_distance = |c: Vec2| {
-        let dx = seams_x
-            .iter()
-            .map(|x| (c.x - x).abs())
-            .fold(f32::MAX, f32::min);
-        let dy = seams_y
-            .iter()
-            .map(|y| (c.y - y).abs())
-            .fold(f32::MAX, f32::min);
-        dx.min(dy)
-    };
-    let (mut any, mut seam, mut interior) = (Vec::new(), Vec::new(), Vec::new());
-    let max_i = dims[0].saturating_sub(w);
-    let max_j = dims[1].saturating_sub(w);
-    let mut tries = 0;
-    while (any.len() < windows || seam.len() < windows || interior.len() < windows)
-        && tries < 200 * windows
-    {
-        tries += 1;
-        let at = (r.random_range(0..=max_i), r.random_range(0..=max_j));
-        let centre = out_lo
-            + Vec2::new(
-                at.0 as f32 + 0.5 * (w - 1) as f32,
-                at.1 as f32 + 0.5 * (w - 1) as f32,
-            ) * s;
-        let d = seam_distance(centre);
-        if any.len() < windows {
-            any.push(at);
+            .map(|&p| up.to_canonical(p))
+            .collect();
+        let nrm: Vec<Vec3> = output
+            .points
+            .normals()
+            .map(|n| n.iter().map(|&v| up.to_canonical(v)).collect())
+            .unwrap_or_default();
+        let set = PointSet::new(pts.clone())?.with_normals(nrm)?;
+        let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.surface.kernel()))?;
+        let (a, b) = (
+            up.to_canonical(output.bounds.min).truncate(),
+            up.to_canonical(output.bounds.max).truncate(),
+        );
+        let (out_lo, out_hi) = (a.min(b), a.max(b));
+        let s = g.spacing;
+        let dims = [
+            ((out_hi.x - out_lo.x) / s).floor() as usize + 1,
+            ((out_hi.y - out_lo.y) / s).floor() as usize + 1,
+            ex.spec.dims[2],
+        ];
+        let spec = GridSpec {
+            dims,
+            origin: out_lo.extend(ex.spec.origin.z),
+            spacing: s,
+        };
+        let out_field = SdfGrid::from_surface(&surface, &spec, params.band * s)?;
+        let outf = Field::distances(&out_field);
+        if dims[0] < w || dims[1] < w {
+            return Err(invalid(
+                "output",
+                format!("{} x {}", out_hi.x - out_lo.x, out_hi.y - out_lo.y),
+                format!(
+                    "room for one quality window ({w} × {w} field nodes, {:.3} wide) to measure",
+                    (w - 1) as f32 * s
+                ),
+            ));
         }
-        if d <= 0.5 * g.overlap() && seam.len() < windows {
-            seam.push(at);
-        } else if d >= 0.25 * g.patch() && interior.len() < windows {
-            interior.push(at);
+        let ex_positions = exemplar.positions();
+        // Typical exemplar variation: random pairs of non-overlapping windows.
+        let mut r = rng::stream(params.seed ^ 0x9a11, 0);
+        let mut pair_errors = Vec::new();
+        for _ in 0..(8 * windows) {
+            let a = ex_positions[r.random_range(0..ex_positions.len())];
+            let b = ex_positions[r.random_range(0..ex_positions.len())];
+            if a.0.abs_diff(b.0) >= w || a.1.abs_diff(b.1) >= w {
+                pair_errors.push(exemplar.aligned_error(a, b));
+            }
         }
-    }
-    let mean_error = |set: &[(usize, usize)]| -> Result<f32> {
-        if set.is_empty() {
-            return Ok(0.0);
-        }
-        let errors = set
-            .par_iter()
-            .map(|&at| exemplar.nearest(&outf, at))
-            .collect::<Result<Vec<f32>>>()?;
-        Ok(errors.iter().sum::<f32>() / set.len() as f32 / typical)
-    };
-    let (ex_lo, ex_hi) = texture.footprint();
-    let (seam_error, interior_error) = (mean_error(&seam)?, mean_error(&interior)?);
-    let exemplar_index = KdIndex::new(&ex.points)?;
-    let patch_of = output
-        .points
-        .attribute("patch")
-        .map(|a| a.values().to_vec())
-        .unwrap_or_default();
-    let verbatim = pts
-        .par_iter()
-        .zip(patch_of.par_iter())
-        .filter(|(p, k)| {
+        let typical = (pair_errors.iter().sum::<f32>() / pair_errors.len().max(1) as f32)
+            .max(f32::MIN_POSITIVE);
+        // Seam lines: the middle of each overlap strip.
+        let seam_lines = |axis: usize| -> Vec<f32> {
             output
                 .placements
-                .get(**k as usize)
-                .is_some_and(|placement| {
-                    let shift =
-                        placement.origin - ex.patch_origin(placement.source.0, placement.source.1);
-                    let source = **p - shift.extend(0.0);
-                    exemplar_index
-                        .nearest_one(source)
-                        .ok()
-                        .flatten()
-                        .is_some_and(|n| n.distance_squared <= 1e-10)
-                })
+                .iter()
+                .filter(|p| [p.cell.0, p.cell.1][axis] > 0)
+                .map(|p| p.origin[axis] + 0.5 * g.overlap())
+                .collect()
+        };
+        let (seams_x, seams_y) = (seam_lines(0), seam_lines(1));
+        let seam_distance = |c: Vec2| {
+            let dx = seams_x
+                .iter()
+                .map(|x| (c.x - x).abs())
+                .fold(f32::MAX, f32::min);
+            let dy = seams_y
+                .iter()
+                .map(|y| (c.y - y).abs())
+                .fold(f32::MAX, f32::min);
+            dx.min(dy)
+        };
+        let (mut any, mut seam, mut interior) = (Vec::new(), Vec::new(), Vec::new());
+        let max_i = dims[0].saturating_sub(w);
+        let max_j = dims[1].saturating_sub(w);
+        let mut tries = 0;
+        while (any.len() < windows || seam.len() < windows || interior.len() < windows)
+            && tries < 200 * windows
+        {
+            tries += 1;
+            let at = (r.random_range(0..=max_i), r.random_range(0..=max_j));
+            let centre = out_lo
+                + Vec2::new(
+                    at.0 as f32 + 0.5 * (w - 1) as f32,
+                    at.1 as f32 + 0.5 * (w - 1) as f32,
+                ) * s;
+            let d = seam_distance(centre);
+            if any.len() < windows {
+                any.push(at);
+            }
+            if d <= 0.5 * g.overlap() && seam.len() < windows {
+                seam.push(at);
+            } else if d >= 0.25 * g.patch() && interior.len() < windows {
+                interior.push(at);
+            }
+        }
+        let mean_error = |set: &[(usize, usize)]| -> Result<f32> {
+            if set.is_empty() {
+                return Ok(0.0);
+            }
+            let errors = set
+                .par_iter()
+                .map(|&at| exemplar.nearest(&ex.surface, &outf, at))
+                .collect::<Result<Vec<f32>>>()?;
+            Ok(errors.iter().sum::<f32>() / set.len() as f32 / typical)
+        };
+        let (seam_error, interior_error) = (mean_error(&seam)?, mean_error(&interior)?);
+        let patch_of = output
+            .points
+            .attribute("patch")
+            .map(|a| a.values().to_vec())
+            .unwrap_or_default();
+        let verbatim = pts
+            .par_iter()
+            .zip(patch_of.par_iter())
+            .filter(|(p, k)| {
+                output
+                    .placements
+                    .get(**k as usize)
+                    .is_some_and(|placement| {
+                        let shift = placement.origin
+                            - ex.patch_origin(placement.source.0, placement.source.1);
+                        let source = **p - shift.extend(0.0);
+                        self.exemplar_index
+                            .nearest_one(source)
+                            .ok()
+                            .flatten()
+                            .is_some_and(|n| n.distance_squared <= 1e-10)
+                    })
+            })
+            .count();
+        Ok(QualityReport {
+            neighbourhood_error: mean_error(&any)?,
+            seam_error,
+            interior_error,
+            seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
+            verbatim_fraction: verbatim as f32 / pts.len().max(1) as f32,
+            continued_seams: continued_seams(&output.placements, g.patch_nodes - g.overlap_nodes),
+            exemplar_window_variation: typical,
+            largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
+            exemplar_largest_empty_disc: self.exemplar_largest_empty_disc,
+            windows,
+            seam_windows: seam.len(),
+            interior_windows: interior.len(),
         })
-        .count();
-    Ok(QualityReport {
-        neighbourhood_error: mean_error(&any)?,
-        seam_error,
-        interior_error,
-        seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
-        verbatim_fraction: verbatim as f32 / pts.len().max(1) as f32,
-        continued_seams: continued_seams(&output.placements, g.patch_nodes - g.overlap_nodes),
-        exemplar_window_variation: typical,
-        largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
-        exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
-        windows,
-        seam_windows: seam.len(),
-        interior_windows: interior.len(),
-    })
+    }
 }
 
 #[cfg(test)]

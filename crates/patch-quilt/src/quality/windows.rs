@@ -82,18 +82,16 @@ impl Field {
         self.data[i + self.dims[0] * (j + self.dims[1] * k)]
     }
 
-    /// Trilinear interpolation at `node + frac` (corners of weight 0 are not read).
-    fn sample(&self, [i, j, k]: [usize; 3], frac: Vec3) -> f32 {
-        if frac == Vec3::ZERO {
+    /// Trilinear interpolation at `node + frac`, with `frac`'s corner weights from
+    /// [`corner_weights`] (`None`: exactly at the node; corners of weight 0 are not read).
+    fn sample(&self, [i, j, k]: [usize; 3], weights: Option<&[f32; 8]>) -> f32 {
+        let Some(weights) = weights else {
             return self.at([i, j, k]);
-        }
+        };
         let mut value = 0.0;
-        for corner in 0..8usize {
-            let d = [corner & 1, (corner >> 1) & 1, corner >> 2];
-            let weight: f32 = (0..3)
-                .map(|a| if d[a] == 1 { frac[a] } else { 1.0 - frac[a] })
-                .product();
+        for (corner, &weight) in weights.iter().enumerate() {
             if weight > 0.0 {
+                let d = [corner & 1, (corner >> 1) & 1, corner >> 2];
                 value += weight * self.at([i + d[0], j + d[1], k + d[2]]);
             }
         }
@@ -116,12 +114,14 @@ impl Field {
             let [i, j, k] = start.node;
             [i + a * start.step, j + b * start.step, k + c * start.step]
         };
+        let (mine_weights, their_weights) =
+            (corner_weights(at.frac), corner_weights(other_at.frac));
         let mut sum = 0.0f32;
         for c in 0..nz {
             for b in 0..w {
                 for a in 0..w {
-                    let mine = self.sample(node(at, [a, b, c]), at.frac);
-                    let theirs = other.sample(node(other_at, [a, b, c]), other_at.frac);
+                    let mine = self.sample(node(at, [a, b, c]), mine_weights.as_ref());
+                    let theirs = other.sample(node(other_at, [a, b, c]), their_weights.as_ref());
                     sum += (mine - theirs).powi(2);
                 }
             }
@@ -133,9 +133,22 @@ impl Field {
     }
 }
 
+/// The eight trilinear corner weights of a fraction of a node (corner `n` is offset by bit 0,
+/// 1 and 2 of `n` along x, y and z), or `None` for a zero fraction. A window's nodes all share
+/// its fraction, so these are computed once per window, not once per node.
+fn corner_weights(frac: Vec3) -> Option<[f32; 8]> {
+    (frac != Vec3::ZERO).then(|| {
+        std::array::from_fn(|corner| {
+            let d = [corner & 1, (corner >> 1) & 1, corner >> 2];
+            (0..3)
+                .map(|a| if d[a] == 1 { frac[a] } else { 1.0 - frac[a] })
+                .product()
+        })
+    })
+}
+
 /// The exemplar's windows: `w × w` nodes of `D(T_in)`'s spacing, full height.
-pub(super) struct ExemplarWindows<'a> {
-    surface: &'a MlsSurface,
+pub(super) struct ExemplarWindows {
     /// The fine field's grid (origin and spacing) and the distance band.
     spec: GridSpec,
     band: f32,
@@ -147,9 +160,9 @@ pub(super) struct ExemplarWindows<'a> {
     positions: Vec<(usize, usize)>,
 }
 
-impl<'a> ExemplarWindows<'a> {
+impl ExemplarWindows {
     /// Samples the fine field of the exemplar's MLS surface around its box.
-    pub fn new(ex: &'a Exemplar, band: f32, w: usize) -> Result<Self> {
+    pub fn new(ex: &Exemplar, band: f32, w: usize) -> Result<Self> {
         let surface = &ex.surface;
         let coarse = ex.spec.dims;
         let spacing = ex.spec.spacing;
@@ -162,7 +175,6 @@ impl<'a> ExemplarWindows<'a> {
             .flat_map(|j| (0..=coarse[0].saturating_sub(w)).map(move |i| (i, j)))
             .collect();
         Ok(Self {
-            surface,
             fine: Field::distances(&SdfGrid::from_surface(surface, &spec, band)?),
             spec,
             band,
@@ -231,8 +243,8 @@ impl<'a> ExemplarWindows<'a> {
     }
 
     /// The exemplar's window starting at the continuous fine-node position `p`, evaluated
-    /// exactly on the exemplar's surface.
-    fn exact(&self, p: Vec3) -> Result<Field> {
+    /// exactly on the exemplar's surface `surface` (the one the windows were sampled from).
+    fn exact(&self, surface: &MlsSurface, p: Vec3) -> Result<Field> {
         let [w, nz] = self.shape;
         let spec = GridSpec {
             dims: [w, w, nz],
@@ -240,15 +252,14 @@ impl<'a> ExemplarWindows<'a> {
             spacing: self.spec.spacing * SUBSTEPS as f32,
         };
         Ok(Field::distances(&SdfGrid::from_surface(
-            self.surface,
-            &spec,
-            self.band,
+            surface, &spec, self.band,
         )?))
     }
 
     /// Mean squared difference between the window of `out` starting at node `at` and the
-    /// nearest exemplar window (three passes, see the module docs).
-    pub fn nearest(&self, out: &Field, at: (usize, usize)) -> Result<f32> {
+    /// nearest exemplar window (three passes, see the module docs); `surface` is the
+    /// exemplar's surface the windows were sampled from, for the exact last window.
+    pub fn nearest(&self, surface: &MlsSurface, out: &Field, at: (usize, usize)) -> Result<f32> {
         let here = WindowAt::at_node([at.0, at.1, 0], 1);
         let error = |there: WindowAt, limit: f32| {
             out.window_error(here, &self.fine, there, self.shape, limit)
@@ -289,7 +300,7 @@ impl<'a> ExemplarWindows<'a> {
             step *= 0.5;
         }
         if position != start {
-            let window = self.exact(position)?;
+            let window = self.exact(surface, position)?;
             let own = WindowAt::at_node([0; 3], 1);
             best = best.min(out.window_error(here, &window, own, self.shape, best));
         }
@@ -319,11 +330,11 @@ mod tests {
     use crate::texture::GeometryTexture;
 
     /// Runs `check` on the windows (and `w`) of a bumpy height-field texture.
-    fn with_windows(check: impl FnOnce(&ExemplarWindows<'_>, usize)) {
+    fn with_windows(check: impl FnOnce(&ExemplarWindows, &MlsSurface, usize)) {
         let texture = bumps();
         let ex = Exemplar::new(&texture, &QuiltParams::default().field_resolution(20)).unwrap();
         let w = ex.geometry.patch_nodes / 2;
-        check(&ExemplarWindows::new(&ex, 0.4, w).unwrap(), w);
+        check(&ExemplarWindows::new(&ex, 0.4, w).unwrap(), &ex.surface, w);
     }
 
     fn bumps() -> GeometryTexture {
@@ -340,9 +351,11 @@ mod tests {
 
     #[test]
     fn exact_windows_at_fine_nodes_are_the_fine_field() {
-        with_windows(|windows, _| {
+        with_windows(|windows, surface, _| {
             for node in [[4, 4, 4], [9, 17, 3], [21, 6, 5]] {
-                let exact = windows.exact(Vec3::from(node.map(|n| n as f32))).unwrap();
+                let exact = windows
+                    .exact(surface, Vec3::from(node.map(|n| n as f32)))
+                    .unwrap();
                 let error = exact.window_error(
                     WindowAt::at_node([0; 3], 1),
                     &windows.fine,
@@ -357,13 +370,13 @@ mod tests {
 
     #[test]
     fn a_window_at_a_continuous_offset_is_found() {
-        with_windows(|windows, w| {
+        with_windows(|windows, surface, w| {
             let typical = windows.aligned_error((0, 0), (w, w));
             for start in [(2usize, 3usize), (5, 1)] {
                 let node = windows.aligned(start).node.map(|n| n as f32);
                 let position = Vec3::from(node) + Vec3::new(1.37, -2.6, 0.9);
-                let cut = windows.exact(position).unwrap();
-                let found = windows.nearest(&cut, (0, 0)).unwrap();
+                let cut = windows.exact(surface, position).unwrap();
+                let found = windows.nearest(surface, &cut, (0, 0)).unwrap();
                 let on_nodes = windows
                     .positions()
                     .iter()
