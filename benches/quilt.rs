@@ -1,4 +1,5 @@
-//! Patch quilting: the search kernel at a realistic size and a full small synthesis.
+//! Patch quilting: the search kernel at a realistic size, a full small synthesis, and the
+//! quality measure (building its exemplar side, and measuring one output with it).
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -9,7 +10,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use geosynth::core::{RunContext, rng};
 use geosynth::fixtures::textures;
 use geosynth::quilt::search::{OverlapNode, candidates, distances};
-use geosynth::quilt::{OutputSize, QuiltParams, quilt, texture_from_exemplar};
+use geosynth::quilt::{OutputSize, QualityMeasure, QuiltParams, quilt, texture_from_exemplar};
 use glam::Vec4;
 use rand::RngExt;
 
@@ -68,5 +69,22 @@ fn synthesis(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, search_kernel, synthesis);
+fn quality(c: &mut Criterion) {
+    let exemplar = textures::bumpy(textures::TEXTURE_DENSITY, 1, 1).expect("benchmark setup");
+    let texture = texture_from_exemplar(&exemplar).expect("benchmark setup");
+    let params = QuiltParams::default().output(OutputSize::Scale(1.5));
+    let output = quilt(&texture, &params, &mut RunContext::new(1)).expect("benchmark setup");
+    let measure = QualityMeasure::new(&texture, &params).expect("benchmark setup");
+    let mut group = c.benchmark_group("quilt_quality");
+    group.sample_size(10);
+    group.bench_function("measure_setup_bumpy_12k_points", |b| {
+        b.iter(|| QualityMeasure::new(black_box(&texture), &params))
+    });
+    group.bench_function("evaluate_bumpy_scale_1.5_32_windows", |b| {
+        b.iter(|| measure.evaluate(black_box(&output), 32))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, search_kernel, synthesis, quality);
 criterion_main!(benches);
