@@ -14,7 +14,8 @@ pub mod windows;
 use distance_field::{GridSpec, SdfGrid};
 use glam::{Vec2, Vec3};
 use mls_surface::{MlsParams, MlsSurface};
-use pointset_core::{KdIndex, PointSet, rng};
+use pointset_core::rng::{self, SeededRng};
+use pointset_core::{KdIndex, PointSet};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -196,68 +197,131 @@ impl<'t> QualityMeasure<'t> {
     /// an output smaller than one window (half a patch) along either side, and whatever
     /// building the output's surface fails on.
     pub fn evaluate(&self, output: &QuiltOutput, windows: usize) -> Result<QualityReport> {
-        let (texture, params, ex, w) = (self.texture, &self.params, &self.ex, self.w);
-        let exemplar = &self.exemplar_windows;
         if windows == 0 {
             return Err(invalid("windows", 0, "at least 1 window per class"));
         }
-        let g = ex.geometry;
-        let up = texture.up();
-        let pts: Vec<Vec3> = output
+        let g = self.ex.geometry;
+        let out = self.output_field(output)?;
+        // One stream draws the exemplar's window pairs, then the output's windows.
+        let mut r = rng::stream(self.params.seed ^ 0x9a11, 0);
+        let typical = self.typical_variation(&mut r, windows);
+        let drawn = self.draw_windows(&mut r, output, &out, windows);
+        let mean_error = |set: &[(usize, usize)]| -> Result<f32> {
+            if set.is_empty() {
+                return Ok(0.0);
+            }
+            let errors = set
+                .par_iter()
+                .map(|&at| {
+                    self.exemplar_windows
+                        .nearest(&self.ex.surface, &out.field, at)
+                })
+                .collect::<Result<Vec<f32>>>()?;
+            Ok(errors.iter().sum::<f32>() / set.len() as f32 / typical)
+        };
+        let (seam_error, interior_error) = (mean_error(&drawn.seam)?, mean_error(&drawn.interior)?);
+        Ok(QualityReport {
+            neighbourhood_error: mean_error(&drawn.any)?,
+            seam_error,
+            interior_error,
+            seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
+            verbatim_fraction: self.verbatim_fraction(output, &out.points),
+            continued_seams: continued_seams(&output.placements, g.patch_nodes - g.overlap_nodes),
+            exemplar_window_variation: typical,
+            largest_empty_disc: largest_empty_disc(&out.points, out.lo, out.hi, 0.5 * g.spacing)?,
+            exemplar_largest_empty_disc: self.exemplar_largest_empty_disc,
+            windows,
+            seam_windows: drawn.seam.len(),
+            interior_windows: drawn.interior.len(),
+        })
+    }
+
+    /// The output's points in the canonical frame and the signed distance of its own MLS
+    /// surface over its box, at the spacing and height of `D(T_in)`. Errors: an output
+    /// smaller than one window, and whatever building its surface fails on.
+    fn output_field(&self, output: &QuiltOutput) -> Result<OutputField> {
+        let (ex, w) = (&self.ex, self.w);
+        let up = self.texture.up();
+        let points: Vec<Vec3> = output
             .points
             .positions()
             .iter()
             .map(|&p| up.to_canonical(p))
             .collect();
-        let nrm: Vec<Vec3> = output
+        let normals: Vec<Vec3> = output
             .points
             .normals()
             .map(|n| n.iter().map(|&v| up.to_canonical(v)).collect())
             .unwrap_or_default();
-        let set = PointSet::new(pts.clone())?.with_normals(nrm)?;
+        let set = PointSet::new(points.clone())?.with_normals(normals)?;
         let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.surface.kernel()))?;
         let (a, b) = (
             up.to_canonical(output.bounds.min).truncate(),
             up.to_canonical(output.bounds.max).truncate(),
         );
-        let (out_lo, out_hi) = (a.min(b), a.max(b));
-        let s = g.spacing;
+        let (lo, hi) = (a.min(b), a.max(b));
+        let s = ex.geometry.spacing;
         let dims = [
-            ((out_hi.x - out_lo.x) / s).floor() as usize + 1,
-            ((out_hi.y - out_lo.y) / s).floor() as usize + 1,
+            ((hi.x - lo.x) / s).floor() as usize + 1,
+            ((hi.y - lo.y) / s).floor() as usize + 1,
             ex.spec.dims[2],
         ];
         let spec = GridSpec {
             dims,
-            origin: out_lo.extend(ex.spec.origin.z),
+            origin: lo.extend(ex.spec.origin.z),
             spacing: s,
         };
-        let out_field = SdfGrid::from_surface(&surface, &spec, params.band * s)?;
-        let outf = Field::distances(&out_field);
+        let field = Field::distances(&SdfGrid::from_surface(
+            &surface,
+            &spec,
+            self.params.band * s,
+        )?);
         if dims[0] < w || dims[1] < w {
             return Err(invalid(
                 "output",
-                format!("{} x {}", out_hi.x - out_lo.x, out_hi.y - out_lo.y),
+                format!("{} x {}", hi.x - lo.x, hi.y - lo.y),
                 format!(
                     "room for one quality window ({w} × {w} field nodes, {:.3} wide) to measure",
                     (w - 1) as f32 * s
                 ),
             ));
         }
-        let ex_positions = exemplar.positions();
-        // Typical exemplar variation: random pairs of non-overlapping windows.
-        let mut r = rng::stream(params.seed ^ 0x9a11, 0);
+        Ok(OutputField {
+            points,
+            field,
+            dims,
+            lo,
+            hi,
+        })
+    }
+
+    /// The exemplar's typical window variation: the mean error between random pairs of
+    /// non-overlapping exemplar windows (`8 · windows` draws).
+    fn typical_variation(&self, r: &mut SeededRng, windows: usize) -> f32 {
+        let (exemplar, w) = (&self.exemplar_windows, self.w);
+        let positions = exemplar.positions();
         let mut pair_errors = Vec::new();
         for _ in 0..(8 * windows) {
-            let a = ex_positions[r.random_range(0..ex_positions.len())];
-            let b = ex_positions[r.random_range(0..ex_positions.len())];
+            let a = positions[r.random_range(0..positions.len())];
+            let b = positions[r.random_range(0..positions.len())];
             if a.0.abs_diff(b.0) >= w || a.1.abs_diff(b.1) >= w {
                 pair_errors.push(exemplar.aligned_error(a, b));
             }
         }
-        let typical = (pair_errors.iter().sum::<f32>() / pair_errors.len().max(1) as f32)
-            .max(f32::MIN_POSITIVE);
-        // Seam lines: the middle of each overlap strip.
+        (pair_errors.iter().sum::<f32>() / pair_errors.len().max(1) as f32).max(f32::MIN_POSITIVE)
+    }
+
+    /// Random output windows (start nodes): up to `windows` anywhere, up to `windows`
+    /// centred within half an overlap of a seam line (the middle of an overlap strip), and
+    /// up to `windows` centred at least a quarter patch from every seam line.
+    fn draw_windows(
+        &self,
+        r: &mut SeededRng,
+        output: &QuiltOutput,
+        out: &OutputField,
+        windows: usize,
+    ) -> DrawnWindows {
+        let (g, w) = (self.ex.geometry, self.w);
         let seam_lines = |axis: usize| -> Vec<f32> {
             output
                 .placements
@@ -278,47 +342,44 @@ impl<'t> QualityMeasure<'t> {
                 .fold(f32::MAX, f32::min);
             dx.min(dy)
         };
-        let (mut any, mut seam, mut interior) = (Vec::new(), Vec::new(), Vec::new());
-        let max_i = dims[0].saturating_sub(w);
-        let max_j = dims[1].saturating_sub(w);
+        let mut drawn = DrawnWindows::default();
+        let max_i = out.dims[0].saturating_sub(w);
+        let max_j = out.dims[1].saturating_sub(w);
         let mut tries = 0;
-        while (any.len() < windows || seam.len() < windows || interior.len() < windows)
+        while (drawn.any.len() < windows
+            || drawn.seam.len() < windows
+            || drawn.interior.len() < windows)
             && tries < 200 * windows
         {
             tries += 1;
             let at = (r.random_range(0..=max_i), r.random_range(0..=max_j));
-            let centre = out_lo
+            let centre = out.lo
                 + Vec2::new(
                     at.0 as f32 + 0.5 * (w - 1) as f32,
                     at.1 as f32 + 0.5 * (w - 1) as f32,
-                ) * s;
+                ) * g.spacing;
             let d = seam_distance(centre);
-            if any.len() < windows {
-                any.push(at);
+            if drawn.any.len() < windows {
+                drawn.any.push(at);
             }
-            if d <= 0.5 * g.overlap() && seam.len() < windows {
-                seam.push(at);
-            } else if d >= 0.25 * g.patch() && interior.len() < windows {
-                interior.push(at);
+            if d <= 0.5 * g.overlap() && drawn.seam.len() < windows {
+                drawn.seam.push(at);
+            } else if d >= 0.25 * g.patch() && drawn.interior.len() < windows {
+                drawn.interior.push(at);
             }
         }
-        let mean_error = |set: &[(usize, usize)]| -> Result<f32> {
-            if set.is_empty() {
-                return Ok(0.0);
-            }
-            let errors = set
-                .par_iter()
-                .map(|&at| exemplar.nearest(&ex.surface, &outf, at))
-                .collect::<Result<Vec<f32>>>()?;
-            Ok(errors.iter().sum::<f32>() / set.len() as f32 / typical)
-        };
-        let (seam_error, interior_error) = (mean_error(&seam)?, mean_error(&interior)?);
+        drawn
+    }
+
+    /// Fraction of `points` (the output's, canonical frame) that are exemplar points
+    /// translated by their patch's placement (GUIDE §5's verbatim copying).
+    fn verbatim_fraction(&self, output: &QuiltOutput, points: &[Vec3]) -> f32 {
         let patch_of = output
             .points
             .attribute("patch")
             .map(|a| a.values().to_vec())
             .unwrap_or_default();
-        let verbatim = pts
+        let verbatim = points
             .par_iter()
             .zip(patch_of.par_iter())
             .filter(|(p, k)| {
@@ -327,7 +388,7 @@ impl<'t> QualityMeasure<'t> {
                     .get(**k as usize)
                     .is_some_and(|placement| {
                         let shift = placement.origin
-                            - ex.patch_origin(placement.source.0, placement.source.1);
+                            - self.ex.patch_origin(placement.source.0, placement.source.1);
                         let source = **p - shift.extend(0.0);
                         self.exemplar_index
                             .nearest_one(source)
@@ -337,21 +398,33 @@ impl<'t> QualityMeasure<'t> {
                     })
             })
             .count();
-        Ok(QualityReport {
-            neighbourhood_error: mean_error(&any)?,
-            seam_error,
-            interior_error,
-            seam_concentration: seam_error / interior_error.max(f32::MIN_POSITIVE),
-            verbatim_fraction: verbatim as f32 / pts.len().max(1) as f32,
-            continued_seams: continued_seams(&output.placements, g.patch_nodes - g.overlap_nodes),
-            exemplar_window_variation: typical,
-            largest_empty_disc: largest_empty_disc(&pts, out_lo, out_hi, 0.5 * s)?,
-            exemplar_largest_empty_disc: self.exemplar_largest_empty_disc,
-            windows,
-            seam_windows: seam.len(),
-            interior_windows: interior.len(),
-        })
+        verbatim as f32 / points.len().max(1) as f32
     }
+}
+
+/// The output side of one measurement.
+struct OutputField {
+    /// The output's points in the canonical frame.
+    points: Vec<Vec3>,
+    /// Signed distance of the output's MLS surface over its box.
+    field: Field,
+    /// The field's node counts.
+    dims: [usize; 3],
+    /// The output box's lower corner on the reference plane.
+    lo: Vec2,
+    /// Its upper corner.
+    hi: Vec2,
+}
+
+/// Start nodes of the windows drawn from one output, per class.
+#[derive(Default)]
+struct DrawnWindows {
+    /// Anywhere in the output.
+    any: Vec<(usize, usize)>,
+    /// Centred on a seam.
+    seam: Vec<(usize, usize)>,
+    /// Centred well inside a patch.
+    interior: Vec<(usize, usize)>,
 }
 
 #[cfg(test)]
