@@ -5,12 +5,13 @@
 //!
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
-//!     [--surface-gap] [--normal-agreement C] FIXTURE.ply...
+//!     [--surface-gap] [--normal-agreement C] [--smoothing L] FIXTURE.ply...
 //! ```
 //!
 //! `--surface-gap` runs the full method (and so its same-layout control) with
 //! [`WarpTargets::SurfaceGap`] instead of the paper's exact targets. `--normal-agreement C`
-//! sets the blend's normal test ([`QuiltParams::normal_agreement`], default 0.8).
+//! sets the blend's normal test ([`QuiltParams::normal_agreement`], default 0.8);
+//! `--smoothing L` the warp's spline smoothing ([`QuiltParams::smoothing`], default 0).
 //!
 //! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
 //! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
@@ -53,6 +54,7 @@ struct Study {
     resampled: Option<PathBuf>,
     warp_targets: WarpTargets,
     normal_agreement: f32,
+    smoothing: f32,
     fixtures: Vec<PathBuf>,
 }
 
@@ -63,6 +65,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         resampled: None,
         warp_targets: WarpTargets::Exact,
         normal_agreement: QuiltParams::default().normal_agreement,
+        smoothing: QuiltParams::default().smoothing,
         fixtures: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
@@ -82,13 +85,16 @@ fn parse() -> Result<Study, Box<dyn Error>> {
                     .ok_or("--normal-agreement needs a cosine")?
                     .parse()?;
             }
+            "--smoothing" => {
+                study.smoothing = args.next().ok_or("--smoothing needs a number")?.parse()?;
+            }
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
     if study.fixtures.is_empty() || study.seeds == 0 || study.windows == 0 {
         return Err(
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
-             [--surface-gap] [--normal-agreement C] FIXTURE.ply..."
+             [--surface-gap] [--normal-agreement C] [--smoothing L] FIXTURE.ply..."
                 .into(),
         );
     }
@@ -153,9 +159,9 @@ fn mean_and_error(values: &[f64]) -> (f64, f64) {
 fn main() -> Result<(), Box<dyn Error>> {
     let study = parse()?;
     println!(
-        "seeds 1..={}, {} windows per class, warp targets {:?}, normal agreement {}; \
-         neighbourhood / seam / interior error (mean over seeds)",
-        study.seeds, study.windows, study.warp_targets, study.normal_agreement
+        "seeds 1..={}, {} windows per class, warp targets {:?}, normal agreement {}, \
+         smoothing {}; neighbourhood / seam / interior error (mean over seeds)",
+        study.seeds, study.windows, study.warp_targets, study.normal_agreement, study.smoothing
     );
     for path in &study.fixtures {
         let texture = read_texture(path)?;
@@ -170,7 +176,8 @@ fn main() -> Result<(), Box<dyn Error>> {
                 .seed(seed)
                 .pairing(PairingParams::table1(preset_for(path)))
                 .warp_targets(study.warp_targets)
-                .normal_agreement(study.normal_agreement);
+                .normal_agreement(study.normal_agreement)
+                .smoothing(study.smoothing);
             for (run, q) in errors.iter_mut().zip(one_seed(
                 &texture,
                 resampled.as_ref(),
