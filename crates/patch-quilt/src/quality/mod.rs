@@ -167,8 +167,6 @@ pub struct QualityMeasure<'t> {
     exemplar_index: KdIndex,
     /// The exemplar's largest empty disc inside its footprint.
     exemplar_largest_empty_disc: f32,
-    /// Window width in field nodes (half a patch, at least 3).
-    w: usize,
 }
 
 impl<'t> QualityMeasure<'t> {
@@ -189,7 +187,6 @@ impl<'t> QualityMeasure<'t> {
             exemplar_index: KdIndex::new(&ex.points)?,
             exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
             ex,
-            w,
         })
     }
 
@@ -240,7 +237,7 @@ impl<'t> QualityMeasure<'t> {
     /// surface over its box, at the spacing and height of `D(T_in)`. Errors: an output
     /// smaller than one window, and whatever building its surface fails on.
     fn output_field(&self, output: &QuiltOutput) -> Result<OutputField> {
-        let (ex, w) = (&self.ex, self.w);
+        let (ex, w) = (&self.ex, self.exemplar_windows.width());
         let up = self.texture.up();
         let points: Vec<Vec3> = output
             .points
@@ -298,7 +295,7 @@ impl<'t> QualityMeasure<'t> {
     /// The exemplar's typical window variation: the mean error between random pairs of
     /// non-overlapping exemplar windows (`8 · windows` draws).
     fn typical_variation(&self, r: &mut SeededRng, windows: usize) -> f32 {
-        let (exemplar, w) = (&self.exemplar_windows, self.w);
+        let (exemplar, w) = (&self.exemplar_windows, self.exemplar_windows.width());
         let positions = exemplar.positions();
         let mut pair_errors = Vec::new();
         for _ in 0..(8 * windows) {
@@ -321,7 +318,7 @@ impl<'t> QualityMeasure<'t> {
         out: &OutputField,
         windows: usize,
     ) -> DrawnWindows {
-        let (g, w) = (self.ex.geometry, self.w);
+        let (g, w) = (self.ex.geometry, self.exemplar_windows.width());
         let seam_lines = |axis: usize| -> Vec<f32> {
             output
                 .placements

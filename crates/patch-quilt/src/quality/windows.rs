@@ -183,6 +183,11 @@ impl ExemplarWindows {
         })
     }
 
+    /// A window's width `w` in nodes of `D(T_in)`.
+    pub fn width(&self) -> usize {
+        self.shape[0]
+    }
+
     /// Node positions of `D(T_in)` where a window fits.
     pub fn positions(&self) -> &[(usize, usize)] {
         &self.positions
