@@ -5,13 +5,17 @@
 //!
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
-//!     [--surface-gap] [--normal-agreement C] [--smoothing L] FIXTURE.ply...
+//!     [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E]
+//!     [--patch-size F] FIXTURE.ply...
 //! ```
 //!
 //! `--surface-gap` runs the full method (and so its same-layout control) with
 //! [`WarpTargets::SurfaceGap`] instead of the paper's exact targets. `--normal-agreement C`
 //! sets the blend's normal test ([`QuiltParams::normal_agreement`], default 0.8);
-//! `--smoothing L` the warp's spline smoothing ([`QuiltParams::smoothing`], default 0).
+//! `--smoothing L` the warp's spline smoothing ([`QuiltParams::smoothing`], default 0);
+//! `--epsilon E` the search's tolerance `ε` ([`QuiltParams::epsilon`], default 0.1);
+//! `--patch-size F` the patch side as a fraction of the exemplar box's smaller side
+//! ([`QuiltParams::patch_size`], default 0.4; the measure's windows, half a patch, follow it).
 //!
 //! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
 //! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
@@ -55,6 +59,8 @@ struct Study {
     warp_targets: WarpTargets,
     normal_agreement: f32,
     smoothing: f32,
+    epsilon: f32,
+    patch_size: f32,
     fixtures: Vec<PathBuf>,
 }
 
@@ -66,6 +72,8 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         warp_targets: WarpTargets::Exact,
         normal_agreement: QuiltParams::default().normal_agreement,
         smoothing: QuiltParams::default().smoothing,
+        epsilon: QuiltParams::default().epsilon,
+        patch_size: QuiltParams::default().patch_size,
         fixtures: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
@@ -88,13 +96,23 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "--smoothing" => {
                 study.smoothing = args.next().ok_or("--smoothing needs a number")?.parse()?;
             }
+            "--epsilon" => {
+                study.epsilon = args.next().ok_or("--epsilon needs a number")?.parse()?;
+            }
+            "--patch-size" => {
+                study.patch_size = args
+                    .next()
+                    .ok_or("--patch-size needs a fraction")?
+                    .parse()?;
+            }
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
     if study.fixtures.is_empty() || study.seeds == 0 || study.windows == 0 {
         return Err(
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
-             [--surface-gap] [--normal-agreement C] [--smoothing L] FIXTURE.ply..."
+             [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
+             [--patch-size F] FIXTURE.ply..."
                 .into(),
         );
     }
@@ -160,8 +178,15 @@ fn main() -> Result<(), Box<dyn Error>> {
     let study = parse()?;
     println!(
         "seeds 1..={}, {} windows per class, warp targets {:?}, normal agreement {}, \
-         smoothing {}; neighbourhood / seam / interior error (mean over seeds)",
-        study.seeds, study.windows, study.warp_targets, study.normal_agreement, study.smoothing
+         smoothing {}, epsilon {}, patch size {}; neighbourhood / seam / interior error \
+         (mean over seeds)",
+        study.seeds,
+        study.windows,
+        study.warp_targets,
+        study.normal_agreement,
+        study.smoothing,
+        study.epsilon,
+        study.patch_size
     );
     for path in &study.fixtures {
         let texture = read_texture(path)?;
@@ -177,7 +202,9 @@ fn main() -> Result<(), Box<dyn Error>> {
                 .pairing(PairingParams::table1(preset_for(path)))
                 .warp_targets(study.warp_targets)
                 .normal_agreement(study.normal_agreement)
-                .smoothing(study.smoothing);
+                .smoothing(study.smoothing)
+                .epsilon(study.epsilon)
+                .patch_size(study.patch_size);
             for (run, q) in errors.iter_mut().zip(one_seed(
                 &texture,
                 resampled.as_ref(),

@@ -608,4 +608,13 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     ]);
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("patch_size"));
+    let bad = geosynth(&[
+        "quilt",
+        exemplar.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--epsilon=-0.5",
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("epsilon"));
 }

@@ -107,6 +107,10 @@ pub struct QuiltArgs {
     /// Patch size as a fraction of the exemplar box's smaller side.
     #[arg(long, default_value_t = QuiltParams::default().patch_size)]
     patch: f32,
+    /// Relative tolerance `ε` of the search: every patch within `(1 + ε)` of the best match
+    /// is a candidate (larger: more variety, looser seams).
+    #[arg(long, default_value_t = QuiltParams::default().epsilon)]
+    epsilon: f32,
     /// Largest pair length of the warp, in distance-field spacings.
     #[arg(long, default_value_t = QuiltParams::default().pair_distance)]
     pair_distance: f32,
@@ -333,6 +337,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         .method(args.method.into())
         .field_resolution(args.resolution)
         .patch_size(args.patch)
+        .epsilon(args.epsilon)
         .relaxation_rounds(args.relax)
         .pair_distance(args.pair_distance)
         .smoothing(args.smoothing)
