@@ -6,7 +6,7 @@
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
 //!     [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E]
-//!     [--patch-size F] FIXTURE.ply...
+//!     [--patch-size F] [--pair-distance D] [--blend-reach R] FIXTURE.ply...
 //! ```
 //!
 //! `--surface-gap` runs the full method (and so its same-layout control) with
@@ -15,7 +15,9 @@
 //! `--smoothing L` the warp's spline smoothing ([`QuiltParams::smoothing`], default 0);
 //! `--epsilon E` the search's tolerance `ε` ([`QuiltParams::epsilon`], default 0.1);
 //! `--patch-size F` the patch side as a fraction of the exemplar box's smaller side
-//! ([`QuiltParams::patch_size`], default 0.4; the measure's windows, half a patch, follow it).
+//! ([`QuiltParams::patch_size`], default 0.4; the measure's windows, half a patch, follow it);
+//! `--pair-distance D` the warp's largest pair length ([`QuiltParams::pair_distance`]) and
+//! `--blend-reach R` the blend's largest gap ([`QuiltParams::blend_reach`]).
 //!
 //! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
 //! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
@@ -61,6 +63,8 @@ struct Study {
     smoothing: f32,
     epsilon: f32,
     patch_size: f32,
+    pair_distance: f32,
+    blend_reach: f32,
     fixtures: Vec<PathBuf>,
 }
 
@@ -74,6 +78,8 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         smoothing: QuiltParams::default().smoothing,
         epsilon: QuiltParams::default().epsilon,
         patch_size: QuiltParams::default().patch_size,
+        pair_distance: QuiltParams::default().pair_distance,
+        blend_reach: QuiltParams::default().blend_reach,
         fixtures: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
@@ -112,7 +118,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         return Err(
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
              [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
-             [--patch-size F] FIXTURE.ply..."
+             [--patch-size F] [--pair-distance D] [--blend-reach R] FIXTURE.ply..."
                 .into(),
         );
     }
@@ -178,15 +184,17 @@ fn main() -> Result<(), Box<dyn Error>> {
     let study = parse()?;
     println!(
         "seeds 1..={}, {} windows per class, warp targets {:?}, normal agreement {}, \
-         smoothing {}, epsilon {}, patch size {}; neighbourhood / seam / interior error \
-         (mean over seeds)",
+         smoothing {}, epsilon {}, patch size {}, pair distance {}, blend reach {}; \
+         neighbourhood / seam / interior error (mean over seeds)",
         study.seeds,
         study.windows,
         study.warp_targets,
         study.normal_agreement,
         study.smoothing,
         study.epsilon,
-        study.patch_size
+        study.patch_size,
+        study.pair_distance,
+        study.blend_reach
     );
     for path in &study.fixtures {
         let texture = read_texture(path)?;
@@ -204,7 +212,9 @@ fn main() -> Result<(), Box<dyn Error>> {
                 .normal_agreement(study.normal_agreement)
                 .smoothing(study.smoothing)
                 .epsilon(study.epsilon)
-                .patch_size(study.patch_size);
+                .patch_size(study.patch_size)
+                .pair_distance(study.pair_distance)
+                .blend_reach(study.blend_reach);
             for (run, q) in errors.iter_mut().zip(one_seed(
                 &texture,
                 resampled.as_ref(),

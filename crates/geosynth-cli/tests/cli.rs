@@ -267,6 +267,22 @@ fn demo_quick_writes_report_geometry_and_previews() {
             .contains("| stage | seconds |")
     );
     assert!(Path::new(&out.join("fixtures.png")).is_file());
+    // Patch quilting: every texture fixture, its files, and the parameters that made it.
+    let quilts = report["quilts"].as_array().unwrap();
+    assert_eq!(quilts.len(), 4);
+    for q in quilts {
+        for key in ["preview", "geometry"] {
+            assert!(out.join(q[key].as_str().unwrap()).is_file(), "{key}");
+        }
+        assert_eq!(q["params"]["method"], "Full", "{q}");
+        assert!(q["params"]["pairing"]["w_d"].as_f64().unwrap() > 0.0, "{q}");
+        assert!(
+            q["full"]["quality"]["neighbourhood_error"]
+                .as_f64()
+                .unwrap()
+                >= 0.0
+        );
+    }
     // Distance-field synthesis: every Figure 6 solid, search beating random blocks.
     let volumes = report["volumes"].as_array().unwrap();
     assert_eq!(volumes.len(), 5);
@@ -490,10 +506,24 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         preview.to_str().unwrap(),
         "--seed",
         "3",
+        "--epsilon",
+        "0.2",
         "-q",
     ]);
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    // The report records the parameters the run used, the given ones and the defaults.
+    let params = &r["params"];
+    assert_eq!(params["seed"], 3);
+    assert_eq!(params["field_resolution"], 24);
+    assert!(
+        (params["epsilon"].as_f64().unwrap() - 0.2).abs() < 1e-6,
+        "{params}"
+    );
+    assert!((params["output"]["scale"].as_f64().unwrap() - 1.3).abs() < 1e-6);
+    assert_eq!(params["method"], "Full");
+    assert_eq!(params["pairing"]["w_p"], 1.0);
+    assert!(params["pairing"]["w_v"].as_f64().unwrap() > 0.0);
     for run in [
         "run",
         "search_only",

@@ -247,6 +247,51 @@ fn blend_json(b: BlendCounts) -> Value {
     })
 }
 
+/// Every parameter of a run as JSON, so a report says how to reproduce it. A fixed layout
+/// is given by its length (the sources are in the output's own report of the run it came
+/// from).
+pub fn params_json(p: &QuiltParams) -> Value {
+    let pairing = p.pairing.clone().unwrap_or_default();
+    json!({
+        "method": format!("{:?}", p.method),
+        "seed": p.seed,
+        "output": match p.output {
+            OutputSize::Absolute(w, h) => json!({ "width": w, "depth": h }),
+            OutputSize::Scale(s) => json!({ "scale": s }),
+        },
+        "patch_size": p.patch_size,
+        "extra_width": p.extra_width,
+        "overlap": p.overlap,
+        "field_resolution": p.field_resolution,
+        "epsilon": p.epsilon,
+        "band": p.band,
+        "pairing": {
+            "w_p": pairing.w_p,
+            "w_n": pairing.w_n,
+            "w_v": pairing.w_v,
+            "w_l": pairing.w_l,
+            "w_d": pairing.w_d,
+            // JSON has no infinity: serde_json writes an unlimited threshold as null.
+            "max_distance": pairing.max_distance,
+            "max_normal_difference": pairing.max_normal_difference,
+            "max_variation_difference": pairing.max_variation_difference,
+            "coherence_radius": pairing.coherence_radius,
+            "rounds": pairing.rounds,
+            "remove_crossings": pairing.remove_crossings,
+        },
+        "pair_distance": p.pair_distance,
+        "warp_targets": format!("{:?}", p.warp_targets),
+        "smoothing": p.smoothing,
+        "blend_reach": p.blend_reach,
+        "normal_agreement": p.normal_agreement,
+        "clusters": { "max_points": p.clusters.max_points, "max_variation": p.clusters.max_variation },
+        "anchors_per_corner": p.anchors_per_corner,
+        "relaxation_rounds": p.relaxation_rounds,
+        "seed_patch": p.seed_patch,
+        "layout_patches": p.layout.as_ref().map(Vec::len),
+    })
+}
+
 /// A run as JSON.
 pub fn run_json(run: &MeasuredRun) -> Value {
     let s = &run.output.stats;
@@ -377,7 +422,12 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         texture_preview(&texture, &[&main.output], path, 480, 360)?;
     }
     if let Some(path) = &args.report {
-        let mut report = json!({ "method": format!("{:?}", params.method), "seed": args.seed, "run": run_json(&main) });
+        let mut report = json!({
+            "method": format!("{:?}", params.method),
+            "seed": args.seed,
+            "params": params_json(&params),
+            "run": run_json(&main),
+        });
         if args.baselines {
             for (name, method) in [
                 ("search_only", Method::SearchOnly),
