@@ -111,6 +111,15 @@ fn parse() -> Result<Study, Box<dyn Error>> {
                     .ok_or("--patch-size needs a fraction")?
                     .parse()?;
             }
+            "--pair-distance" => {
+                study.pair_distance = args
+                    .next()
+                    .ok_or("--pair-distance needs a number")?
+                    .parse()?;
+            }
+            "--blend-reach" => {
+                study.blend_reach = args.next().ok_or("--blend-reach needs a number")?.parse()?;
+            }
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
