@@ -29,7 +29,9 @@
 //! (`chain_mail`, `weave`, `flowers`; anything else: the height-field row), and otherwise the
 //! default parameters (output twice the exemplar). Seeds run from 1 to N (default 8) with `W`
 //! windows per class (default 128). Prints neighbourhood / seam / interior error per method
-//! (means over the seeds), then the full method's paired difference from each other run,
+//! and the fraction of seams whose two patches continue each other in the exemplar
+//! ([`QualityReport::continued_seams`]: how much of the output is larger intact copies;
+//! means over the seeds), then the full method's paired difference from each other run,
 //! seed by seed, as mean ± standard error of the mean (neighbourhood / seam): the methods
 //! differ by less than the spread between seeds, so only a difference several standard
 //! errors from 0 ranks them.
@@ -211,8 +213,9 @@ fn main() -> Result<(), Box<dyn Error>> {
             (Some(dir), Some(name)) => Some(read_texture(&dir.join(name))?),
             _ => None,
         };
-        // errors[run][class] = one value per seed.
-        let mut errors = vec![[Vec::new(), Vec::new(), Vec::new()]; RUNS.len()];
+        // errors[run][class] = one value per seed: neighbourhood, seam and interior error,
+        // then the fraction of continued seams.
+        let mut errors = vec![[Vec::new(), Vec::new(), Vec::new(), Vec::new()]; RUNS.len()];
         for seed in 1..=study.seeds {
             let params = QuiltParams::default()
                 .seed(seed)
@@ -233,12 +236,16 @@ fn main() -> Result<(), Box<dyn Error>> {
                 run[0].push(f64::from(q.neighbourhood_error));
                 run[1].push(f64::from(q.seam_error));
                 run[2].push(f64::from(q.interior_error));
+                run[3].push(f64::from(q.continued_seams));
             }
         }
         let shown = if resampled.is_some() { 5 } else { 4 };
         for (name, run) in RUNS.iter().zip(&errors).take(shown) {
-            let [n, s, i] = [0, 1, 2].map(|class| mean_and_error(&run[class]).0);
-            println!("{} | {name} | {n:.4} / {s:.4} / {i:.4}", path.display());
+            let [n, s, i, c] = [0, 1, 2, 3].map(|class| mean_and_error(&run[class]).0);
+            println!(
+                "{} | {name} | {n:.4} / {s:.4} / {i:.4} | continued seams {c:.2}",
+                path.display()
+            );
         }
         for (name, run) in RUNS.iter().zip(&errors).take(shown).skip(1) {
             let [n, s] = [0, 1].map(|class| {
