@@ -6,7 +6,7 @@
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
 //!     [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E]
-//!     [--patch-size F] [--pair-distance D] [--blend-reach R] FIXTURE.ply...
+//!     [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random] FIXTURE.ply...
 //! ```
 //!
 //! `--surface-gap` runs the full method (and so its same-layout control) with
@@ -18,6 +18,10 @@
 //! ([`QuiltParams::patch_size`], default 0.4; the measure's windows, half a patch, follow it);
 //! `--pair-distance D` the warp's largest pair length ([`QuiltParams::pair_distance`]) and
 //! `--blend-reach R` the blend's largest gap ([`QuiltParams::blend_reach`]).
+//!
+//! With `--repair-random`, another row runs the full method on random placement's own
+//! layout: steps 4–5 applied to seams that the search did not choose, compared with random
+//! placement itself (what the warp and blend repair when there is something to repair).
 //!
 //! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
 //! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
@@ -46,14 +50,15 @@ use geosynth::quilt::{
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
-/// The runs compared for every seed (the last only with `--resampled`).
-const RUNS: [&str; 5] = [
-    "full",
-    "search only",
-    "random placement",
-    "full's layout, pasted",
-    "search only's layout, resampled exemplar",
-];
+/// The runs compared for every seed.
+const FULL: &str = "full";
+const SEARCH_ONLY: &str = "search only";
+const RANDOM: &str = "random placement";
+const CONTROL: &str = "full's layout, pasted";
+/// Only with `--resampled`.
+const RESAMPLED: &str = "search only's layout, resampled exemplar";
+/// Only with `--repair-random`.
+const RANDOM_REPAIRED: &str = "random placement's layout, warped and blended";
 
 /// Command-line settings.
 struct Study {
@@ -67,6 +72,7 @@ struct Study {
     patch_size: f32,
     pair_distance: f32,
     blend_reach: f32,
+    repair_random: bool,
     fixtures: Vec<PathBuf>,
 }
 
@@ -82,6 +88,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         patch_size: QuiltParams::default().patch_size,
         pair_distance: QuiltParams::default().pair_distance,
         blend_reach: QuiltParams::default().blend_reach,
+        repair_random: false,
         fixtures: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
@@ -95,6 +102,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
                 study.resampled = Some(args.next().ok_or("--resampled needs a folder")?.into());
             }
             "--surface-gap" => study.warp_targets = WarpTargets::SurfaceGap,
+            "--repair-random" => study.repair_random = true,
             "--normal-agreement" => {
                 study.normal_agreement = args
                     .next()
@@ -129,7 +137,8 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         return Err(
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
              [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
-             [--patch-size F] [--pair-distance D] [--blend-reach R] FIXTURE.ply..."
+             [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random] \
+             FIXTURE.ply..."
                 .into(),
         );
     }
@@ -153,28 +162,38 @@ fn preset_for(path: &Path) -> Table1Preset {
     }
 }
 
-/// The reports of one seed, in the order of [`RUNS`]; the last only with `resampled`.
+/// The named reports of one seed: full, search only, random placement and the control,
+/// then the optional rows `study` asks for.
 fn one_seed(
+    study: &Study,
     texture: &GeometryTexture,
     resampled: Option<&GeometryTexture>,
     params: &QuiltParams,
-    windows: usize,
-) -> Result<Vec<QualityReport>, Box<dyn Error>> {
+) -> Result<Vec<(&'static str, QualityReport)>, Box<dyn Error>> {
     // Quilts `source` and measures the result against `texture`.
     let measure = QualityMeasure::new(texture, params)?;
     let run = |source: &GeometryTexture, p: &QuiltParams| -> Result<_, Box<dyn Error>> {
         let out = quilt(source, p, &mut RunContext::new(p.seed))?;
-        let report = measure.evaluate(&out, windows)?;
+        let report = measure.evaluate(&out, study.windows)?;
         Ok((out, report))
     };
     let (full, full_report) = run(texture, params)?;
     let (search, search_report) = run(texture, &params.clone().method(Method::SearchOnly))?;
-    let (_, random) = run(texture, &params.clone().method(Method::RandomPlacement))?;
+    let (random, random_report) = run(texture, &params.clone().method(Method::RandomPlacement))?;
     let (_, control) = run(texture, &params.same_layout_control(&full))?;
-    let mut reports = vec![full_report, search_report, random, control];
+    let mut reports = vec![
+        (FULL, full_report),
+        (SEARCH_ONLY, search_report),
+        (RANDOM, random_report),
+        (CONTROL, control),
+    ];
     if let Some(other) = resampled {
         let (_, anew) = run(other, &params.same_layout_control(&search))?;
-        reports.push(anew);
+        reports.push((RESAMPLED, anew));
+    }
+    if study.repair_random {
+        let (_, repaired) = run(texture, &params.clone().layout(random.sources()))?;
+        reports.push((RANDOM_REPAIRED, repaired));
     }
     Ok(reports)
 }
@@ -213,9 +232,9 @@ fn main() -> Result<(), Box<dyn Error>> {
             (Some(dir), Some(name)) => Some(read_texture(&dir.join(name))?),
             _ => None,
         };
-        // errors[run][class] = one value per seed: neighbourhood, seam and interior error,
-        // then the fraction of continued seams.
-        let mut errors = vec![[Vec::new(), Vec::new(), Vec::new(), Vec::new()]; RUNS.len()];
+        // rows[i] = (name, [neighbourhood, seam, interior error, continued seams] with one
+        // value per seed), in the order of `one_seed`.
+        let mut rows: Vec<(&str, [Vec<f64>; 4])> = Vec::new();
         for seed in 1..=study.seeds {
             let params = QuiltParams::default()
                 .seed(seed)
@@ -227,37 +246,45 @@ fn main() -> Result<(), Box<dyn Error>> {
                 .patch_size(study.patch_size)
                 .pair_distance(study.pair_distance)
                 .blend_reach(study.blend_reach);
-            for (run, q) in errors.iter_mut().zip(one_seed(
-                &texture,
-                resampled.as_ref(),
-                &params,
-                study.windows,
-            )?) {
-                run[0].push(f64::from(q.neighbourhood_error));
-                run[1].push(f64::from(q.seam_error));
-                run[2].push(f64::from(q.interior_error));
-                run[3].push(f64::from(q.continued_seams));
+            for (i, (name, q)) in one_seed(&study, &texture, resampled.as_ref(), &params)?
+                .into_iter()
+                .enumerate()
+            {
+                if rows.len() <= i {
+                    rows.push((name, Default::default()));
+                }
+                let values = &mut rows[i].1;
+                values[0].push(f64::from(q.neighbourhood_error));
+                values[1].push(f64::from(q.seam_error));
+                values[2].push(f64::from(q.interior_error));
+                values[3].push(f64::from(q.continued_seams));
             }
         }
-        let shown = if resampled.is_some() { 5 } else { 4 };
-        for (name, run) in RUNS.iter().zip(&errors).take(shown) {
-            let [n, s, i, c] = [0, 1, 2, 3].map(|class| mean_and_error(&run[class]).0);
+        for (name, values) in &rows {
+            let [n, s, i, c] = [0, 1, 2, 3].map(|class| mean_and_error(&values[class]).0);
             println!(
                 "{} | {name} | {n:.4} / {s:.4} / {i:.4} | continued seams {c:.2}",
                 path.display()
             );
         }
-        for (name, run) in RUNS.iter().zip(&errors).take(shown).skip(1) {
+        let row = |wanted: &str| rows.iter().find(|(name, _)| *name == wanted);
+        let mut comparisons: Vec<(&str, &str)> =
+            rows[1..].iter().map(|(n, _)| (FULL, *n)).collect();
+        comparisons.push((RANDOM_REPAIRED, RANDOM));
+        for (a, b) in comparisons {
+            let (Some((_, a_values)), Some((_, b_values))) = (row(a), row(b)) else {
+                continue;
+            };
             let [n, s] = [0, 1].map(|class| {
-                let differences: Vec<f64> = errors[0][class]
+                let differences: Vec<f64> = a_values[class]
                     .iter()
-                    .zip(&run[class])
-                    .map(|(full, other)| full - other)
+                    .zip(&b_values[class])
+                    .map(|(x, y)| x - y)
                     .collect();
                 mean_and_error(&differences)
             });
             println!(
-                "{} | full − {name} | {:+.4} ± {:.4} / {:+.4} ± {:.4}",
+                "{} | {a} − {b} | {:+.4} ± {:.4} / {:+.4} ± {:.4}",
                 path.display(),
                 n.0,
                 n.1,
