@@ -29,7 +29,8 @@
 //! samples, measured against the original. It shows how much of the measure depends on the
 //! sampling rather than on the geometry.
 //!
-//! Each fixture gets the pairing weights of its Table 1 row, chosen from the file name
+//! A fixture is a texture file, or a height field image or raw `.f32le` file (as
+//! `geosynth quilt --heightfield` reads it). Each fixture gets the pairing weights of its Table 1 row, chosen from the file name
 //! (`chain_mail`, `weave`, `flowers`; anything else: the height-field row), and otherwise the
 //! default parameters (output twice the exemplar). Seeds run from 1 to N (default 8) with `W`
 //! windows per class (default 128). Prints neighbourhood / seam / interior error per method
@@ -46,7 +47,7 @@ use std::path::{Path, PathBuf};
 use geosynth::core::RunContext;
 use geosynth::quilt::{
     GeometryTexture, Method, QualityMeasure, QualityReport, QuiltParams, WarpTargets, quilt,
-    read_texture,
+    read_heightfield_texture, read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -145,6 +146,19 @@ fn parse() -> Result<Study, Box<dyn Error>> {
     Ok(study)
 }
 
+/// A texture file (PLY, OBJ, OFF), or a height field (`.png`, `.f32le`) read with the
+/// command line's conventions.
+fn load(path: &Path) -> Result<GeometryTexture, Box<dyn Error>> {
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    Ok(match extension.as_str() {
+        "png" | "f32le" => read_heightfield_texture(path)?,
+        _ => read_texture(path)?,
+    })
+}
+
 /// The Table 1 row for a fixture, from its file name.
 fn preset_for(path: &Path) -> Table1Preset {
     let name = path
@@ -227,7 +241,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         study.blend_reach
     );
     for path in &study.fixtures {
-        let texture = read_texture(path)?;
+        let texture = load(path)?;
         let resampled = match (&study.resampled, path.file_name()) {
             (Some(dir), Some(name)) => Some(read_texture(&dir.join(name))?),
             _ => None,

@@ -108,6 +108,38 @@ pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
     Ok(GeometryTexture::new(points, bounds, up)?)
 }
 
+/// Reads a height field file (PNG 8/16-bit or raw `name_WxH.f32le`, see
+/// [`crate::imagery::read_heightfield`]) as a geometry texture with the command line's
+/// conventions: the samples span 4 units along the longer side, the relief is scaled to
+/// 0.4 (a flat field stays flat), and the outer sixth of the samples on every side is
+/// padding (paper §3).
+///
+/// ```
+/// // A 30 × 30 raw height field of ripples, written beside the other temporary files.
+/// let path = std::env::temp_dir().join("geosynth_doc_ripples_30x30.f32le");
+/// let heights: Vec<u8> = (0..30 * 30)
+///     .flat_map(|i| ((i % 30) as f32 * 0.5).sin().to_le_bytes())
+///     .collect();
+/// std::fs::write(&path, heights)?;
+/// let texture = geosynth::quilt::read_heightfield_texture(&path)?;
+/// assert_eq!(texture.canonical_points().len(), 30 * 30);
+/// // 4 units across, the outer 5 samples on every side outside the box.
+/// let (lo, hi) = texture.footprint();
+/// assert!((hi.x - lo.x - 4.0 * 19.0 / 29.0).abs() < 1e-4, "{lo} {hi}");
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_heightfield_texture(path: &Path) -> Result<GeometryTexture> {
+    let field = crate::imagery::read_heightfield(path)?;
+    let (lo, hi) = field.range();
+    let spacing = 4.0 / (field.width().max(field.height()) - 1) as f32;
+    let scale = if hi > lo { 0.4 / (hi - lo) } else { 1.0 };
+    let padding = field.width().min(field.height()) / 6;
+    Ok(GeometryTexture::from_heightfield(
+        &field, spacing, scale, padding,
+    )?)
+}
+
 /// The geometry texture of a procedural exemplar.
 pub fn texture_from_exemplar(exemplar: &TextureExemplar) -> Result<GeometryTexture> {
     Ok(GeometryTexture::new(

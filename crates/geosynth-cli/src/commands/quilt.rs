@@ -5,11 +5,10 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{self, Geometry, WriteOptions};
-use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
     BlendCounts, GeometryTexture, Method, OutputSize, QualityMeasure, QualityReport, QuiltOutput,
-    QuiltParams, UpAxis, WarpTargets, quilt, read_texture,
+    QuiltParams, UpAxis, WarpTargets, quilt, read_heightfield_texture, read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -162,14 +161,7 @@ fn parse_size(s: &str) -> Result<(f32, f32), String> {
 /// Loads the texture named by the arguments.
 fn load(args: &QuiltArgs) -> CliResult<GeometryTexture> {
     if let Some(path) = &args.heightfield {
-        let field = imagery::read_heightfield(path)?;
-        let (lo, hi) = field.range();
-        let spacing = 4.0 / (field.width().max(field.height()) - 1) as f32;
-        let scale = if hi > lo { 0.4 / (hi - lo) } else { 1.0 };
-        let padding = field.width().min(field.height()) / 6;
-        return Ok(GeometryTexture::from_heightfield(
-            &field, spacing, scale, padding,
-        )?);
+        return Ok(read_heightfield_texture(path)?);
     }
     let path = args
         .exemplar
