@@ -24,20 +24,21 @@
 //! placement itself (what the warp and blend repair when there is something to repair).
 //!
 //! With `--resampled DIR` (a folder of the same fixtures sampled anew, e.g. from
-//! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), a fifth row pastes
+//! `geosynth fixtures --texture-density 300 --sampling-seed 7 --out DIR`), another row pastes
 //! search-only's own layout from the resampled exemplar: the same surfaces with other
 //! samples, measured against the original. It shows how much of the measure depends on the
 //! sampling rather than on the geometry.
 //!
 //! A fixture is a texture file, or a height field image or raw `.f32le` file (as
-//! `geosynth quilt --heightfield` reads it). Each fixture gets the pairing weights of its Table 1 row, chosen from the file name
-//! (`chain_mail`, `weave`, `flowers`; anything else: the height-field row), and otherwise the
-//! default parameters (output twice the exemplar). Seeds run from 1 to N (default 8) with `W`
+//! `geosynth quilt --heightfield` reads it). Each fixture gets the pairing weights of its
+//! Table 1 row, chosen from the file name (`chain_mail`, `weave`, `flowers`; anything else:
+//! the height-field row), and otherwise the default parameters (output twice the exemplar). Seeds run from 1 to N (default 8) with `W`
 //! windows per class (default 128). Prints neighbourhood / seam / interior error per method
 //! and the fraction of seams whose two patches continue each other in the exemplar
 //! ([`QualityReport::continued_seams`]: how much of the output is larger intact copies;
 //! means over the seeds), then the full method's paired difference from each other run,
-//! seed by seed, as mean ± standard error of the mean (neighbourhood / seam): the methods
+//! seed by seed (and, with `--repair-random`, that row's difference from random placement),
+//! as mean ± standard error of the mean (neighbourhood / seam): the methods
 //! differ by less than the spread between seeds, so only a difference several standard
 //! errors from 0 ranks them.
 
