@@ -67,15 +67,21 @@ struct Study {
     seeds: u64,
     windows: usize,
     resampled: Option<PathBuf>,
-    warp_targets: WarpTargets,
-    normal_agreement: f32,
-    smoothing: f32,
-    epsilon: f32,
-    patch_size: f32,
-    pair_distance: f32,
-    blend_reach: f32,
+    /// The parameters every run starts from; each seed sets its seed and the fixture's
+    /// Table 1 row on a copy.
+    params: QuiltParams,
     repair_random: bool,
     fixtures: Vec<PathBuf>,
+}
+
+/// The value after `flag`, parsed.
+fn value<T>(args: &mut impl Iterator<Item = String>, flag: &str) -> Result<T, Box<dyn Error>>
+where
+    T: std::str::FromStr,
+    T::Err: Error + 'static,
+{
+    let text = args.next().ok_or(format!("{flag} needs a value"))?;
+    Ok(text.parse()?)
 }
 
 fn parse() -> Result<Study, Box<dyn Error>> {
@@ -83,55 +89,26 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         seeds: 8,
         windows: 128,
         resampled: None,
-        warp_targets: WarpTargets::Exact,
-        normal_agreement: QuiltParams::default().normal_agreement,
-        smoothing: QuiltParams::default().smoothing,
-        epsilon: QuiltParams::default().epsilon,
-        patch_size: QuiltParams::default().patch_size,
-        pair_distance: QuiltParams::default().pair_distance,
-        blend_reach: QuiltParams::default().blend_reach,
+        params: QuiltParams::default(),
         repair_random: false,
         fixtures: Vec::new(),
     };
+    let p = &mut study.params;
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
+        let a = &mut args;
         match arg.as_str() {
-            "--seeds" => study.seeds = args.next().ok_or("--seeds needs a number")?.parse()?,
-            "--windows" => {
-                study.windows = args.next().ok_or("--windows needs a number")?.parse()?;
-            }
-            "--resampled" => {
-                study.resampled = Some(args.next().ok_or("--resampled needs a folder")?.into());
-            }
-            "--surface-gap" => study.warp_targets = WarpTargets::SurfaceGap,
+            "--seeds" => study.seeds = value(a, &arg)?,
+            "--windows" => study.windows = value(a, &arg)?,
+            "--resampled" => study.resampled = Some(value(a, &arg)?),
+            "--surface-gap" => p.warp_targets = WarpTargets::SurfaceGap,
             "--repair-random" => study.repair_random = true,
-            "--normal-agreement" => {
-                study.normal_agreement = args
-                    .next()
-                    .ok_or("--normal-agreement needs a cosine")?
-                    .parse()?;
-            }
-            "--smoothing" => {
-                study.smoothing = args.next().ok_or("--smoothing needs a number")?.parse()?;
-            }
-            "--epsilon" => {
-                study.epsilon = args.next().ok_or("--epsilon needs a number")?.parse()?;
-            }
-            "--patch-size" => {
-                study.patch_size = args
-                    .next()
-                    .ok_or("--patch-size needs a fraction")?
-                    .parse()?;
-            }
-            "--pair-distance" => {
-                study.pair_distance = args
-                    .next()
-                    .ok_or("--pair-distance needs a number")?
-                    .parse()?;
-            }
-            "--blend-reach" => {
-                study.blend_reach = args.next().ok_or("--blend-reach needs a number")?.parse()?;
-            }
+            "--normal-agreement" => p.normal_agreement = value(a, &arg)?,
+            "--smoothing" => p.smoothing = value(a, &arg)?,
+            "--epsilon" => p.epsilon = value(a, &arg)?,
+            "--patch-size" => p.patch_size = value(a, &arg)?,
+            "--pair-distance" => p.pair_distance = value(a, &arg)?,
+            "--blend-reach" => p.blend_reach = value(a, &arg)?,
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
@@ -233,13 +210,13 @@ fn main() -> Result<(), Box<dyn Error>> {
          neighbourhood / seam / interior error (mean over seeds)",
         study.seeds,
         study.windows,
-        study.warp_targets,
-        study.normal_agreement,
-        study.smoothing,
-        study.epsilon,
-        study.patch_size,
-        study.pair_distance,
-        study.blend_reach
+        study.params.warp_targets,
+        study.params.normal_agreement,
+        study.params.smoothing,
+        study.params.epsilon,
+        study.params.patch_size,
+        study.params.pair_distance,
+        study.params.blend_reach
     );
     for path in &study.fixtures {
         let texture = load(path)?;
@@ -251,16 +228,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         // value per seed), in the order of `one_seed`.
         let mut rows: Vec<(&str, [Vec<f64>; 4])> = Vec::new();
         for seed in 1..=study.seeds {
-            let params = QuiltParams::default()
+            let params = study
+                .params
+                .clone()
                 .seed(seed)
-                .pairing(PairingParams::table1(preset_for(path)))
-                .warp_targets(study.warp_targets)
-                .normal_agreement(study.normal_agreement)
-                .smoothing(study.smoothing)
-                .epsilon(study.epsilon)
-                .patch_size(study.patch_size)
-                .pair_distance(study.pair_distance)
-                .blend_reach(study.blend_reach);
+                .pairing(PairingParams::table1(preset_for(path)));
             for (i, (name, q)) in one_seed(&study, &texture, resampled.as_ref(), &params)?
                 .into_iter()
                 .enumerate()
