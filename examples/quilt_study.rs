@@ -6,7 +6,8 @@
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
 //!     [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E]
-//!     [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random] FIXTURE.ply...
+//!     [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random]
+//!     [--cluster-points N] [--cluster-variation S] [--anchors A] FIXTURE.ply...
 //! ```
 //!
 //! `--surface-gap` runs the full method (and so its same-layout control) with
@@ -17,7 +18,10 @@
 //! `--patch-size F` the patch side as a fraction of the exemplar box's smaller side
 //! ([`QuiltParams::patch_size`], default 0.4; the measure's windows, half a patch, follow it);
 //! `--pair-distance D` the warp's largest pair length ([`QuiltParams::pair_distance`]) and
-//! `--blend-reach R` the blend's largest gap ([`QuiltParams::blend_reach`]).
+//! `--blend-reach R` the blend's largest gap ([`QuiltParams::blend_reach`]);
+//! `--cluster-points N` and `--cluster-variation S` the limits of the clustering that picks
+//! the warp's targets `Q` ([`QuiltParams::clusters`], `n_max` 12 and `σ_max` 0.1);
+//! `--anchors A` the anchors per free corner ([`QuiltParams::anchors_per_corner`], 4).
 //!
 //! With `--repair-random`, another row runs the full method on random placement's own
 //! layout: steps 4–5 applied to seams that the search did not choose, compared with random
@@ -109,6 +113,9 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "--patch-size" => p.patch_size = value(a, &arg)?,
             "--pair-distance" => p.pair_distance = value(a, &arg)?,
             "--blend-reach" => p.blend_reach = value(a, &arg)?,
+            "--cluster-points" => p.clusters.max_points = value(a, &arg)?,
+            "--cluster-variation" => p.clusters.max_variation = value(a, &arg)?,
+            "--anchors" => p.anchors_per_corner = value(a, &arg)?,
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
@@ -117,7 +124,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
              [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
              [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random] \
-             FIXTURE.ply..."
+             [--cluster-points N] [--cluster-variation S] [--anchors A] FIXTURE.ply..."
                 .into(),
         );
     }
