@@ -84,7 +84,8 @@ enum Outcome {
 /// Counts of what blending did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct BlendCounts {
-    /// Points with a ramp value above 0.
+    /// Points with a ramp value above 0 that can end up inside `B_k`. A point more than
+    /// twice the blend reach outside `B_k` is skipped and not counted: step 6 discards it.
     pub blended: usize,
     /// Of those, targets found by the two-ray intersection.
     pub by_ray: usize,
@@ -159,18 +160,33 @@ impl GapLimits {
 /// `limits.normal_agreement` with its own: the surface there faces another way (another
 /// petal, a crossing thread's underside), and interpolating the two normals would describe
 /// neither.
+///
+/// Only points that can end up inside `keep` (the footprint of `B_k`, whose points step 6
+/// keeps) are blended. No point moves farther than `limits.distance`, so a point more than
+/// twice that outside `keep` stays outside whatever its target; it is skipped and not
+/// counted. (Twice, not once, so that rounding cannot decide it.) The skipped points are
+/// the margin by which `F_k` is extended for the warp (§5.2), about half of the points
+/// with a ramp value above 0.
 pub(crate) fn blend(
     points: &mut [Vec3],
     normals: &mut [Vec3],
     overlap: &Overlap,
+    keep: (Vec2, Vec2),
     neighbourhood: &MlsSurface,
     limits: GapLimits,
 ) -> BlendCounts {
+    let (keep_lo, keep_hi) = keep;
+    let slack = 2.0 * limits.distance;
     let results: Vec<Option<(Vec3, Vec3, Outcome)>> = points
         .par_iter()
         .zip(normals.par_iter())
         .map(|(&p, &n)| {
-            let t = overlap.ramp(p.truncate());
+            let q = p.truncate();
+            let outside = (keep_lo - q).max(q - keep_hi).max(Vec2::ZERO);
+            if outside.length() > slack {
+                return None;
+            }
+            let t = overlap.ramp(q);
             if t <= 0.0 {
                 return None;
             }
@@ -223,14 +239,13 @@ mod tests {
         }
     }
 
-    #[test]
-    fn blending_moves_points_toward_the_neighbourhood_monotonically_across_the_ramp() {
-        // Neighbourhood: the plane z = 0. Patch points: z = 0.1 across the overlap.
+    /// The plane z = 0 over [-1.5, 1.45]² as a neighbourhood surface.
+    fn plane_surface() -> MlsSurface {
         let plane: Vec<Vec3> = (0..60 * 60)
             .map(|i| {
                 Vec3::new(
-                    (i % 60) as f32 * 0.05 - 0.5,
-                    (i / 60) as f32 * 0.05 - 0.5,
+                    (i % 60) as f32 * 0.05 - 1.5,
+                    (i / 60) as f32 * 0.05 - 1.5,
                     0.0,
                 )
             })
@@ -239,14 +254,24 @@ mod tests {
             .unwrap()
             .with_normals(vec![Vec3::Z; 3600])
             .unwrap();
-        let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
-        let o = Overlap {
-            origin: Vec2::ZERO,
-            width: 0.5,
-            patch: 2.0,
-            left: true,
-            bottom: false,
-        };
+        MlsSurface::new(&set, &MlsParams::default()).unwrap()
+    }
+
+    /// A left overlap strip 0.5 wide on a patch of side 2 at the origin, and its footprint.
+    const LEFT_STRIP: Overlap = Overlap {
+        origin: Vec2::ZERO,
+        width: 0.5,
+        patch: 2.0,
+        left: true,
+        bottom: false,
+    };
+    const KEEP: (Vec2, Vec2) = (Vec2::ZERO, Vec2::splat(2.0));
+
+    #[test]
+    fn blending_moves_points_toward_the_neighbourhood_monotonically_across_the_ramp() {
+        // Neighbourhood: the plane z = 0. Patch points: z = 0.1 across the overlap.
+        let surface = plane_surface();
+        let o = LEFT_STRIP;
         let mut points: Vec<Vec3> = (0..=20)
             .map(|i| Vec3::new(i as f32 * 0.03, 1.0, 0.1))
             .collect();
@@ -254,20 +279,48 @@ mod tests {
         let before = points.clone();
         // A gap of 0.1 beyond a reach of 0.05 is not a gap: nothing moves.
         let (mut far, mut far_normals) = (points.clone(), normals.clone());
-        let counts = blend(&mut far, &mut far_normals, &o, &surface, limits(0.05, -1.0));
+        let counts = blend(
+            &mut far,
+            &mut far_normals,
+            &o,
+            KEEP,
+            &surface,
+            limits(0.05, -1.0),
+        );
         assert!(counts.blended > 0 && counts.beyond_reach == counts.blended);
         assert_eq!(far, before);
         // The same gap seen from points facing down: the plane faces away from them, a
         // different sheet rather than a gap, and nothing moves unless the test is off.
         let down = vec![-Vec3::Z; points.len()];
         let (mut away, mut away_normals) = (points.clone(), down.clone());
-        let counts = blend(&mut away, &mut away_normals, &o, &surface, limits(0.2, 0.8));
+        let counts = blend(
+            &mut away,
+            &mut away_normals,
+            &o,
+            KEEP,
+            &surface,
+            limits(0.2, 0.8),
+        );
         assert!(counts.blended > 0 && counts.facing_away == counts.blended);
         assert_eq!(away, before);
         let (mut any, mut any_normals) = (points.clone(), down);
-        blend(&mut any, &mut any_normals, &o, &surface, limits(0.2, -1.0));
+        blend(
+            &mut any,
+            &mut any_normals,
+            &o,
+            KEEP,
+            &surface,
+            limits(0.2, -1.0),
+        );
         assert_ne!(any, before);
-        let counts = blend(&mut points, &mut normals, &o, &surface, limits(0.2, 0.8));
+        let counts = blend(
+            &mut points,
+            &mut normals,
+            &o,
+            KEEP,
+            &surface,
+            limits(0.2, 0.8),
+        );
         assert!(counts.blended > 0 && counts.by_ray == counts.blended);
         let mut last = -1.0f32;
         for (p, q) in points.iter().zip(&before) {
@@ -276,6 +329,41 @@ mod tests {
             assert!((p.z - 0.1 * (1.0 - t)).abs() < 1e-3, "t {t}: z {}", p.z);
             assert!(p.z >= last - 1e-6, "heights must not decrease inward");
             last = p.z;
+        }
+    }
+
+    #[test]
+    fn points_that_cannot_reach_the_kept_footprint_are_not_blended() {
+        // Left of the patch the ramp is 1, so every point there would be blended; with a
+        // reach of 0.2, those more than 0.4 outside the footprint are skipped.
+        let surface = plane_surface();
+        let xs = [-0.9f32, -0.6, -0.41, -0.39, -0.2, -0.05];
+        let mut points: Vec<Vec3> = xs.iter().map(|&x| Vec3::new(x, 1.0, 0.1)).collect();
+        let mut normals = vec![Vec3::Z; points.len()];
+        let before = points.clone();
+        let counts = blend(
+            &mut points,
+            &mut normals,
+            &LEFT_STRIP,
+            KEEP,
+            &surface,
+            limits(0.2, 0.8),
+        );
+        assert_eq!(counts.blended, 3);
+        assert_eq!(counts.by_ray, 3);
+        for ((p, q), x) in points.iter().zip(&before).zip(xs) {
+            if x < -0.4 {
+                assert_eq!(
+                    p, q,
+                    "x = {x} lies beyond twice the reach and must not move"
+                );
+            } else {
+                assert!(
+                    p.z.abs() < 1e-3,
+                    "x = {x} must land on the plane: z {}",
+                    p.z
+                );
+            }
         }
     }
 

@@ -371,6 +371,7 @@ pub fn quilt(
                     &mut f_points,
                     &mut f_normals,
                     &overlap,
+                    (origin, far),
                     surface,
                     GapLimits {
                         distance: params.blend_reach * surface.support_radius(),
