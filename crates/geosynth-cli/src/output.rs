@@ -77,12 +77,12 @@ pub(crate) fn status(globals: Globals, line: impl AsRef<str>) {
 }
 
 /// A spinner for work without a known length, hidden with `--quiet`.
-pub(crate) fn spinner(globals: Globals, label: &str) -> ProgressBar {
+pub(crate) fn spinner(globals: Globals, label: impl Into<String>) -> ProgressBar {
     if globals.quiet {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new_spinner();
-    bar.set_message(label.to_string());
+    bar.set_message(label.into());
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     bar
 }

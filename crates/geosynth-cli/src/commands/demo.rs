@@ -482,7 +482,7 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
             .field_resolution(resolution)
             .pairing(PairingParams::table1(preset))
             .seed(args.seed);
-        let measure = measure_for(&texture, &params);
+        let measure = measure_for(&texture, &params, globals);
         let full = measured_run(&texture, &params, &measure, globals, name)?;
         let search = measured_run(
             &texture,

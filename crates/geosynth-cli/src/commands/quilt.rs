@@ -14,7 +14,7 @@ use geosynth::tps::{PairingParams, Table1Preset};
 
 use serde_json::{Value, json};
 
-use crate::output::{check_output_paths, progress_context, status};
+use crate::output::{check_output_paths, progress_context, spinner, status};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -187,9 +187,17 @@ pub struct MeasuredRun {
 /// could not be built (the runs then go on unmeasured).
 pub type Measure<'t> = Result<QualityMeasure<'t>, String>;
 
-/// The [`Measure`] of `texture` for runs with `params`' seed and geometry.
-pub fn measure_for<'t>(texture: &'t GeometryTexture, params: &QuiltParams) -> Measure<'t> {
-    QualityMeasure::new(texture, params).map_err(|e| e.to_string())
+/// The [`Measure`] of `texture` for runs with `params`' seed and geometry, behind a spinner
+/// (building the exemplar's windows takes seconds on large exemplars).
+pub fn measure_for<'t>(
+    texture: &'t GeometryTexture,
+    params: &QuiltParams,
+    globals: Globals,
+) -> Measure<'t> {
+    let bar = spinner(globals, "preparing the quality measure");
+    let measure = QualityMeasure::new(texture, params).map_err(|e| e.to_string());
+    bar.finish_and_clear();
+    measure
 }
 
 /// Runs `quilt` with a progress bar, then measures it with `measure`.
@@ -205,10 +213,12 @@ pub fn measured_run(
     let output = quilt(texture, params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    let bar = spinner(globals, format!("{label}: measuring quality"));
     let quality = measure
         .as_ref()
         .map_err(Clone::clone)
         .and_then(|m| m.evaluate(&output, 48).map_err(|e| e.to_string()));
+    bar.finish_and_clear();
     let timings = ctx
         .timings()
         .iter()
@@ -391,8 +401,8 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         params = params.pairing(PairingParams::table1(preset));
     }
     params.validate()?;
-    let measure = measure_for(&texture, &params);
-    let main = measured_run(&texture, &params, &measure, globals, "patches")?;
+    let measure = measure_for(&texture, &params, globals);
+    let main = measured_run(&texture, &params, &measure, globals, "quilt")?;
     let mut comments = vec![format!(
         "quilted by geosynth (seed {}, {:?})",
         args.seed, params.method
