@@ -612,7 +612,7 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let reason = r["run"]["quality"]["not_measured"].as_str().unwrap();
     assert!(reason.contains("quality window"), "{reason}");
-    // Height fields work directly.
+    // Height fields work directly; `--no-quality` skips the measure and the report says so.
     let hf = dir.path().join("bumps_64x64.f32le");
     let heights: Vec<u8> = (0..64 * 64)
         .flat_map(|i| (((i % 64) as f32 * 0.4).sin() * ((i / 64) as f32 * 0.3).cos()).to_le_bytes())
@@ -626,8 +626,16 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         again.to_str().unwrap(),
         "--resolution",
         "20",
+        "--no-quality",
+        "--report",
+        report.to_str().unwrap(),
         "-q",
     ]);
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let reason = r["run"]["quality"]["not_measured"].as_str().unwrap();
+    assert!(reason.contains("--no-quality"), "{reason}");
+    assert!(r["run"]["patches"].as_u64().unwrap() > 1, "{}", r["run"]);
     let bad = geosynth(&[
         "quilt",
         exemplar.to_str().unwrap(),
