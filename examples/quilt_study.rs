@@ -7,7 +7,8 @@
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
 //!     [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E]
 //!     [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random]
-//!     [--cluster-points N] [--cluster-variation S] [--anchors A] FIXTURE.ply...
+//!     [--cluster-points N] [--cluster-variation S] [--anchors A]
+//!     [--max-normal-difference M] FIXTURE.ply...
 //! ```
 //!
 //! `--surface-gap` runs the full method (and so its same-layout control) with
@@ -21,7 +22,9 @@
 //! `--blend-reach R` the blend's largest gap ([`QuiltParams::blend_reach`]);
 //! `--cluster-points N` and `--cluster-variation S` the limits of the clustering that picks
 //! the warp's targets `Q` ([`QuiltParams::clusters`], `n_max` 12 and `σ_max` 0.1);
-//! `--anchors A` the anchors per free corner ([`QuiltParams::anchors_per_corner`], 4).
+//! `--anchors A` the anchors per free corner ([`QuiltParams::anchors_per_corner`], 4);
+//! `--max-normal-difference M` the pairing's normal threshold on `(1 − n_s·n_q)/2`
+//! (`PairingParams::max_normal_difference`, 0.5 in every Table 1 row).
 //!
 //! With `--repair-random`, another row runs the full method on random placement's own
 //! layout: steps 4–5 applied to seams that the search did not choose, compared with random
@@ -75,6 +78,8 @@ struct Study {
     /// Table 1 row on a copy.
     params: QuiltParams,
     repair_random: bool,
+    /// Overrides the Table 1 row's `max_normal_difference` when given.
+    max_normal_difference: Option<f32>,
     fixtures: Vec<PathBuf>,
 }
 
@@ -95,6 +100,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         resampled: None,
         params: QuiltParams::default(),
         repair_random: false,
+        max_normal_difference: None,
         fixtures: Vec::new(),
     };
     let p = &mut study.params;
@@ -116,6 +122,7 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "--cluster-points" => p.clusters.max_points = value(a, &arg)?,
             "--cluster-variation" => p.clusters.max_variation = value(a, &arg)?,
             "--anchors" => p.anchors_per_corner = value(a, &arg)?,
+            "--max-normal-difference" => study.max_normal_difference = Some(value(a, &arg)?),
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
@@ -124,7 +131,8 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
              [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
              [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random] \
-             [--cluster-points N] [--cluster-variation S] [--anchors A] FIXTURE.ply..."
+             [--cluster-points N] [--cluster-variation S] [--anchors A] \
+             [--max-normal-difference M] FIXTURE.ply..."
                 .into(),
         );
     }
@@ -235,11 +243,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         // value per seed), in the order of `one_seed`.
         let mut rows: Vec<(&str, [Vec<f64>; 4])> = Vec::new();
         for seed in 1..=study.seeds {
-            let params = study
-                .params
-                .clone()
-                .seed(seed)
-                .pairing(PairingParams::table1(preset_for(path)));
+            let mut pairing = PairingParams::table1(preset_for(path));
+            if let Some(limit) = study.max_normal_difference {
+                pairing.max_normal_difference = limit;
+            }
+            let params = study.params.clone().seed(seed).pairing(pairing);
             for (i, (name, q)) in one_seed(&study, &texture, resampled.as_ref(), &params)?
                 .into_iter()
                 .enumerate()
