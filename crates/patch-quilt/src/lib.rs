@@ -36,9 +36,8 @@
 //! 1. A random (or given) seed patch `P_0 ∪ E_0` is pasted at the lower-left corner of the
 //!    output region, which starts `w_E` before the requested box.
 //! 2. For each later patch `k` in scan-line order, `N_k` is the output's points around `B_k`
-//!    (grown by `w_E`); `D(O^{N_k})` is computed on the fly by MLS projection on `N_k` on
-//!    the patch's node grid, of which `d` reads the overlap nodes (left strip, bottom strip,
-//!    or both; the paper computes the overlap only); `d` is compared exhaustively
+//!    (grown by `w_E`); `D(O^{N_k})` is computed on the fly by MLS projection on `N_k` at
+//!    the overlap nodes only (left strip, bottom strip, or both); `d` is compared exhaustively
 //!    (in parallel) with `D(O^P)` read from `D(T_in)` for every patch position, and
 //!    `Ψ_k = {P | d ≤ (1 + ε) min d}`.
 //! 3. A random member of `Ψ_k` is chosen; `F_k = tr(P_k ∪ E_k)` (E extends right and up),

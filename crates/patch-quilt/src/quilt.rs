@@ -146,6 +146,45 @@ fn vec4_field(sdf: &SdfGrid) -> &[glam::Vec4] {
     sdf.grid().data()
 }
 
+/// `D(O^{N_k})`: the neighbourhood surface's distance and gradient at the nodes of the
+/// overlap strips only (paper 000 §5.1: "the fields are computed only inside the
+/// overlapping regions"). One field per strip, both written into a patch-sized array
+/// (`(patch_nodes + 1)² × nz` nodes from `corner`, x fastest) that the search reads at the
+/// overlap nodes; the other nodes stay zero and are never read.
+fn overlap_field(
+    surface: &MlsSurface,
+    overlap: &Overlap,
+    g: &PatchGeometry,
+    corner: Vec3,
+    nz: usize,
+    band: f32,
+) -> Result<Vec<glam::Vec4>> {
+    let side = g.patch_nodes + 1;
+    let strip = g.overlap_nodes + 1;
+    let mut field = vec![glam::Vec4::ZERO; side * side * nz];
+    let strips = [
+        (overlap.left, [strip, side, nz]),
+        (overlap.bottom, [side, strip, nz]),
+    ];
+    for (_, dims) in strips.into_iter().filter(|(present, _)| *present) {
+        let spec = GridSpec {
+            dims,
+            origin: corner,
+            spacing: g.spacing,
+        };
+        let sdf = SdfGrid::from_surface(surface, &spec, band)?;
+        let data = vec4_field(&sdf);
+        for c in 0..nz {
+            for b in 0..dims[1] {
+                let row = dims[0] * (b + dims[1] * c);
+                let at = side * (b + side * c);
+                field[at..at + dims[0]].copy_from_slice(&data[row..row + dims[0]]);
+            }
+        }
+    }
+    Ok(field)
+}
+
 /// Checks a given layout: one source per patch, each inside `[0, max_i] × [0, max_j]`.
 fn check_layout(
     sources: &[(usize, usize)],
@@ -261,12 +300,14 @@ pub fn quilt(
                     0.0,
                 ),
                 (None, Some(surface), _) => {
-                    let spec = GridSpec {
-                        dims: [g.patch_nodes + 1, g.patch_nodes + 1, nz],
-                        origin: origin.extend(ex.spec.origin.z),
-                        spacing: g.spacing,
-                    };
-                    let local = SdfGrid::from_surface(surface, &spec, params.band * g.spacing)?;
+                    let local_field = overlap_field(
+                        surface,
+                        &overlap,
+                        &g,
+                        origin.extend(ex.spec.origin.z),
+                        nz,
+                        params.band * g.spacing,
+                    )?;
                     let side = g.patch_nodes + 1;
                     let mut nodes = Vec::new();
                     for c in 0..nz {
@@ -289,7 +330,7 @@ pub fn quilt(
                         ex.max_i,
                         ex.max_j,
                         &nodes,
-                        vec4_field(&local),
+                        &local_field,
                     )?;
                     let psi = candidates(&d, params.epsilon);
                     if psi.is_empty() {
@@ -493,4 +534,77 @@ pub fn quilt(
         placements,
         stats,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The strips' fields agree with the whole patch grid's at every overlap node.
+    #[test]
+    fn the_overlap_field_matches_the_whole_patch_grid_at_the_overlap_nodes() {
+        let wave = |x: f32, y: f32| 0.05 * (4.0 * x).sin() * (3.0 * y).cos();
+        let (points, normals): (Vec<Vec3>, Vec<Vec3>) = (0..80 * 80)
+            .map(|i| {
+                let (x, y) = ((i % 80) as f32 * 0.025, (i / 80) as f32 * 0.025);
+                let (dx, dy) = (
+                    0.2 * (4.0 * x).cos() * (3.0 * y).cos(),
+                    -0.15 * (4.0 * x).sin() * (3.0 * y).sin(),
+                );
+                (
+                    Vec3::new(x, y, wave(x, y)),
+                    Vec3::new(-dx, -dy, 1.0).normalize(),
+                )
+            })
+            .unzip();
+        let set = PointSet::new(points)
+            .and_then(|s| s.with_normals(normals))
+            .unwrap();
+        let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
+        let g = PatchGeometry {
+            spacing: 0.1,
+            patch_nodes: 12,
+            overlap_nodes: 3,
+            extra_nodes: 4,
+        };
+        let (corner, nz, band) = (Vec3::new(0.3, 0.2, -0.3), 7, 0.25);
+        let side = g.patch_nodes + 1;
+        let whole = SdfGrid::from_surface(
+            &surface,
+            &GridSpec {
+                dims: [side, side, nz],
+                origin: corner,
+                spacing: g.spacing,
+            },
+            band,
+        )
+        .unwrap();
+        for (left, bottom) in [(true, false), (false, true), (true, true)] {
+            let overlap = Overlap {
+                origin: corner.truncate(),
+                width: g.overlap(),
+                patch: g.patch(),
+                left,
+                bottom,
+            };
+            let field = overlap_field(&surface, &overlap, &g, corner, nz, band).unwrap();
+            let mut compared = 0;
+            for c in 0..nz {
+                for b in 0..side {
+                    for a in 0..side {
+                        let in_left = left && a <= g.overlap_nodes;
+                        let in_bottom = bottom && b <= g.overlap_nodes;
+                        let i = a + side * (b + side * c);
+                        if in_left || in_bottom {
+                            assert_eq!(field[i], vec4_field(&whole)[i], "node ({a}, {b}, {c})");
+                            compared += 1;
+                        } else {
+                            assert_eq!(field[i], glam::Vec4::ZERO, "node ({a}, {b}, {c})");
+                        }
+                    }
+                }
+            }
+            assert!(compared >= 4 * side * nz, "{compared} overlap nodes");
+        }
+    }
 }
