@@ -150,7 +150,8 @@ fn vec4_field(sdf: &SdfGrid) -> &[glam::Vec4] {
 /// overlap strips only (paper 000 §5.1: "the fields are computed only inside the
 /// overlapping regions"). One field per strip, both written into a patch-sized array
 /// (`(patch_nodes + 1)² × nz` nodes from `corner`, x fastest) that the search reads at the
-/// overlap nodes; the other nodes stay zero and are never read.
+/// overlap nodes; where the strips meet, the bottom strip's values are kept. The other
+/// nodes stay zero and are never read.
 fn overlap_field(
     surface: &MlsSurface,
     overlap: &Overlap,
