@@ -108,6 +108,8 @@ mod params;
 mod quality;
 mod quilt;
 pub mod search;
+#[cfg(test)]
+mod test_surfaces;
 mod texture;
 mod warp;
 

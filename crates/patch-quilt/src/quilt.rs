@@ -540,23 +540,13 @@ pub fn quilt(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_surfaces::wave;
 
     /// The strips' fields agree with the whole patch grid's at every overlap node.
     #[test]
     fn the_overlap_field_matches_the_whole_patch_grid_at_the_overlap_nodes() {
-        let wave = |x: f32, y: f32| 0.05 * (4.0 * x).sin() * (3.0 * y).cos();
         let (points, normals): (Vec<Vec3>, Vec<Vec3>) = (0..80 * 80)
-            .map(|i| {
-                let (x, y) = ((i % 80) as f32 * 0.025, (i / 80) as f32 * 0.025);
-                let (dx, dy) = (
-                    0.2 * (4.0 * x).cos() * (3.0 * y).cos(),
-                    -0.15 * (4.0 * x).sin() * (3.0 * y).sin(),
-                );
-                (
-                    Vec3::new(x, y, wave(x, y)),
-                    Vec3::new(-dx, -dy, 1.0).normalize(),
-                )
-            })
+            .map(|i| wave((i % 80) as f32 * 0.025, (i / 80) as f32 * 0.025))
             .unzip();
         let set = PointSet::new(points)
             .and_then(|s| s.with_normals(normals))

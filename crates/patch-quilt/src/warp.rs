@@ -268,17 +268,10 @@ fn surface_gap(
 mod tests {
     use super::*;
     use crate::params::WarpTargets;
+    use crate::test_surfaces::wave;
     use mls_surface::{MlsParams, surface_variation};
     use pointset_core::{PointSet, rng};
     use rand::RngExt;
-
-    /// The wavy height field `z = 0.05 sin(6x) cos(5y)` with its unit normal.
-    fn wave(x: f32, y: f32) -> (Vec3, Vec3) {
-        let z = 0.05 * (6.0 * x).sin() * (5.0 * y).cos();
-        let dzdx = 0.3 * (6.0 * x).cos() * (5.0 * y).cos();
-        let dzdy = -0.25 * (6.0 * x).sin() * (5.0 * y).sin();
-        (Vec3::new(x, y, z), Vec3::new(-dzdx, -dzdy, 1.0).normalize())
-    }
 
     /// 6000 samples of the wave over `[-0.5, 2.5]²`, uniformly at random, lifted by `lift`.
     fn sampled(seed: u64, lift: f32) -> (Vec<Vec3>, Vec<Vec3>) {

@@ -218,12 +218,15 @@ pub fn measured_run(
     let output = quilt(texture, params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let bar = spinner(globals, format!("{label}: measuring quality"));
-    let quality = measure
-        .as_ref()
-        .map_err(Clone::clone)
-        .and_then(|m| m.evaluate(&output, 48).map_err(|e| e.to_string()));
-    bar.finish_and_clear();
+    let quality = match measure {
+        Ok(m) => {
+            let bar = spinner(globals, format!("{label}: measuring quality"));
+            let quality = m.evaluate(&output, 48).map_err(|e| e.to_string());
+            bar.finish_and_clear();
+            quality
+        }
+        Err(reason) => Err(reason.clone()),
+    };
     let timings = ctx
         .timings()
         .iter()
