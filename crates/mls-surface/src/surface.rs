@@ -207,6 +207,15 @@ impl MlsSurface {
     /// Quasi-orthogonal projection: repeats `x ← x − f(x) n(x)` until `|f| < tolerance · h`
     /// or the iteration cap. `None` where the surface is not defined (see [`Self::fit`]).
     pub fn project(&self, x: Vec3) -> Option<Projection> {
+        self.project_with_start(x)
+            .and_then(|(_, projection)| projection)
+    }
+
+    /// [`Self::project`], also returning the fit at `x` itself (its first iteration), so a
+    /// caller that needs both `f(x)` and the projection gathers the neighbours once.
+    /// `None` where the surface is not defined at `x`; `Some((fit, None))` where it is
+    /// defined at `x` but the iteration leaves it.
+    fn project_with_start(&self, x: Vec3) -> Option<(LocalFit, Option<Projection>)> {
         if !x.is_finite() {
             return None;
         }
@@ -216,29 +225,46 @@ impl MlsSurface {
         let slack = 0.5 * radius;
         let mut anchor = x;
         let mut candidates = self.candidates(anchor, radius + slack);
+        let start = self.fit_with(x, &candidates)?;
         let tolerance = self.params.tolerance * self.h;
         let mut y = x;
+        let mut fit = start;
         for iteration in 1..=self.params.max_iterations {
-            if y.distance(anchor) > slack {
-                anchor = y;
-                candidates = self.candidates(anchor, radius + slack);
+            if iteration > 1 {
+                if y.distance(anchor) > slack {
+                    anchor = y;
+                    candidates = self.candidates(anchor, radius + slack);
+                }
+                match self.fit_with(y, &candidates) {
+                    Some(next) => fit = next,
+                    None => return Some((start, None)),
+                }
             }
-            let fit = self.fit_with(y, &candidates)?;
             if fit.value.abs() < tolerance {
-                return Some(self.finish(x, y, fit.normal, iteration, true));
+                return Some((start, Some(self.finish(x, y, fit.normal, iteration, true))));
             }
             y -= fit.value * fit.normal;
             if !y.is_finite() {
-                return None;
+                return Some((start, None));
             }
             if iteration == self.params.max_iterations {
                 let normal = self
                     .fit_with(y, &candidates)
                     .map_or(fit.normal, |f| f.normal);
-                return Some(self.finish(x, y, normal, iteration, false));
+                return Some((start, Some(self.finish(x, y, normal, iteration, false))));
             }
         }
-        None
+        Some((start, None))
+    }
+
+    /// The input point nearest to `query`, with its normal: the surface's stand-in where
+    /// the kernel does not reach.
+    fn nearest_sample(&self, query: Vec3) -> Option<SurfacePoint> {
+        let nearest = self.index.nearest_one(query).ok()??;
+        Some(SurfacePoint {
+            point: self.points[nearest.index],
+            normal: self.normals[nearest.index],
+        })
     }
 
     fn finish(
@@ -289,20 +315,27 @@ impl Surface for MlsSurface {
                 normal: p.normal,
             });
         }
-        let nearest = self.index.nearest_one(query).ok()??;
-        Some(SurfacePoint {
-            point: self.points[nearest.index],
-            normal: self.normals[nearest.index],
-        })
+        self.nearest_sample(query)
     }
 
     /// Magnitude from the projection; sign from `f(query)` where the kernel reaches the
     /// query (the surface *is* the zero set of `f`, so the grid's zero crossings match it),
-    /// otherwise from the closest point's normal.
+    /// otherwise from the closest point's normal. The neighbours of the query are gathered
+    /// once for both.
     fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
-        let c = self.closest_point(query)?;
+        let (start, projection) = match self.project_with_start(query) {
+            Some((start, projection)) => (Some(start), projection),
+            None => (None, None),
+        };
+        let c = match projection {
+            Some(p) => SurfacePoint {
+                point: p.point,
+                normal: p.normal,
+            },
+            None => self.nearest_sample(query)?,
+        };
         let offset = query - c.point;
-        let inside = match self.fit(query) {
+        let inside = match start {
             Some(fit) => fit.value < 0.0,
             None => offset.dot(c.normal) < 0.0,
         };

@@ -245,6 +245,45 @@ fn rays_hit_the_sphere_where_geometry_says() {
 }
 
 #[test]
+fn the_signed_distance_is_its_definition_near_and_far() {
+    // `Surface::signed_distance` shares one neighbour search between the projection and
+    // `f(query)`. Rebuilt here from the public parts: magnitude from `closest_point`, sign
+    // from `f(query)` where the kernel reaches, else from the closest sample's normal.
+    let mut points = sphere(3000, 1.0);
+    let mut g = rng::rng_from_seed(6);
+    let jitter: Vec<Vec3> = points
+        .positions()
+        .iter()
+        .map(|p| *p * (1.0 + g.random_range(-0.01..0.01)))
+        .collect();
+    points = PointSet::new(jitter)
+        .unwrap()
+        .with_normals(points.normals().unwrap().to_vec())
+        .unwrap();
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let (mut near, mut far) = (0, 0);
+    for _ in 0..2000 {
+        let q = random_unit(&mut g) * g.random_range(0.0..1.6);
+        let (d, c) = Surface::signed_distance(&surface, q).unwrap();
+        let closest = surface.closest_point(q).unwrap();
+        let offset = q - closest.point;
+        let inside = match surface.fit(q) {
+            Some(fit) => {
+                near += 1;
+                fit.value < 0.0
+            }
+            None => {
+                far += 1;
+                offset.dot(closest.normal) < 0.0
+            }
+        };
+        assert_eq!(c, closest, "query {q}");
+        assert_eq!(d, if inside { -offset.length() } else { offset.length() });
+    }
+    assert!(near > 100 && far > 100, "near {near}, far {far}");
+}
+
+#[test]
 fn surface_variation_is_zero_on_planes_and_positive_on_curved_or_random_sets() {
     let plane: Vec<Vec3> = (0..900)
         .map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0))

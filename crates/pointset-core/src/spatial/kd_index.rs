@@ -49,6 +49,18 @@ fn check_query(q: Vec3) -> Result<[f32; 3]> {
     }
 }
 
+fn check_radius(radius: f32) -> Result<()> {
+    if radius.is_finite() && radius >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter {
+            name: "radius",
+            value: radius.to_string(),
+            expected: "a finite non-negative distance".into(),
+        })
+    }
+}
+
 impl KdIndex {
     /// Builds the index; errors if any point is NaN or infinite, or there are more than
     /// `u32::MAX` points.
@@ -111,25 +123,31 @@ impl KdIndex {
 
     /// The nearest point to `q`, `None` for an empty index.
     pub fn nearest_one(&self, q: Vec3) -> Result<Option<Neighbour>> {
-        Ok(self.nearest(q, 1)?.into_iter().next())
+        let query = check_query(q)?;
+        let Some(tree) = &self.tree else {
+            return Ok(None);
+        };
+        let found = tree
+            .query(&query)
+            .nearest_one::<SquaredEuclidean<f32>>()
+            .execute();
+        Ok(Some(Neighbour {
+            index: found.item as usize,
+            distance_squared: found.distance,
+        }))
     }
 
     /// Every point within distance `radius` of `q` (inclusive), nearest first.
     pub fn within(&self, q: Vec3, radius: f32) -> Result<Vec<Neighbour>> {
         let query = check_query(q)?;
-        if !(radius.is_finite() && radius >= 0.0) {
-            return Err(Error::InvalidParameter {
-                name: "radius",
-                value: radius.to_string(),
-                expected: "a finite non-negative distance".into(),
-            });
-        }
+        check_radius(radius)?;
         let Some(tree) = &self.tree else {
             return Ok(Vec::new());
         };
         let found = tree
             .query(&query)
             .within::<SquaredEuclidean<f32>>(radius * radius)
+            .unsorted()
             .execute();
         Ok(Self::sorted(
             found.into_iter().map(|r| (r.item as usize, r.distance)),
@@ -137,11 +155,22 @@ impl KdIndex {
     }
 
     /// At most `k` nearest points within `radius` of `q`, nearest first.
+    ///
+    /// The search is bounded by `radius`, so a query far from every point is cheap.
     pub fn nearest_within(&self, q: Vec3, k: usize, radius: f32) -> Result<Vec<Neighbour>> {
-        let mut found = self.nearest(q, k)?;
-        let r2 = radius * radius;
-        found.retain(|n| n.distance_squared <= r2);
-        Ok(found)
+        let query = check_query(q)?;
+        check_radius(radius)?;
+        let (Some(tree), Some(k)) = (&self.tree, NonZeroUsize::new(k)) else {
+            return Ok(Vec::new());
+        };
+        let found = tree
+            .query(&query)
+            .nearest_n::<SquaredEuclidean<f32>>(k)
+            .within(radius * radius)
+            .execute();
+        Ok(Self::sorted(
+            found.into_iter().map(|r| (r.item as usize, r.distance)),
+        ))
     }
 
     fn sorted(found: impl Iterator<Item = (usize, f32)>) -> Vec<Neighbour> {

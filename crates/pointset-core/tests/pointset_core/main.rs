@@ -324,7 +324,20 @@ proptest! {
         for (g, w) in got.iter().zip(&want) {
             prop_assert!((g - w).abs() <= 1e-4 * w.max(1.0));
         }
-        let mut within: Vec<usize> = index.within(q, r).unwrap().iter().map(|n| n.index).collect();
+        let one = index.nearest_one(q).unwrap().map(|n| n.distance_squared);
+        prop_assert_eq!(one.is_some(), !points.is_empty());
+        if let (Some(g), Some(w)) = (one, brute_force_knn(&points, q, 1).first()) {
+            prop_assert!((g - w).abs() <= 1e-4 * w.max(1.0));
+        }
+        let bounded: Vec<f32> = index.nearest_within(q, k, r).unwrap().iter().map(|n| n.distance_squared).collect();
+        let want: Vec<f32> = want.into_iter().filter(|&w| w <= r * r).collect();
+        prop_assert_eq!(bounded.len(), want.len());
+        for (g, w) in bounded.iter().zip(&want) {
+            prop_assert!((g - w).abs() <= 1e-4 * w.max(1.0));
+        }
+        let found = index.within(q, r).unwrap();
+        prop_assert!(found.windows(2).all(|p| p[0].distance_squared <= p[1].distance_squared));
+        let mut within: Vec<usize> = found.iter().map(|n| n.index).collect();
         within.sort_unstable();
         let expected: Vec<usize> = (0..points.len()).filter(|&i| points[i].distance_squared(q) <= r * r).collect();
         prop_assert_eq!(within, expected);
@@ -407,8 +420,11 @@ fn kd_index_handles_voxel_centres_and_rejects_nan() {
     ));
     assert!(index.nearest(Vec3::new(f32::NAN, 0.0, 0.0), 1).is_err());
     assert!(index.within(Vec3::ZERO, f32::NAN).is_err());
+    assert!(index.nearest_within(Vec3::ZERO, 1, -1.0).is_err());
     let empty = KdIndex::new(&[]).unwrap();
     assert!(empty.nearest(Vec3::ZERO, 3).unwrap().is_empty());
+    assert!(empty.nearest_one(Vec3::ZERO).unwrap().is_none());
+    assert!(empty.nearest_within(Vec3::ZERO, 3, 1.0).unwrap().is_empty());
 }
 
 #[test]
