@@ -278,7 +278,8 @@ fn the_signed_distance_is_its_definition_near_and_far() {
             }
         };
         assert_eq!(c, closest, "query {q}");
-        assert_eq!(d, if inside { -offset.length() } else { offset.length() });
+        let sign = if inside { -1.0 } else { 1.0 };
+        assert_eq!(d, sign * offset.length());
     }
     assert!(near > 100 && far > 100, "near {near}, far {far}");
 }

@@ -149,6 +149,42 @@ impl GapLimits {
     }
 }
 
+/// The footprint of `B_k` (whose points step 6 keeps) with the slack a point of `F_k`
+/// needs to land in it through the blend: twice the blend reach. The blend moves no point
+/// farther than its reach, so a point beyond the slack stays outside whatever its target
+/// (twice, not once, so that rounding cannot decide it). Such points are the margin by
+/// which `F_k` is extended for the warp (§5.2); step 6 discards them, so neither the
+/// blend nor the warp's normal transport spends work on them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct KeptFootprint {
+    lo: Vec2,
+    hi: Vec2,
+    slack: f32,
+}
+
+impl KeptFootprint {
+    /// The footprint `(lo, hi)` of `B_k` and the blend reach.
+    pub fn new((lo, hi): (Vec2, Vec2), blend_reach: f32) -> Self {
+        Self {
+            lo,
+            hi,
+            slack: 2.0 * blend_reach,
+        }
+    }
+
+    /// The footprint `(lo, hi)` of `B_k`.
+    pub fn footprint(&self) -> (Vec2, Vec2) {
+        (self.lo, self.hi)
+    }
+
+    /// Whether a point at `p` can still end up inside the footprint.
+    pub fn may_land(&self, p: Vec3) -> bool {
+        let q = p.truncate();
+        let outside = (self.lo - q).max(q - self.hi).max(Vec2::ZERO);
+        outside.length() <= self.slack
+    }
+}
+
 /// Moves each point with ramp value `t > 0` to `p + t (g − p)` and its normal to
 /// `normalize((1 − t) n + t n_g)`, where `g, n_g` is the point's target on the
 /// neighbourhood's surface: the closer hit of rays along `±n` (cast as far as the surface's
@@ -161,32 +197,26 @@ impl GapLimits {
 /// petal, a crossing thread's underside), and interpolating the two normals would describe
 /// neither.
 ///
-/// Only points that can end up inside `keep` (the footprint of `B_k`, whose points step 6
-/// keeps) are blended. No point moves farther than `limits.distance`, so a point more than
-/// twice that outside `keep` stays outside whatever its target; it is skipped and not
-/// counted. (Twice, not once, so that rounding cannot decide it.) The skipped points are
-/// the margin by which `F_k` is extended for the warp (§5.2), about half of the points
+/// Only points that can end up inside `keep` ([`KeptFootprint::may_land`], built with
+/// `limits.distance` as the reach) are blended; the rest are skipped and not counted. They
+/// are the margin by which `F_k` is extended for the warp (§5.2), about half of the points
 /// with a ramp value above 0.
 pub(crate) fn blend(
     points: &mut [Vec3],
     normals: &mut [Vec3],
     overlap: &Overlap,
-    keep: (Vec2, Vec2),
+    keep: &KeptFootprint,
     neighbourhood: &MlsSurface,
     limits: GapLimits,
 ) -> BlendCounts {
-    let (keep_lo, keep_hi) = keep;
-    let slack = 2.0 * limits.distance;
     let results: Vec<Option<(Vec3, Vec3, Outcome)>> = points
         .par_iter()
         .zip(normals.par_iter())
         .map(|(&p, &n)| {
-            let q = p.truncate();
-            let outside = (keep_lo - q).max(q - keep_hi).max(Vec2::ZERO);
-            if outside.length() > slack {
+            if !keep.may_land(p) {
                 return None;
             }
-            let t = overlap.ramp(q);
+            let t = overlap.ramp(p.truncate());
             if t <= 0.0 {
                 return None;
             }
@@ -265,7 +295,7 @@ mod tests {
         left: true,
         bottom: false,
     };
-    const KEEP: (Vec2, Vec2) = (Vec2::ZERO, Vec2::splat(2.0));
+    const FOOTPRINT: (Vec2, Vec2) = (Vec2::ZERO, Vec2::splat(2.0));
 
     #[test]
     fn blending_moves_points_toward_the_neighbourhood_monotonically_across_the_ramp() {
@@ -283,7 +313,7 @@ mod tests {
             &mut far,
             &mut far_normals,
             &o,
-            KEEP,
+            &KeptFootprint::new(FOOTPRINT, 0.05),
             &surface,
             limits(0.05, -1.0),
         );
@@ -297,7 +327,7 @@ mod tests {
             &mut away,
             &mut away_normals,
             &o,
-            KEEP,
+            &KeptFootprint::new(FOOTPRINT, 0.2),
             &surface,
             limits(0.2, 0.8),
         );
@@ -308,7 +338,7 @@ mod tests {
             &mut any,
             &mut any_normals,
             &o,
-            KEEP,
+            &KeptFootprint::new(FOOTPRINT, 0.2),
             &surface,
             limits(0.2, -1.0),
         );
@@ -317,7 +347,7 @@ mod tests {
             &mut points,
             &mut normals,
             &o,
-            KEEP,
+            &KeptFootprint::new(FOOTPRINT, 0.2),
             &surface,
             limits(0.2, 0.8),
         );
@@ -345,7 +375,7 @@ mod tests {
             &mut points,
             &mut normals,
             &LEFT_STRIP,
-            KEEP,
+            &KeptFootprint::new(FOOTPRINT, 0.2),
             &surface,
             limits(0.2, 0.8),
         );

@@ -8,7 +8,7 @@ use mls_surface::{MlsParams, MlsSurface, RelaxParams, relax};
 use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarType, rng};
 use rand::RngExt;
 
-use crate::blend::{BlendCounts, GapLimits, Overlap, blend};
+use crate::blend::{BlendCounts, GapLimits, KeptFootprint, Overlap, blend};
 use crate::error::{QuiltError, Result, invalid};
 use crate::exemplar::{Exemplar, PatchGeometry};
 use crate::params::{Method, OutputSize, QuiltParams};
@@ -380,6 +380,8 @@ pub fn quilt(
             let mut blended = BlendCounts::default();
             if let (Some(surface), Method::Full) = (&n_surface, params.method) {
                 let t = Instant::now();
+                let reach = params.blend_reach * surface.support_radius();
+                let keep = KeptFootprint::new((origin, far), reach);
                 let neighbourhood = Neighbourhood {
                     points: &n_points,
                     normals: &n_normals,
@@ -400,7 +402,7 @@ pub fn quilt(
                     },
                     &neighbourhood,
                     &overlap,
-                    (origin, far),
+                    &keep,
                     g.extra(),
                     &params.clusters,
                     &pairing,
@@ -413,10 +415,10 @@ pub fn quilt(
                     &mut f_points,
                     &mut f_normals,
                     &overlap,
-                    (origin, far),
+                    &keep,
                     surface,
                     GapLimits {
-                        distance: params.blend_reach * surface.support_radius(),
+                        distance: reach,
                         normal_agreement: params.normal_agreement,
                     },
                 );

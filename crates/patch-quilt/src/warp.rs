@@ -4,11 +4,12 @@
 use glam::{Vec2, Vec3};
 use mls_surface::{ClusterParams, Covariance, MlsSurface, adaptive_clusters};
 use pointset_core::Aabb;
+use rayon::prelude::*;
 use tps_warp::{
     PairingParams, PairingPoint, ThinPlateSpline, TpsParams, anchors_in_regions, pair_points,
 };
 
-use crate::blend::{GapLimits, Overlap};
+use crate::blend::{GapLimits, KeptFootprint, Overlap};
 #[cfg(doc)]
 use crate::params::WarpTargets;
 
@@ -93,7 +94,9 @@ pub struct WarpCounts {
 /// corner of `B_k`'s footprint that shares no area with the overlap (three for an interior
 /// patch: the strips run along the patch's sides only). The spline maps each paired
 /// source to its target ([`WarpTargets`]). A patch with fewer than four pairs, or whose
-/// spline cannot be fitted, is left unwarped (reported, not an error).
+/// spline cannot be fitted, is left unwarped (reported, not an error). Normals are turned
+/// through the Jacobian only for points that can still land in `keep`
+/// ([`KeptFootprint::may_land`]); the others keep their normals, and step 6 discards them.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn warp_patch(
     points: &mut [Vec3],
@@ -101,7 +104,7 @@ pub(crate) fn warp_patch(
     source: &SourceAttributes<'_>,
     neighbourhood: &Neighbourhood<'_>,
     overlap: &Overlap,
-    footprint: (Vec2, Vec2),
+    keep: &KeptFootprint,
     corner: f32,
     clusters: &ClusterParams,
     pairing: &PairingParams,
@@ -139,7 +142,7 @@ pub(crate) fn warp_patch(
             variation: source.variation[i],
         })
         .collect();
-    let (lo, hi) = footprint;
+    let (lo, hi) = keep.footprint();
     let corners = [
         Vec2::new(lo.x, lo.y),
         Vec2::new(hi.x - corner, lo.y),
@@ -216,10 +219,17 @@ pub(crate) fn warp_patch(
     else {
         return counts;
     };
-    let (moved, turned) = spline.warp(points, Some(normals));
+    let moved: Vec<Vec3> = points.par_iter().map(|&p| spline.eval(p)).collect();
     if moved.iter().any(|p| !p.is_finite()) {
         return counts;
     }
+    // Normals through the Jacobian (§5.2), only where step 6 can keep the point.
+    let turned: Vec<Option<Vec3>> = points
+        .par_iter()
+        .zip(normals.par_iter())
+        .zip(moved.par_iter())
+        .map(|((&p, &n), &m)| keep.may_land(m).then(|| spline.transform_normal(p, n)))
+        .collect();
     let shifts: Vec<f32> = moved
         .iter()
         .zip(points.iter())
@@ -228,8 +238,10 @@ pub(crate) fn warp_patch(
     counts.mean_displacement = shifts.iter().sum::<f32>() / shifts.len().max(1) as f32;
     counts.max_displacement = shifts.iter().copied().fold(0.0, f32::max);
     points.copy_from_slice(&moved);
-    if let Some(n) = turned {
-        normals.copy_from_slice(&n);
+    for (n, turned) in normals.iter_mut().zip(turned) {
+        if let Some(turned) = turned {
+            *n = turned;
+        }
     }
     counts.skipped = false;
     counts
@@ -284,16 +296,33 @@ mod tests {
             .unzip()
     }
 
-    /// Warps a patch sampled with `seed` and lifted by `lift` onto the neighbourhood
-    /// sampled with seed 1; returns the points before and after, and the counts.
+    /// The footprint the wave tests keep, with a blend reach of 0.05.
+    fn wave_keep() -> KeptFootprint {
+        KeptFootprint::new((Vec2::ZERO, Vec2::splat(2.0)), 0.05)
+    }
+
+    /// [`warp_wave_with_normals`] without the normals.
     fn warp_wave(seed: u64, lift: f32, targets: WarpTargets) -> (Vec<Vec3>, Vec<Vec3>, WarpCounts) {
+        let (before, after, _, counts) = warp_wave_with_normals(seed, lift, targets);
+        (before, after, counts)
+    }
+
+    /// Warps a patch sampled with `seed` and lifted by `lift` onto the neighbourhood
+    /// sampled with seed 1; returns the points before and after, the normals before and
+    /// after, and the counts.
+    fn warp_wave_with_normals(
+        seed: u64,
+        lift: f32,
+        targets: WarpTargets,
+    ) -> (Vec<Vec3>, Vec<Vec3>, [Vec<Vec3>; 2], WarpCounts) {
         let mls = MlsParams::default();
         let (n_points, n_normals) = sampled(1, 0.0);
         let n_set = PointSet::new(n_points.clone())
             .and_then(|s| s.with_normals(n_normals.clone()))
             .unwrap();
         let n_surface = MlsSurface::new(&n_set, &mls).unwrap();
-        let (before, mut normals) = sampled(seed, lift);
+        let (before, normals_before) = sampled(seed, lift);
+        let mut normals = normals_before.clone();
         let f_set = PointSet::new(before.clone())
             .and_then(|s| s.with_normals(normals.clone()))
             .unwrap();
@@ -327,14 +356,14 @@ mod tests {
                 surface: &n_surface,
             },
             &overlap,
-            (Vec2::ZERO, Vec2::splat(2.0)),
+            &wave_keep(),
             0.45,
             &ClusterParams::default().max_points(12).max_variation(0.1),
             &PairingParams::default().max_distance(0.06),
             4,
             0.0,
         );
-        (before, points, counts)
+        (before, points, [normals_before, normals], counts)
     }
 
     fn mean_shift_in_overlap(before: &[Vec3], after: &[Vec3]) -> Vec3 {
@@ -390,6 +419,33 @@ mod tests {
             (shift.z + lift).abs() < 0.3 * lift && shift.truncate().length() < 0.2 * lift,
             "mean shift in the overlap {shift}"
         );
+    }
+
+    #[test]
+    fn normals_are_turned_only_where_step_6_can_keep_the_point() {
+        let (_, after, [n_before, n_after], counts) =
+            warp_wave_with_normals(2, 0.02, WarpTargets::Exact);
+        assert!(!counts.skipped, "{counts:?}");
+        let keep = wave_keep();
+        let (mut kept, mut turned) = (0, 0);
+        for ((p, a), b) in after.iter().zip(&n_after).zip(&n_before) {
+            if keep.may_land(*p) {
+                kept += 1;
+                turned += usize::from(a != b);
+                assert!((a.length() - 1.0).abs() < 1e-4, "{a}");
+            } else {
+                assert_eq!(
+                    a, b,
+                    "a point at {p} cannot be kept; its normal is not turned"
+                );
+            }
+        }
+        assert!(
+            kept > 1000 && kept < after.len() - 1000,
+            "{kept} of {}",
+            after.len()
+        );
+        assert!(turned > kept / 2, "{turned} of {kept} normals turned");
     }
 
     /// Gap limits: `distance`, and normals at most about 37° apart.
