@@ -655,4 +655,15 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     ]);
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("epsilon"));
+    // Baselines land only in the report: asking for them without one is an error, not
+    // minutes of work thrown away.
+    let bad = geosynth(&[
+        "quilt",
+        exemplar.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--baselines",
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--report"));
 }

@@ -138,8 +138,9 @@ pub struct QuiltArgs {
     #[arg(long)]
     report: Option<PathBuf>,
     /// Also run and measure the random-placement and search-only baselines for the report,
-    /// and (for the full method) its own patches pasted without warp or blend.
-    #[arg(long)]
+    /// and (for the full method) its own patches pasted without warp or blend. Needs
+    /// `--report`: the baselines are written nowhere else.
+    #[arg(long, requires = "report")]
     baselines: bool,
     /// Render exemplar | output to a PNG.
     #[arg(long)]
