@@ -1,7 +1,7 @@
 //! Precomputation on `T_in`: its distance field `D(T_in)`, surface variation, point bins.
 
 use distance_field::{GridSpec, SdfGrid};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use mls_surface::{MlsParams, MlsSurface, surface_variation};
 use pointset_core::{Aabb, BucketGrid};
 
@@ -38,6 +38,28 @@ impl PatchGeometry {
     }
 }
 
+/// The exemplar box side (the longer in-plane one) that the search metric and the pairing
+/// weights are calibrated for: the side of the demo fixtures on which the defaults and
+/// the paper's Table 1 weights were measured (the paper's examples all have "about the
+/// same base dimensions", §6).
+///
+/// The search's `d` and Eq. 2–3 add lengths to unitless terms (gradients, normals,
+/// surface variation, directions), so without a fixed base their balance would depend on
+/// the units of the file: the same exemplar in millimetres and in metres would quilt
+/// differently. Lengths in those three formulas are therefore measured in units of the
+/// longer box side / `BASE_SIDE`; every other length of a run is already a fraction of
+/// the box, the field spacing or the MLS kernel.
+pub const BASE_SIDE: f32 = 4.0;
+
+/// `values` (distance, gradient) with the distance channel divided by `unit`: a field as
+/// the search compares it.
+pub(crate) fn in_base_units(values: &[Vec4], unit: f32) -> Vec<Vec4> {
+    values
+        .iter()
+        .map(|v| Vec4::new(v.x / unit, v.y, v.z, v.w))
+        .collect()
+}
+
 /// Everything precomputed on the exemplar.
 pub(crate) struct Exemplar {
     pub points: Vec<Vec3>,
@@ -49,7 +71,12 @@ pub(crate) struct Exemplar {
     /// full run with that warp, the one reader.
     pub foot_offset: Option<Vec<f32>>,
     bins: BucketGrid<u32>,
-    pub field: SdfGrid,
+    /// `D(T_in)` as the search compares it: distance (in [`Self::length_unit`]s) and
+    /// gradient at the nodes of [`Self::spec`].
+    pub search_field: Vec<Vec4>,
+    /// Longer in-plane box side / [`BASE_SIDE`]: the unit of length of the search metric
+    /// and of Eq. 2–3.
+    pub length_unit: f32,
     pub spec: GridSpec,
     /// The exemplar's MLS surface (its kernel is used for every other surface of the run).
     pub surface: MlsSurface,
@@ -97,7 +124,9 @@ impl Exemplar {
             origin: bounds.min,
             spacing,
         };
+        let length_unit = ext.x.max(ext.y) / BASE_SIDE;
         let field = SdfGrid::from_surface(&surface, &spec, params.band * spacing)?;
+        let search_field = in_base_units(field.grid().data(), length_unit);
         let patch_nodes = ((params.patch_size * ext.x.min(ext.y)) / spacing)
             .round()
             .max(2.0) as usize;
@@ -158,7 +187,8 @@ impl Exemplar {
             variation,
             foot_offset,
             bins,
-            field,
+            search_field,
+            length_unit,
             spec,
             surface,
             bounds,
@@ -188,6 +218,6 @@ impl Exemplar {
 
     /// Memory held by `D(T_in)` in bytes.
     pub fn field_bytes(&self) -> usize {
-        std::mem::size_of_val(self.field.grid().data())
+        std::mem::size_of_val(self.search_field.as_slice())
     }
 }

@@ -60,6 +60,16 @@
 //!
 //! - `d` sums squared differences of all four channels (distance and gradient) unweighted,
 //!   reading the paper's "single high-dimensional vectors" literally.
+//! - **Units.** `d` and the pairing's Eq. 2–3 add lengths to unitless terms (gradients,
+//!   normals, surface variation, directions), so their balance depends on the unit of
+//!   length. The paper gives one set of weights for exemplars of "about the same base
+//!   dimensions" (§6). Here the lengths in those three formulas are measured in units of
+//!   the exemplar's longer box side / [`BASE_SIDE`] (4, the side of the demo fixtures the
+//!   defaults were measured on). Every other length of a run is already relative (to the
+//!   box, the field spacing or the MLS kernel), so the same exemplar in millimetres and in
+//!   metres gives the same texture, scaled: exactly for power-of-two factors (tested);
+//!   other factors change the last bits of the samples, which can tip a near tie of the
+//!   search the way another seed would.
 //! - `N_k`'s MLS surface uses the exemplar's kernel, so both fields see the same surface
 //!   definition.
 //! - A patch with fewer than 4 pairs, or a degenerate spline, is pasted unwarped and counted
@@ -115,7 +125,7 @@ mod warp;
 
 pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
-pub use exemplar::PatchGeometry;
+pub use exemplar::{BASE_SIDE, PatchGeometry};
 pub use params::{Method, OutputSize, QuiltParams, WarpTargets};
 pub use quality::{QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};

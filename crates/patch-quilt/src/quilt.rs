@@ -10,7 +10,7 @@ use rand::RngExt;
 
 use crate::blend::{BlendCounts, GapLimits, KeptFootprint, Overlap, blend};
 use crate::error::{QuiltError, Result, invalid};
-use crate::exemplar::{Exemplar, PatchGeometry};
+use crate::exemplar::{Exemplar, PatchGeometry, in_base_units};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
@@ -159,6 +159,7 @@ fn overlap_field(
     corner: Vec3,
     nz: usize,
     band: f32,
+    length_unit: f32,
 ) -> Result<Vec<glam::Vec4>> {
     let side = g.patch_nodes + 1;
     let strip = g.overlap_nodes + 1;
@@ -174,7 +175,7 @@ fn overlap_field(
             spacing: g.spacing,
         };
         let sdf = SdfGrid::from_surface(surface, &spec, band)?;
-        let data = vec4_field(&sdf);
+        let data = in_base_units(vec4_field(&sdf), length_unit);
         for c in 0..nz {
             for b in 0..dims[1] {
                 let row = dims[0] * (b + dims[1] * c);
@@ -228,6 +229,9 @@ pub fn quilt(
     if !pairing.max_distance.is_finite() {
         pairing.max_distance = params.pair_distance * g.spacing;
     }
+    // Eq. 2's position term and Eq. 3's length term in base units (see `BASE_SIDE`).
+    pairing.w_p /= ex.length_unit;
+    pairing.w_l /= ex.length_unit;
     let mls = MlsParams::default().kernel(ex.surface.kernel());
     let [nx, _, nz] = ex.spec.dims;
     let total = layout.cols * layout.rows;
@@ -308,6 +312,7 @@ pub fn quilt(
                         origin.extend(ex.spec.origin.z),
                         nz,
                         params.band * g.spacing,
+                        ex.length_unit,
                     )?;
                     let side = g.patch_nodes + 1;
                     let mut nodes = Vec::new();
@@ -326,7 +331,7 @@ pub fn quilt(
                         }
                     }
                     let d = distances(
-                        vec4_field(&ex.field),
+                        &ex.search_field,
                         nx,
                         ex.max_i,
                         ex.max_j,
@@ -580,7 +585,7 @@ mod tests {
                 left,
                 bottom,
             };
-            let field = overlap_field(&surface, &overlap, &g, corner, nz, band).unwrap();
+            let field = overlap_field(&surface, &overlap, &g, corner, nz, band, 1.0).unwrap();
             let mut compared = 0;
             for c in 0..nz {
                 for b in 0..side {

@@ -48,6 +48,49 @@ fn output_is_identical_with_one_and_two_threads() {
 }
 
 #[test]
+fn the_result_does_not_depend_on_the_unit_of_length() {
+    // The same exemplar in other units: scaled by powers of two, which floating point
+    // represents exactly, so every length of the run scales exactly too. The search and
+    // the pairing mix lengths with unitless terms; measured in units of the box they keep
+    // their balance, and the output is the same texture, scaled.
+    let t = texture(
+        |x, y| 0.1 * (3.0 * x).sin() * (2.0 * y + 0.5 * x).cos(),
+        48,
+        0.05,
+    );
+    let params = small_params().seed(5);
+    let reference = quilt(&t, &params, &mut RunContext::new(5)).unwrap();
+    for factor in [4.0f32, 0.5] {
+        let set = t.canonical_points();
+        let scaled = PointSet::new(set.positions().iter().map(|p| *p * factor).collect())
+            .and_then(|s| s.with_normals(set.normals().unwrap().to_vec()))
+            .unwrap();
+        let b = t.canonical_bounds();
+        let texture = GeometryTexture::new(
+            &scaled,
+            Aabb::new(b.min * factor, b.max * factor),
+            UpAxis::Z,
+        )
+        .unwrap();
+        let out = quilt(&texture, &params, &mut RunContext::new(5)).unwrap();
+        assert_eq!(out.sources(), reference.sources(), "factor {factor}");
+        assert_eq!(out.points.len(), reference.points.len(), "factor {factor}");
+        let expected: Vec<Vec3> = reference
+            .points
+            .positions()
+            .iter()
+            .map(|p| *p * factor)
+            .collect();
+        assert_eq!(
+            out.points.positions(),
+            expected.as_slice(),
+            "factor {factor}"
+        );
+        assert_eq!(out.points.normals(), reference.points.normals());
+    }
+}
+
+#[test]
 fn a_flat_plane_stays_flat_and_whole() {
     let t = texture(|_, _| 0.0, 48, 0.05);
     let out = quilt(&t, &small_params(), &mut RunContext::new(1)).unwrap();
