@@ -36,6 +36,12 @@ pub enum Table1Preset {
 /// Thresholds apply to the raw quantities of Eq. 2 (distance, `(1 − n_s·n_q)/2`,
 /// `(v_s − v_q)²`), so they keep their meaning whatever the weights; a term above its
 /// threshold makes `c(s, q) = ∞`.
+///
+/// `w_p` and `w_l` multiply lengths in the points' own units, while the other terms are
+/// unitless, so the weights' balance depends on the unit of length: Table 1's values
+/// assume the paper's "about the same base dimensions" for every exemplar. Dividing `w_p`
+/// and `w_l` by a length unit of the data keeps the balance whatever the file's unit
+/// (`patch-quilt` uses its exemplar box's longer side / 4).
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct PairingParams {
