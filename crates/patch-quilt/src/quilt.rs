@@ -151,7 +151,8 @@ fn vec4_field(sdf: &SdfGrid) -> &[glam::Vec4] {
 /// overlapping regions"). One field per strip, both written into a patch-sized array
 /// (`(patch_nodes + 1)² × nz` nodes from `corner`, x fastest) that the search reads at the
 /// overlap nodes; where the strips meet, the bottom strip's values are kept. The other
-/// nodes stay zero and are never read.
+/// nodes stay zero and are never read. Distances are in `length_unit`s, as in
+/// [`Exemplar::search_field`].
 fn overlap_field(
     surface: &MlsSurface,
     overlap: &Overlap,
