@@ -147,7 +147,7 @@ pub struct QuiltArgs {
     preview: Option<PathBuf>,
     /// Skip the quality measure: it builds distance fields of the exemplar and of every
     /// output and can take longer than the synthesis (a 70k → 200k chain mail takes about
-    /// 7 s with it, 3.3 s without). The report then says why its quality is missing.
+    /// 6 s with it, 3 s without). The report then says why its quality is missing.
     #[arg(long)]
     no_quality: bool,
 }
