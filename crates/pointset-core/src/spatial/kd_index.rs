@@ -121,7 +121,9 @@ impl KdIndex {
         ))
     }
 
-    /// The nearest point to `q`, `None` for an empty index.
+    /// The nearest point to `q`, `None` for an empty index. Among points at exactly the
+    /// same distance it returns one chosen by the tree's fixed traversal order (the same
+    /// one every time), not necessarily the lowest index.
     pub fn nearest_one(&self, q: Vec3) -> Result<Option<Neighbour>> {
         let query = check_query(q)?;
         let Some(tree) = &self.tree else {
