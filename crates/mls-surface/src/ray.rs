@@ -46,6 +46,20 @@ impl MlsSurface {
     /// surface. `direction` need not be unit length (it is normalized); `None` when there is
     /// no crossing within `max_t` or the input is degenerate.
     pub fn intersect_ray(&self, origin: Vec3, direction: Vec3, max_t: f32) -> Option<RayHit> {
+        self.intersect_ray_before(origin, direction, max_t, f32::INFINITY)
+    }
+
+    /// [`Self::intersect_ray`], except that the march stops before a step that starts at
+    /// or beyond `stop` and answers `None` there: every hit it could still find would lie
+    /// at `t ≥ stop`. Below `stop` it visits the same points, so any hit it returns is
+    /// the one [`Self::intersect_ray`] returns.
+    fn intersect_ray_before(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        max_t: f32,
+        stop: f32,
+    ) -> Option<RayHit> {
         let dir = direction.try_normalize()?;
         if !(origin.is_finite() && max_t.is_finite() && max_t >= 0.0) {
             return None;
@@ -55,6 +69,9 @@ impl MlsSurface {
         let at = |t: f32| self.fit(origin + t * dir).map(|f| f.value);
         let mut prev: Option<(f32, f32)> = at(0.0).map(|f| (0.0, f));
         for k in 1..=steps.max(1) {
+            if ((k - 1) as f32 * step).min(max_t) >= stop {
+                return None;
+            }
             let t = (k as f32 * step).min(max_t);
             let current = at(t).map(|f| (t, f));
             if let (Some((t0, f0)), Some((t1, f1))) = (prev, current) {
@@ -139,7 +156,10 @@ impl MlsSurface {
     pub fn snap(&self, p: Vec3, n: Vec3) -> Option<Snap> {
         let max_t = self.support_radius();
         let forward = self.intersect_ray(p, n, max_t);
-        let backward = self.intersect_ray(p, -n, max_t);
+        // A backward hit counts only if strictly closer, so its march can stop where the
+        // forward hit lies.
+        let stop = forward.map_or(f32::INFINITY, |hit| hit.t);
+        let backward = self.intersect_ray_before(p, -n, max_t, stop);
         let best = match (forward, backward) {
             (Some(a), Some(b)) => Some(if a.t <= b.t { (a, -1.0) } else { (b, 1.0) }),
             (Some(a), None) => Some((a, -1.0)),

@@ -285,6 +285,66 @@ fn the_signed_distance_is_its_definition_near_and_far() {
 }
 
 #[test]
+fn the_snap_is_the_closer_of_two_full_rays() {
+    // `snap` stops the backward march where the forward hit lies. Rebuilt here from two
+    // full rays: the closer hit, the forward one on a tie, else the projection. Half the
+    // rays run along a short chord just inside the sphere, so both hit at nearly the same
+    // distance, often within one march step of each other.
+    let surface = MlsSurface::new(&sphere(1000, 1.0), &MlsParams::default()).unwrap();
+    let reach = surface.support_radius();
+    let mut g = rng::rng_from_seed(8);
+    let (mut forward_won, mut backward_won, mut close_calls, mut projected) = (0, 0, 0, 0);
+    for i in 0..4000 {
+        let (p, n) = if i % 2 == 0 {
+            (
+                random_unit(&mut g) * g.random_range(0.9..1.1),
+                random_unit(&mut g),
+            )
+        } else {
+            let u = random_unit(&mut g);
+            let along = u.any_orthonormal_vector();
+            let r = (1.0 - (0.5 * reach).powi(2)).sqrt();
+            (u * r + along * g.random_range(-0.02..0.02), along)
+        };
+        let snap = surface.snap(p, n);
+        let forward = surface.intersect_ray(p, n, reach);
+        let backward = surface.intersect_ray(p, -n, reach);
+        let expected = match (forward, backward) {
+            (Some(a), Some(b)) if b.t < a.t => {
+                backward_won += 1;
+                close_calls += usize::from(a.t - b.t < 0.25 * surface.kernel());
+                Some(b.point)
+            }
+            (Some(a), _) => {
+                forward_won += 1;
+                Some(a.point)
+            }
+            (None, Some(b)) => {
+                backward_won += 1;
+                Some(b.point)
+            }
+            (None, None) => None,
+        };
+        match expected {
+            Some(point) => assert_eq!(snap.map(|s| s.projection.point), Some(point), "p {p}"),
+            None => {
+                projected += 1;
+                assert_eq!(
+                    snap.map(|s| s.projection),
+                    surface.project(p),
+                    "p {p}, n {n}"
+                );
+            }
+        }
+    }
+    assert!(
+        forward_won > 100 && backward_won > 100 && close_calls > 100 && projected > 100,
+        "forward {forward_won}, backward {backward_won} ({close_calls} within a step of \
+         the forward hit), projection {projected}"
+    );
+}
+
+#[test]
 fn surface_variation_is_zero_on_planes_and_positive_on_curved_or_random_sets() {
     let plane: Vec<Vec3> = (0..900)
         .map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0))
