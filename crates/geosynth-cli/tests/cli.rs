@@ -636,34 +636,23 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     let reason = r["run"]["quality"]["not_measured"].as_str().unwrap();
     assert!(reason.contains("--no-quality"), "{reason}");
     assert!(r["run"]["patches"].as_u64().unwrap() > 1, "{}", r["run"]);
-    let bad = geosynth(&[
-        "quilt",
-        exemplar.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--patch",
-        "2",
-    ]);
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("patch_size"));
-    let bad = geosynth(&[
-        "quilt",
-        exemplar.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--epsilon=-0.5",
-    ]);
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("epsilon"));
-    // Baselines land only in the report: asking for them without one is an error, not
-    // minutes of work thrown away.
-    let bad = geosynth(&[
-        "quilt",
-        exemplar.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--baselines",
-    ]);
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("--report"));
+    // Bad parameters, and baselines without a report (they land only in the report: an
+    // error, not minutes of work thrown away).
+    for (extra, message) in [
+        (&["--patch", "2"][..], "patch_size"),
+        (&["--epsilon=-0.5"][..], "epsilon"),
+        (&["--baselines"][..], "--report"),
+    ] {
+        let mut args = vec![
+            "quilt",
+            exemplar.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let bad = geosynth(&args);
+        assert!(!bad.status.success(), "{extra:?}");
+        let stderr = String::from_utf8_lossy(&bad.stderr);
+        assert!(stderr.contains(message), "{extra:?}: {stderr}");
+    }
 }
