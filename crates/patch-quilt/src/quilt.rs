@@ -29,7 +29,8 @@ pub struct Placement {
     pub source: (usize, usize),
     /// `|Ψ_k|`.
     pub candidates: usize,
-    /// `d` of the chosen patch (0 for the seed patch and random placement).
+    /// `d` of the chosen patch (0 for the seed patch and random placement), its
+    /// distances in units of the exemplar box ([`BASE_SIDE`](crate::BASE_SIDE)).
     pub distance: f32,
     /// What the warp did.
     pub warp: WarpCounts,

@@ -75,7 +75,8 @@ pub struct WarpCounts {
     pub anchors: usize,
     /// Targets `|Q|`.
     pub targets: usize,
-    /// `C(Φ)` of the pairing.
+    /// `C(Φ)` of the pairing, its lengths in units of the exemplar box
+    /// ([`BASE_SIDE`](crate::BASE_SIDE)).
     pub cost: f64,
     /// True when the patch was left unwarped (fewer than 4 pairs or a degenerate system).
     pub skipped: bool,
