@@ -108,11 +108,16 @@ pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
     Ok(GeometryTexture::new(points, bounds, up)?)
 }
 
+/// The relief [`read_heightfield_texture`] gives a height field: its height range as a
+/// fraction of the samples' longer extent.
+pub const DEFAULT_RELIEF: f32 = 0.1;
+
 /// Reads a height field file (PNG 8/16-bit or raw `name_WxH.f32le`, see
 /// [`crate::imagery::read_heightfield`]) as a geometry texture with the command line's
 /// conventions: the samples span 4 units along the longer side, the relief is scaled to
-/// 0.4 (a flat field stays flat), and the outer sixth of the samples on every side is
-/// padding (paper §3).
+/// 0.4 ([`DEFAULT_RELIEF`] of the extent; a flat field stays flat), and the outer sixth of
+/// the samples on every side is padding (paper §3), so the box is about two thirds of the
+/// extent. [`read_heightfield_texture_with_relief`] sets the relief.
 ///
 /// ```
 /// // A 30 × 30 raw height field of ripples, written beside the other temporary files.
@@ -130,10 +135,44 @@ pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_heightfield_texture(path: &Path) -> Result<GeometryTexture> {
+    read_heightfield_texture_with_relief(path, DEFAULT_RELIEF)
+}
+
+/// [`read_heightfield_texture`] with the height range set to `relief` times the samples'
+/// longer extent (a flat field stays flat). A file's heights rarely share its spacing's
+/// unit, so the relief is the one shape parameter a height field does not carry.
+/// Errors on a relief that is not positive and finite.
+///
+/// ```
+/// let path = std::env::temp_dir().join("geosynth_doc_slope_20x20.f32le");
+/// let heights: Vec<u8> = (0..20 * 20).flat_map(|i| ((i % 20) as f32).to_le_bytes()).collect();
+/// std::fs::write(&path, heights)?;
+/// let steep = geosynth::quilt::read_heightfield_texture_with_relief(&path, 0.5)?;
+/// // The samples span 4 units; the heights span half of that.
+/// let z: Vec<f32> = steep.canonical_points().positions().iter().map(|p| p.z).collect();
+/// let range = z.iter().copied().fold(f32::MIN, f32::max) - z.iter().copied().fold(f32::MAX, f32::min);
+/// assert!((range - 2.0).abs() < 1e-4, "{range}");
+/// assert!(geosynth::quilt::read_heightfield_texture_with_relief(&path, 0.0).is_err());
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_heightfield_texture_with_relief(path: &Path, relief: f32) -> Result<GeometryTexture> {
+    if !(relief.is_finite() && relief > 0.0) {
+        return Error::invalid(
+            "relief",
+            relief,
+            "a positive fraction of the height field's extent",
+        );
+    }
     let field = crate::imagery::read_heightfield(path)?;
     let (lo, hi) = field.range();
-    let spacing = 4.0 / (field.width().max(field.height()) - 1) as f32;
-    let scale = if hi > lo { 0.4 / (hi - lo) } else { 1.0 };
+    let extent = 4.0;
+    let spacing = extent / (field.width().max(field.height()) - 1) as f32;
+    let scale = if hi > lo {
+        relief * extent / (hi - lo)
+    } else {
+        1.0
+    };
     let padding = field.width().min(field.height()) / 6;
     Ok(GeometryTexture::from_heightfield(
         &field, spacing, scale, padding,

@@ -636,12 +636,39 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     let reason = r["run"]["quality"]["not_measured"].as_str().unwrap();
     assert!(reason.contains("--no-quality"), "{reason}");
     assert!(r["run"]["patches"].as_u64().unwrap() > 1, "{}", r["run"]);
+    // `--relief` sets the height range: three times the default's relief, three times
+    // the exemplar's height range (the box's height widens by the same factor).
+    let steep = dir.path().join("steep.ply");
+    ok(&[
+        "quilt",
+        "--heightfield",
+        hf.to_str().unwrap(),
+        "-o",
+        steep.to_str().unwrap(),
+        "--resolution",
+        "20",
+        "--relief",
+        "0.3",
+        "--no-quality",
+        "-q",
+    ]);
+    let z_range = |path: &Path| {
+        let points = geosynth::core::io::read_geometry(path).unwrap().geometry;
+        let z: Vec<f32> = points.points().positions().iter().map(|p| p.z).collect();
+        z.iter().copied().fold(f32::MIN, f32::max) - z.iter().copied().fold(f32::MAX, f32::min)
+    };
+    let ratio = z_range(&steep) / z_range(&again);
+    assert!(
+        (2.5..3.5).contains(&ratio),
+        "relief 0.3 against 0.1: ratio {ratio}"
+    );
     // Bad parameters, and baselines without a report (they land only in the report: an
     // error, not minutes of work thrown away).
     for (extra, message) in [
         (&["--patch", "2"][..], "patch_size"),
         (&["--epsilon=-0.5"][..], "epsilon"),
         (&["--baselines"][..], "--report"),
+        (&["--relief", "0.3"][..], "--relief"),
     ] {
         let mut args = vec![
             "quilt",

@@ -7,8 +7,9 @@ use clap::{Args, ValueEnum};
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
-    BlendCounts, GeometryTexture, Method, OutputSize, QualityMeasure, QualityReport, QuiltOutput,
-    QuiltParams, UpAxis, WarpTargets, quilt, read_heightfield_texture, read_texture,
+    BlendCounts, DEFAULT_RELIEF, GeometryTexture, Method, OutputSize, QualityMeasure,
+    QualityReport, QuiltOutput, QuiltParams, UpAxis, WarpTargets, quilt,
+    read_heightfield_texture_with_relief, read_texture,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -79,9 +80,15 @@ pub struct QuiltArgs {
     #[arg(required_unless_present = "heightfield")]
     exemplar: Option<PathBuf>,
     /// Use a height field instead (PNG 8/16-bit or raw `name_WxH.f32le`): sampled as points
-    /// over a 4 × 4 box, relief 0.4, the outer sixth of the samples as padding.
+    /// spanning 4 units along its longer side, the outer sixth of the samples on every side
+    /// as padding (so the box is about two thirds of that), heights scaled by `--relief`.
     #[arg(long, conflicts_with = "exemplar")]
     heightfield: Option<PathBuf>,
+    /// With `--heightfield`: the height range as a fraction of the samples' longer extent
+    /// (default 0.1, a relief of 0.4 over 4 units). A file's heights rarely share its
+    /// spacing's unit, so this is the one shape parameter it does not carry.
+    #[arg(long, conflicts_with = "exemplar")]
+    relief: Option<f32>,
     /// Output point set (.ply, .obj, .off).
     #[arg(short, long)]
     output: PathBuf,
@@ -167,7 +174,8 @@ fn parse_size(s: &str) -> Result<(f32, f32), String> {
 /// Loads the texture named by the arguments.
 fn load(args: &QuiltArgs) -> CliResult<GeometryTexture> {
     if let Some(path) = &args.heightfield {
-        return Ok(read_heightfield_texture(path)?);
+        let relief = args.relief.unwrap_or(DEFAULT_RELIEF);
+        return Ok(read_heightfield_texture_with_relief(path, relief)?);
     }
     let path = args
         .exemplar
