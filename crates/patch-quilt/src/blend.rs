@@ -297,6 +297,27 @@ mod tests {
     };
     const FOOTPRINT: (Vec2, Vec2) = (Vec2::ZERO, Vec2::splat(2.0));
 
+    /// [`blend`] over [`FOOTPRINT`] with blend reach `reach` and normal agreement
+    /// `agreement`, the footprint's slack following the same reach as in a run.
+    fn blend_within(
+        points: &mut [Vec3],
+        normals: &mut [Vec3],
+        overlap: &Overlap,
+        surface: &MlsSurface,
+        reach: f32,
+        agreement: f32,
+    ) -> BlendCounts {
+        let keep = KeptFootprint::new(FOOTPRINT, reach);
+        blend(
+            points,
+            normals,
+            overlap,
+            &keep,
+            surface,
+            limits(reach, agreement),
+        )
+    }
+
     #[test]
     fn blending_moves_points_toward_the_neighbourhood_monotonically_across_the_ramp() {
         // Neighbourhood: the plane z = 0. Patch points: z = 0.1 across the overlap.
@@ -309,48 +330,20 @@ mod tests {
         let before = points.clone();
         // A gap of 0.1 beyond a reach of 0.05 is not a gap: nothing moves.
         let (mut far, mut far_normals) = (points.clone(), normals.clone());
-        let counts = blend(
-            &mut far,
-            &mut far_normals,
-            &o,
-            &KeptFootprint::new(FOOTPRINT, 0.05),
-            &surface,
-            limits(0.05, -1.0),
-        );
+        let counts = blend_within(&mut far, &mut far_normals, &o, &surface, 0.05, -1.0);
         assert!(counts.blended > 0 && counts.beyond_reach == counts.blended);
         assert_eq!(far, before);
         // The same gap seen from points facing down: the plane faces away from them, a
         // different sheet rather than a gap, and nothing moves unless the test is off.
         let down = vec![-Vec3::Z; points.len()];
         let (mut away, mut away_normals) = (points.clone(), down.clone());
-        let counts = blend(
-            &mut away,
-            &mut away_normals,
-            &o,
-            &KeptFootprint::new(FOOTPRINT, 0.2),
-            &surface,
-            limits(0.2, 0.8),
-        );
+        let counts = blend_within(&mut away, &mut away_normals, &o, &surface, 0.2, 0.8);
         assert!(counts.blended > 0 && counts.facing_away == counts.blended);
         assert_eq!(away, before);
         let (mut any, mut any_normals) = (points.clone(), down);
-        blend(
-            &mut any,
-            &mut any_normals,
-            &o,
-            &KeptFootprint::new(FOOTPRINT, 0.2),
-            &surface,
-            limits(0.2, -1.0),
-        );
+        blend_within(&mut any, &mut any_normals, &o, &surface, 0.2, -1.0);
         assert_ne!(any, before);
-        let counts = blend(
-            &mut points,
-            &mut normals,
-            &o,
-            &KeptFootprint::new(FOOTPRINT, 0.2),
-            &surface,
-            limits(0.2, 0.8),
-        );
+        let counts = blend_within(&mut points, &mut normals, &o, &surface, 0.2, 0.8);
         assert!(counts.blended > 0 && counts.by_ray == counts.blended);
         let mut last = -1.0f32;
         for (p, q) in points.iter().zip(&before) {
@@ -371,14 +364,7 @@ mod tests {
         let mut points: Vec<Vec3> = xs.iter().map(|&x| Vec3::new(x, 1.0, 0.1)).collect();
         let mut normals = vec![Vec3::Z; points.len()];
         let before = points.clone();
-        let counts = blend(
-            &mut points,
-            &mut normals,
-            &LEFT_STRIP,
-            &KeptFootprint::new(FOOTPRINT, 0.2),
-            &surface,
-            limits(0.2, 0.8),
-        );
+        let counts = blend_within(&mut points, &mut normals, &LEFT_STRIP, &surface, 0.2, 0.8);
         assert_eq!(counts.blended, 3);
         assert_eq!(counts.by_ray, 3);
         for ((p, q), x) in points.iter().zip(&before).zip(xs) {

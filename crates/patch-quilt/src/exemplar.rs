@@ -51,13 +51,12 @@ impl PatchGeometry {
 /// the box, the field spacing or the MLS kernel.
 pub const BASE_SIDE: f32 = 4.0;
 
-/// `values` (distance, gradient) with the distance channel divided by `unit`: a field as
-/// the search compares it.
-pub(crate) fn in_base_units(values: &[Vec4], unit: f32) -> Vec<Vec4> {
-    values
-        .iter()
-        .map(|v| Vec4::new(v.x / unit, v.y, v.z, v.w))
-        .collect()
+/// Divides the distance channel of `values` (distance, gradient) by `unit`, in place: a
+/// field as the search compares it.
+pub(crate) fn to_base_units(values: &mut [Vec4], unit: f32) {
+    for v in values {
+        v.x /= unit;
+    }
 }
 
 /// Everything precomputed on the exemplar.
@@ -126,7 +125,8 @@ impl Exemplar {
         };
         let length_unit = ext.x.max(ext.y) / BASE_SIDE;
         let field = SdfGrid::from_surface(&surface, &spec, params.band * spacing)?;
-        let search_field = in_base_units(field.grid().data(), length_unit);
+        let mut search_field = field.grid().data().to_vec();
+        to_base_units(&mut search_field, length_unit);
         let patch_nodes = ((params.patch_size * ext.x.min(ext.y)) / spacing)
             .round()
             .max(2.0) as usize;

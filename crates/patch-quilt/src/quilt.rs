@@ -10,7 +10,7 @@ use rand::RngExt;
 
 use crate::blend::{BlendCounts, GapLimits, KeptFootprint, Overlap, blend};
 use crate::error::{QuiltError, Result, invalid};
-use crate::exemplar::{Exemplar, PatchGeometry, in_base_units};
+use crate::exemplar::{Exemplar, PatchGeometry, to_base_units};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
@@ -177,7 +177,7 @@ fn overlap_field(
             spacing: g.spacing,
         };
         let sdf = SdfGrid::from_surface(surface, &spec, band)?;
-        let data = in_base_units(vec4_field(&sdf), length_unit);
+        let data = vec4_field(&sdf);
         for c in 0..nz {
             for b in 0..dims[1] {
                 let row = dims[0] * (b + dims[1] * c);
@@ -186,6 +186,7 @@ fn overlap_field(
             }
         }
     }
+    to_base_units(&mut field, length_unit);
     Ok(field)
 }
 
