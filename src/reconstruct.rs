@@ -6,7 +6,7 @@
 //! (exactly) into an [`SdfGrid`].
 
 use distance_field::{GridSpec, MeshSurface, SdfGrid, sdf_isosurface};
-use mls_surface::{MlsError, MlsParams, MlsSurface, median_spacing};
+use mls_surface::{MlsError, MlsParams, MlsSurface};
 use pointset_core::io::Geometry;
 use pointset_core::{PointSet, RunContext, Stage, Surface, TriMesh};
 
@@ -108,7 +108,7 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
             }
             let surface = MlsSurface::new(points, &mls)?;
             if params.kernel.is_some() {
-                let spacing = median_spacing(surface.index())?;
+                let spacing = surface.index().median_spacing()?;
                 if surface.support_radius() < spacing {
                     return Err(MlsError::InvalidParameter {
                         name: "kernel",

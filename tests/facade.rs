@@ -81,7 +81,9 @@ fn rendered_sphere_points_are_a_disc_darker_toward_its_rim() {
         &RenderOptions::default().size(200, 200).view(10.0, 20.0),
     )
     .unwrap();
-    let spacing = preview::point_spacing(sphere.points().positions()).unwrap();
+    let spacing = geosynth::core::KdIndex::new(sphere.points().positions())
+        .and_then(|index| index.median_spacing())
+        .unwrap();
     // Splat radius: 1.1 × spacing, at 90 pixels per unit.
     assert_shaded_disc(&img, 1.1 * spacing * 90.0);
 }

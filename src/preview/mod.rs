@@ -5,8 +5,9 @@
 //! fitted so the geometry fills 90% of the image. Lighting is Lambertian, two-sided, from a
 //! light slightly above and left of the viewer, so surfaces darken toward silhouettes.
 //! Stored colours (`red/green/blue` channels) are used when present; otherwise
-//! [`RenderOptions::color`]. Splat size comes from the point spacing (median nearest-neighbour
-//! distance of a sample of points). Rendering is deterministic.
+//! [`RenderOptions::color`]. Splat size comes from the point spacing
+//! ([`KdIndex::median_spacing`](crate::core::KdIndex::median_spacing): median distance to the
+//! nearest distinct point, so duplicated samples do not shrink the splats). Rendering is deterministic.
 //!
 //! ```
 //! use geosynth::core::io::Geometry;
@@ -130,23 +131,6 @@ impl RenderOptions {
     }
 }
 
-/// Median distance from a sample of points to their nearest neighbour (0 for < 2 points).
-pub fn point_spacing(points: &[Vec3]) -> Result<f32> {
-    if points.len() < 2 {
-        return Ok(0.0);
-    }
-    let index = KdIndex::new(points)?;
-    let step = (points.len() / 2000).max(1);
-    let mut d: Vec<f32> = Vec::with_capacity(points.len() / step + 1);
-    for p in points.iter().step_by(step) {
-        if let Some(n) = index.nearest(*p, 2)?.get(1) {
-            d.push(n.distance_squared.sqrt());
-        }
-    }
-    d.sort_by(f32::total_cmp);
-    Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
-}
-
 /// Renders one geometry into an image of `options.width × options.height`.
 pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> {
     options.validate()?;
@@ -191,7 +175,7 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
             }
         }
         None => {
-            let spacing = point_spacing(points.positions())?;
+            let spacing = KdIndex::new(points.positions())?.median_spacing()?;
             let radius = (1.1 * spacing * cam.scale() * options.splat_scale).clamp(1.0, 64.0);
             let normals = points.normals();
             for (i, &p) in points.positions().iter().enumerate() {

@@ -86,4 +86,4 @@ pub use params::MlsParams;
 pub use pca::{Covariance, surface_variation};
 pub use ray::{RayHit, Snap, SnapMethod};
 pub use relax::{RelaxParams, Relaxed, nearest_neighbour_spread, relax};
-pub use surface::{LocalFit, MlsSurface, Projection, median_spacing};
+pub use surface::{LocalFit, MlsSurface, Projection};

@@ -120,7 +120,7 @@ pub fn relax(surface: &MlsSurface, positions: &[Vec3], params: &RelaxParams) -> 
         })
         .collect();
     let (mut pts, mut nrm): (Vec<Vec3>, Vec<Vec3>) = initial.into_iter().unzip();
-    let spacing = crate::surface::median_spacing(&KdIndex::new(&pts)?)?;
+    let spacing = KdIndex::new(&pts)?.median_spacing()?;
     if spacing > 0.0 {
         let radius = params.radius_factor * spacing;
         for _ in 0..params.iterations {

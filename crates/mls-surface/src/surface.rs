@@ -46,28 +46,6 @@ pub struct MlsSurface {
     params: MlsParams,
 }
 
-/// How many neighbours are examined per point when looking past exact duplicates.
-const SPACING_NEIGHBOURS: usize = 8;
-
-/// Median distance from (a sample of) the points to their nearest *distinct* point (exact
-/// duplicates are looked past, up to 7 copies), or 0 when no point has a distinct neighbour.
-pub fn median_spacing(index: &KdIndex) -> Result<f32> {
-    let points = index.points();
-    let step = (points.len() / 4096).max(1);
-    let mut d = Vec::with_capacity(points.len() / step + 1);
-    for p in points.iter().step_by(step) {
-        let nearest_distinct = index
-            .nearest(*p, SPACING_NEIGHBOURS)?
-            .into_iter()
-            .find(|n| n.distance_squared > 0.0);
-        if let Some(n) = nearest_distinct {
-            d.push(n.distance_squared.sqrt());
-        }
-    }
-    d.sort_by(f32::total_cmp);
-    Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
-}
-
 impl MlsSurface {
     /// Builds the surface over an oriented point set.
     ///
@@ -90,7 +68,7 @@ impl MlsSurface {
         let h = match params.kernel {
             Some(h) => h,
             None => {
-                let spacing = median_spacing(&index)?;
+                let spacing = index.median_spacing()?;
                 if spacing <= 0.0 {
                     return Err(MlsError::InvalidParameter {
                         name: "kernel",

@@ -180,6 +180,13 @@ fn degenerate_input_gives_values_not_panics() {
             .distance(surface.project(q).unwrap().point)
             < 1e-5
     );
+    // Every sample 20 times (scanners that write each return per pass): the same kernel.
+    let mut many = points.clone();
+    for _ in 1..20 {
+        many.append(&points).unwrap();
+    }
+    let s20 = MlsSurface::new(&many, &MlsParams::default()).unwrap();
+    assert!((s20.kernel() - surface.kernel()).abs() < 1e-6);
 
     // Too few points for the kernel.
     let lonely = PointSet::new(vec![Vec3::ZERO])

@@ -63,7 +63,7 @@ pub struct PairingParams {
     /// Largest `(v_s − v_q)²`; default unlimited.
     pub max_variation_difference: f32,
     /// Width `σ` of the Gaussian `θ(d) = exp(−d²/σ²)` weighting neighbouring pairs in `g`;
-    /// default: twice the median nearest-neighbour distance within the targets.
+    /// default: twice the median distance from a target to its nearest distinct target.
     pub coherence_radius: Option<f32>,
     /// Rounds of steps 3–5; default 3.
     pub rounds: usize,
@@ -239,19 +239,6 @@ impl Problem<'_> {
     }
 }
 
-/// Median nearest-neighbour distance among `points` (0 for fewer than 2).
-fn median_spacing(points: &[Vec3]) -> Result<f32> {
-    let index = KdIndex::new(points)?;
-    let mut d = Vec::with_capacity(points.len());
-    for p in points {
-        if let Some(n) = index.nearest(*p, 2)?.get(1) {
-            d.push(n.distance_squared.sqrt());
-        }
-    }
-    d.sort_by(f32::total_cmp);
-    Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
-}
-
 fn check(points: &[PairingPoint], what: &'static str) -> Result<()> {
     match points
         .iter()
@@ -285,11 +272,11 @@ pub fn pair_points(
     check(sources, "source point")?;
     check(targets, "target point")?;
     let target_positions: Vec<Vec3> = targets.iter().map(|t| t.position).collect();
+    let target_index = KdIndex::new(&target_positions)?;
     let sigma = match params.coherence_radius {
         Some(s) => s,
-        None => (2.0 * median_spacing(&target_positions)?).max(f32::MIN_POSITIVE),
+        None => (2.0 * target_index.median_spacing()?).max(f32::MIN_POSITIVE),
     };
-    let target_index = KdIndex::new(&target_positions)?;
     let neighbours = targets
         .iter()
         .enumerate()

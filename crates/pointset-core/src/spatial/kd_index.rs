@@ -175,6 +175,53 @@ impl KdIndex {
         ))
     }
 
+    /// The nearest point to `q` at a non-zero distance, looking past any number of exact
+    /// copies of `q`; `None` when every indexed point coincides with `q`.
+    ///
+    /// Asks for 8 neighbours, then doubles the count while all of them sit exactly on `q`,
+    /// so a point with `c` copies costs a k-nearest query with `k` about `2c`.
+    pub fn nearest_distinct(&self, q: Vec3) -> Result<Option<Neighbour>> {
+        let mut k = 8;
+        loop {
+            let found = self.nearest(q, k)?;
+            if let Some(n) = found.iter().find(|n| n.distance_squared > 0.0) {
+                return Ok(Some(*n));
+            }
+            if found.len() < k {
+                return Ok(None);
+            }
+            k *= 2;
+        }
+    }
+
+    /// The median distance from the points to their nearest distinct point (exact duplicates
+    /// are looked past), over every point of indices up to 4,096 points and an even sample of
+    /// about 4,096 of larger ones; 0 when no point has a distinct neighbour (fewer than two
+    /// different positions).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::KdIndex;
+    /// // A 10 × 10 grid of spacing 0.5, every point written three times.
+    /// let grid: Vec<Vec3> = (0..300)
+    ///     .map(|i| Vec3::new((i % 10) as f32, ((i / 10) % 10) as f32, 0.0) * 0.5)
+    ///     .collect();
+    /// let index = KdIndex::new(&grid)?;
+    /// assert_eq!(index.median_spacing()?, 0.5);
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn median_spacing(&self) -> Result<f32> {
+        let step = (self.points.len() / 4096).max(1);
+        let mut d = Vec::with_capacity(self.points.len() / step + 1);
+        for p in self.points.iter().step_by(step) {
+            if let Some(n) = self.nearest_distinct(*p)? {
+                d.push(n.distance_squared.sqrt());
+            }
+        }
+        d.sort_by(f32::total_cmp);
+        Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
+    }
+
     fn sorted(found: impl Iterator<Item = (usize, f32)>) -> Vec<Neighbour> {
         let mut out: Vec<Neighbour> = found
             .map(|(index, distance_squared)| Neighbour {

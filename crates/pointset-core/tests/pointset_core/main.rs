@@ -329,6 +329,12 @@ proptest! {
         if let (Some(g), Some(w)) = (one, brute_force_knn(&points, q, 1).first()) {
             prop_assert!((g - w).abs() <= 1e-4 * w.max(1.0));
         }
+        let distinct = index.nearest_distinct(q).unwrap().map(|n| n.distance_squared);
+        let want_distinct = points.iter().map(|p| p.distance_squared(q)).filter(|&d| d > 0.0).min_by(f32::total_cmp);
+        prop_assert_eq!(distinct.is_some(), want_distinct.is_some());
+        if let (Some(g), Some(w)) = (distinct, want_distinct) {
+            prop_assert!((g - w).abs() <= 1e-4 * w.max(1.0));
+        }
         let bounded: Vec<f32> = index.nearest_within(q, k, r).unwrap().iter().map(|n| n.distance_squared).collect();
         let want: Vec<f32> = want.into_iter().filter(|&w| w <= r * r).collect();
         prop_assert_eq!(bounded.len(), want.len());
@@ -389,6 +395,23 @@ fn bucket_grid_accepts_unbounded_query_boxes() {
     assert_eq!(grid.query_box(&slab).len(), 4);
     assert_eq!(grid.remove_inside_box(&slab).len(), 4);
     assert_eq!(grid.len(), 6);
+}
+
+#[test]
+fn median_spacing_looks_past_any_number_of_copies() {
+    // 50 points on a line, 0.25 apart, each written 100 times, in interleaved order.
+    let line: Vec<Vec3> = (0..5000)
+        .map(|i| Vec3::new((i % 50) as f32 * 0.25, 1.0, -2.0))
+        .collect();
+    let index = KdIndex::new(&line).unwrap();
+    assert_eq!(index.median_spacing().unwrap(), 0.25);
+    let far_end = index.nearest_distinct(line[49]).unwrap().unwrap();
+    assert_eq!(line[far_end.index], line[48]);
+    // One position, copied: nothing distinct.
+    let same = KdIndex::new(&vec![Vec3::ONE; 300]).unwrap();
+    assert_eq!(same.nearest_distinct(Vec3::ONE).unwrap(), None);
+    assert_eq!(same.median_spacing().unwrap(), 0.0);
+    assert_eq!(KdIndex::new(&[]).unwrap().median_spacing().unwrap(), 0.0);
 }
 
 #[test]
