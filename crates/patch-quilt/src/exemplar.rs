@@ -59,23 +59,16 @@ pub(crate) fn to_base_units(values: &mut [Vec4], unit: f32) {
     }
 }
 
-/// Everything precomputed on the exemplar.
-pub(crate) struct Exemplar {
+/// The exemplar's samples, surface and field lattice: what a run and the quality measure
+/// both need.
+pub(crate) struct ExemplarFrame {
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
-    pub variation: Vec<f32>,
-    /// Signed offset along each sample's normal from the sample to its foot point on
-    /// [`Self::surface`] (0 where it cannot be projected): the warp's
-    /// [`WarpTargets::SurfaceGap`] measures gaps from the foot points. `Some` only for a
-    /// full run with that warp, the one reader.
-    pub foot_offset: Option<Vec<f32>>,
     bins: BucketGrid<u32>,
-    /// `D(T_in)` as the search compares it: distance (in [`Self::length_unit`]s) and
-    /// gradient at the nodes of [`Self::spec`].
-    pub search_field: Vec<Vec4>,
     /// Longer in-plane box side / [`BASE_SIDE`]: the unit of length of the search metric
     /// and of Eq. 2–3.
     pub length_unit: f32,
+    /// The lattice of `D(T_in)`.
     pub spec: GridSpec,
     /// The exemplar's MLS surface (its kernel is used for every other surface of the run).
     pub surface: MlsSurface,
@@ -86,19 +79,54 @@ pub(crate) struct Exemplar {
     pub max_j: usize,
 }
 
+/// Everything a run precomputes on the exemplar: its frame, plus the surface variation,
+/// `D(T_in)` and (for surface-gap warps) foot offsets that the search and the warp read.
+pub(crate) struct Exemplar {
+    pub frame: ExemplarFrame,
+    pub variation: Vec<f32>,
+    /// Signed offset along each sample's normal from the sample to its foot point on
+    /// the frame's surface (0 where it cannot be projected): the warp's
+    /// [`WarpTargets::SurfaceGap`] measures gaps from the foot points. `Some` only for a
+    /// full run with that warp, the one reader.
+    pub foot_offset: Option<Vec<f32>>,
+    /// `D(T_in)` as the search compares it: distance (in [`ExemplarFrame::length_unit`]s)
+    /// and gradient at the nodes of [`ExemplarFrame::spec`].
+    pub search_field: Vec<Vec4>,
+}
+
 impl Exemplar {
     /// Everything a run with `params` needs, foot offsets included when its warp reads them.
     pub fn new(texture: &GeometryTexture, params: &QuiltParams) -> Result<Self> {
+        let frame = ExemplarFrame::new(texture, params)?;
+        let variation = surface_variation(frame.surface.index(), 12)?;
         let feet = params.method == Method::Full && params.warp_targets == WarpTargets::SurfaceGap;
-        Self::build(texture, params, feet)
+        let foot_offset = feet.then(|| foot_offsets(&frame.surface, &frame.points, &frame.normals));
+        let field = SdfGrid::from_surface(
+            &frame.surface,
+            &frame.spec,
+            params.band * frame.geometry.spacing,
+        )?;
+        let mut search_field = field.grid().data().to_vec();
+        to_base_units(&mut search_field, frame.length_unit);
+        Ok(Self {
+            frame,
+            variation,
+            foot_offset,
+            search_field,
+        })
     }
 
-    /// The same without foot offsets, for measuring a run's output against the exemplar.
-    pub fn for_measure(texture: &GeometryTexture, params: &QuiltParams) -> Result<Self> {
-        Self::build(texture, params, false)
+    /// Memory held by `D(T_in)` in bytes.
+    pub fn field_bytes(&self) -> usize {
+        std::mem::size_of_val(self.search_field.as_slice())
     }
+}
 
-    fn build(texture: &GeometryTexture, params: &QuiltParams, feet: bool) -> Result<Self> {
+impl ExemplarFrame {
+    /// The frame of `texture` for `params` (its field resolution and patch proportions).
+    /// Errors: no normals, a surface that cannot be built, a patch larger than the box, or
+    /// padding too narrow for the extra region.
+    pub fn new(texture: &GeometryTexture, params: &QuiltParams) -> Result<Self> {
         let set = texture.canonical_points();
         let points = set.positions().to_vec();
         let normals =
@@ -109,8 +137,6 @@ impl Exemplar {
                 })?;
         let bounds = texture.canonical_bounds();
         let surface = MlsSurface::new(set, &MlsParams::default())?;
-        let variation = surface_variation(surface.index(), 12)?;
-        let foot_offset = feet.then(|| foot_offsets(&surface, &points, &normals));
         let ext = bounds.extent();
         let spacing = ext.x.max(ext.y) / (params.field_resolution - 1) as f32;
         let dims = [
@@ -124,9 +150,6 @@ impl Exemplar {
             spacing,
         };
         let length_unit = ext.x.max(ext.y) / BASE_SIDE;
-        let field = SdfGrid::from_surface(&surface, &spec, params.band * spacing)?;
-        let mut search_field = field.grid().data().to_vec();
-        to_base_units(&mut search_field, length_unit);
         let patch_nodes = ((params.patch_size * ext.x.min(ext.y)) / spacing)
             .round()
             .max(2.0) as usize;
@@ -184,10 +207,7 @@ impl Exemplar {
         Ok(Self {
             points,
             normals,
-            variation,
-            foot_offset,
             bins,
-            search_field,
             length_unit,
             spec,
             surface,
@@ -214,10 +234,5 @@ impl Exemplar {
     /// World (canonical) position of the patch offset `(i, j)`'s lower-left corner.
     pub fn patch_origin(&self, i: usize, j: usize) -> Vec2 {
         self.spec.origin.truncate() + Vec2::new(i as f32, j as f32) * self.geometry.spacing
-    }
-
-    /// Memory held by `D(T_in)` in bytes.
-    pub fn field_bytes(&self) -> usize {
-        std::mem::size_of_val(self.search_field.as_slice())
     }
 }

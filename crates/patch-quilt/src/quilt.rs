@@ -10,7 +10,7 @@ use rand::RngExt;
 
 use crate::blend::{BlendCounts, GapLimits, KeptFootprint, Overlap, blend};
 use crate::error::{QuiltError, Result, invalid};
-use crate::exemplar::{Exemplar, PatchGeometry, to_base_units};
+use crate::exemplar::{Exemplar, ExemplarFrame, PatchGeometry, to_base_units};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
@@ -105,10 +105,10 @@ const MAX_OUTPUT_SCALE: f32 = 64.0;
 impl Layout {
     /// The scan-line layout covering `output`; an absolute size beyond
     /// [`MAX_OUTPUT_SCALE`] times the exemplar box is refused.
-    fn new(ex: &Exemplar, output: OutputSize) -> Result<Self> {
-        let g = ex.geometry;
-        let lo = ex.bounds.min.truncate();
-        let ext = ex.bounds.extent().truncate();
+    fn new(frame: &ExemplarFrame, output: OutputSize) -> Result<Self> {
+        let g = frame.geometry;
+        let lo = frame.bounds.min.truncate();
+        let ext = frame.bounds.extent().truncate();
         let size = match output {
             OutputSize::Absolute(w, h) => Vec2::new(w, h),
             OutputSize::Scale(s) => ext * s,
@@ -226,20 +226,21 @@ pub fn quilt(
     params.validate()?;
     let t0 = Instant::now();
     let ex = Exemplar::new(texture, params)?;
-    let g = ex.geometry;
-    let layout = Layout::new(&ex, params.output)?;
+    let frame = &ex.frame;
+    let g = frame.geometry;
+    let layout = Layout::new(frame, params.output)?;
     let mut pairing = params.pairing.clone().unwrap_or_default();
     if !pairing.max_distance.is_finite() {
         pairing.max_distance = params.pair_distance * g.spacing;
     }
     // Eq. 2's position term and Eq. 3's length term in base units (see `BASE_SIDE`).
-    pairing.w_p /= ex.length_unit;
-    pairing.w_l /= ex.length_unit;
-    let mls = MlsParams::default().kernel(ex.surface.kernel());
-    let [nx, _, nz] = ex.spec.dims;
+    pairing.w_p /= frame.length_unit;
+    pairing.w_l /= frame.length_unit;
+    let mls = MlsParams::default().kernel(frame.surface.kernel());
+    let [nx, _, nz] = frame.spec.dims;
     let total = layout.cols * layout.rows;
     if let Some(sources) = &params.layout {
-        check_layout(sources, total, (ex.max_i, ex.max_j))?;
+        check_layout(sources, total, (frame.max_i, frame.max_j))?;
     }
     let mut out: BucketGrid<OutPoint> = BucketGrid::new(2.0 * g.spacing)?;
     let mut placements = Vec::with_capacity(total);
@@ -297,12 +298,12 @@ pub fn quilt(
             let (source, count, distance) = match (given, &n_surface, params.seed_patch) {
                 (Some(source), _, _) => (source, 1, 0.0),
                 (None, None, Some(seed)) if k == 0 => {
-                    ((seed.0.min(ex.max_i), seed.1.min(ex.max_j)), 1, 0.0)
+                    ((seed.0.min(frame.max_i), seed.1.min(frame.max_j)), 1, 0.0)
                 }
                 (None, None, _) => (
                     (
-                        rng.random_range(0..=ex.max_i),
-                        rng.random_range(0..=ex.max_j),
+                        rng.random_range(0..=frame.max_i),
+                        rng.random_range(0..=frame.max_j),
                     ),
                     1,
                     0.0,
@@ -312,10 +313,10 @@ pub fn quilt(
                         surface,
                         &overlap,
                         &g,
-                        origin.extend(ex.spec.origin.z),
+                        origin.extend(frame.spec.origin.z),
                         nz,
                         params.band * g.spacing,
-                        ex.length_unit,
+                        frame.length_unit,
                     )?;
                     let side = g.patch_nodes + 1;
                     let mut nodes = Vec::new();
@@ -326,7 +327,7 @@ pub fn quilt(
                                 let in_bottom = overlap.bottom && b <= g.overlap_nodes;
                                 if in_left || in_bottom {
                                     nodes.push(OverlapNode {
-                                        exemplar_offset: a + nx * (b + ex.spec.dims[1] * c),
+                                        exemplar_offset: a + nx * (b + frame.spec.dims[1] * c),
                                         neighbourhood_index: a + side * (b + side * c),
                                     });
                                 }
@@ -336,8 +337,8 @@ pub fn quilt(
                     let d = distances(
                         &ex.search_field,
                         nx,
-                        ex.max_i,
-                        ex.max_j,
+                        frame.max_i,
+                        frame.max_j,
                         &nodes,
                         &local_field,
                     )?;
@@ -351,7 +352,7 @@ pub fn quilt(
                         });
                     }
                     let pick = psi[rng.random_range(0..psi.len())];
-                    let width = ex.max_i + 1;
+                    let width = frame.max_i + 1;
                     ((pick % width, pick / width), psi.len(), d[pick])
                 }
             };
@@ -359,20 +360,20 @@ pub fn quilt(
 
             // Step 3: F_k = tr(P ∪ E), extended by w_E / 2 for the warp.
             let t = Instant::now();
-            let src_origin = ex.patch_origin(source.0, source.1);
+            let src_origin = frame.patch_origin(source.0, source.1);
             let margin = if n_surface.is_some() && params.method == Method::Full {
                 0.5 * g.extra()
             } else {
                 0.0
             };
             let span = g.patch() + g.extra();
-            let idx = ex.points_in(
+            let idx = frame.points_in(
                 src_origin - Vec2::splat(margin),
                 src_origin + Vec2::splat(span + margin),
             );
             let shift = (origin - src_origin).extend(0.0);
-            let mut f_points: Vec<Vec3> = idx.iter().map(|&i| ex.points[i] + shift).collect();
-            let mut f_normals: Vec<Vec3> = idx.iter().map(|&i| ex.normals[i]).collect();
+            let mut f_points: Vec<Vec3> = idx.iter().map(|&i| frame.points[i] + shift).collect();
+            let mut f_normals: Vec<Vec3> = idx.iter().map(|&i| frame.normals[i]).collect();
             let f_variation: Vec<f32> = idx.iter().map(|&i| ex.variation[i]).collect();
             let f_foot: Option<Vec<f32>> = ex
                 .foot_offset
@@ -461,8 +462,8 @@ pub fn quilt(
     // box's height is the exemplar's, widened by the overlap width: warps may move geometry
     // that far; anything beyond is trimmed too.
     let t = Instant::now();
-    let zlo = ex.bounds.min.z - g.overlap();
-    let zhi = ex.bounds.max.z + g.overlap();
+    let zlo = frame.bounds.min.z - g.overlap();
+    let zhi = frame.bounds.max.z + g.overlap();
     let (mut pts, mut nrm, mut patch) = (Vec::new(), Vec::new(), Vec::new());
     for (_, p, (n, id)) in out.iter() {
         let q = p.truncate();
@@ -532,10 +533,10 @@ pub fn quilt(
             .iter()
             .filter(|p| p.index > 0 && p.warp.skipped)
             .count(),
-        field_dims: ex.spec.dims,
+        field_dims: frame.spec.dims,
         field_bytes: ex.field_bytes(),
         geometry: g,
-        input_points: ex.points.len(),
+        input_points: frame.points.len(),
         output_points: points.len(),
         relaxation_spread,
     };

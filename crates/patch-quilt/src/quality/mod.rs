@@ -20,7 +20,7 @@ use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::error::{Result, invalid};
-use crate::exemplar::Exemplar;
+use crate::exemplar::ExemplarFrame;
 use crate::params::QuiltParams;
 use crate::quilt::{Placement, QuiltOutput};
 use crate::texture::GeometryTexture;
@@ -161,7 +161,7 @@ pub fn evaluate(
 pub struct QualityMeasure<'t> {
     texture: &'t GeometryTexture,
     params: QuiltParams,
-    ex: Exemplar,
+    ex: ExemplarFrame,
     exemplar_windows: ExemplarWindows,
     /// The exemplar's points, for the verbatim-copy test.
     exemplar_index: KdIndex,
@@ -175,7 +175,7 @@ impl<'t> QualityMeasure<'t> {
     /// patch and the windows, and the seed that draws the windows, are used). Errors: a
     /// texture without normals and whatever building its surface or fields fails on.
     pub fn new(texture: &'t GeometryTexture, params: &QuiltParams) -> Result<Self> {
-        let ex = Exemplar::for_measure(texture, params)?;
+        let ex = ExemplarFrame::new(texture, params)?;
         let w = (ex.geometry.patch_nodes / 2).max(3);
         let s = ex.geometry.spacing;
         let exemplar_windows = ExemplarWindows::new(&ex, params.band * s, w)?;

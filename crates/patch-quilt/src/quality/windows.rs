@@ -33,7 +33,7 @@ use glam::Vec3;
 use mls_surface::MlsSurface;
 
 use crate::error::Result;
-use crate::exemplar::Exemplar;
+use crate::exemplar::ExemplarFrame;
 
 /// Finer samples per field spacing in the second pass.
 pub const SUBSTEPS: usize = 4;
@@ -180,7 +180,7 @@ pub(super) struct ExemplarWindows {
 
 impl ExemplarWindows {
     /// Samples the fine field of the exemplar's MLS surface around its box.
-    pub fn new(ex: &Exemplar, band: f32, w: usize) -> Result<Self> {
+    pub fn new(ex: &ExemplarFrame, band: f32, w: usize) -> Result<Self> {
         let surface = &ex.surface;
         let coarse = ex.spec.dims;
         let spacing = ex.spec.spacing;
@@ -355,7 +355,8 @@ mod tests {
     /// Runs `check` on the windows (and `w`) of a bumpy height-field texture.
     fn with_windows(check: impl FnOnce(&ExemplarWindows, &MlsSurface, usize)) {
         let texture = bumps();
-        let ex = Exemplar::new(&texture, &QuiltParams::default().field_resolution(20)).unwrap();
+        let ex =
+            ExemplarFrame::new(&texture, &QuiltParams::default().field_resolution(20)).unwrap();
         let w = ex.geometry.patch_nodes / 2;
         check(&ExemplarWindows::new(&ex, 0.4, w).unwrap(), &ex.surface, w);
     }
