@@ -667,6 +667,7 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     for (extra, message) in [
         (&["--patch", "2"][..], "patch_size"),
         (&["--epsilon=-0.5"][..], "epsilon"),
+        (&["--cluster-points", "0"][..], "max_points"),
         (&["--baselines"][..], "--report"),
         (&["--relief", "0.3"][..], "--relief"),
     ] {

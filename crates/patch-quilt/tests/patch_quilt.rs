@@ -309,6 +309,13 @@ fn invalid_input_is_an_error() {
         QuiltParams::default().blend_reach(0.0),
         QuiltParams::default().normal_agreement(1.5),
         QuiltParams::default().normal_agreement(f32::NAN),
+        // Used to pass validation and then skip every warp silently.
+        QuiltParams::default().cluster_points(0),
+        {
+            let mut p = QuiltParams::default();
+            p.clusters = p.clusters.max_variation(f32::NAN);
+            p
+        },
     ] {
         assert!(
             matches!(
