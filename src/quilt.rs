@@ -1,8 +1,8 @@
 //! Patch-based geometry texture synthesis (paper 000; the `patch-quilt` crate), with the
 //! facade's stage and file conventions.
 //!
-//! A geometry texture file is an oriented point set (PLY, OBJ, OFF) whose comments carry its
-//! box and up axis: `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the
+//! A geometry texture file is an oriented point set (PLY, OBJ, OFF; a mesh without vertex
+//! normals gets them from its faces) whose comments carry its box and up axis: `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the
 //! box is the points' bounding box inset by a sixth of its in-plane extent on every side
 //! (so the outer sixths are padding) and the up axis is Z.
 //!
@@ -28,7 +28,7 @@ pub use patch_quilt::{
     WarpCounts, WarpTargets, evaluate, quilt,
 };
 use pointset_core::io::{self, Geometry};
-use pointset_core::{Aabb, RunContext, Stage};
+use pointset_core::{Aabb, NormalWeighting, RunContext, Stage};
 
 use crate::fixtures::textures::TextureExemplar;
 use crate::{Error, Result};
@@ -82,10 +82,26 @@ pub fn parse_texture_comments(
     Ok(bounds.map(|b| (b, up)))
 }
 
-/// Reads a geometry texture file (see the module docs).
+/// The samples of a texture file: its points as stored, or for a mesh without vertex
+/// normals, its vertices with normals averaged from the faces (angle-weighted), leaving out
+/// vertices no face orients (unreferenced, or on degenerate faces only).
+fn oriented_samples(geometry: &Geometry) -> Result<pointset_core::PointSet> {
+    match geometry {
+        Geometry::Mesh(mesh) if mesh.vertices().normals().is_none() => {
+            let normals = mesh.vertex_normals(NormalWeighting::Angle);
+            let oriented = mesh.vertices().clone().with_normals(normals.clone())?;
+            Ok(oriented.filter(|i, _| normals[i] != Vec3::ZERO))
+        }
+        other => Ok(other.points().clone()),
+    }
+}
+
+/// Reads a geometry texture file (see the module docs). A mesh without vertex normals
+/// gets them from its faces.
 pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
     let loaded = io::read_geometry(path)?;
-    let points = loaded.geometry.points();
+    let oriented = oriented_samples(&loaded.geometry)?;
+    let points = &oriented;
     let described =
         parse_texture_comments(&loaded.comments).map_err(|message| Error::TextureFile {
             path: path.to_path_buf(),
@@ -245,5 +261,48 @@ mod tests {
         ] {
             assert!(parse(&[bad]).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_mesh_without_normals_is_read_with_normals_from_its_faces() {
+        // A 30 × 30 grid of z = 0.1 sin(2x), triangulated counter-clockwise seen from +z,
+        // plus one vertex no face uses, as OFF (which stores no normals).
+        let n = 30;
+        let h = |x: f32| 0.1 * (2.0 * x).sin();
+        let mut off = format!("OFF\n{} {} 0\n", n * n + 1, 2 * (n - 1) * (n - 1));
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y) = (i as f32 * 0.1, j as f32 * 0.1);
+                off.push_str(&format!("{x} {y} {}\n", h(x)));
+            }
+        }
+        off.push_str("9 9 9\n");
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let v = j * n + i;
+                off.push_str(&format!("3 {} {} {}\n", v, v + 1, v + n + 1));
+                off.push_str(&format!("3 {} {} {}\n", v, v + n + 1, v + n));
+            }
+        }
+        let path = std::env::temp_dir().join("geosynth_mesh_texture_test.off");
+        std::fs::write(&path, off).unwrap();
+        let texture = read_texture(&path).unwrap();
+        let _ = std::fs::remove_file(&path);
+        let points = texture.canonical_points();
+        assert_eq!(points.len(), n * n, "the unused vertex is left out");
+        // Interior vertices: the face-averaged normal is the wave's, within 2°.
+        for (p, normal) in points.positions().iter().zip(points.normals().unwrap()) {
+            let interior = p.x > 0.05 && p.x < 2.85 && p.y > 0.05 && p.y < 2.85;
+            let exact = Vec3::new(-0.2 * (2.0 * p.x).cos(), 0.0, 1.0).normalize();
+            assert!(
+                !interior || normal.dot(exact) > 2f32.to_radians().cos(),
+                "{p}: {normal} against {exact}"
+            );
+        }
+        let params = QuiltParams::default()
+            .output(OutputSize::Scale(1.25))
+            .field_resolution(20);
+        let out = quilt(&texture, &params, &mut RunContext::new(1)).unwrap();
+        assert!(out.points.len() > points.len() / 2);
     }
 }
