@@ -99,29 +99,61 @@ fn oriented_samples(geometry: &Geometry) -> Result<pointset_core::PointSet> {
 /// Reads a geometry texture file (see the module docs). A mesh without vertex normals
 /// gets them from its faces.
 pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
+    read_texture_with_up(path, None)
+}
+
+/// [`read_texture`] for a file that may have been written with another up axis: a file
+/// without texture comments is taken to have `up` as its up axis (Z when `None`), and its
+/// box is inset by a sixth across the plane perpendicular to it. A file whose
+/// `texture_up` comment names another axis than `up` is an error, not a guess.
+///
+/// ```
+/// use geosynth::quilt::{UpAxis, read_texture_with_up};
+/// // Ripples of y = 0.1 sin(3x) over the XZ plane, as a Y-up tool writes them (no comments).
+/// let mut ply = String::from("ply\nformat ascii 1.0\nelement vertex 1600\n");
+/// ply += "property float x\nproperty float y\nproperty float z\n";
+/// ply += "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+/// for k in 0..1600 {
+///     let (x, z) = ((k % 40) as f32 * 0.1, (k / 40) as f32 * 0.1);
+///     let n = glam::Vec3::new(-0.3 * (3.0 * x).cos(), 1.0, 0.0).normalize();
+///     ply += &format!("{x} {} {z} {} {} {}\n", 0.1 * (3.0 * x).sin(), n.x, n.y, n.z);
+/// }
+/// let path = std::env::temp_dir().join("geosynth_doc_y_up.ply");
+/// std::fs::write(&path, ply)?;
+/// let texture = read_texture_with_up(&path, Some(UpAxis::Y))?;
+/// assert_eq!(texture.up(), UpAxis::Y);
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_texture_with_up(path: &Path, up: Option<UpAxis>) -> Result<GeometryTexture> {
+    let file_error = |message: String| Error::TextureFile {
+        path: path.to_path_buf(),
+        message,
+    };
     let loaded = io::read_geometry(path)?;
-    let oriented = oriented_samples(&loaded.geometry)?;
-    let points = &oriented;
-    let described =
-        parse_texture_comments(&loaded.comments).map_err(|message| Error::TextureFile {
-            path: path.to_path_buf(),
-            message,
-        })?;
-    let (bounds, up) = match described {
-        Some(d) => d,
+    let points = oriented_samples(&loaded.geometry)?;
+    let (bounds, file_up) = match parse_texture_comments(&loaded.comments).map_err(file_error)? {
+        Some(described) => described,
         None => {
-            let b = points.bounding_box().ok_or_else(|| Error::TextureFile {
-                path: path.to_path_buf(),
-                message: "no points".into(),
-            })?;
-            let inset = b.extent() / 6.0;
-            (
-                Aabb::new(b.min + inset.with_z(0.0), b.max - inset.with_z(0.0)),
-                UpAxis::Z,
-            )
+            let up = up.unwrap_or_default();
+            let b = points
+                .bounding_box()
+                .ok_or_else(|| file_error("no points".into()))?;
+            let across = match up {
+                UpAxis::X => Vec3::new(0.0, 1.0, 1.0),
+                UpAxis::Y => Vec3::new(1.0, 0.0, 1.0),
+                UpAxis::Z => Vec3::new(1.0, 1.0, 0.0),
+            };
+            let inset = b.extent() / 6.0 * across;
+            (Aabb::new(b.min + inset, b.max - inset), up)
         }
     };
-    Ok(GeometryTexture::new(points, bounds, up)?)
+    match up {
+        Some(wanted) if wanted != file_up => Err(file_error(format!(
+            "its texture comments give up axis {file_up:?}, not the {wanted:?} asked for"
+        ))),
+        _ => Ok(GeometryTexture::new(&points, bounds, file_up)?),
+    }
 }
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a

@@ -684,3 +684,67 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         assert!(stderr.contains(message), "{extra:?}: {stderr}");
     }
 }
+
+#[test]
+fn quilt_reads_a_y_up_exemplar_when_told() {
+    use geosynth::core::PointSet;
+    use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
+    let dir = tempfile::tempdir().unwrap();
+    // The bumpy fixture as a Y-up tool writes it: (x, y, z) → (x, z, −y), no comments.
+    let bumpy = read_geometry(geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"))
+        .unwrap()
+        .geometry;
+    let to_y_up = |v: &glam::Vec3| glam::Vec3::new(v.x, v.z, -v.y);
+    let points = bumpy.points();
+    let turned = PointSet::new(points.positions().iter().map(to_y_up).collect())
+        .unwrap()
+        .with_normals(points.normals().unwrap().iter().map(to_y_up).collect())
+        .unwrap();
+    let exemplar = dir.path().join("y_up.ply");
+    write_geometry(
+        &exemplar,
+        &Geometry::Points(turned),
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    let out = dir.path().join("out.ply");
+    let run = |up: &str| {
+        geosynth(&[
+            "quilt",
+            exemplar.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--up",
+            up,
+            "--scale",
+            "1.2",
+            "--resolution",
+            "24",
+            "--no-quality",
+        ])
+    };
+    let read_as_z_up = run("z");
+    assert!(
+        String::from_utf8_lossy(&read_as_z_up.stdout).contains("pass --up"),
+        "a sheet stood on its side gets a hint"
+    );
+    let read_as_y_up = run("y");
+    assert!(read_as_y_up.status.success());
+    assert!(!String::from_utf8_lossy(&read_as_y_up.stdout).contains("pass --up"));
+    // The output is a sheet across X and Z whose relief stays along Y.
+    let quilted = read_geometry(&out).unwrap().geometry;
+    let extent = quilted.points().bounding_box().unwrap().extent();
+    assert!(extent.y < 0.25 * extent.x.min(extent.z), "extent {extent}");
+    // A file whose comments give its up axis is not re-read with another one.
+    let committed = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
+    let refused = geosynth(&[
+        "quilt",
+        committed.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--up",
+        "y",
+    ]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("texture comments give up axis Z"));
+}

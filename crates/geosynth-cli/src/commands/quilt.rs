@@ -9,7 +9,7 @@ use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
     BlendCounts, DEFAULT_RELIEF, GeometryTexture, Method, OutputSize, QualityMeasure,
     QualityReport, QuiltOutput, QuiltParams, UpAxis, WarpTargets, quilt,
-    read_heightfield_texture_with_relief, read_texture,
+    read_heightfield_texture_with_relief, read_texture_with_up,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 
@@ -35,6 +35,27 @@ impl From<MethodArg> for Method {
             MethodArg::Full => Method::Full,
             MethodArg::Search => Method::SearchOnly,
             MethodArg::Random => Method::RandomPlacement,
+        }
+    }
+}
+
+/// The up axis of an exemplar file, as a command-line value.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum TextureUpArg {
+    /// +X is up: the reference plane is YZ.
+    X,
+    /// +Y is up: the reference plane is ZX (Blender's and most DCC tools' OBJ export).
+    Y,
+    /// +Z is up: the reference plane is XY (height fields, terrain).
+    Z,
+}
+
+impl From<TextureUpArg> for UpAxis {
+    fn from(up: TextureUpArg) -> Self {
+        match up {
+            TextureUpArg::X => UpAxis::X,
+            TextureUpArg::Y => UpAxis::Y,
+            TextureUpArg::Z => UpAxis::Z,
         }
     }
 }
@@ -89,6 +110,10 @@ pub struct QuiltArgs {
     /// spacing's unit, so this is the one shape parameter it does not carry.
     #[arg(long, conflicts_with = "exemplar")]
     relief: Option<f32>,
+    /// The exemplar file's up axis when it has no `texture_up` comment (default z); a file
+    /// whose comments name another axis is refused.
+    #[arg(long, value_enum, conflicts_with = "heightfield")]
+    up: Option<TextureUpArg>,
     /// Output point set (.ply, .obj, .off).
     #[arg(short, long)]
     output: PathBuf,
@@ -175,6 +200,23 @@ fn parse_size(s: &str) -> Result<(f32, f32), String> {
     }
 }
 
+/// A hint when the exemplar looks stood on its side: its samples reach further along the
+/// up axis than across the narrower side of the plane, which a texture rarely does and a
+/// Y-up file read as Z-up always does.
+fn orientation_note(texture: &GeometryTexture) -> Option<String> {
+    let extent = texture
+        .canonical_points()
+        .bounding_box()
+        .map(|b| b.extent())?;
+    (extent.z > extent.x.min(extent.y)).then(|| {
+        format!(
+            "note: the exemplar is taller along its up axis ({:?}) than it is wide; if its \
+             file was written with another up axis, pass --up x|y|z",
+            texture.up()
+        )
+    })
+}
+
 /// Loads the texture named by the arguments.
 fn load(args: &QuiltArgs) -> CliResult<GeometryTexture> {
     if let Some(path) = &args.heightfield {
@@ -185,7 +227,7 @@ fn load(args: &QuiltArgs) -> CliResult<GeometryTexture> {
         .exemplar
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
-    Ok(read_texture(path)?)
+    Ok(read_texture_with_up(path, args.up.map(UpAxis::from))?)
 }
 
 /// One measured run: the output, its timings and its quality.
@@ -394,6 +436,9 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             .map(PathBuf::as_path),
     )?;
     let texture = load(args)?;
+    if let Some(note) = orientation_note(&texture) {
+        status(globals, note);
+    }
     let output = match (args.size, args.scale) {
         (Some((w, h)), _) => OutputSize::Absolute(w, h),
         (None, Some(s)) => OutputSize::Scale(s),
