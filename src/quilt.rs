@@ -2,9 +2,11 @@
 //! facade's stage and file conventions.
 //!
 //! A geometry texture file is an oriented point set (PLY, OBJ, OFF; a mesh without vertex
-//! normals gets them from its faces) whose comments carry its box and up axis: `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the
-//! box is the points' bounding box inset by a sixth of its in-plane extent on every side
-//! (so the outer sixths are padding) and the up axis is Z.
+//! normals gets them from its faces) whose comments carry its box and up axis:
+//! `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the up axis is Z
+//! (or the one given to [`read_texture_with_up`]) and the box is the points' bounding box
+//! inset by a sixth of its extent across the reference plane on every side (so the outer
+//! sixths are padding).
 //!
 //! ```
 //! use geosynth::quilt::{Quilt, QuiltParams, OutputSize, texture_from_exemplar};
@@ -316,10 +318,10 @@ mod tests {
                 off.push_str(&format!("3 {} {} {}\n", v, v + n + 1, v + n));
             }
         }
-        let path = std::env::temp_dir().join("geosynth_mesh_texture_test.off");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("wave.off");
         std::fs::write(&path, off).unwrap();
         let texture = read_texture(&path).unwrap();
-        let _ = std::fs::remove_file(&path);
         let points = texture.canonical_points();
         assert_eq!(points.len(), n * n, "the unused vertex is left out");
         // Interior vertices: the face-averaged normal is the wave's, within 2°.
