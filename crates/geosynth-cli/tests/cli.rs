@@ -686,32 +686,34 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
 }
 
 #[test]
-fn quilt_reads_a_y_up_exemplar_when_told() {
+fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     use geosynth::core::PointSet;
     use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
     let dir = tempfile::tempdir().unwrap();
-    // The bumpy fixture as a Y-up tool writes it: (x, y, z) → (x, z, −y), no comments.
     let bumpy = read_geometry(geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"))
         .unwrap()
         .geometry;
-    let to_y_up = |v: &glam::Vec3| glam::Vec3::new(v.x, v.z, -v.y);
-    let points = bumpy.points();
-    let turned = PointSet::new(points.positions().iter().map(to_y_up).collect())
-        .unwrap()
-        .with_normals(points.normals().unwrap().iter().map(to_y_up).collect())
-        .unwrap();
-    let exemplar = dir.path().join("y_up.ply");
-    write_geometry(
-        &exemplar,
-        &Geometry::Points(turned),
-        &WriteOptions::default(),
-    )
-    .unwrap();
+    // The bumpy fixture with positions (and normals, when `turn`) mapped, no comments.
+    let write_mapped = |name: &str, map: &dyn Fn(glam::Vec3) -> glam::Vec3, turn: bool| {
+        let points = bumpy.points();
+        let normals = points.normals().unwrap().iter();
+        let mapped = PointSet::new(points.positions().iter().map(|&p| map(p)).collect())
+            .unwrap()
+            .with_normals(normals.map(|&n| if turn { map(n) } else { n }).collect())
+            .unwrap();
+        let path = dir.path().join(name);
+        let geometry = Geometry::Points(mapped);
+        write_geometry(&path, &geometry, &WriteOptions::default()).unwrap();
+        path
+    };
+    // As a Y-up tool writes it: (x, y, z) → (x, z, −y).
+    let exemplar = write_mapped("y_up.ply", &|v| glam::Vec3::new(v.x, v.z, -v.y), true);
     let out = dir.path().join("out.ply");
-    let run = |up: &str| {
+    // A small quilt of `path`, read with up axis `up`.
+    let run = |path: &Path, up: &str| {
         geosynth(&[
             "quilt",
-            exemplar.to_str().unwrap(),
+            path.to_str().unwrap(),
             "-o",
             out.to_str().unwrap(),
             "--up",
@@ -723,12 +725,12 @@ fn quilt_reads_a_y_up_exemplar_when_told() {
             "--no-quality",
         ])
     };
-    let read_as_z_up = run("z");
+    let read_as_z_up = run(&exemplar, "z");
     assert!(
         String::from_utf8_lossy(&read_as_z_up.stdout).contains("pass --up"),
         "a sheet stood on its side gets a hint"
     );
-    let read_as_y_up = run("y");
+    let read_as_y_up = run(&exemplar, "y");
     assert!(read_as_y_up.status.success());
     assert!(!String::from_utf8_lossy(&read_as_y_up.stdout).contains("pass --up"));
     // The output is a sheet across X and Z whose relief stays along Y.
@@ -747,4 +749,13 @@ fn quilt_reads_a_y_up_exemplar_when_told() {
     ]);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("texture comments give up axis Z"));
+    // Georeferenced coordinates: at 4e6, single precision steps by 0.25, coarser than the
+    // samples; the run says so (and the Y-up run above did not).
+    let far = write_mapped("far.ply", &|v| v + glam::Vec3::new(5e5, 4e6, 0.0), false);
+    let far_run = run(&far, "z");
+    assert!(far_run.status.success());
+    let far_run = String::from_utf8_lossy(&far_run.stdout);
+    assert!(far_run.contains("far from the origin"), "{far_run}");
+    assert!(far_run.contains("0.25 apart"), "{far_run}");
+    assert!(!String::from_utf8_lossy(&read_as_y_up.stdout).contains("far from the origin"));
 }

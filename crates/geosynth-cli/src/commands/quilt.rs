@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
+use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
@@ -213,6 +214,29 @@ fn orientation_note(texture: &GeometryTexture) -> Option<String> {
             "note: the exemplar is taller along its up axis ({:?}) than it is wide; if its \
              file was written with another up axis, pass --up x|y|z",
             texture.up()
+        )
+    })
+}
+
+/// A hint when the exemplar lies so far from the origin that single-precision coordinates
+/// there are coarser than a hundredth of its sample spacing (georeferenced data: at 4e6
+/// they are 0.25 apart), which the synthesis cannot undo. `None` when it is fine or its
+/// spacing cannot be estimated.
+fn precision_note(texture: &GeometryTexture) -> Option<String> {
+    let points = texture.canonical_points().positions();
+    let farthest = points
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(0.0f32, f32::max);
+    // The gap to the next representable value above the farthest coordinate.
+    let step = f32::from_bits(farthest.to_bits() + 1) - farthest;
+    let spacing = KdIndex::new(points).ok()?.median_spacing().ok()?;
+    (spacing > 0.0 && step > 0.01 * spacing).then(|| {
+        format!(
+            "note: the exemplar lies far from the origin (coordinates up to {farthest}), where \
+             single-precision coordinates are {step} apart, {:.2} times its sample spacing; \
+             move it nearer the origin for full precision",
+            step / spacing
         )
     })
 }
@@ -436,7 +460,10 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             .map(PathBuf::as_path),
     )?;
     let texture = load(args)?;
-    if let Some(note) = orientation_note(&texture) {
+    for note in [orientation_note(&texture), precision_note(&texture)]
+        .into_iter()
+        .flatten()
+    {
         status(globals, note);
     }
     let output = match (args.size, args.scale) {
