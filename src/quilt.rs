@@ -91,8 +91,11 @@ fn oriented_samples(geometry: &Geometry) -> Result<pointset_core::PointSet> {
     match geometry {
         Geometry::Mesh(mesh) if mesh.vertices().normals().is_none() => {
             let normals = mesh.vertex_normals(NormalWeighting::Angle);
-            let oriented = mesh.vertices().clone().with_normals(normals.clone())?;
-            Ok(oriented.filter(|i, _| normals[i] != Vec3::ZERO))
+            let oriented: Vec<usize> = (0..normals.len())
+                .filter(|&i| normals[i] != Vec3::ZERO)
+                .collect();
+            let with_normals = mesh.vertices().clone().with_normals(normals)?;
+            Ok(with_normals.subset(&oriented)?)
         }
         other => Ok(other.points().clone()),
     }

@@ -15,7 +15,7 @@ use distance_field::{GridSpec, SdfGrid};
 use glam::{Vec2, Vec3};
 use mls_surface::{MlsParams, MlsSurface};
 use pointset_core::rng::{self, SeededRng};
-use pointset_core::{KdIndex, PointSet};
+use pointset_core::{KdIndex, PointSet, RunContext};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -156,6 +156,10 @@ pub fn evaluate(
 ///     let report = measure.evaluate(&output, 8)?;
 ///     assert!(report.neighbourhood_error.is_finite());
 /// }
+/// // Means over seeds 1–2; no seeds at all is an error.
+/// let [neighbourhood, seam] = measure.mean_errors(&params, 1..=2, 8)?;
+/// assert!(neighbourhood.is_finite() && seam.is_finite());
+/// assert!(measure.mean_errors(&params, 2..=1, 8).is_err());
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub struct QualityMeasure<'t> {
@@ -188,6 +192,32 @@ impl<'t> QualityMeasure<'t> {
             exemplar_largest_empty_disc: largest_empty_disc(&ex.points, ex_lo, ex_hi, 0.5 * s)?,
             ex,
         })
+    }
+
+    /// Mean neighbourhood and seam errors of quilting this measure's texture with `params`
+    /// at each of `seeds` (the seed set in `params` is replaced), each output measured with
+    /// `windows` windows per class: one seed is too noisy to compare methods on. Errors:
+    /// no seeds, and whatever [`quilt`](crate::quilt) or [`Self::evaluate`] fails on.
+    pub fn mean_errors(
+        &self,
+        params: &QuiltParams,
+        seeds: std::ops::RangeInclusive<u64>,
+        windows: usize,
+    ) -> Result<[f32; 2]> {
+        let mut sums = [0.0f32; 2];
+        let mut count = 0usize;
+        for seed in seeds {
+            let p = params.clone().seed(seed);
+            let output = crate::quilt(self.texture, &p, &mut RunContext::new(seed))?;
+            let q = self.evaluate(&output, windows)?;
+            sums[0] += q.neighbourhood_error;
+            sums[1] += q.seam_error;
+            count += 1;
+        }
+        if count == 0 {
+            return Err(invalid("seeds", "none", "at least one seed"));
+        }
+        Ok(sums.map(|s| s / count as f32))
     }
 
     /// Measures `output` with `windows` random windows per class. Errors: `windows` = 0,
