@@ -6,7 +6,7 @@
 //! `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the up axis is Z
 //! (or the one given to [`read_texture_with_up`]) and the box is the points' bounding box
 //! inset by a sixth of its extent across the reference plane on every side (so the outer
-//! sixths are padding).
+//! sixths are padding); points that lie in a plane get a box one sample spacing thick.
 //!
 //! ```
 //! use geosynth::quilt::{Quilt, QuiltParams, OutputSize, texture_from_exemplar};
@@ -30,7 +30,7 @@ pub use patch_quilt::{
     WarpCounts, WarpTargets, evaluate, quilt,
 };
 use pointset_core::io::{self, Geometry};
-use pointset_core::{Aabb, NormalWeighting, RunContext, Stage};
+use pointset_core::{Aabb, KdIndex, NormalWeighting, PointSet, RunContext, Stage};
 
 use crate::fixtures::textures::TextureExemplar;
 use crate::{Error, Result};
@@ -87,7 +87,7 @@ pub fn parse_texture_comments(
 /// The samples of a texture file: its points as stored, or for a mesh without vertex
 /// normals, its vertices with normals averaged from the faces (angle-weighted), leaving out
 /// vertices no face orients (unreferenced, or on degenerate faces only).
-fn oriented_samples(geometry: &Geometry) -> Result<pointset_core::PointSet> {
+fn oriented_samples(geometry: &Geometry) -> Result<PointSet> {
     match geometry {
         Geometry::Mesh(mesh) if mesh.vertices().normals().is_none() => {
             let normals = mesh.vertex_normals(NormalWeighting::Angle);
@@ -99,6 +99,17 @@ fn oriented_samples(geometry: &Geometry) -> Result<pointset_core::PointSet> {
         }
         other => Ok(other.points().clone()),
     }
+}
+
+/// How far the default box reaches beyond the points along the up axis (`across` is 0
+/// there): nothing, unless the points lie within one sample spacing of a plane. Then the
+/// box is widened to one median sample spacing in total, so that a flat exemplar (a
+/// scanned floor, a plane written by another tool) has a box with volume.
+fn flat_thickness(points: &PointSet, b: Aabb, across: Vec3) -> Result<Vec3> {
+    let up = Vec3::ONE - across;
+    let height = b.extent().dot(up);
+    let spacing = KdIndex::new(points.positions())?.median_spacing()?;
+    Ok(up * (0.5 * (spacing - height)).max(0.0))
 }
 
 /// Reads a geometry texture file (see the module docs). A mesh without vertex normals
@@ -150,7 +161,11 @@ pub fn read_texture_with_up(path: &Path, up: Option<UpAxis>) -> Result<GeometryT
                 UpAxis::Z => Vec3::new(1.0, 1.0, 0.0),
             };
             let inset = b.extent() / 6.0 * across;
-            (Aabb::new(b.min + inset, b.max - inset), up)
+            let thickness = flat_thickness(&points, b, across)?;
+            (
+                Aabb::new(b.min + inset - thickness, b.max - inset + thickness),
+                up,
+            )
         }
     };
     match up {
@@ -341,5 +356,49 @@ mod tests {
             .field_resolution(20);
         let out = quilt(&texture, &params, &mut RunContext::new(1)).unwrap();
         assert!(out.points.len() > points.len() / 2);
+    }
+
+    /// An ASCII PLY of a 30 × 30 grid at spacing 0.1 with heights `z(x)` and +Z normals,
+    /// without texture comments.
+    fn grid_ply(dir: &Path, name: &str, z: impl Fn(f32) -> f32) -> std::path::PathBuf {
+        let n = 30;
+        let mut ply = format!("ply\nformat ascii 1.0\nelement vertex {}\n", n * n);
+        ply += "property float x\nproperty float y\nproperty float z\n";
+        ply += "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+        for k in 0..n * n {
+            let (x, y) = ((k % n) as f32 * 0.1, (k / n) as f32 * 0.1);
+            ply += &format!("{x} {y} {} 0 0 1\n", z(x));
+        }
+        let path = dir.join(name);
+        std::fs::write(&path, ply).unwrap();
+        path
+    }
+
+    #[test]
+    fn a_flat_file_gets_a_box_one_spacing_thick_and_quilts_flat() {
+        let dir = tempfile::tempdir().unwrap();
+        let flat = read_texture(&grid_ply(dir.path(), "flat.ply", |_| 0.0)).unwrap();
+        let b = flat.canonical_bounds();
+        assert!(
+            (b.min.z + 0.05).abs() < 1e-6 && (b.max.z - 0.05).abs() < 1e-6,
+            "{b:?}"
+        );
+        let params = QuiltParams::default()
+            .output(OutputSize::Scale(1.25))
+            .field_resolution(20);
+        let out = quilt(&flat, &params, &mut RunContext::new(1)).unwrap();
+        let normals = out.points.normals().unwrap();
+        for (p, n) in out.points.positions().iter().zip(normals) {
+            assert!(p.z == 0.0 && *n == Vec3::Z, "{p} {n}");
+        }
+        // Relief of at least a spacing keeps the points' own height range.
+        let wave = |x: f32| 0.1 * (2.0 * x).sin();
+        let waved = read_texture(&grid_ply(dir.path(), "wave.ply", wave)).unwrap();
+        let (lo, hi) = (
+            waved.canonical_bounds().min.z,
+            waved.canonical_bounds().max.z,
+        );
+        let range = waved.canonical_points().bounding_box().unwrap();
+        assert_eq!((lo, hi), (range.min.z, range.max.z));
     }
 }

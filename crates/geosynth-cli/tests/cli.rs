@@ -662,6 +662,28 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         (2.5..3.5).contains(&ratio),
         "relief 0.3 against 0.1: ratio {ratio}"
     );
+    // A constant height field quilts, and its report says the errors mean nothing there.
+    let level = dir.path().join("level_40x40.f32le");
+    std::fs::write(&level, vec![0u8; 40 * 40 * 4]).unwrap();
+    let said = ok(&[
+        "quilt",
+        "--heightfield",
+        level.to_str().unwrap(),
+        "-o",
+        again.to_str().unwrap(),
+        "--resolution",
+        "20",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(said.contains("no relief"), "{said}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(
+        r["run"]["quality"]["featureless_exemplar"], true,
+        "{}",
+        r["run"]
+    );
     // Bad parameters, and baselines without a report (they land only in the report: an
     // error, not minutes of work thrown away).
     for (extra, message) in [

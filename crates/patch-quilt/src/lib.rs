@@ -127,7 +127,7 @@ pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
 pub use exemplar::{BASE_SIDE, PatchGeometry};
 pub use params::{Method, OutputSize, QuiltParams, WarpTargets};
-pub use quality::{QualityMeasure, QualityReport, evaluate};
+pub use quality::{FEATURELESS_VARIATION, QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};
 pub use texture::{GeometryTexture, UpAxis};
 pub use warp::WarpCounts;

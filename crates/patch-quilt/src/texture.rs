@@ -67,10 +67,19 @@ impl GeometryTexture {
         let lo = up.to_canonical(bounds.min);
         let hi = up.to_canonical(bounds.max);
         let canonical_bounds = Aabb::new(lo, hi);
-        if canonical_bounds.extent().min_element() <= 0.0 || !canonical_bounds.extent().is_finite()
-        {
+        let extent = canonical_bounds.extent();
+        if !extent.is_finite() || extent.min_element() <= 0.0 {
+            let (a, b) = (bounds.min, bounds.max);
+            let thin = if extent.x > 0.0 && extent.y > 0.0 {
+                " along the up axis (give a flat exemplar's box some thickness)"
+            } else {
+                " across the reference plane"
+            };
             return Err(QuiltError::InvalidTexture {
-                reason: format!("the box {bounds:?} has no volume"),
+                reason: format!(
+                    "the box from ({}, {}, {}) to ({}, {}, {}) has no volume{thin}",
+                    a.x, a.y, a.z, b.x, b.y, b.z
+                ),
             });
         }
         let p: Vec<Vec3> = points

@@ -100,6 +100,8 @@ fn a_flat_plane_stays_flat_and_whole() {
         assert!(n.angle_between(Vec3::Z).to_degrees() < 1.0, "normal {n}");
     }
     let q = evaluate(&t, &out, &small_params(), 16).unwrap();
+    // A plane has no relief: its window errors are noise over noise, and the report says so.
+    assert!(q.featureless_exemplar, "{q:?}");
     assert!(
         q.largest_empty_disc <= 1.5 * q.exemplar_largest_empty_disc,
         "hole of radius {} (exemplar {})",
@@ -333,7 +335,14 @@ fn invalid_input_is_an_error() {
     ));
     let flat_box = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0));
     let oriented = bare.clone().with_normals(vec![Vec3::Z; 100]).unwrap();
-    assert!(GeometryTexture::new(&oriented, flat_box, UpAxis::Z).is_err());
+    let flat = GeometryTexture::new(&oriented, flat_box, UpAxis::Z).unwrap_err();
+    assert!(flat.to_string().contains("along the up axis"), "{flat}");
+    let line_box = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0));
+    let line = GeometryTexture::new(&oriented, line_box, UpAxis::Z).unwrap_err();
+    assert!(
+        line.to_string().contains("across the reference plane"),
+        "{line}"
+    );
     // Cancellation is honoured.
     let flag = pointset_core::CancelFlag::new();
     flag.cancel();
@@ -455,6 +464,7 @@ fn quality_reports_the_windows_it_measured() {
     let params = small_params().method(Method::SearchOnly);
     let out = quilt(&t, &params, &mut RunContext::new(4)).unwrap();
     let q = evaluate(&t, &out, &params, 12).unwrap();
+    assert!(!q.featureless_exemplar, "{q:?}");
     assert_eq!(
         (q.windows, q.seam_windows, q.interior_windows),
         (12, 12, 12)

@@ -150,6 +150,21 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// A raw height field whose byte count does not match the size its name gives.
+    #[error(
+        "a {width}x{height} raw f32 height field needs {expected_bytes} bytes (4 per sample), \
+         but the data has {found_bytes}"
+    )]
+    RawSizeMismatch {
+        /// Samples per row.
+        width: usize,
+        /// Rows.
+        height: usize,
+        /// `width · height · 4`, saturated.
+        expected_bytes: usize,
+        /// Bytes present.
+        found_bytes: usize,
+    },
     /// Two arrays that must have equal length do not.
     #[error("{what}: expected {expected} entries, found {found}")]
     LengthMismatch {

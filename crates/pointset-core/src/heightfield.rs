@@ -59,10 +59,11 @@ impl HeightField {
     pub fn from_f32le(bytes: &[u8], width: usize, height: usize) -> Result<Self> {
         let needed = width.checked_mul(height).and_then(|n| n.checked_mul(4));
         if needed != Some(bytes.len()) {
-            return Err(Error::LengthMismatch {
-                what: format!("bytes of a {width}x{height} f32 height field"),
-                expected: needed.unwrap_or(usize::MAX),
-                found: bytes.len(),
+            return Err(Error::RawSizeMismatch {
+                width,
+                height,
+                expected_bytes: needed.unwrap_or(usize::MAX),
+                found_bytes: bytes.len(),
             });
         }
         let heights = bytes
@@ -208,7 +209,19 @@ mod tests {
         assert!(HeightField::new(1, 5, vec![0.0; 5]).is_err());
         assert!(HeightField::new(2, 2, vec![0.0; 3]).is_err());
         assert!(HeightField::new(2, 2, vec![0.0, f32::NAN, 0.0, 0.0]).is_err());
-        assert!(HeightField::from_f32le(&[0u8; 15], 2, 2).is_err());
+        let short = HeightField::from_f32le(&[0u8; 15], 2, 2).unwrap_err();
+        assert!(
+            matches!(
+                short,
+                Error::RawSizeMismatch {
+                    expected_bytes: 16,
+                    found_bytes: 15,
+                    ..
+                }
+            ),
+            "{short}"
+        );
+        assert!(short.to_string().contains("16 bytes"), "{short}");
         assert_eq!(dims_from_name("SainteHelens_317x460"), Some((317, 460)));
         assert_eq!(dims_from_name("nodims"), None);
     }

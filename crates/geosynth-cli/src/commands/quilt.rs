@@ -98,7 +98,8 @@ pub enum PresetArg {
 pub struct QuiltArgs {
     /// Geometry texture: an oriented point set whose comments give `texture_box` and
     /// `texture_up` (as `geosynth fixtures` writes them); otherwise the box is the points'
-    /// box inset by a sixth on every side.
+    /// box inset by a sixth on every side across the reference plane (one sample spacing
+    /// thick for a flat file).
     #[arg(required_unless_present = "heightfield")]
     exemplar: Option<PathBuf>,
     /// Use a height field instead (PNG 8/16-bit or raw `name_WxH.f32le`): sampled as points
@@ -394,6 +395,8 @@ pub fn run_json(run: &MeasuredRun) -> Value {
             "continued_seams": q.continued_seams,
             "largest_empty_disc": q.largest_empty_disc,
             "exemplar_largest_empty_disc": q.exemplar_largest_empty_disc,
+            "exemplar_window_variation": q.exemplar_window_variation,
+            "featureless_exemplar": q.featureless_exemplar,
             "windows_per_class": q.windows,
             "seam_windows": q.seam_windows,
             "interior_windows": q.interior_windows,
@@ -554,6 +557,9 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     let quality = match &main.quality {
+        Ok(q) if q.featureless_exemplar => "the exemplar has no relief, so its window \
+            errors are not meaningful; see the report's coverage"
+            .to_string(),
         Ok(q) => format!(
             "neighbourhood error {:.3}, seam error {:.3}",
             q.neighbourhood_error, q.seam_error

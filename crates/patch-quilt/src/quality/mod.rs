@@ -26,6 +26,11 @@ use crate::quilt::{Placement, QuiltOutput};
 use crate::texture::GeometryTexture;
 use windows::{ExemplarWindows, Field};
 
+/// At or below this mean squared difference between its windows, in squared field
+/// spacings (an rms difference of a thousandth of a spacing), an exemplar counts as
+/// featureless: [`QualityReport::featureless_exemplar`].
+pub const FEATURELESS_VARIATION: f32 = 1e-6;
+
 /// The measured quality of one output.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct QualityReport {
@@ -51,6 +56,11 @@ pub struct QualityReport {
     pub continued_seams: f32,
     /// The exemplar's typical window difference used for normalization.
     pub exemplar_window_variation: f32,
+    /// The exemplar has no relief: its windows are all alike (`exemplar_window_variation`
+    /// at most [`FEATURELESS_VARIATION`] squared field spacings, as for a plane sampled on
+    /// a grid). The three errors are then rounding noise divided by rounding noise and say
+    /// nothing; the coverage fields still hold.
+    pub featureless_exemplar: bool,
     /// Radius of the largest disc inside the output box free of the output's points
     /// (projected on the reference plane).
     pub largest_empty_disc: f32,
@@ -120,7 +130,8 @@ fn continued_seams(placements: &[Placement], step_nodes: usize) -> f32 {
 /// Measures `output` against `texture` (the parameters must be those of the run) with
 /// `windows` random windows per class. Errors: `windows` = 0, an output smaller than one
 /// window (half a patch) along either side, and whatever rebuilding the exemplar or the
-/// output's surface fails on.
+/// output's surface fails on. For an exemplar without relief the errors say nothing
+/// ([`QualityReport::featureless_exemplar`]).
 ///
 /// This rebuilds the exemplar's side of the measure on every call; to measure several
 /// outputs of one exemplar (methods, baselines, parameter sweeps), build a
@@ -255,6 +266,7 @@ impl<'t> QualityMeasure<'t> {
             verbatim_fraction: self.verbatim_fraction(output, &out.points),
             continued_seams: continued_seams(&output.placements, g.patch_nodes - g.overlap_nodes),
             exemplar_window_variation: typical,
+            featureless_exemplar: typical <= FEATURELESS_VARIATION * g.spacing * g.spacing,
             largest_empty_disc: largest_empty_disc(&out.points, out.lo, out.hi, 0.5 * g.spacing)?,
             exemplar_largest_empty_disc: self.exemplar_largest_empty_disc,
             windows,
