@@ -122,6 +122,10 @@ impl Exemplar {
     }
 }
 
+/// Most nodes `D(T_in)` may have (2 GiB of distance + gradient samples): a bound on boxes
+/// far taller than wide, which would otherwise ask for absurd grids.
+pub const MAX_FIELD_NODES: usize = 1 << 27;
+
 impl ExemplarFrame {
     /// The frame of `texture` for `params` (its field resolution and patch proportions).
     /// Errors: no normals, a surface that cannot be built, a patch larger than the box, or
@@ -139,10 +143,22 @@ impl ExemplarFrame {
         let surface = MlsSurface::new(set, &MlsParams::default())?;
         let ext = bounds.extent();
         let spacing = ext.x.max(ext.y) / (params.field_resolution - 1) as f32;
+        let layers = (ext.z / spacing).ceil();
+        let plane = ((ext.x / spacing).floor() + 1.0) * ((ext.y / spacing).floor() + 1.0);
+        let nodes = plane * (layers + 1.0);
+        if nodes.is_nan() || nodes > MAX_FIELD_NODES as f32 {
+            return Err(QuiltError::InvalidTexture {
+                reason: format!(
+                    "the box is {layers} field spacings tall: its distance field would need \
+                     more than {MAX_FIELD_NODES} nodes (check the box's height against its \
+                     width, or lower field_resolution)"
+                ),
+            });
+        }
         let dims = [
             (ext.x / spacing).floor() as usize + 1,
             (ext.y / spacing).floor() as usize + 1,
-            (ext.z / spacing).ceil() as usize + 1,
+            layers as usize + 1,
         ];
         let spec = GridSpec {
             dims,

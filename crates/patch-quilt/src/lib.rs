@@ -125,7 +125,7 @@ mod warp;
 
 pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
-pub use exemplar::{BASE_SIDE, PatchGeometry};
+pub use exemplar::{BASE_SIDE, MAX_FIELD_NODES, PatchGeometry};
 pub use params::{Method, OutputSize, QuiltParams, WarpTargets};
 pub use quality::{FEATURELESS_VARIATION, QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};

@@ -343,6 +343,15 @@ fn invalid_input_is_an_error() {
         line.to_string().contains("across the reference plane"),
         "{line}"
     );
+    // A box far taller than wide would ask for an absurd grid (its layer count once
+    // overflowed to 0).
+    let tower = Aabb::new(Vec3::new(0.0, -1.0, -1e30), Vec3::new(99.0, 1.0, 1e30));
+    let tower = GeometryTexture::new(&oriented, tower, UpAxis::Z).unwrap();
+    let refused = quilt(&tower, &small_params(), &mut RunContext::new(0)).unwrap_err();
+    assert!(
+        refused.to_string().contains("field spacings tall"),
+        "{refused}"
+    );
     // Cancellation is honoured.
     let flag = pointset_core::CancelFlag::new();
     flag.cancel();
