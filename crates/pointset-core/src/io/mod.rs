@@ -5,6 +5,13 @@
 //! a known extension are identified by content alone. Every reader returns typed errors with
 //! a line number or byte offset, and checks declared counts against the bytes present before
 //! allocating.
+//!
+//! Positions are stored in single precision. Georeferenced data (coordinates in the
+//! millions, as in UTM) would arrive quantized — at 4e6 an `f32` steps by 0.25 — so
+//! [`read_geometry_with`] can store positions relative to an origin kept in double
+//! precision ([`ReadOptions::recentre_far`], [`LoadedGeometry::origin`]), and
+//! [`write_geometry`] adds such an origin back ([`WriteOptions::origin`]; PLY then stores
+//! `double` coordinates). Plain [`read_geometry`] never moves the data.
 
 mod obj;
 mod off;
@@ -14,7 +21,11 @@ use std::fmt;
 use std::path::Path;
 
 pub use obj::{read_obj, write_obj};
+use obj::{read_obj_at, write_obj_at};
 pub use off::{read_off, write_off};
+use off::{read_off_at, write_off_at};
+
+use glam::{DVec3, Vec3};
 
 use crate::{Aabb, Error, PointSet, Result, TriMesh};
 use ply::PlyEncoding;
@@ -116,6 +127,60 @@ pub struct LoadedGeometry {
     pub encoding: String,
     /// Comment lines found in the file.
     pub comments: Vec<String>,
+    /// The file's coordinates are the stored positions plus this (zero unless read with
+    /// [`ReadOptions::recentre_far`] from a file far from the origin).
+    pub origin: DVec3,
+}
+
+/// A position as text, `x y z`: the `f32` values as they are (shortest form) at a zero
+/// origin, else the sums with the origin in double precision.
+pub(crate) fn position_text(p: Vec3, origin: DVec3) -> String {
+    if origin == DVec3::ZERO {
+        format!("{} {} {}", p.x, p.y, p.z)
+    } else {
+        let q = p.as_dvec3() + origin;
+        format!("{} {} {}", q.x, q.y, q.z)
+    }
+}
+
+/// Options for [`read_geometry_with`].
+#[derive(Debug, Clone, PartialEq, Default)]
+#[non_exhaustive]
+pub struct ReadOptions {
+    /// Store positions relative to an origin when the data lies far from the file's
+    /// origin: further than its own extent (largest side). The origin is the centre of
+    /// the data's bounding box, rounded to whole units and computed in double precision
+    /// from the file's values, so the stored `f32` positions keep the precision the file
+    /// has. Default off: positions are the file's coordinates.
+    pub recentre_far: bool,
+}
+
+impl ReadOptions {
+    /// Sets [`Self::recentre_far`].
+    pub fn recentre_far(mut self, recentre: bool) -> Self {
+        self.recentre_far = recentre;
+        self
+    }
+}
+
+/// The origin positions are stored relative to (see [`ReadOptions::recentre_far`]), and
+/// the positions relative to it in single precision.
+pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3>, DVec3) {
+    let origin = if recentre_far && !raw.is_empty() {
+        let lo = raw.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
+        let hi = raw.iter().fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+        let centre = 0.5 * (lo + hi);
+        let far = centre.abs().max_element() > (hi - lo).max_element();
+        if far && centre.is_finite() {
+            centre.round()
+        } else {
+            DVec3::ZERO
+        }
+    } else {
+        DVec3::ZERO
+    };
+    let relative = raw.iter().map(|&p| (p - origin).as_vec3()).collect();
+    (relative, origin)
 }
 
 /// Options for [`write_geometry`].
@@ -126,6 +191,10 @@ pub struct WriteOptions {
     pub ply_encoding: PlyEncoding,
     /// Comment lines to write (default none).
     pub comments: Vec<String>,
+    /// Added to every position as it is written, in double precision (default zero): the
+    /// [`LoadedGeometry::origin`] of data read with [`ReadOptions::recentre_far`]. PLY
+    /// coordinates are written as `double` when it is not zero.
+    pub origin: DVec3,
 }
 
 impl WriteOptions {
@@ -138,6 +207,12 @@ impl WriteOptions {
     /// Adds a comment line (default none).
     pub fn comment(mut self, comment: impl Into<String>) -> Self {
         self.comments.push(comment.into());
+        self
+    }
+
+    /// Sets [`Self::origin`] (default zero).
+    pub fn origin(mut self, origin: DVec3) -> Self {
+        self.origin = origin;
         self
     }
 }
@@ -163,44 +238,82 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
 
 /// Reads a PLY, OBJ or OFF file.
 pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
+    read_geometry_with(path, &ReadOptions::default())
+}
+
+/// [`read_geometry`] with options (e.g. recentring georeferenced data).
+///
+/// ```
+/// use pointset_core::io::{self, ReadOptions};
+/// // Two points a metre apart, 4,000 km north: an f32 steps by 0.25 there.
+/// let ply = "ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\n\
+///            property double y\nproperty double z\nend_header\n\
+///            500000.125 4000000.125 0\n500001.125 4000000.125 0\n";
+/// let path = std::env::temp_dir().join("pointset_core_doc_far.ply");
+/// std::fs::write(&path, ply)?;
+/// let loaded = io::read_geometry_with(&path, &ReadOptions::default().recentre_far(true))?;
+/// assert_eq!(loaded.origin, glam::DVec3::new(500001.0, 4000000.0, 0.0));
+/// let p = loaded.geometry.points().positions();
+/// assert_eq!((p[0].x, p[0].y, p[1].x), (-0.875, 0.125, 0.125));
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Result<LoadedGeometry> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    read_geometry_bytes(path, &bytes)
+    read_geometry_bytes_with(path, &bytes, options)
 }
 
 /// Reads geometry held in memory; `path` names it in errors and picks the format.
 pub fn read_geometry_bytes(path: &Path, bytes: &[u8]) -> Result<LoadedGeometry> {
+    read_geometry_bytes_with(path, bytes, &ReadOptions::default())
+}
+
+/// [`read_geometry_bytes`] with options.
+pub fn read_geometry_bytes_with(
+    path: &Path,
+    bytes: &[u8],
+    options: &ReadOptions,
+) -> Result<LoadedGeometry> {
     if bytes.is_empty() {
         return Err(Error::EmptyFile {
             path: path.to_path_buf(),
         });
     }
+    let recentre = options.recentre_far;
     match detect_format(path, bytes)? {
         FileFormat::Ply => {
             let doc = ply::read_ply(bytes)?;
+            let (geometry, origin) = ply::geometry_from_document_at(&doc, recentre)?;
             Ok(LoadedGeometry {
-                geometry: ply::geometry_from_document(&doc)?,
+                geometry,
                 format: FileFormat::Ply,
                 encoding: doc.encoding.keyword().to_string(),
                 comments: doc.comments,
+                origin,
             })
         }
-        FileFormat::Obj => Ok(LoadedGeometry {
-            geometry: read_obj(path, bytes)?,
-            format: FileFormat::Obj,
-            encoding: "ascii".into(),
-            comments: Vec::new(),
-        }),
+        FileFormat::Obj => {
+            let (geometry, origin) = read_obj_at(path, bytes, recentre)?;
+            Ok(LoadedGeometry {
+                geometry,
+                format: FileFormat::Obj,
+                encoding: "ascii".into(),
+                comments: Vec::new(),
+                origin,
+            })
+        }
         FileFormat::Off => {
-            let (geometry, comments) = read_off(bytes)?;
+            let (geometry, comments, origin) = read_off_at(bytes, recentre)?;
             Ok(LoadedGeometry {
                 geometry,
                 format: FileFormat::Off,
                 encoding: "ascii".into(),
                 comments,
+                origin,
             })
         }
     }
@@ -215,12 +328,16 @@ pub fn encode_geometry(
     let mut out = Vec::new();
     match format {
         FileFormat::Ply => {
-            let doc =
-                ply::document_from_geometry(geometry, options.ply_encoding, &options.comments)?;
+            let doc = ply::document_from_geometry_at(
+                geometry,
+                options.ply_encoding,
+                &options.comments,
+                options.origin,
+            )?;
             ply::write_ply(&doc, &mut out)?;
         }
-        FileFormat::Obj => write_obj(geometry, &options.comments, &mut out)?,
-        FileFormat::Off => write_off(geometry, &options.comments, &mut out)?,
+        FileFormat::Obj => write_obj_at(geometry, &options.comments, options.origin, &mut out)?,
+        FileFormat::Off => write_off_at(geometry, &options.comments, options.origin, &mut out)?,
     }
     Ok(out)
 }

@@ -10,9 +10,9 @@
 use std::io::Write;
 use std::path::Path;
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2};
 
-use super::Geometry;
+use super::{Geometry, position_text, relative_positions};
 use crate::{Error, PointSet, Result, TriMesh};
 
 fn obj_error(path: &Path, message: impl Into<String>) -> Error {
@@ -22,15 +22,24 @@ fn obj_error(path: &Path, message: impl Into<String>) -> Error {
     }
 }
 
-fn triples(values: &[f32]) -> Vec<Vec3> {
-    values
-        .chunks_exact(3)
-        .map(|c| Vec3::new(c[0], c[1], c[2]))
-        .collect()
+/// Triples of `tobj`'s values (double precision: positions keep the file's digits).
+fn triples(values: &[f64]) -> impl Iterator<Item = DVec3> + '_ {
+    values.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2]))
 }
 
 /// Reads an OBJ file held in memory; `path` is used in error messages only.
 pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
+    read_obj_at(path, bytes, false).map(|(geometry, _)| geometry)
+}
+
+/// [`read_obj`], with positions stored relative to an origin when `recentre_far` is set
+/// and the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]);
+/// returns the origin too.
+pub(crate) fn read_obj_at(
+    path: &Path,
+    bytes: &[u8],
+    recentre_far: bool,
+) -> Result<(Geometry, DVec3)> {
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -56,19 +65,15 @@ pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
         let count = mesh.positions.len() / 3;
         positions.extend(triples(&mesh.positions));
         all_normals &= mesh.normals.len() == 3 * count;
-        normals.extend(triples(&mesh.normals));
+        normals.extend(triples(&mesh.normals).map(DVec3::as_vec3));
         all_uvs &= mesh.texcoords.len() == 2 * count;
         uvs.extend(
             mesh.texcoords
                 .chunks_exact(2)
-                .map(|c| Vec2::new(c[0], c[1])),
+                .map(|c| Vec2::new(c[0] as f32, c[1] as f32)),
         );
         all_colors &= mesh.vertex_color.len() == 3 * count;
-        colors.extend(
-            mesh.vertex_color
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]]),
-        );
+        colors.extend(triples(&mesh.vertex_color).map(|c| c.as_vec3().to_array()));
         for (face, tri) in mesh.indices.chunks_exact(3).enumerate() {
             if tri.iter().any(|&i| i as usize >= count) {
                 return Err(Error::IndexOutOfRange {
@@ -81,8 +86,10 @@ pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
         }
     }
     if positions.is_empty() {
-        return read_point_cloud(bytes).map(Geometry::Points);
+        return read_point_cloud(bytes, recentre_far)
+            .map(|(points, origin)| (Geometry::Points(points), origin));
     }
+    let (positions, origin) = relative_positions(&positions, recentre_far);
     let mut points = PointSet::new(positions)?;
     if all_normals && !normals.is_empty() {
         points = points.with_normals(normals)?;
@@ -94,11 +101,11 @@ pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
     if all_uvs && !uvs.is_empty() {
         mesh = mesh.with_uvs(uvs)?;
     }
-    Ok(Geometry::Mesh(mesh))
+    Ok((Geometry::Mesh(mesh), origin))
 }
 
 /// Reads a face-less OBJ: `v x y z [r g b]` lines and optional `vn` lines.
-fn read_point_cloud(bytes: &[u8]) -> Result<PointSet> {
+fn read_point_cloud(bytes: &[u8], recentre_far: bool) -> Result<(PointSet, DVec3)> {
     let malformed = |line: usize, message: String| Error::Malformed {
         format: super::FileFormat::Obj,
         location: crate::Location::Line(line),
@@ -115,20 +122,20 @@ fn read_point_cloud(bytes: &[u8]) -> Result<PointSet> {
         }
         let values = words
             .map(|w| {
-                w.parse::<f32>()
+                w.parse::<f64>()
                     .map_err(|_| malformed(i + 1, format!("`{w}` is not a number")))
             })
-            .collect::<Result<Vec<f32>>>()?;
+            .collect::<Result<Vec<f64>>>()?;
         if values.len() < 3 {
             return Err(malformed(i + 1, "expected at least three numbers".into()));
         }
-        let v = Vec3::new(values[0], values[1], values[2]);
+        let v = DVec3::new(values[0], values[1], values[2]);
         if keyword == Some("vn") {
-            normals.push(v);
+            normals.push(v.as_vec3());
         } else {
             positions.push(v);
             if let [_, _, _, r, g, b, ..] = values[..] {
-                colors.push([r, g, b]);
+                colors.push([r as f32, g as f32, b as f32]);
             }
         }
     }
@@ -136,6 +143,7 @@ fn read_point_cloud(bytes: &[u8]) -> Result<PointSet> {
         return Err(malformed(1, "no vertices (`v` lines) found".into()));
     }
     let count = positions.len();
+    let (positions, origin) = relative_positions(&positions, recentre_far);
     let mut points = PointSet::new(positions)?;
     if normals.len() == count {
         points = points.with_normals(normals)?;
@@ -143,12 +151,22 @@ fn read_point_cloud(bytes: &[u8]) -> Result<PointSet> {
     if colors.len() == count {
         points.set_colors(&colors)?;
     }
-    Ok(points)
+    Ok((points, origin))
 }
 
 /// Writes OBJ: `v` lines (with `r g b` in `0..=1` when colours exist), `vt`, `vn`, then
 /// `f` lines for a mesh; a point set is written as its vertices alone.
 pub fn write_obj(geometry: &Geometry, comments: &[String], out: &mut impl Write) -> Result<()> {
+    write_obj_at(geometry, comments, DVec3::ZERO, out)
+}
+
+/// [`write_obj`] with `origin` added to every position, in double precision.
+pub(crate) fn write_obj_at(
+    geometry: &Geometry,
+    comments: &[String],
+    origin: DVec3,
+    out: &mut impl Write,
+) -> Result<()> {
     let mut s = String::new();
     for c in comments {
         s.push_str(&format!("# {}\n", c.replace(['\n', '\r'], " ")));
@@ -158,10 +176,13 @@ pub fn write_obj(geometry: &Geometry, comments: &[String], out: &mut impl Write)
     for (i, p) in points.positions().iter().enumerate() {
         match &colors {
             Some(c) => s.push_str(&format!(
-                "v {} {} {} {} {} {}\n",
-                p.x, p.y, p.z, c[i][0], c[i][1], c[i][2]
+                "v {} {} {} {}\n",
+                position_text(*p, origin),
+                c[i][0],
+                c[i][1],
+                c[i][2]
             )),
-            None => s.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z)),
+            None => s.push_str(&format!("v {}\n", position_text(*p, origin))),
         }
     }
     let uvs = geometry.mesh().and_then(TriMesh::uvs);

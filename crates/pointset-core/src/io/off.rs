@@ -5,9 +5,9 @@
 
 use std::io::Write;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
-use super::{FileFormat, Geometry};
+use super::{FileFormat, Geometry, position_text, relative_positions};
 use crate::{Error, Location, PointSet, Result, TriMesh};
 
 fn malformed(line: usize, message: impl Into<String>) -> Error {
@@ -49,6 +49,16 @@ fn numbers(line: usize, words: &[&str]) -> Result<Vec<f64>> {
 
 /// Reads an OFF file held in memory; returns the geometry and the file's `#` comments.
 pub fn read_off(bytes: &[u8]) -> Result<(Geometry, Vec<String>)> {
+    read_off_at(bytes, false).map(|(geometry, comments, _)| (geometry, comments))
+}
+
+/// [`read_off`], with positions stored relative to an origin when `recentre_far` is set
+/// and the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]);
+/// returns the origin too.
+pub(crate) fn read_off_at(
+    bytes: &[u8],
+    recentre_far: bool,
+) -> Result<(Geometry, Vec<String>, DVec3)> {
     let text = std::str::from_utf8(bytes).map_err(|e| Error::Malformed {
         format: FileFormat::Off,
         location: Location::Byte(e.valid_up_to() as u64),
@@ -130,7 +140,7 @@ pub fn read_off(bytes: &[u8]) -> Result<(Geometry, Vec<String>)> {
             return Err(malformed(line, format!("vertex line needs {need} numbers")));
         }
         let x = numbers(line, &words[..need])?;
-        positions.push(Vec3::new(x[0] as f32, x[1] as f32, x[2] as f32));
+        positions.push(DVec3::new(x[0], x[1], x[2]));
         if has_normals {
             normals.push(Vec3::new(x[3] as f32, x[4] as f32, x[5] as f32));
         }
@@ -138,6 +148,7 @@ pub fn read_off(bytes: &[u8]) -> Result<(Geometry, Vec<String>)> {
             raw_colors.push([x[stride], x[stride + 1], x[stride + 2]]);
         }
     }
+    let (positions, origin) = relative_positions(&positions, recentre_far);
     let mut points = PointSet::new(positions)?;
     if has_normals {
         points = points.with_normals(normals)?;
@@ -201,12 +212,22 @@ pub fn read_off(bytes: &[u8]) -> Result<(Geometry, Vec<String>)> {
     } else {
         Geometry::Mesh(TriMesh::new(points, triangles)?)
     };
-    Ok((geometry, comments))
+    Ok((geometry, comments, origin))
 }
 
 /// Writes ASCII OFF (`NOFF`/`COFF`/`CNOFF` when normals or colours exist; colours as
 /// integers in `0..=255` with alpha 255). Point sets are written with zero faces.
 pub fn write_off(geometry: &Geometry, comments: &[String], out: &mut impl Write) -> Result<()> {
+    write_off_at(geometry, comments, DVec3::ZERO, out)
+}
+
+/// [`write_off`] with `origin` added to every position, in double precision.
+pub(crate) fn write_off_at(
+    geometry: &Geometry,
+    comments: &[String],
+    origin: DVec3,
+    out: &mut impl Write,
+) -> Result<()> {
     let points = geometry.points();
     let normals = points.normals();
     let colors = points.colors();
@@ -222,7 +243,7 @@ pub fn write_off(geometry: &Geometry, comments: &[String], out: &mut impl Write)
     }
     s.push_str(&format!("{} {} 0\n", points.len(), tris.len()));
     for (i, p) in points.positions().iter().enumerate() {
-        s.push_str(&format!("{} {} {}", p.x, p.y, p.z));
+        s.push_str(&position_text(*p, origin));
         if let Some(n) = normals {
             s.push_str(&format!(" {} {} {}", n[i].x, n[i].y, n[i].z));
         }

@@ -8,9 +8,9 @@ mod ply_codec;
 
 use std::path::Path;
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use pointset_core::io::ply::PlyEncoding;
-use pointset_core::io::{self, FileFormat, Geometry, WriteOptions};
+use pointset_core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions};
 use pointset_core::testdata::shared_data;
 use pointset_core::{Attribute, BucketGrid, Error, KdIndex, PointSet, ScalarType, TriMesh, rng};
 use proptest::prelude::*;
@@ -174,6 +174,72 @@ proptest! {
         prop_assert_eq!(m.triangles(), &tris[..]);
         prop_assert_eq!(m.vertices().colors(), points.colors());
     }
+}
+
+proptest! {
+    /// Georeferenced data: positions near a far origin, written with that origin (double
+    /// coordinates) and read back recentred, keep single precision relative to the data;
+    /// read without recentring they are quantized to the `f32` step at the coordinates.
+    #[test]
+    fn far_data_keeps_its_precision_through_every_format(
+        local in proptest::collection::vec(prop::array::uniform3(-50.0f32..50.0), 8..40),
+        east in 100_000i32..900_000,
+        north in 1_000_000i32..9_000_000,
+    ) {
+        let origin = DVec3::new(f64::from(east), f64::from(north), 37.0);
+        let points = PointSet::new(local.iter().map(|&p| Vec3::from(p)).collect()).unwrap();
+        let geometry = Geometry::Points(points.clone());
+        let recentre = ReadOptions::default().recentre_far(true);
+        for (format, name) in [
+            (FileFormat::Ply, "far.ply"),
+            (FileFormat::Obj, "far.obj"),
+            (FileFormat::Off, "far.off"),
+        ] {
+            let options = WriteOptions::default()
+                .ply_encoding(PlyEncoding::BinaryBigEndian)
+                .origin(origin);
+            let bytes = io::encode_geometry(&geometry, format, &options).unwrap();
+            let back = io::read_geometry_bytes_with(Path::new(name), &bytes, &recentre).unwrap();
+            prop_assert!(back.origin != DVec3::ZERO, "{name}: not recentred");
+            let plain = io::read_geometry_bytes(Path::new(name), &bytes).unwrap();
+            prop_assert_eq!(plain.origin, DVec3::ZERO);
+            let (mut kept, mut plain_error) = (0.0f64, 0.0f64);
+            for ((p, q), r) in points
+                .positions()
+                .iter()
+                .zip(back.geometry.points().positions())
+                .zip(plain.geometry.points().positions())
+            {
+                let truth = p.as_dvec3() + origin;
+                kept = kept.max((q.as_dvec3() + back.origin - truth).abs().max_element());
+                plain_error = plain_error.max((r.as_dvec3() - truth).abs().max_element());
+            }
+            // The f32 step at 100 units is 7.6e-6; at 1e6 it is 0.0625.
+            prop_assert!(kept < 1e-5, "{name}: recentred error {kept}");
+            prop_assert!(north < 2_097_152 || plain_error > 1e-3, "{name}: {plain_error}");
+        }
+    }
+}
+
+#[test]
+fn data_near_the_origin_is_not_moved() {
+    // Within its own extent of the origin: stored as the file has it, origin zero.
+    let points = PointSet::new(vec![Vec3::new(10.0, 0.0, 0.0), Vec3::new(30.0, 5.0, 1.0)]).unwrap();
+    let bytes = io::encode_geometry(
+        &Geometry::Points(points.clone()),
+        FileFormat::Ply,
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    assert!(!String::from_utf8_lossy(&bytes).contains("double"));
+    let back = io::read_geometry_bytes_with(
+        Path::new("near.ply"),
+        &bytes,
+        &ReadOptions::default().recentre_far(true),
+    )
+    .unwrap();
+    assert_eq!(back.origin, DVec3::ZERO);
+    assert_eq!(back.geometry.points(), &points);
 }
 
 #[test]

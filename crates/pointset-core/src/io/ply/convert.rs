@@ -8,10 +8,10 @@
 //! skipped. Writing produces `float` positions/normals/UVs, attributes in their storage type,
 //! and `list uchar int vertex_indices` faces — the layout MeshLab, Blender and Open3D read.
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use super::{PlyColumn, PlyDocument, PlyElement, PlyEncoding, PlyProperty, PropertyKind};
-use crate::io::{FileFormat, Geometry};
+use crate::io::{FileFormat, Geometry, relative_positions};
 use crate::{Attribute, Error, Location, PointSet, Result, ScalarType, TriMesh};
 
 const UV_NAMES: [(&str, &str); 4] = [
@@ -41,11 +41,27 @@ fn vec3s(e: &PlyElement, names: [&str; 3]) -> Option<Vec<Vec3>> {
 
 /// Turns a parsed document into a point set (no faces) or a mesh.
 pub fn geometry_from_document(doc: &PlyDocument) -> Result<Geometry> {
+    geometry_from_document_at(doc, false).map(|(geometry, _)| geometry)
+}
+
+/// [`geometry_from_document`], with positions stored relative to an origin when
+/// `recentre_far` is set and the data lies far from the file's origin (see
+/// [`crate::io::ReadOptions::recentre_far`]); returns the origin too.
+pub fn geometry_from_document_at(
+    doc: &PlyDocument,
+    recentre_far: bool,
+) -> Result<(Geometry, DVec3)> {
     let vertex = doc
         .element("vertex")
         .ok_or_else(|| missing("no `vertex` element"))?;
-    let positions =
-        vec3s(vertex, ["x", "y", "z"]).ok_or_else(|| missing("vertex element lacks x, y or z"))?;
+    let [x, y, z] = ["x", "y", "z"].map(|n| vertex.scalar(n));
+    let (Some(x), Some(y), Some(z)) = (x, y, z) else {
+        return Err(missing("vertex element lacks x, y or z"));
+    };
+    let raw: Vec<DVec3> = (0..vertex.count)
+        .map(|i| DVec3::new(x[i], y[i], z[i]))
+        .collect();
+    let (positions, origin) = relative_positions(&raw, recentre_far);
     let faces = doc.element("face");
     let has_faces = faces.is_some_and(|f| f.count > 0);
     let uv_names = UV_NAMES
@@ -71,7 +87,7 @@ pub fn geometry_from_document(doc: &PlyDocument) -> Result<Geometry> {
         }
     }
     let Some(faces) = faces.filter(|_| has_faces) else {
-        return Ok(Geometry::Points(points));
+        return Ok((Geometry::Points(points), origin));
     };
     let (_, column) = faces
         .column("vertex_indices")
@@ -117,7 +133,7 @@ pub fn geometry_from_document(doc: &PlyDocument) -> Result<Geometry> {
             mesh = mesh.with_uvs(uvs)?;
         }
     }
-    Ok(Geometry::Mesh(mesh))
+    Ok((Geometry::Mesh(mesh), origin))
 }
 
 fn scalar_property(name: &str, ty: ScalarType, values: Vec<f64>) -> (PlyProperty, PlyColumn) {
@@ -136,17 +152,35 @@ pub fn document_from_geometry(
     encoding: PlyEncoding,
     comments: &[String],
 ) -> Result<PlyDocument> {
+    document_from_geometry_at(geometry, encoding, comments, DVec3::ZERO)
+}
+
+/// [`document_from_geometry`] with `origin` added to every position; the coordinates are
+/// `double` properties when it is not zero (a `float` could not hold them).
+pub fn document_from_geometry_at(
+    geometry: &Geometry,
+    encoding: PlyEncoding,
+    comments: &[String],
+    origin: DVec3,
+) -> Result<PlyDocument> {
     let (points, mesh) = match geometry {
         Geometry::Points(p) => (p, None),
         Geometry::Mesh(m) => (m.vertices(), Some(m)),
     };
     let mut props = Vec::new();
     let pos = points.positions();
+    let coordinate_type = if origin == DVec3::ZERO {
+        ScalarType::F32
+    } else {
+        ScalarType::F64
+    };
     for (axis, name) in ["x", "y", "z"].iter().enumerate() {
         props.push(scalar_property(
             name,
-            ScalarType::F32,
-            pos.iter().map(|p| f64::from(p[axis])).collect(),
+            coordinate_type,
+            pos.iter()
+                .map(|p| f64::from(p[axis]) + origin[axis])
+                .collect(),
         ));
     }
     if let Some(normals) = points.normals() {

@@ -12,7 +12,10 @@ mod convert;
 mod header;
 mod write;
 
-pub use convert::{document_from_geometry, geometry_from_document};
+pub use convert::{
+    document_from_geometry, document_from_geometry_at, geometry_from_document,
+    geometry_from_document_at,
+};
 pub use write::write_ply;
 
 use crate::{Result, ScalarType};
