@@ -22,14 +22,14 @@
 
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 pub use patch_quilt::search;
 pub use patch_quilt::{
     BlendCounts, GeometryTexture, Method, OutputSize, Overlap, PatchGeometry, Placement,
     QualityMeasure, QualityReport, QuiltError, QuiltOutput, QuiltParams, QuiltStats, UpAxis,
     WarpCounts, WarpTargets, evaluate, quilt,
 };
-use pointset_core::io::{self, Geometry};
+use pointset_core::io::{self, Geometry, ReadOptions};
 use pointset_core::{Aabb, KdIndex, NormalWeighting, PointSet, RunContext, Stage};
 
 use crate::fixtures::textures::TextureExemplar;
@@ -37,17 +37,27 @@ use crate::{Error, Result};
 
 /// Comment lines describing a texture's box and up axis.
 pub fn texture_comments(bounds: &Aabb, up: UpAxis) -> Vec<String> {
-    let (a, b) = (bounds.min, bounds.max);
+    texture_comments_at(bounds, up, DVec3::ZERO)
+}
+
+/// [`texture_comments`] for a box stored relative to `origin` (see [`TextureFile`]): the
+/// corners are written as the sums, in double precision, when the origin is not zero.
+pub fn texture_comments_at(bounds: &Aabb, up: UpAxis, origin: DVec3) -> Vec<String> {
     let axis = match up {
         UpAxis::X => "x",
         UpAxis::Y => "y",
         UpAxis::Z => "z",
     };
+    let corner = |c: Vec3| {
+        if origin == DVec3::ZERO {
+            format!("{} {} {}", c.x, c.y, c.z)
+        } else {
+            let c = c.as_dvec3() + origin;
+            format!("{} {} {}", c.x, c.y, c.z)
+        }
+    };
     vec![
-        format!(
-            "texture_box {} {} {} {} {} {}",
-            a.x, a.y, a.z, b.x, b.y, b.z
-        ),
+        format!("texture_box {} {}", corner(bounds.min), corner(bounds.max)),
         format!("texture_up {axis}"),
     ]
 }
@@ -56,11 +66,20 @@ pub fn texture_comments(bounds: &Aabb, up: UpAxis) -> Vec<String> {
 pub fn parse_texture_comments(
     comments: &[String],
 ) -> std::result::Result<Option<(Aabb, UpAxis)>, String> {
+    parse_texture_comments_at(comments, DVec3::ZERO)
+}
+
+/// [`parse_texture_comments`] for a file whose points were read relative to `origin`: the
+/// box is moved by it in double precision before it is stored in single precision.
+pub fn parse_texture_comments_at(
+    comments: &[String],
+    origin: DVec3,
+) -> std::result::Result<Option<(Aabb, UpAxis)>, String> {
     let mut bounds = None;
     let mut up = UpAxis::Z;
     for c in comments {
         if let Some(rest) = c.trim().strip_prefix("texture_box") {
-            let v: Vec<f32> = rest
+            let v: Vec<f64> = rest
                 .split_whitespace()
                 .map(str::parse)
                 .collect::<std::result::Result<_, _>>()
@@ -68,10 +87,12 @@ pub fn parse_texture_comments(
             let [x0, y0, z0, x1, y1, z1] = v[..] else {
                 return Err(format!("`{c}`: texture_box needs six numbers"));
             };
-            if !v.iter().all(|x| x.is_finite()) {
+            let (lo, hi) = (DVec3::new(x0, y0, z0), DVec3::new(x1, y1, z1));
+            let (lo, hi) = ((lo - origin).as_vec3(), (hi - origin).as_vec3());
+            if !(lo.is_finite() && hi.is_finite()) {
                 return Err(format!("`{c}`: texture_box needs finite numbers"));
             }
-            bounds = Some(Aabb::new(Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1)));
+            bounds = Some(Aabb::new(lo, hi));
         } else if let Some(rest) = c.trim().strip_prefix("texture_up") {
             up = match rest.trim() {
                 "x" | "X" => UpAxis::X,
@@ -142,13 +163,94 @@ pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_texture_with_up(path: &Path, up: Option<UpAxis>) -> Result<GeometryTexture> {
+    read_texture_from(path, up, &ReadOptions::default()).map(|file| file.texture)
+}
+
+/// A geometry texture read from a file that may lie far from the origin (georeferenced
+/// data): the texture's points and box are relative to `origin`, which is kept in double
+/// precision so that outputs can be written back where the exemplar was
+/// ([`pointset_core::io::WriteOptions::origin`], [`texture_comments_at`]).
+#[derive(Debug, Clone)]
+pub struct TextureFile {
+    /// The texture, relative to `origin`.
+    pub texture: GeometryTexture,
+    /// Where the file's coordinates start from: zero unless the data lies further from the
+    /// file's origin than its own extent ([`pointset_core::io::ReadOptions::recentre_far`]).
+    pub origin: DVec3,
+    /// When the file itself stored coordinates that far out in single precision, they sit
+    /// on a grid: the coarsest step of that grid over the axes whose coordinates all lie on
+    /// it (none when the file keeps finer coordinates than a single-precision grid would).
+    /// Recentring cannot restore what the file lost.
+    pub single_precision_step: Option<f64>,
+}
+
+/// [`read_texture_with_up`] for files that may lie far from the origin: positions are read
+/// relative to an origin kept in double precision when the data lies further from the
+/// file's origin than its own extent, so that georeferenced exemplars (coordinates in the
+/// millions) keep their precision.
+///
+/// ```
+/// use geosynth::quilt::read_texture_file;
+/// // Ripples 4,000 km north, in double precision: an f32 would step by 0.25 there.
+/// let mut ply = String::from("ply\nformat ascii 1.0\nelement vertex 1600\n");
+/// ply += "property double x\nproperty double y\nproperty double z\n";
+/// ply += "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+/// for k in 0..1600 {
+///     let (x, y) = ((k % 40) as f64 * 0.1, (k / 40) as f64 * 0.1);
+///     let z = 0.1 * (3.0 * x).sin();
+///     ply += &format!("{} {} {z} 0 0 1\n", 500_000.0 + x, 4_000_000.0 + y);
+/// }
+/// let path = std::env::temp_dir().join("geosynth_doc_far_texture.ply");
+/// std::fs::write(&path, ply)?;
+/// let file = read_texture_file(&path, None)?;
+/// assert_eq!(file.origin, glam::DVec3::new(500_002.0, 4_000_002.0, 0.0));
+/// assert_eq!(file.single_precision_step, None);
+/// // Samples 0.1 apart stay 0.1 apart (as f32 near the origin).
+/// let p = file.texture.canonical_points().positions();
+/// assert!((p[1].x - p[0].x - 0.1).abs() < 1e-6);
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile> {
+    read_texture_from(path, up, &ReadOptions::default().recentre_far(true))
+}
+
+/// The step of the single-precision grid the file's coordinates sit on, if they all do on
+/// some axis where that grid is coarser than `f32` near the origin (see
+/// [`TextureFile::single_precision_step`]).
+fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<f64> {
+    let positions = points.positions();
+    (0..3)
+        .filter_map(|axis| {
+            let reach = positions
+                .iter()
+                .map(|p| f64::from(p[axis]).abs())
+                .fold(0.0, f64::max);
+            let farthest = (origin[axis].abs() + reach) as f32;
+            let step = f64::from(f32::from_bits(farthest.to_bits() + 1) - farthest);
+            let on_grid = positions.iter().all(|p| {
+                let file_value = f64::from(p[axis]) + origin[axis];
+                (file_value / step).fract() == 0.0
+            });
+            (origin[axis] != 0.0 && on_grid).then_some(step)
+        })
+        .reduce(f64::max)
+}
+
+fn read_texture_from(
+    path: &Path,
+    up: Option<UpAxis>,
+    options: &ReadOptions,
+) -> Result<TextureFile> {
     let file_error = |message: String| Error::TextureFile {
         path: path.to_path_buf(),
         message,
     };
-    let loaded = io::read_geometry(path)?;
+    let loaded = io::read_geometry_with(path, options)?;
+    let origin = loaded.origin;
     let points = oriented_samples(&loaded.geometry)?;
-    let (bounds, file_up) = match parse_texture_comments(&loaded.comments).map_err(file_error)? {
+    let described = parse_texture_comments_at(&loaded.comments, origin).map_err(file_error)?;
+    let (bounds, file_up) = match described {
         Some(described) => described,
         None => {
             let up = up.unwrap_or_default();
@@ -172,7 +274,11 @@ pub fn read_texture_with_up(path: &Path, up: Option<UpAxis>) -> Result<GeometryT
         Some(wanted) if wanted != file_up => Err(file_error(format!(
             "its texture comments give up axis {file_up:?}, not the {wanted:?} asked for"
         ))),
-        _ => Ok(GeometryTexture::new(&points, bounds, file_up)?),
+        _ => Ok(TextureFile {
+            texture: GeometryTexture::new(&points, bounds, file_up)?,
+            origin,
+            single_precision_step: single_precision_step(&points, origin),
+        }),
     }
 }
 
@@ -304,6 +410,18 @@ mod tests {
             )))
         );
         assert_eq!(parse(&["made by hand"]), Ok(None));
+        // A box kept relative to a far origin is written as the sums and read back.
+        let origin = DVec3::new(512_345.0, 4_123_456.0, -7.0);
+        let local = Aabb::new(Vec3::new(-1.5, -2.0, 0.125), Vec3::new(2.5, 2.0, 0.75));
+        let lines = texture_comments_at(&local, UpAxis::X, origin);
+        assert_eq!(
+            lines[0],
+            "texture_box 512343.5 4123454 -6.875 512347.5 4123458 -6.25"
+        );
+        assert_eq!(
+            parse_texture_comments_at(&lines, origin),
+            Ok(Some((local, UpAxis::X)))
+        );
         for bad in [
             "texture_box 0 0 -1 4 4",
             "texture_box 0 0 -1 4 4 one",

@@ -771,13 +771,57 @@ fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     ]);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("texture comments give up axis Z"));
-    // Georeferenced coordinates: at 4e6, single precision steps by 0.25, coarser than the
-    // samples; the run says so (and the Y-up run above did not).
+    // Georeferenced coordinates written in single precision: at 4e6 they step by 0.25,
+    // coarser than the samples, and no reader can undo that; the run says so (and the
+    // Y-up run above did not).
     let far = write_mapped("far.ply", &|v| v + glam::Vec3::new(5e5, 4e6, 0.0), false);
     let far_run = run(&far, "z");
     assert!(far_run.status.success());
     let far_run = String::from_utf8_lossy(&far_run.stdout);
-    assert!(far_run.contains("far from the origin"), "{far_run}");
-    assert!(far_run.contains("0.25 apart"), "{far_run}");
-    assert!(!String::from_utf8_lossy(&read_as_y_up.stdout).contains("far from the origin"));
+    assert!(
+        far_run.contains("single precision, 0.25 apart"),
+        "{far_run}"
+    );
+    assert!(!String::from_utf8_lossy(&read_as_y_up.stdout).contains("single precision"));
+    // The same place in double precision: read relative to an origin, quilted at full
+    // precision, and written back there in double precision.
+    let origin = glam::DVec3::new(5e5, 4e6, 0.0);
+    let precise = dir.path().join("precise.ply");
+    let options = WriteOptions::default().origin(origin);
+    write_geometry(&precise, &bumpy, &options).unwrap();
+    let precise_run = run(&precise, "z");
+    assert!(precise_run.status.success());
+    let said = String::from_utf8_lossy(&precise_run.stdout);
+    assert!(!said.contains("single precision"), "{said}");
+    let header = std::fs::read(&out).unwrap();
+    assert!(String::from_utf8_lossy(&header[..400]).contains("property double x"));
+    let quilted = read_geometry(&out).unwrap();
+    let b = quilted.geometry.bounding_box().unwrap();
+    assert!(
+        b.min.x >= 5e5 && b.min.y >= 4e6 && b.max.y <= 4e6 + 8.0,
+        "{b:?}"
+    );
+    let described = quilted
+        .comments
+        .iter()
+        .find(|c| c.starts_with("texture_box"))
+        .unwrap();
+    assert!(described.starts_with("texture_box 500000"), "{described}");
+    // Recentred, its x coordinates take thousands of values (in single precision at 5e5
+    // they could take about 160 across the 5 units).
+    let recentred = geosynth::core::io::read_geometry_with(
+        &out,
+        &geosynth::core::io::ReadOptions::default().recentre_far(true),
+    )
+    .unwrap();
+    let mut xs: Vec<u32> = recentred
+        .geometry
+        .points()
+        .positions()
+        .iter()
+        .map(|p| p.x.to_bits())
+        .collect();
+    xs.sort_unstable();
+    xs.dedup();
+    assert!(xs.len() > 1000, "{} distinct x values", xs.len());
 }

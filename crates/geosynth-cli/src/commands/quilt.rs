@@ -9,10 +9,11 @@ use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
     BlendCounts, DEFAULT_RELIEF, GeometryTexture, Method, OutputSize, QualityMeasure,
-    QualityReport, QuiltOutput, QuiltParams, UpAxis, WarpTargets, quilt,
-    read_heightfield_texture_with_relief, read_texture_with_up,
+    QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis, WarpTargets, quilt,
+    read_heightfield_texture_with_relief, read_texture_file,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
+use glam::DVec3;
 
 use serde_json::{Value, json};
 
@@ -220,40 +221,42 @@ fn orientation_note(texture: &GeometryTexture) -> Option<String> {
     })
 }
 
-/// A hint when the exemplar lies so far from the origin that single-precision coordinates
-/// there are coarser than a hundredth of its sample spacing (georeferenced data: at 4e6
-/// they are 0.25 apart), which the synthesis cannot undo. `None` when it is fine or its
-/// spacing cannot be estimated.
-fn precision_note(texture: &GeometryTexture) -> Option<String> {
-    let points = texture.canonical_points().positions();
-    let farthest = points
-        .iter()
-        .map(|p| p.abs().max_element())
-        .fold(0.0f32, f32::max);
-    // The gap to the next representable value above the farthest coordinate.
-    let step = f32::from_bits(farthest.to_bits() + 1) - farthest;
-    let spacing = KdIndex::new(points).ok()?.median_spacing().ok()?;
+/// A note when the exemplar file stored coordinates far from the origin in single
+/// precision, on a grid coarser than a hundredth of its sample spacing (georeferenced data
+/// written as `float`: at 4e6 the values are 0.25 apart). Reading in double precision
+/// cannot restore that; `None` when it is fine or its spacing cannot be estimated.
+fn precision_note(file: &TextureFile) -> Option<String> {
+    let step = file.single_precision_step?;
+    let points = file.texture.canonical_points().positions();
+    let spacing = f64::from(KdIndex::new(points).ok()?.median_spacing().ok()?);
     (spacing > 0.0 && step > 0.01 * spacing).then(|| {
         format!(
-            "note: the exemplar lies far from the origin (coordinates up to {farthest}), where \
-             single-precision coordinates are {step} apart, {:.2} times its sample spacing; \
-             move it nearer the origin for full precision",
+            "note: the exemplar file stores its coordinates (around {:.0}, {:.0}, {:.0}) in \
+             single precision, {step} apart there, {:.2} times its sample spacing; write it \
+             in double precision (or nearer the origin) for full precision",
+            file.origin.x,
+            file.origin.y,
+            file.origin.z,
             step / spacing
         )
     })
 }
 
-/// Loads the texture named by the arguments.
-fn load(args: &QuiltArgs) -> CliResult<GeometryTexture> {
+/// Loads the texture named by the arguments (a height field is at the origin).
+fn load(args: &QuiltArgs) -> CliResult<TextureFile> {
     if let Some(path) = &args.heightfield {
         let relief = args.relief.unwrap_or(DEFAULT_RELIEF);
-        return Ok(read_heightfield_texture_with_relief(path, relief)?);
+        return Ok(TextureFile {
+            texture: read_heightfield_texture_with_relief(path, relief)?,
+            origin: DVec3::ZERO,
+            single_precision_step: None,
+        });
     }
     let path = args
         .exemplar
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
-    Ok(read_texture_with_up(path, args.up.map(UpAxis::from))?)
+    Ok(read_texture_file(path, args.up.map(UpAxis::from))?)
 }
 
 /// One measured run: the output, its timings and its quality.
@@ -463,8 +466,9 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             .chain(&args.preview)
             .map(PathBuf::as_path),
     )?;
-    let texture = load(args)?;
-    for note in [orientation_note(&texture), precision_note(&texture)]
+    let file = load(args)?;
+    let texture = &file.texture;
+    for note in [orientation_note(texture), precision_note(&file)]
         .into_iter()
         .flatten()
     {
@@ -502,18 +506,19 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
     let measure = if args.no_quality {
         Err("skipped (--no-quality)".to_string())
     } else {
-        measure_for(&texture, &params, globals)
+        measure_for(texture, &params, globals)
     };
-    let main = measured_run(&texture, &params, &measure, globals, "quilt")?;
+    let main = measured_run(texture, &params, &measure, globals, "quilt")?;
     let mut comments = vec![format!(
         "quilted by geosynth (seed {}, {:?})",
         args.seed, params.method
     )];
-    comments.extend(geosynth::quilt::texture_comments(
+    comments.extend(geosynth::quilt::texture_comments_at(
         &main.output.bounds,
         texture.up(),
+        file.origin,
     ));
-    let mut options = WriteOptions::default();
+    let mut options = WriteOptions::default().origin(file.origin);
     for c in comments {
         options = options.comment(c);
     }
@@ -523,7 +528,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         &options,
     )?;
     if let Some(path) = &args.preview {
-        texture_preview(&texture, &[&main.output], path, 480, 360)?;
+        texture_preview(texture, &[&main.output], path, 480, 360)?;
     }
     if let Some(path) = &args.report {
         let mut report = json!({
@@ -538,7 +543,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
                 ("random_placement", Method::RandomPlacement),
             ] {
                 let baseline = measured_run(
-                    &texture,
+                    texture,
                     &params.clone().method(method),
                     &measure,
                     globals,
@@ -550,7 +555,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
                 // The control: the same patches pasted, so only the warp and blend differ.
                 let pasted = params.same_layout_control(&main.output);
                 let control =
-                    measured_run(&texture, &pasted, &measure, globals, "same layout, pasted")?;
+                    measured_run(texture, &pasted, &measure, globals, "same layout, pasted")?;
                 report["same_layout_pasted"] = run_json(&control);
             }
         }
