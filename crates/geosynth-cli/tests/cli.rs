@@ -789,6 +789,13 @@ fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     let precise = dir.path().join("precise.ply");
     let options = WriteOptions::default().origin(origin);
     write_geometry(&precise, &bumpy, &options).unwrap();
+    let described = ok(&["info", precise.to_str().unwrap()]);
+    // The fixture's padding starts about a unit before its box; info reads the far file
+    // at full precision (a single-precision read would print 499999.000000).
+    assert!(
+        described.contains("bbox min:    499999.000265 3999999.000647"),
+        "{described}"
+    );
     let precise_run = run(&precise, "z");
     assert!(precise_run.status.success());
     let said = String::from_utf8_lossy(&precise_run.stdout);

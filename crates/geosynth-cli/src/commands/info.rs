@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use geosynth::core::io::{self, Geometry, LoadedGeometry};
+use geosynth::core::io::{self, Geometry, LoadedGeometry, ReadOptions};
 use geosynth::imagery;
 use serde::Serialize;
 
@@ -36,8 +36,8 @@ pub struct FileInfo {
     colors: bool,
     uvs: bool,
     attributes: Vec<AttributeInfo>,
-    bbox_min: Option<[f32; 3]>,
-    bbox_max: Option<[f32; 3]>,
+    bbox_min: Option<[f64; 3]>,
+    bbox_max: Option<[f64; 3]>,
     comments: Vec<String>,
 }
 
@@ -97,8 +97,10 @@ impl FileInfo {
                     storage: a.storage().to_string(),
                 })
                 .collect(),
-            bbox_min: bbox.map(|b| b.min.to_array()),
-            bbox_max: bbox.map(|b| b.max.to_array()),
+            // In the file's coordinates, in double precision (georeferenced files are read
+            // relative to an origin so that their points keep single precision).
+            bbox_min: bbox.map(|b| (b.min.as_dvec3() + loaded.origin).to_array()),
+            bbox_max: bbox.map(|b| (b.max.as_dvec3() + loaded.origin).to_array()),
             comments: loaded.comments.clone(),
         }
     }
@@ -110,7 +112,7 @@ impl FileInfo {
             .iter()
             .map(|a| format!("{} ({})", a.name, a.storage))
             .collect();
-        let fmt3 = |v: Option<[f32; 3]>| {
+        let fmt3 = |v: Option<[f64; 3]>| {
             v.map_or("-".to_string(), |v| {
                 format!("{:.6} {:.6} {:.6}", v[0], v[1], v[2])
             })
@@ -228,7 +230,7 @@ pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
         let text = info.text();
         return print(globals, args.json, &info, text);
     }
-    let loaded = io::read_geometry(path)?;
+    let loaded = io::read_geometry_with(path, &ReadOptions::default().recentre_far(true))?;
     let info = FileInfo::new(path, &loaded);
     let text = info.text();
     print(globals, args.json, &info, text)

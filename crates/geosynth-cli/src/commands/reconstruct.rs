@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
 use geosynth::sdf::nrrd;
 use geosynth::{RunContext, Stage};
@@ -53,15 +53,19 @@ pub struct ReconstructArgs {
 pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
     let params = args.grid.params()?;
-    let points = io::read_geometry(&args.input)?.geometry.points().clone();
+    // Georeferenced points are reconstructed relative to an origin and written back there.
+    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let points = loaded.geometry.points().clone();
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
     let mesh = Reconstruct { params }.run(points, &mut ctx)?;
     bar.finish_and_clear();
-    let options = WriteOptions::default().comment(format!(
-        "reconstructed from {} by geosynth",
-        args.input.display()
-    ));
+    let options = WriteOptions::default()
+        .comment(format!(
+            "reconstructed from {} by geosynth",
+            args.input.display()
+        ))
+        .origin(loaded.origin);
     io::write_geometry(&args.output, &Geometry::Mesh(mesh.clone()), &options)?;
     let timings: Vec<String> = ctx
         .timings()

@@ -3,10 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::tps::{ThinPlateSpline, TpsParams};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use crate::output::{check_output_paths, status};
 use crate::{CliResult, Globals};
@@ -29,17 +29,19 @@ pub struct WarpArgs {
     smoothing: f64,
 }
 
-/// Parses a pairs file into sources and targets, naming the line of any error.
-pub fn parse_pairs(text: &str, path: &Path) -> CliResult<(Vec<Vec3>, Vec<Vec3>)> {
+/// Parses a pairs file into sources and targets, naming the line of any error. The
+/// coordinates are read in double precision and stored relative to `origin` (that of the
+/// point set they warp, see [`ReadOptions::recentre_far`]).
+pub fn parse_pairs(text: &str, path: &Path, origin: DVec3) -> CliResult<(Vec<Vec3>, Vec<Vec3>)> {
     let (mut from, mut to) = (Vec::new(), Vec::new());
     for (i, line) in text.lines().enumerate() {
         let content = line.split('#').next().unwrap_or("").trim();
         if content.is_empty() {
             continue;
         }
-        let values: Vec<f32> = content
+        let values: Vec<f64> = content
             .split_whitespace()
-            .map(|w| w.parse::<f32>())
+            .map(|w| w.parse::<f64>())
             .collect::<Result<_, _>>()
             .map_err(|_| {
                 format!(
@@ -57,8 +59,8 @@ pub fn parse_pairs(text: &str, path: &Path) -> CliResult<(Vec<Vec3>, Vec<Vec3>)>
             )
             .into());
         };
-        from.push(Vec3::new(sx, sy, sz));
-        to.push(Vec3::new(qx, qy, qz));
+        from.push((DVec3::new(sx, sy, sz) - origin).as_vec3());
+        to.push((DVec3::new(qx, qy, qz) - origin).as_vec3());
     }
     if from.is_empty() {
         return Err(format!("{}: no pairs", path.display()).into());
@@ -87,9 +89,11 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
     let text = std::fs::read_to_string(&args.pairs)
         .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
-    let (from, to) = parse_pairs(&text, &args.pairs)?;
+    // Georeferenced inputs are warped relative to an origin and written back there.
+    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let (from, to) = parse_pairs(&text, &args.pairs, loaded.origin)?;
     let spline = ThinPlateSpline::fit(&from, &to, &TpsParams::default().smoothing(args.smoothing))?;
-    let geometry = io::read_geometry(&args.input)?.geometry;
+    let geometry = loaded.geometry;
     let points = geometry.points();
     let (moved, normals) = spline.warp(points.positions(), points.normals());
     let warped = rebuild(points, moved, normals)?;
@@ -103,11 +107,13 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
             Geometry::Mesh(mesh)
         }
     };
-    let options = WriteOptions::default().comment(format!(
-        "warped by {} pairs from {}",
-        from.len(),
-        args.pairs.display()
-    ));
+    let options = WriteOptions::default()
+        .comment(format!(
+            "warped by {} pairs from {}",
+            from.len(),
+            args.pairs.display()
+        ))
+        .origin(loaded.origin);
     io::write_geometry(&args.output, &out, &options)?;
     status(
         globals,
@@ -124,19 +130,38 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_pairs;
+    use super::{DVec3, parse_pairs};
     use std::path::Path;
 
     #[test]
     fn pairs_files_parse_with_line_numbers_in_errors() {
         let p = Path::new("p.txt");
-        let (a, b) = parse_pairs("# header\n0 0 0 1 1 1\n\n1 2 3 4 5 6 # note\n", p).unwrap();
+        let (a, b) = parse_pairs(
+            "# header\n0 0 0 1 1 1\n\n1 2 3 4 5 6 # note\n",
+            p,
+            DVec3::ZERO,
+        )
+        .unwrap();
         assert_eq!((a.len(), b.len()), (2, 2));
-        let err = parse_pairs("0 0 0 1 1 1\n0 0 0 1 1\n", p)
+        let err = parse_pairs("0 0 0 1 1 1\n0 0 0 1 1\n", p, DVec3::ZERO)
             .unwrap_err()
             .to_string();
         assert!(err.contains("p.txt:2"), "{err}");
-        assert!(parse_pairs("0 0 x 1 1 1\n", p).is_err());
-        assert!(parse_pairs("# nothing\n", p).is_err());
+        assert!(parse_pairs("0 0 x 1 1 1\n", p, DVec3::ZERO).is_err());
+        assert!(parse_pairs("# nothing\n", p, DVec3::ZERO).is_err());
+        // Georeferenced pairs keep their digits relative to the point set's origin (an f32
+        // at 4e6 steps by 0.25).
+        let origin = DVec3::new(500_000.0, 4_000_000.0, 0.0);
+        let (a, b) = parse_pairs("500000.1 4000000.1 0 500000.2 4000000.3 1\n", p, origin).unwrap();
+        assert!(
+            (a[0] - glam::Vec3::new(0.1, 0.1, 0.0)).length() < 1e-6,
+            "{}",
+            a[0]
+        );
+        assert!(
+            (b[0] - glam::Vec3::new(0.2, 0.3, 1.0)).length() < 1e-6,
+            "{}",
+            b[0]
+        );
     }
 }
