@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
-use geosynth::core::io::{self, Geometry};
+use geosynth::core::io::{self, Geometry, ReadOptions};
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 
@@ -123,8 +123,11 @@ fn load(path: &Path, args: &RenderArgs) -> CliResult<Input> {
     if imagery::is_image_path(path) {
         return Ok(Input::Picture(imagery::read_image(path)?.into_rgb8()));
     }
+    // A picture does not depend on where the data lies, so georeferenced files are read
+    // relative to an origin, at full precision.
+    let recentred = ReadOptions::default().recentre_far(true);
     Ok(Input::Geometry(
-        io::read_geometry(path)?.geometry,
+        io::read_geometry_with(path, &recentred)?.geometry,
         args.view.up.into(),
     ))
 }
