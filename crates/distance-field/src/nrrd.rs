@@ -10,7 +10,7 @@
 use std::io::Write;
 use std::path::Path;
 
-use glam::{Vec3, Vec4};
+use glam::{DVec3, Vec3, Vec4};
 use pointset_core::Grid3;
 
 use crate::error::{FieldError, Result};
@@ -67,7 +67,7 @@ fn nrrd_error(location: impl Into<String>, message: impl Into<String>) -> FieldE
     }
 }
 
-fn header(dims: [usize; 3], origin: Vec3, spacing: f32, channels: usize) -> String {
+fn header(dims: [usize; 3], origin: Vec3, offset: DVec3, spacing: f32, channels: usize) -> String {
     let s = spacing;
     let dirs = format!("({s},0,0) (0,{s},0) (0,0,{s})");
     let mut h = String::from("NRRD0004\n# written by geosynth (distance-field)\ntype: float\n");
@@ -86,9 +86,14 @@ fn header(dims: [usize; 3], origin: Vec3, spacing: f32, channels: usize) -> Stri
         ));
         h.push_str(&format!("space dimension: 3\nspace directions: none {dirs}\nkinds: vector domain domain domain\n"));
     }
+    let origin = if offset == DVec3::ZERO {
+        format!("{},{},{}", origin.x, origin.y, origin.z)
+    } else {
+        let o = origin.as_dvec3() + offset;
+        format!("{},{},{}", o.x, o.y, o.z)
+    };
     h.push_str(&format!(
-        "space origin: ({},{},{})\nencoding: raw\nendian: little\n\n",
-        origin.x, origin.y, origin.z
+        "space origin: ({origin})\nencoding: raw\nendian: little\n\n"
     ));
     h
 }
@@ -107,13 +112,33 @@ fn write_raw(
 
 /// Writes a scalar grid.
 pub fn write_scalar(out: &mut impl Write, grid: &Grid3<f32>) -> std::io::Result<()> {
-    let head = header(grid.dims(), grid.origin(), grid.spacing(), 1);
+    write_scalar_at(out, grid, DVec3::ZERO)
+}
+
+/// [`write_scalar`] for a grid stored relative to `offset` (georeferenced data read with
+/// `pointset_core::io::ReadOptions::recentre_far`): the header's `space origin` is the sum,
+/// in double precision.
+pub fn write_scalar_at(
+    out: &mut impl Write,
+    grid: &Grid3<f32>,
+    offset: DVec3,
+) -> std::io::Result<()> {
+    let head = header(grid.dims(), grid.origin(), offset, grid.spacing(), 1);
     write_raw(out, &head, grid.data().iter().copied())
 }
 
 /// Writes a 4-channel grid (distance + gradient).
 pub fn write_vec4(out: &mut impl Write, grid: &Grid3<Vec4>) -> std::io::Result<()> {
-    let head = header(grid.dims(), grid.origin(), grid.spacing(), 4);
+    write_vec4_at(out, grid, DVec3::ZERO)
+}
+
+/// [`write_vec4`] for a grid stored relative to `offset` (see [`write_scalar_at`]).
+pub fn write_vec4_at(
+    out: &mut impl Write,
+    grid: &Grid3<Vec4>,
+    offset: DVec3,
+) -> std::io::Result<()> {
+    let head = header(grid.dims(), grid.origin(), offset, grid.spacing(), 4);
     write_raw(out, &head, grid.data().iter().flat_map(|v| v.to_array()))
 }
 

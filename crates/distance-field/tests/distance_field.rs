@@ -414,6 +414,18 @@ fn nrrd_round_trips_and_rejects_short_data() {
     nrrd::write_file(&path, |f| nrrd::write_vec4(f, sdf.grid())).unwrap();
     assert_eq!(nrrd::read_file(&path).unwrap(), back4);
 
+    // A grid kept relative to a far origin: the header's origin is the sum, at full
+    // precision (at 4e6 an f32 steps by 0.25).
+    let mut far = Vec::new();
+    let offset = glam::DVec3::new(512_000.0, 4_100_000.0, 10.0);
+    nrrd::write_scalar_at(&mut far, &grid, offset).unwrap();
+    let head = String::from_utf8_lossy(&far[..far.len().min(600)]).into_owned();
+    let o = grid.origin().as_dvec3() + offset;
+    assert!(
+        head.contains(&format!("space origin: ({},{},{})", o.x, o.y, o.z)),
+        "{head}"
+    );
+
     // Truncated data and lying headers are errors, not allocations or panics.
     assert!(matches!(
         nrrd::read(&bytes[..bytes.len() - 3]),

@@ -104,15 +104,19 @@ pub struct SdfArgs {
 pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
     check_output_paths([], [args.output.as_path()])?;
     let params = args.grid.params()?;
-    let geometry = io::read_geometry(&args.input)?.geometry;
+    // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
+    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
     let bar = spinner(globals, "sampling distances");
-    let sdf = signed_distance(&geometry, &params)?;
+    let sdf = signed_distance(&loaded.geometry, &params)?;
     bar.finish_and_clear();
+    let offset = loaded.origin;
     if args.gradient {
-        nrrd::write_file(&args.output, |f| nrrd::write_vec4(f, sdf.grid()))?;
+        nrrd::write_file(&args.output, |f| nrrd::write_vec4_at(f, sdf.grid(), offset))?;
     } else {
         let distances = sdf.distances()?;
-        nrrd::write_file(&args.output, |f| nrrd::write_scalar(f, &distances))?;
+        nrrd::write_file(&args.output, |f| {
+            nrrd::write_scalar_at(f, &distances, offset)
+        })?;
     }
     let [x, y, z] = sdf.dims();
     status(
