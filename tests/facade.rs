@@ -351,3 +351,45 @@ fn with_small_target_clusters_the_full_method_beats_search_only_on_bumpy() {
         "means over 4 seeds, neighbourhood / seam: full {full:?}, search only {search:?}"
     );
 }
+
+#[test]
+fn oriented_fixtures_and_scans_agree_and_random_signs_do_not() {
+    // docs: `mls_surface::orientation_disagreement`. Every bundled oriented point set
+    // scores well below the warning line; the bumpy fixture with every third normal
+    // flipped (as unoriented estimates come) scores above it.
+    use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
+    let dir = fixtures::bundled_dir();
+    for name in [
+        "quilt_bumpy.ply",
+        "quilt_chain_mail.ply",
+        "quilt_weave.ply",
+        "quilt_flowers.ply",
+        "torus_points.ply",
+        "sphere_points.ply",
+    ] {
+        let points = io::read_geometry(dir.join(name)).unwrap().geometry;
+        let score = orientation_disagreement(points.points()).unwrap();
+        assert!(score < 0.05, "{name}: {score}");
+    }
+    let bumpy = io::read_geometry(dir.join("quilt_bumpy.ply"))
+        .unwrap()
+        .geometry;
+    let flipped: Vec<Vec3> = bumpy
+        .points()
+        .normals()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| if (i * 7919) % 3 == 0 { -n } else { n })
+        .collect();
+    let mixed = bumpy.points().clone().with_normals(flipped).unwrap();
+    let score = orientation_disagreement(&mixed).unwrap();
+    assert!(score > LIKELY_UNORIENTED, "{score}");
+    if let Some(path) =
+        geosynth::core::testdata::shared_data("orientation", "pointsets/bunny16k_normals.ply")
+    {
+        let scan = io::read_geometry(path).unwrap().geometry;
+        let score = orientation_disagreement(scan.points()).unwrap();
+        assert!(score < 0.01, "bunny scan: {score}");
+    }
+}

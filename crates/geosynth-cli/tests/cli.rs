@@ -388,6 +388,37 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         serde_json::from_str(&ok(&["info", "--json", mesh.to_str().unwrap()])).unwrap();
     assert_eq!(json["topology"]["closed_manifold"], true);
     assert_eq!(json["topology"]["euler_characteristic"], 0, "a torus");
+    // The same points with every third normal flipped, as unoriented estimates come: the
+    // run warns, the oriented one does not.
+    let torus = geosynth::core::io::read_geometry(&points).unwrap().geometry;
+    let signs: Vec<glam::Vec3> = torus
+        .points()
+        .normals()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| if i % 3 == 0 { -n } else { n })
+        .collect();
+    let mixed = dir.path().join("mixed.ply");
+    let unoriented = torus.points().clone().with_normals(signs).unwrap();
+    geosynth::core::io::write_geometry(
+        &mixed,
+        &geosynth::core::io::Geometry::Points(unoriented),
+        &geosynth::core::io::WriteOptions::default(),
+    )
+    .unwrap();
+    let probe = dir.path().join("probe.ply");
+    for (input, warned) in [(&points, false), (&mixed, true)] {
+        let said = ok(&[
+            "reconstruct",
+            input.to_str().unwrap(),
+            "-o",
+            probe.to_str().unwrap(),
+            "--resolution",
+            "24",
+        ]);
+        assert_eq!(said.contains("look unoriented"), warned, "{said}");
+    }
 
     let field = dir.path().join("torus.nrrd");
     ok(&[

@@ -74,6 +74,7 @@
 
 mod cluster;
 mod error;
+mod orientation;
 mod params;
 mod pca;
 mod ray;
@@ -82,6 +83,7 @@ mod surface;
 
 pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
+pub use orientation::{LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disagreement};
 pub use params::MlsParams;
 pub use pca::{Covariance, surface_variation};
 pub use ray::{RayHit, Snap, SnapMethod};

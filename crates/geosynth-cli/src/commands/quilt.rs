@@ -468,9 +468,13 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
     )?;
     let file = load(args)?;
     let texture = &file.texture;
-    for note in [orientation_note(texture), precision_note(&file)]
-        .into_iter()
-        .flatten()
+    for note in [
+        orientation_note(texture),
+        precision_note(&file),
+        super::unoriented_normals_note(texture.canonical_points()),
+    ]
+    .into_iter()
+    .flatten()
     {
         status(globals, note);
     }

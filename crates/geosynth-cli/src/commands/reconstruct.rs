@@ -56,6 +56,9 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
     let points = loaded.geometry.points().clone();
+    if let Some(note) = super::unoriented_normals_note(&points) {
+        status(globals, note);
+    }
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
     let mesh = Reconstruct { params }.run(points, &mut ctx)?;
