@@ -106,8 +106,11 @@
 //!
 //! ## Errors
 //!
-//! [`QuiltError`]: invalid parameters, exemplars without normals, boxes without volume,
-//! padding too narrow for the extra region, and errors of the building blocks.
+//! [`QuiltError`]: invalid parameters, exemplars without normals, boxes without volume
+//! (the message says whether across the plane or along the up axis), boxes so much taller
+//! than wide that `D(T_in)` would exceed [`MAX_FIELD_NODES`], padding too narrow for the
+//! extra region, and errors of the building blocks. An exemplar without relief quilts,
+//! but its window errors mean nothing ([`QualityReport::featureless_exemplar`]).
 
 #![deny(missing_docs)]
 
