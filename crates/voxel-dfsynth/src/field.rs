@@ -62,11 +62,14 @@ impl QuantizedField {
 
     /// Like [`QuantizedField::block_positions`], as a range error when `n` does not fit.
     pub fn fitting_positions(&self, n: usize) -> Result<[usize; 3]> {
-        self.block_positions(n).ok_or(VoxelError::InvalidParameter {
-            name: "block size",
-            value: n.to_string(),
-            expected: "a block that fits in the field",
-        })
+        let [x, y, z] = self.dims;
+        self.block_positions(n)
+            .ok_or_else(|| VoxelError::InvalidParameter {
+                name: "block size",
+                value: format!("{n} (the field is {x} × {y} × {z} samples)"),
+                expected: "a block that fits in the field along every axis (a thin solid needs \
+                           a higher resolution or a smaller block)",
+            })
     }
 
     /// Block corners `0..=dims − n` along each axis (all blocks that fit), as counts.
