@@ -183,7 +183,10 @@ fn invalid_input_is_an_error() {
     assert!(SearchTree::build(&field, 3).is_err());
     assert!(SearchTree::build(&field, 16).is_err());
     let too_big = BruteForce::new(&field, 16).unwrap_err().to_string();
-    assert!(too_big.contains("the field is 8 × 8 × 8 samples"), "{too_big}");
+    assert!(
+        too_big.contains("the field is 8 × 8 × 8 samples"),
+        "{too_big}"
+    );
     assert!(FftMatcher::new(&field, 16).is_err());
     let tree = SearchTree::build(&field, 4).unwrap();
     assert!(tree.best_match(&[0u8; 10]).is_err());
