@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 use pointset_core::io::{self, Geometry, ReadOptions};
 use pointset_core::{Aabb, KdIndex, NormalWeighting, PointSet};
 
@@ -83,7 +83,7 @@ pub fn parse_texture_comments_at(
 /// The samples of a texture file: its points as stored, or for a mesh without vertex
 /// normals, its vertices with normals averaged from the faces (angle-weighted), leaving out
 /// vertices no face orients (unreferenced, or on degenerate faces only).
-fn oriented_samples(geometry: &Geometry) -> Result<PointSet> {
+pub(super) fn oriented_samples(geometry: &Geometry) -> Result<PointSet> {
     match geometry {
         Geometry::Mesh(mesh) if mesh.vertices().normals().is_none() => {
             let normals = mesh.vertex_normals(NormalWeighting::Angle);
@@ -95,6 +95,24 @@ fn oriented_samples(geometry: &Geometry) -> Result<PointSet> {
         }
         other => Ok(other.points().clone()),
     }
+}
+
+/// The box of a file without texture comments: the points' bounding box inset by a sixth
+/// across the plane perpendicular to `up`, one sample spacing thick where they are flat.
+/// Errors (as messages) on no points.
+pub(super) fn default_box(points: &PointSet, up: UpAxis) -> std::result::Result<Aabb, String> {
+    let b = points.bounding_box().ok_or("no points")?;
+    let across = match up {
+        UpAxis::X => Vec3::new(0.0, 1.0, 1.0),
+        UpAxis::Y => Vec3::new(1.0, 0.0, 1.0),
+        UpAxis::Z => Vec3::new(1.0, 1.0, 0.0),
+    };
+    let inset = b.extent() / 6.0 * across;
+    let thickness = flat_thickness(points, b, across).map_err(|e| e.to_string())?;
+    Ok(Aabb::new(
+        b.min + inset - thickness,
+        b.max - inset + thickness,
+    ))
 }
 
 /// How far the default box reaches beyond the points along the up axis (`across` is 0
@@ -150,8 +168,13 @@ pub struct TextureFile {
     /// The texture, relative to `origin`.
     pub texture: GeometryTexture,
     /// Where the file's coordinates start from: zero unless the data lies further from the
-    /// file's origin than its own extent ([`pointset_core::io::ReadOptions::recentre_far`]).
+    /// file's origin than its own extent ([`pointset_core::io::ReadOptions::recentre_far`]),
+    /// or the points' centroid for a fitted reference plane.
     pub origin: DVec3,
+    /// The texture's axes in the file's frame (columns): file coordinates = `origin +
+    /// frame · texture coordinates`. The identity, except for a reference plane fitted to
+    /// the points ([`read_texture_file_fitted`]), whose normal is the third column.
+    pub frame: DMat3,
     /// When the file itself stored coordinates that far out in single precision, they sit
     /// on a grid: the coarsest step of that grid over the axes whose coordinates all lie on
     /// it (none when the file keeps finer coordinates than a single-precision grid would).
@@ -193,7 +216,7 @@ pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile>
 /// The step of the single-precision grid the file's coordinates sit on, if they all do on
 /// some axis where that grid is coarser than `f32` near the origin (see
 /// [`TextureFile::single_precision_step`]).
-fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<f64> {
+pub(super) fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<f64> {
     let positions = points.positions();
     (0..3)
         .filter_map(|axis| {
@@ -229,20 +252,7 @@ fn read_texture_from(
         Some(described) => described,
         None => {
             let up = up.unwrap_or_default();
-            let b = points
-                .bounding_box()
-                .ok_or_else(|| file_error("no points".into()))?;
-            let across = match up {
-                UpAxis::X => Vec3::new(0.0, 1.0, 1.0),
-                UpAxis::Y => Vec3::new(1.0, 0.0, 1.0),
-                UpAxis::Z => Vec3::new(1.0, 1.0, 0.0),
-            };
-            let inset = b.extent() / 6.0 * across;
-            let thickness = flat_thickness(&points, b, across)?;
-            (
-                Aabb::new(b.min + inset - thickness, b.max - inset + thickness),
-                up,
-            )
+            (default_box(&points, up).map_err(file_error)?, up)
         }
     };
     match up {
@@ -252,6 +262,7 @@ fn read_texture_from(
         _ => Ok(TextureFile {
             texture: GeometryTexture::new(&points, bounds, file_up)?,
             origin,
+            frame: DMat3::IDENTITY,
             single_precision_step: single_precision_step(&points, origin),
         }),
     }

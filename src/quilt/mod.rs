@@ -35,11 +35,13 @@ use crate::fixtures::textures::TextureExemplar;
 use crate::{Error, Result};
 
 mod files;
+mod fitted;
 
 pub use files::{
     TextureFile, parse_texture_comments, parse_texture_comments_at, read_texture,
     read_texture_file, read_texture_with_up, texture_comments, texture_comments_at,
 };
+pub use fitted::{MAX_PLANE_SPREAD, read_texture_file_fitted};
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a
 /// fraction of the samples' longer extent.

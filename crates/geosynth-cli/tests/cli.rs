@@ -802,6 +802,24 @@ fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     ]);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("texture comments give up axis Z"));
+    // A sheet tilted by 35° about (1, 1, 0): `--up auto` quilts it in its fitted plane and
+    // writes the output tilted the same way.
+    let turn = glam::Quat::from_axis_angle(glam::Vec3::new(1.0, 1.0, 0.0).normalize(), 0.61);
+    let tilted = write_mapped("tilted.ply", &|v| turn * v, true);
+    assert!(run(&tilted, "auto").status.success());
+    let quilted = read_geometry(&out).unwrap();
+    assert!(
+        quilted
+            .comments
+            .iter()
+            .any(|c| c.starts_with("fitted reference plane"))
+    );
+    let facing: glam::Vec3 = quilted.geometry.points().normals().unwrap().iter().sum();
+    let angle = facing.angle_between(turn * glam::Vec3::Z).to_degrees();
+    assert!(
+        angle < 3.0,
+        "the output faces {angle}° away from the sheet's normal"
+    );
     // Georeferenced coordinates written in single precision: at 4e6 they step by 0.25,
     // coarser than the samples, and no reader can undo that; the run says so (and the
     // Y-up run above did not).

@@ -10,10 +10,10 @@ use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
     BlendCounts, DEFAULT_RELIEF, GeometryTexture, Method, OutputSize, QualityMeasure,
     QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis, WarpTargets, quilt,
-    read_heightfield_texture_with_relief, read_texture_file,
+    read_heightfield_texture_with_relief, read_texture_file, read_texture_file_fitted,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use serde_json::{Value, json};
 
@@ -50,14 +50,19 @@ pub enum TextureUpArg {
     Y,
     /// +Z is up: the reference plane is XY (height fields, terrain).
     Z,
+    /// The plane fitted to the points (a tilted scan): quilted in that plane's frame, the
+    /// output turned back into the file's.
+    Auto,
 }
 
-impl From<TextureUpArg> for UpAxis {
-    fn from(up: TextureUpArg) -> Self {
-        match up {
-            TextureUpArg::X => UpAxis::X,
-            TextureUpArg::Y => UpAxis::Y,
-            TextureUpArg::Z => UpAxis::Z,
+impl TextureUpArg {
+    /// The axis, or `None` for a fitted plane.
+    fn axis(self) -> Option<UpAxis> {
+        match self {
+            TextureUpArg::X => Some(UpAxis::X),
+            TextureUpArg::Y => Some(UpAxis::Y),
+            TextureUpArg::Z => Some(UpAxis::Z),
+            TextureUpArg::Auto => None,
         }
     }
 }
@@ -114,8 +119,9 @@ pub struct QuiltArgs {
     /// spacing's unit, so this is the one shape parameter it does not carry.
     #[arg(long, conflicts_with = "exemplar")]
     relief: Option<f32>,
-    /// The exemplar file's up axis when it has no `texture_up` comment (default z); a file
-    /// whose comments name another axis is refused.
+    /// The exemplar file's up axis when it has no `texture_up` comment (default z), or
+    /// `auto` to fit the reference plane to the points; a file whose comments name another
+    /// axis (or any, with `auto`) is refused.
     #[arg(long, value_enum, conflicts_with = "heightfield")]
     up: Option<TextureUpArg>,
     /// Output point set (.ply, .obj, .off).
@@ -249,6 +255,7 @@ fn load(args: &QuiltArgs) -> CliResult<TextureFile> {
         return Ok(TextureFile {
             texture: read_heightfield_texture_with_relief(path, relief)?,
             origin: DVec3::ZERO,
+            frame: DMat3::IDENTITY,
             single_precision_step: None,
         });
     }
@@ -256,7 +263,10 @@ fn load(args: &QuiltArgs) -> CliResult<TextureFile> {
         .exemplar
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
-    Ok(read_texture_file(path, args.up.map(UpAxis::from))?)
+    match args.up {
+        Some(TextureUpArg::Auto) => Ok(read_texture_file_fitted(path)?),
+        up => Ok(read_texture_file(path, up.and_then(TextureUpArg::axis))?),
+    }
 }
 
 /// One measured run: the output, its timings and its quality.
@@ -517,18 +527,14 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         "quilted by geosynth (seed {}, {:?})",
         args.seed, params.method
     )];
-    comments.extend(geosynth::quilt::texture_comments_at(
-        &main.output.bounds,
-        texture.up(),
-        file.origin,
-    ));
+    comments.extend(file.comments(&main.output.bounds));
     let mut options = WriteOptions::default().origin(file.origin);
     for c in comments {
         options = options.comment(c);
     }
     io::write_geometry(
         &args.output,
-        &Geometry::Points(main.output.points.clone()),
+        &Geometry::Points(file.to_file_frame(&main.output.points)?),
         &options,
     )?;
     if let Some(path) = &args.preview {
