@@ -173,7 +173,7 @@ pub struct TextureFile {
     pub origin: DVec3,
     /// The texture's axes in the file's frame (columns): file coordinates = `origin +
     /// frame · texture coordinates`. The identity, except for a reference plane fitted to
-    /// the points ([`read_texture_file_fitted`]), whose normal is the third column.
+    /// the points ([`super::read_texture_file_fitted`]), whose normal is the third column.
     pub frame: DMat3,
     /// When the file itself stored coordinates that far out in single precision, they sit
     /// on a grid: the coarsest step of that grid over the axes whose coordinates all lie on
