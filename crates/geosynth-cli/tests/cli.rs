@@ -806,6 +806,13 @@ fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     // writes the output tilted the same way.
     let turn = glam::Quat::from_axis_angle(glam::Vec3::new(1.0, 1.0, 0.0).normalize(), 0.61);
     let tilted = write_mapped("tilted.ply", &|v| turn * v, true);
+    let read_as_z_up = run(&tilted, "z");
+    let said = String::from_utf8_lossy(&read_as_z_up.stdout);
+    assert!(
+        said.contains("° from its reference plane; --up auto"),
+        "{said}"
+    );
+    assert!(!String::from_utf8_lossy(&read_as_y_up.stdout).contains("tilted"));
     assert!(run(&tilted, "auto").status.success());
     let quilted = read_geometry(&out).unwrap();
     assert!(

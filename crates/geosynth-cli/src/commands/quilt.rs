@@ -6,11 +6,12 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::mls::Covariance;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
-    BlendCounts, DEFAULT_RELIEF, GeometryTexture, Method, OutputSize, QualityMeasure,
-    QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis, WarpTargets, quilt,
-    read_heightfield_texture_with_relief, read_texture_file, read_texture_file_fitted,
+    BlendCounts, DEFAULT_RELIEF, GeometryTexture, MAX_PLANE_SPREAD, Method, OutputSize,
+    QualityMeasure, QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis, WarpTargets,
+    quilt, read_heightfield_texture_with_relief, read_texture_file, read_texture_file_fitted,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 use glam::{DMat3, DVec3};
@@ -221,8 +222,33 @@ fn orientation_note(texture: &GeometryTexture) -> Option<String> {
     (extent.z > extent.x.min(extent.y)).then(|| {
         format!(
             "note: the exemplar is taller along its up axis ({:?}) than it is wide; if its \
-             file was written with another up axis, pass --up x|y|z",
+             file was written with another up axis, pass --up x|y|z (or --up auto)",
             texture.up()
+        )
+    })
+}
+
+/// Tilts of the points' best plane against the reference plane above this (degrees) get a
+/// note suggesting `--up auto`.
+const TILT_NOTE_DEGREES: f64 = 15.0;
+
+/// A hint when the exemplar's points lie in a plane tilted against its reference plane (a
+/// scan of a sloping wall read with an axis): the angle between the plane fitted to them
+/// and the up axis, when they have a dominant plane and it exceeds
+/// [`TILT_NOTE_DEGREES`]. `None` for a fitted frame, which is the plane itself.
+fn tilt_note(file: &TextureFile) -> Option<String> {
+    if file.frame != DMat3::IDENTITY {
+        return None;
+    }
+    let points = file.texture.canonical_points().positions();
+    let fit = Covariance::of(points, 0..points.len())?;
+    let [across, narrow, _] = fit.eigenvalues;
+    let normal = fit.eigenvectors[0].as_dvec3();
+    let tilt = normal.dot(DVec3::Z).abs().min(1.0).acos().to_degrees();
+    (across <= MAX_PLANE_SPREAD * narrow && tilt > TILT_NOTE_DEGREES).then(|| {
+        format!(
+            "note: the exemplar's points lie in a plane tilted {tilt:.0}° from its reference \
+             plane; --up auto quilts it in that plane"
         )
     })
 }
@@ -480,6 +506,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
     let texture = &file.texture;
     for note in [
         orientation_note(texture),
+        tilt_note(&file),
         precision_note(&file),
         super::unoriented_normals_note(texture.canonical_points()),
     ]
