@@ -419,6 +419,21 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         ]);
         assert_eq!(said.contains("look unoriented"), warned, "{said}");
     }
+    // `--orient-normals` repairs them: no note, and the surface is the torus again.
+    let said = ok(&[
+        "reconstruct",
+        mixed.to_str().unwrap(),
+        "-o",
+        probe.to_str().unwrap(),
+        "--resolution",
+        "40",
+        "--orient-normals",
+    ]);
+    assert!(!said.contains("look unoriented"), "{said}");
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--json", probe.to_str().unwrap()])).unwrap();
+    assert_eq!(json["topology"]["closed_manifold"], true);
+    assert_eq!(json["topology"]["euler_characteristic"], 0, "a torus");
 
     let field = dir.path().join("torus.nrrd");
     ok(&[

@@ -83,7 +83,10 @@ mod surface;
 
 pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
-pub use orientation::{LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disagreement};
+pub use orientation::{
+    LIKELY_UNORIENTED, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS, orient_normals,
+    orientation_disagreement,
+};
 pub use params::MlsParams;
 pub use pca::{Covariance, surface_variation};
 pub use ray::{RayHit, Snap, SnapMethod};

@@ -4,8 +4,12 @@
 //! whose signs flip from point to point — as normals estimated by local PCA come, before
 //! anything orients them — cancel out and leave no surface, or a wrong one, with no error
 //! to say why. [`orientation_disagreement`] measures that, so tools can warn before a
-//! long run.
+//! long run, and [`orient_normals`] repairs it by propagation.
 
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::Vec3;
 use pointset_core::{KdIndex, PointSet};
 
 use crate::error::{MlsError, Result};
@@ -65,4 +69,180 @@ pub fn orientation_disagreement(points: &PointSet) -> Result<f32> {
         }
     }
     Ok(opposed as f32 / examined as f32)
+}
+
+/// Neighbours each point is joined to in [`orient_normals`]' graph.
+pub const ORIENTATION_GRAPH_NEIGHBOURS: usize = 8;
+
+/// The largest share of a graph edge's length that may run along either end's normal in
+/// [`orient_normals`]: neighbours on one sheet lie nearly in each other's tangent plane,
+/// while two sheets facing each other across a thin gap lie along the normal.
+const MAX_EDGE_ACROSS: f32 = 0.5;
+
+/// The smallest `|n_i · n_j|` of an edge of [`orient_normals`]' graph: normals nearly at
+/// right angles (a stem standing on a base) say nothing about which way either faces.
+const MIN_EDGE_COSINE: f32 = 0.25;
+
+/// The smallest `|cos|` between a root's normal and `up` in [`orient_normals`], where a
+/// part of the graph has such a point.
+const ROOT_MIN_COSINE: f32 = 0.5;
+
+/// An edge of [`orient_normals`]' graph: the other end and the cost of crossing.
+type Edge = (usize, u32);
+
+/// The cost of carrying the orientation from `i` to `j`: `1 − |n_i · n_j|` (Hoppe et al.)
+/// plus the share of the edge that runs along the normals, so that links within one sheet
+/// are taken before links that jump between sheets; `None` for edges that run mostly along
+/// the normals. Scaled to integers for the heap.
+fn edge_cost(positions: &[Vec3], normals: &[Vec3], i: usize, j: usize) -> Option<u32> {
+    let offset = positions[j] - positions[i];
+    let length = offset.length();
+    if i == j || length <= 0.0 {
+        return None;
+    }
+    let across = offset
+        .dot(normals[i])
+        .abs()
+        .max(offset.dot(normals[j]).abs())
+        / length;
+    let agreement = normals[i].dot(normals[j]).abs();
+    let bend = (1.0 - agreement).max(0.0);
+    (across <= MAX_EDGE_ACROSS && agreement >= MIN_EDGE_COSINE)
+        .then_some(((bend + across) * 1e6) as u32)
+}
+
+/// The normals' signs made consistent by propagation, after Hoppe et al. 1992 (*Surface
+/// reconstruction from unorganized points*, §3.3): over the graph joining each point to
+/// its [`ORIENTATION_GRAPH_NEIGHBOURS`] nearest neighbours, a minimum spanning tree carries
+/// the orientation from a root, flipping each normal that faces away from its parent's.
+/// The cost of an edge is Hoppe's `1 − |n_i · n_j|` plus the share of the edge that runs
+/// along the normals. Edges that run mostly along the normals (two sheets facing each
+/// other across a thin gap) are left out — with Hoppe's cost alone such facing pairs,
+/// whose normals are antiparallel, are the cheapest edges of all — and so are edges whose
+/// normals are within 15° of a right angle (a stem on a base), which cannot tell which
+/// way either faces. Both are choices made here. Each
+/// connected part of the graph starts from its point furthest along `up` among those
+/// whose normal is within 60° of `up` or of its opposite (else from its highest point),
+/// and that normal is turned to face `up` (the outside of a closed surface there; the top
+/// of a texture); a part with no such point is turned to face away from its own centroid
+/// at its root.
+/// Only signs change; positions, attributes and the normals' directions are kept.
+/// Deterministic.
+///
+/// Measured against the true normals, starting from them and from every third flipped
+/// (the same result but for the few points no usable edge reaches, which keep their sign:
+/// 17 of the flowers' 15,796): the bumpy fixture, torus, sphere, cylinder and the bunny
+/// scan all restored; chameleon 97%; flowers 92% (97% at density 700). **Interlinked thin tubes
+/// are not restored**: on the chain mail and the weave about half the points come out
+/// reversed, in large consistent pieces (likely whole rings: linked rings touch, and the
+/// propagation crosses between them; not isolated). [`orientation_disagreement`] cannot
+/// see that, since each piece is consistent in itself.
+///
+/// Errors: no normals, a non-finite position.
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::{orient_normals, orientation_disagreement};
+/// use pointset_core::PointSet;
+///
+/// // A sphere whose normals point in or out at random (as PCA estimates come).
+/// let p: Vec<Vec3> = (0..800)
+///     .map(|i| {
+///         let (t, f) = (i as f32 * 2.399963, 1.0 - 2.0 * (i as f32 + 0.5) / 800.0);
+///         Vec3::new((1.0 - f * f).sqrt() * t.cos(), (1.0 - f * f).sqrt() * t.sin(), f)
+///     })
+///     .collect();
+/// let n = p.iter().enumerate().map(|(i, &v)| if i % 3 == 0 { -v } else { v }).collect();
+/// let mixed = PointSet::new(p)?.with_normals(n)?;
+/// let fixed = orient_normals(&mixed, Vec3::Z)?;
+/// assert_eq!(orientation_disagreement(&fixed)?, 0.0);
+/// // Outward everywhere: the root, the top of the sphere, faces +Z.
+/// let outward = fixed.positions().iter().zip(fixed.normals().unwrap());
+/// assert!(outward.into_iter().all(|(p, n)| p.dot(*n) > 0.0));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn orient_normals(points: &PointSet, up: Vec3) -> Result<PointSet> {
+    let normals = points.normals().ok_or(MlsError::MissingNormals)?;
+    let positions = points.positions();
+    let index = KdIndex::new(positions)?;
+    let mut edges: Vec<Vec<Edge>> = vec![Vec::new(); positions.len()];
+    for (i, &p) in positions.iter().enumerate() {
+        for n in index.nearest(p, ORIENTATION_GRAPH_NEIGHBOURS + 1)? {
+            if let Some(cost) = edge_cost(positions, normals, i, n.index) {
+                edges[i].push((n.index, cost));
+                edges[n.index].push((i, cost));
+            }
+        }
+    }
+    for list in &mut edges {
+        list.sort_unstable();
+        list.dedup();
+    }
+    // Roots in order of height along `up` (index breaks ties).
+    let mut by_height: Vec<usize> = (0..positions.len()).collect();
+    by_height.sort_by(|&a, &b| {
+        positions[b]
+            .dot(up)
+            .total_cmp(&positions[a].dot(up))
+            .then(a.cmp(&b))
+    });
+    let mut oriented: Vec<Vec3> = normals.to_vec();
+    let mut done = vec![false; positions.len()];
+    // A root must face clearly up or down (|n · up| ≥ ROOT_MIN_COSINE) for "face up" to
+    // decide its sign: the tip of a petal is often highest and faces sideways. Parts
+    // without such a point are rooted at their highest point afterwards.
+    let steep = by_height
+        .iter()
+        .filter(|&&i| normals[i].dot(up).abs() >= ROOT_MIN_COSINE * up.length());
+    for &root in steep.chain(&by_height) {
+        if done[root] {
+            continue;
+        }
+        let part = propagate(root, &edges, &mut oriented, &mut done);
+        // Which way the part faces: its root's normal toward `up`, or, for a part with no
+        // point facing up or down (a stem), outward from the part's centroid at the root.
+        let facing = if normals[root].dot(up).abs() >= ROOT_MIN_COSINE * up.length() {
+            oriented[root].dot(up)
+        } else {
+            let centroid = part.iter().map(|&i| positions[i]).sum::<Vec3>() / part.len() as f32;
+            oriented[root].dot(positions[root] - centroid)
+        };
+        if facing < 0.0 {
+            for &i in &part {
+                oriented[i] = -oriented[i];
+            }
+        }
+    }
+    let mut out = points.clone();
+    out.set_normals(Some(oriented))?;
+    Ok(out)
+}
+
+/// Prim's algorithm over (cost, node, parent) from `root` through the parts of the graph
+/// not yet `done`: each normal reached is turned to agree with its parent's. Returns the
+/// part's points in the order reached.
+fn propagate(
+    root: usize,
+    edges: &[Vec<Edge>],
+    oriented: &mut [Vec3],
+    done: &mut [bool],
+) -> Vec<usize> {
+    let mut part = Vec::new();
+    let mut frontier = BinaryHeap::from([Reverse((0u32, root, root))]);
+    while let Some(Reverse((_, node, parent))) = frontier.pop() {
+        if done[node] {
+            continue;
+        }
+        done[node] = true;
+        part.push(node);
+        if oriented[node].dot(oriented[parent]) < 0.0 {
+            oriented[node] = -oriented[node];
+        }
+        for &(next, cost) in &edges[node] {
+            if !done[next] {
+                frontier.push(Reverse((cost, next, node)));
+            }
+        }
+    }
+    part
 }

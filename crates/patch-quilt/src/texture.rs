@@ -160,6 +160,30 @@ impl GeometryTexture {
         Self::new(&points, bounds, UpAxis::Z)
     }
 
+    /// The texture with its normals' signs made consistent by propagation from the side
+    /// facing up ([`mls_surface::orient_normals`]), for exemplars whose normals came
+    /// unoriented (local PCA estimates). Box, up axis and positions are kept.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use patch_quilt::{GeometryTexture, UpAxis};
+    /// use pointset_core::{Aabb, PointSet};
+    ///
+    /// let grid: Vec<Vec3> = (0..900).map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0) * 0.1).collect();
+    /// let signs = (0..900).map(|i| if i % 3 == 0 { Vec3::NEG_Z } else { Vec3::Z }).collect();
+    /// let points = PointSet::new(grid)?.with_normals(signs)?;
+    /// let bounds = Aabb::new(Vec3::new(0.5, 0.5, -0.1), Vec3::new(2.4, 2.4, 0.1));
+    /// let texture = GeometryTexture::new(&points, bounds, UpAxis::Z)?.with_oriented_normals()?;
+    /// assert!(texture.canonical_points().normals().unwrap().iter().all(|n| *n == Vec3::Z));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_oriented_normals(&self) -> Result<Self> {
+        Ok(Self {
+            points: mls_surface::orient_normals(&self.points, Vec3::Z)?,
+            ..self.clone()
+        })
+    }
+
     /// The points in the canonical frame (up = +Z).
     pub fn canonical_points(&self) -> &PointSet {
         &self.points

@@ -22,7 +22,8 @@ pub fn unoriented_normals_note(points: &PointSet) -> Option<String> {
         format!(
             "note: the normals look unoriented: {:.0}% of the points face away from most of \
              their {ORIENTATION_NEIGHBOURS} nearest neighbours (consistently oriented data \
-             scores a few percent); the MLS surface needs consistently oriented normals",
+             scores a few percent); the MLS surface needs consistently oriented normals \
+             (--orient-normals orients them by propagation)",
             100.0 * share
         )
     })

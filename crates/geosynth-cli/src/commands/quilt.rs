@@ -197,6 +197,11 @@ pub struct QuiltArgs {
     /// 6 s with it, 3 s without). The report then says why its quality is missing.
     #[arg(long)]
     no_quality: bool,
+    /// Make the exemplar's normal signs consistent by propagation from the side facing up
+    /// before quilting (for normals estimated without orientation); unreliable on
+    /// interlinked thin tubes (docs/mls-surface.md).
+    #[arg(long)]
+    orient_normals: bool,
 }
 
 fn parse_size(s: &str) -> Result<(f32, f32), String> {
@@ -502,7 +507,10 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             .chain(&args.preview)
             .map(PathBuf::as_path),
     )?;
-    let file = load(args)?;
+    let mut file = load(args)?;
+    if args.orient_normals {
+        file.texture = file.texture.with_oriented_normals()?;
+    }
     let texture = &file.texture;
     for note in [
         orientation_note(texture),

@@ -4,9 +4,11 @@ use std::path::PathBuf;
 
 use clap::Args;
 use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
+use geosynth::mls::orient_normals;
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
 use geosynth::sdf::nrrd;
 use geosynth::{RunContext, Stage};
+use glam::Vec3;
 
 use crate::output::{check_output_paths, spinner, status};
 use crate::{CliResult, Globals};
@@ -47,6 +49,11 @@ pub struct ReconstructArgs {
     output: PathBuf,
     #[command(flatten)]
     grid: GridArgs,
+    /// Make the normal signs consistent by propagation from the side facing +Z before
+    /// reconstructing (for normals estimated without orientation); unreliable on
+    /// interlinked thin tubes (docs/mls-surface.md).
+    #[arg(long)]
+    orient_normals: bool,
 }
 
 /// Runs `geosynth reconstruct`.
@@ -55,7 +62,10 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     let params = args.grid.params()?;
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
-    let points = loaded.geometry.points().clone();
+    let mut points = loaded.geometry.points().clone();
+    if args.orient_normals {
+        points = orient_normals(&points, Vec3::Z)?;
+    }
     if let Some(note) = super::unoriented_normals_note(&points) {
         status(globals, note);
     }
