@@ -120,20 +120,18 @@ fn edge_cost(positions: &[Vec3], normals: &[Vec3], i: usize, j: usize) -> Option
 /// other across a thin gap) are left out — with Hoppe's cost alone such facing pairs,
 /// whose normals are antiparallel, are the cheapest edges of all — and so are edges whose
 /// normals are within 15° of a right angle (a stem on a base), which cannot tell which
-/// way either faces. Both are choices made here. Each
-/// connected part of the graph starts from its point furthest along `up` among those
-/// whose normal is within 60° of `up` or of its opposite (else from its highest point),
-/// and that normal is turned to face `up` (the outside of a closed surface there; the top
-/// of a texture); a part with no such point is turned to face away from its own centroid
-/// at its root.
-/// Only signs change; positions, attributes and the normals' directions are kept.
-/// Deterministic.
+/// way either faces. Both are choices made here. Each connected part of the graph starts
+/// from its point furthest along `up` among those whose normal is within 60° of `up` or
+/// of its opposite, and that normal is turned to face `up` (the outside of a closed
+/// surface there; the top of a texture); a part with no such point starts from its
+/// highest point and is turned to face away from its own centroid there. Only signs
+/// change; positions, attributes and the normals' directions are kept. Deterministic.
 ///
 /// Measured against the true normals, starting from them and from every third flipped
 /// (the same result but for the few points no usable edge reaches, which keep their sign:
 /// 17 of the flowers' 15,796): the bumpy fixture, torus, sphere, cylinder and the bunny
-/// scan all restored; chameleon 97%; flowers 92% (97% at density 700). **Interlinked thin tubes
-/// are not restored**: on the chain mail and the weave about half the points come out
+/// scan all restored; chameleon 97%; flowers 92% (97% at density 700).
+/// **Interlinked thin tubes are not restored**: on the chain mail and the weave about half the points come out
 /// reversed, in large consistent pieces (likely whole rings: linked rings touch, and the
 /// propagation crosses between them; not isolated). [`orientation_disagreement`] cannot
 /// see that, since each piece is consistent in itself.
