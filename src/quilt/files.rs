@@ -23,14 +23,7 @@ pub fn texture_comments_at(bounds: &Aabb, up: UpAxis, origin: DVec3) -> Vec<Stri
         UpAxis::Y => "y",
         UpAxis::Z => "z",
     };
-    let corner = |c: Vec3| {
-        if origin == DVec3::ZERO {
-            format!("{} {} {}", c.x, c.y, c.z)
-        } else {
-            let c = c.as_dvec3() + origin;
-            format!("{} {} {}", c.x, c.y, c.z)
-        }
-    };
+    let corner = |c: Vec3| io::position_text(c, origin);
     vec![
         format!("texture_box {} {}", corner(bounds.min), corner(bounds.max)),
         format!("texture_up {axis}"),

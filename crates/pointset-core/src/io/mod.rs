@@ -132,9 +132,18 @@ pub struct LoadedGeometry {
     pub origin: DVec3,
 }
 
-/// A position as text, `x y z`: the `f32` values as they are (shortest form) at a zero
-/// origin, else the sums with the origin in double precision.
-pub(crate) fn position_text(p: Vec3, origin: DVec3) -> String {
+/// A position as text, `x y z`, as the text formats write it: the `f32` values as they
+/// are (shortest form that reads back exactly) at a zero origin, else the sums with the
+/// origin in double precision.
+///
+/// ```
+/// use glam::{DVec3, Vec3};
+/// use pointset_core::io::position_text;
+/// assert_eq!(position_text(Vec3::new(0.1, 2.0, -3.5), DVec3::ZERO), "0.1 2 -3.5");
+/// let far = DVec3::new(500_000.0, 4_000_000.0, 0.0);
+/// assert_eq!(position_text(Vec3::new(0.25, -0.5, 1.0), far), "500000.25 3999999.5 1");
+/// ```
+pub fn position_text(p: Vec3, origin: DVec3) -> String {
     if origin == DVec3::ZERO {
         format!("{} {} {}", p.x, p.y, p.z)
     } else {
