@@ -407,6 +407,12 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         &geosynth::core::io::WriteOptions::default(),
     )
     .unwrap();
+    let share = |path: &Path| {
+        let json: serde_json::Value =
+            serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap();
+        json["normal_disagreement"].as_f64().unwrap()
+    };
+    assert!(share(&points) < 0.05 && share(&mixed) > 0.15);
     let probe = dir.path().join("probe.ply");
     for (input, warned) in [(&points, false), (&mixed, true)] {
         let said = ok(&[

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use geosynth::core::io::{self, Geometry, LoadedGeometry, ReadOptions};
 use geosynth::imagery;
+use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
 use serde::Serialize;
 
 use crate::output::{print_line, status};
@@ -33,6 +34,9 @@ pub struct FileInfo {
     degenerate_faces: usize,
     topology: Option<TopologyInfo>,
     normals: bool,
+    /// Share of points whose normal faces away from most of their nearest neighbours'
+    /// (`mls_surface::orientation_disagreement`); `None` without normals.
+    normal_disagreement: Option<f32>,
     colors: bool,
     uvs: bool,
     attributes: Vec<AttributeInfo>,
@@ -87,6 +91,7 @@ impl FileInfo {
                 }
             }),
             normals: points.normals().is_some(),
+            normal_disagreement: orientation_disagreement(points).ok(),
             colors: points.colors().is_some(),
             uvs: g.mesh().is_some_and(|m| m.uvs().is_some()),
             attributes: points
@@ -137,7 +142,14 @@ impl FileInfo {
         }
         s.push_str(&format!(
             "normals:     {}\ncolours:     {}\nuvs:         {}\nattributes:  {}\nbbox min:    {}\nbbox max:    {}",
-            yes(self.normals),
+            match self.normal_disagreement {
+                Some(share) if share > LIKELY_UNORIENTED => format!(
+                    "yes, {:.1}% facing away from most neighbours (unoriented?)",
+                    100.0 * share
+                ),
+                Some(share) => format!("yes, {:.1}% facing away from most neighbours", 100.0 * share),
+                None => yes(self.normals).to_string(),
+            },
             yes(self.colors),
             yes(self.uvs),
             if attrs.is_empty() { "none".to_string() } else { attrs.join(", ") },
