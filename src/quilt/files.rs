@@ -175,6 +175,19 @@ pub struct TextureFile {
     pub single_precision_step: Option<f64>,
 }
 
+/// A texture that lies where its coordinates say (a height field, a generated exemplar):
+/// origin zero, axis frame, nothing lost to single precision.
+impl From<GeometryTexture> for TextureFile {
+    fn from(texture: GeometryTexture) -> Self {
+        Self {
+            texture,
+            origin: DVec3::ZERO,
+            frame: DMat3::IDENTITY,
+            single_precision_step: None,
+        }
+    }
+}
+
 /// [`read_texture_with_up`] for files that may lie far from the origin: positions are read
 /// relative to an origin kept in double precision when the data lies further from the
 /// file's origin than its own extent, so that georeferenced exemplars (coordinates in the
@@ -212,6 +225,7 @@ pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile>
 pub(super) fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<f64> {
     let positions = points.positions();
     (0..3)
+        .filter(|&axis| origin[axis] != 0.0)
         .filter_map(|axis| {
             let reach = positions
                 .iter()
@@ -223,7 +237,7 @@ pub(super) fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<
                 let file_value = f64::from(p[axis]) + origin[axis];
                 (file_value / step).fract() == 0.0
             });
-            (origin[axis] != 0.0 && on_grid).then_some(step)
+            on_grid.then_some(step)
         })
         .reduce(f64::max)
 }

@@ -154,8 +154,9 @@ fn tightest_x(positions: &[glam::Vec3], centre: DVec3, normal: DVec3, start: DVe
         (hi.0 - lo.0) * (hi.1 - lo.1)
     };
     let best = (0..steps)
-        .min_by(|&a, &b| area(a).total_cmp(&area(b)))
-        .unwrap_or(0);
+        .map(|k| (area(k), k))
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        .map_or(0, |(_, k)| k);
     let (s, c) = (best as f64 * AXIS_STEP_DEGREES).to_radians().sin_cos();
     c * u + s * v
 }

@@ -155,7 +155,7 @@ fn edge_cost(positions: &[Vec3], normals: &[Vec3], i: usize, j: usize) -> Option
 /// let fixed = orient_normals(&mixed, Vec3::Z)?;
 /// assert_eq!(orientation_disagreement(&fixed)?, 0.0);
 /// // Outward everywhere: the root, the top of the sphere, faces +Z.
-/// let outward = fixed.positions().iter().zip(fixed.normals().unwrap());
+/// let outward = fixed.positions().iter().zip(fixed.normals().ok_or("no normals")?);
 /// assert!(outward.into_iter().all(|(p, n)| p.dot(*n) > 0.0));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

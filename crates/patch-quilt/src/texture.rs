@@ -174,7 +174,8 @@ impl GeometryTexture {
     /// let points = PointSet::new(grid)?.with_normals(signs)?;
     /// let bounds = Aabb::new(Vec3::new(0.5, 0.5, -0.1), Vec3::new(2.4, 2.4, 0.1));
     /// let texture = GeometryTexture::new(&points, bounds, UpAxis::Z)?.with_oriented_normals()?;
-    /// assert!(texture.canonical_points().normals().unwrap().iter().all(|n| *n == Vec3::Z));
+    /// let normals = texture.canonical_points().normals().ok_or("no normals")?;
+    /// assert!(normals.iter().all(|n| *n == Vec3::Z));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn with_oriented_normals(&self) -> Result<Self> {

@@ -283,12 +283,7 @@ fn precision_note(file: &TextureFile) -> Option<String> {
 fn load(args: &QuiltArgs) -> CliResult<TextureFile> {
     if let Some(path) = &args.heightfield {
         let relief = args.relief.unwrap_or(DEFAULT_RELIEF);
-        return Ok(TextureFile {
-            texture: read_heightfield_texture_with_relief(path, relief)?,
-            origin: DVec3::ZERO,
-            frame: DMat3::IDENTITY,
-            single_precision_step: None,
-        });
+        return Ok(read_heightfield_texture_with_relief(path, relief)?.into());
     }
     let path = args
         .exemplar
