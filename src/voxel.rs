@@ -25,7 +25,8 @@
 use std::path::Path;
 
 use distance_field::{GridSpec, MeshSurface, SdfGrid};
-use pointset_core::io;
+use glam::DVec3;
+use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, RunContext, Stage, TriMesh};
 pub use voxel_dfsynth::{
     BlockCopy, BlockMatcher, BoxMeans, BruteForce, CopiedMesh, FftMatcher, LevelReport, Match,
@@ -41,10 +42,19 @@ use crate::{Error, Result};
 /// A solid exemplar: a closed mesh and the box whose distance field is sampled.
 #[derive(Debug, Clone)]
 pub struct VoxelExemplar {
-    /// The mesh.
+    /// The mesh, its positions relative to [`Self::origin`].
     pub mesh: TriMesh,
-    /// The sampled box.
+    /// The sampled box, relative to [`Self::origin`].
     pub bounds: Aabb,
+    /// Where the mesh's coordinates are measured from, in the file's frame (zero but for
+    /// georeferenced files, see [`read_exemplar`]). The synthesized solid starts at the
+    /// box's corner, so its meshes are written back with this origin
+    /// (`pointset_core::io::WriteOptions::origin`).
+    pub origin: DVec3,
+    /// When the file stored such coordinates in single precision, the step of the grid
+    /// they sit on (as [`crate::quilt::TextureFile::single_precision_step`]): recentring
+    /// cannot restore what the file lost.
+    pub single_precision_step: Option<f64>,
 }
 
 impl From<&VolumeExemplar> for VoxelExemplar {
@@ -52,13 +62,20 @@ impl From<&VolumeExemplar> for VoxelExemplar {
         Self {
             mesh: v.mesh.clone(),
             bounds: v.bounds,
+            origin: DVec3::ZERO,
+            single_precision_step: None,
         }
     }
 }
 
 /// Reads an exemplar mesh (see the module docs).
+///
+/// A mesh far from its file's origin (georeferenced coordinates in the millions, where an
+/// `f32` steps by a quarter unit or more) is read relative to a double-precision origin
+/// (`pointset_core::io::ReadOptions::recentre_far`), so its distance field is sampled at
+/// full precision; [`VoxelExemplar::origin`] says where.
 pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
-    let loaded = io::read_geometry(path)?;
+    let loaded = io::read_geometry_with(path, &ReadOptions::default().recentre_far(true))?;
     let mesh = match loaded.geometry {
         io::Geometry::Mesh(m) => m,
         io::Geometry::Points(_) => {
@@ -68,12 +85,11 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
             });
         }
     };
-    let described = crate::quilt::parse_texture_comments(&loaded.comments).map_err(|message| {
-        Error::TextureFile {
+    let described = crate::quilt::parse_texture_comments_at(&loaded.comments, loaded.origin)
+        .map_err(|message| Error::TextureFile {
             path: path.to_path_buf(),
             message,
-        }
-    })?;
+        })?;
     let bounds = match described {
         Some((b, _)) => b,
         None => mesh.bounding_box().ok_or_else(|| Error::TextureFile {
@@ -81,7 +97,12 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
             message: "the mesh has no vertices".into(),
         })?,
     };
-    Ok(VoxelExemplar { mesh, bounds })
+    Ok(VoxelExemplar {
+        single_precision_step: crate::quilt::single_precision_step(mesh.vertices(), loaded.origin),
+        mesh,
+        bounds,
+        origin: loaded.origin,
+    })
 }
 
 /// The exemplar's signed distance field with `resolution` samples along the box's longest
@@ -163,5 +184,82 @@ impl Stage for VoxelSynth {
             isosurface,
             copied,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+    use crate::quilt::{UpAxis, texture_comments_at};
+    use io::{Geometry, WriteOptions};
+
+    /// The grid solid written with its box as georeferenced coordinates in double precision.
+    fn write_far(path: &Path, exemplar: &VoxelExemplar, far: DVec3) {
+        let mut options = WriteOptions::default().origin(far);
+        for c in texture_comments_at(&exemplar.bounds, UpAxis::Z, far) {
+            options = options.comment(c);
+        }
+        io::write_geometry(path, &Geometry::Mesh(exemplar.mesh.clone()), &options).unwrap();
+    }
+
+    #[test]
+    fn a_georeferenced_exemplar_is_sampled_at_full_precision() {
+        let near = VoxelExemplar::from(&crate::fixtures::volumes::grid(1).unwrap());
+        let far = DVec3::new(5e5, 4e6, 0.0);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("far_grid.ply");
+        write_far(&path, &near, far);
+
+        let read = read_exemplar(&path).unwrap();
+        // The same mesh and box, once the origin is added back.
+        let shift = (read.origin - far).as_vec3();
+        let worst = near
+            .mesh
+            .positions()
+            .iter()
+            .zip(read.mesh.positions())
+            .map(|(a, b)| (*b + shift - *a).abs().max_element())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-4, "positions off by {worst}");
+        assert!(
+            (read.bounds.min + shift - near.bounds.min)
+                .abs()
+                .max_element()
+                < 1e-4
+        );
+        assert!(
+            (read.bounds.max + shift - near.bounds.max)
+                .abs()
+                .max_element()
+                < 1e-4
+        );
+        // So the synthesis source is the near exemplar's field.
+        let (a, b) = (
+            source_field(&near, 16).unwrap(),
+            source_field(&read, 16).unwrap(),
+        );
+        let field_gap = a
+            .grid()
+            .data()
+            .iter()
+            .zip(b.grid().data())
+            .map(|(x, y)| (x.x - y.x).abs())
+            .fold(0.0f32, f32::max);
+        assert!(field_gap < 1e-4, "fields differ by {field_gap}");
+
+        // Read without recentring, the same file's coordinates fall on the f32 grid
+        // (0.25 apart at 4e6), which is what the exemplar must not be sampled from.
+        let plain = io::read_geometry(&path).unwrap();
+        let plain = plain.geometry.mesh().unwrap();
+        let plain_worst = near
+            .mesh
+            .positions()
+            .iter()
+            .zip(plain.positions())
+            .map(|(a, b)| (*b - far.as_vec3() - *a).abs().max_element())
+            .fold(0.0f32, f32::max);
+        assert!(plain_worst > 1e-2, "plain read off by only {plain_worst}");
     }
 }

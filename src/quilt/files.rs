@@ -222,7 +222,7 @@ pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile>
 /// The step of the single-precision grid the file's coordinates sit on, if they all do on
 /// some axis where that grid is coarser than `f32` near the origin (see
 /// [`TextureFile::single_precision_step`]).
-pub(super) fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<f64> {
+pub(crate) fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<f64> {
     let positions = points.positions();
     (0..3)
         .filter(|&axis| origin[axis] != 0.0)

@@ -37,6 +37,7 @@ use crate::{Error, Result};
 mod files;
 mod fitted;
 
+pub(crate) use files::single_precision_step;
 pub use files::{
     TextureFile, parse_texture_comments, parse_texture_comments_at, read_texture,
     read_texture_file, read_texture_with_up, texture_comments, texture_comments_at,

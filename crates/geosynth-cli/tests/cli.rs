@@ -359,6 +359,69 @@ fn voxel_synthesizes_a_fixture_and_rejects_bad_input() {
 }
 
 #[test]
+fn voxel_keeps_georeferenced_exemplars_in_place() {
+    use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
+    let dir = tempfile::tempdir().unwrap();
+    let grid = geosynth::fixtures::volumes::grid(1).unwrap();
+    let origin = glam::DVec3::new(5e5, 4e6, 0.0);
+    let run = |file: &Path, out: &Path| {
+        let run = geosynth(&[
+            "voxel",
+            file.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--source-res",
+            "16",
+            "--target-res",
+            "24",
+            "--levels",
+            "2",
+            "--block",
+            "8",
+        ]);
+        assert!(run.status.success(), "{run:?}");
+        String::from_utf8_lossy(&run.stdout).into_owned()
+    };
+    // In double precision: synthesized at full precision and written back in place.
+    let precise = dir.path().join("precise.ply");
+    let out = dir.path().join("out.ply");
+    let mesh = Geometry::Mesh(grid.mesh.clone());
+    write_geometry(&precise, &mesh, &WriteOptions::default().origin(origin)).unwrap();
+    let said = run(&precise, &out);
+    assert!(!said.contains("single precision"), "{said}");
+    let header = std::fs::read(&out).unwrap();
+    assert!(String::from_utf8_lossy(&header[..400]).contains("property double x"));
+    let b = read_geometry(&out)
+        .unwrap()
+        .geometry
+        .bounding_box()
+        .unwrap();
+    assert!(b.min.x > 499_990.0 && b.min.y > 3_999_990.0, "{b:?}");
+    assert!(b.max.x < 500_010.0 && b.max.y < 4_000_010.0, "{b:?}");
+    // In single precision the file has lost its detail (0.25 apart at 4e6); the run says so.
+    let shifted: Vec<glam::Vec3> = grid
+        .mesh
+        .positions()
+        .iter()
+        .map(|p| *p + origin.as_vec3())
+        .collect();
+    let coarse = dir.path().join("coarse.ply");
+    let coarse_mesh = geosynth::core::TriMesh::new(
+        geosynth::core::PointSet::new(shifted).unwrap(),
+        grid.mesh.triangles().to_vec(),
+    )
+    .unwrap();
+    write_geometry(
+        &coarse,
+        &Geometry::Mesh(coarse_mesh),
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    let said = run(&coarse, &out);
+    assert!(said.contains("single precision, 0.25 apart"), "{said}");
+}
+
+#[test]
 fn fixtures_command_reproduces_the_committed_files() {
     let dir = tempfile::tempdir().unwrap();
     ok(&["fixtures", "--quiet", "--out", dir.path().to_str().unwrap()]);

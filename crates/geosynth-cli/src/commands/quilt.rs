@@ -266,17 +266,7 @@ fn precision_note(file: &TextureFile) -> Option<String> {
     let step = file.single_precision_step?;
     let points = file.texture.canonical_points().positions();
     let spacing = f64::from(KdIndex::new(points).ok()?.median_spacing().ok()?);
-    (spacing > 0.0 && step > 0.01 * spacing).then(|| {
-        format!(
-            "note: the exemplar file stores its coordinates (around {:.0}, {:.0}, {:.0}) in \
-             single precision, {step} apart there, {:.2} times its sample spacing; write it \
-             in double precision (or nearer the origin) for full precision",
-            file.origin.x,
-            file.origin.y,
-            file.origin.z,
-            step / spacing
-        )
-    })
+    super::single_precision_note(file.origin, step, spacing, "its sample spacing")
 }
 
 /// Loads the texture named by the arguments (a height field is at the origin).

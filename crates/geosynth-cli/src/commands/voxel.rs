@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use geosynth::Stage;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
-use geosynth::sdf::nrrd;
+use geosynth::sdf::{GridSpec, nrrd};
 use geosynth::voxel::{
     MatcherKind, QualityParams, VoxelExemplar, VoxelOutput, VoxelParams, VoxelQuality, VoxelSynth,
     evaluate, quantize_source, read_exemplar, source_quantizer, synthesize,
@@ -229,6 +229,21 @@ pub fn voxel_preview(exemplar: &VoxelExemplar, run: &VoxelRun, path: &Path, w: u
     Ok(())
 }
 
+/// A note when the exemplar file stored far coordinates in single precision on a grid
+/// coarser than a hundredth of the source field's spacing.
+fn precision_note(exemplar: &VoxelExemplar, source_res: usize) -> Option<String> {
+    let step = exemplar.single_precision_step?;
+    let spacing = GridSpec::covering(exemplar.bounds, source_res, 0.0)
+        .ok()?
+        .spacing;
+    super::single_precision_note(
+        exemplar.origin,
+        step,
+        f64::from(spacing),
+        "the source distance field's spacing",
+    )
+}
+
 /// Runs `geosynth voxel`.
 pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     check_output_paths(
@@ -239,6 +254,9 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
             .map(PathBuf::as_path),
     )?;
     let exemplar = read_exemplar(&args.exemplar)?;
+    if let Some(note) = precision_note(&exemplar, args.source_res) {
+        status(globals, note);
+    }
     let stage = VoxelSynth {
         source_resolution: args.source_res,
         params: VoxelParams {
@@ -253,11 +271,13 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     };
     stage.params.validate()?;
     let run = measured_run(exemplar.clone(), &stage, args.baseline, globals)?;
-    let options = WriteOptions::default().comment(format!(
-        "synthesized by geosynth voxel (seed {}, matcher {})",
-        args.seed,
-        stage.params.matcher.name()
-    ));
+    let options = WriteOptions::default()
+        .comment(format!(
+            "synthesized by geosynth voxel (seed {}, matcher {})",
+            args.seed,
+            stage.params.matcher.name()
+        ))
+        .origin(exemplar.origin);
     io::write_geometry(
         &args.output,
         &Geometry::Mesh(run.output.copied.mesh.clone()),
@@ -272,7 +292,7 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     }
     if let Some(path) = &args.field {
         let grid = run.output.synthesis.distances()?;
-        nrrd::write_file(path, |f| nrrd::write_scalar(f, &grid))?;
+        nrrd::write_file(path, |f| nrrd::write_scalar_at(f, &grid, exemplar.origin))?;
     }
     if let Some(path) = &args.preview {
         voxel_preview(&exemplar, &run, path, 400)?;
