@@ -160,6 +160,30 @@ fn parse_vector(s: &str) -> Option<Vec<f32>> {
     inner.split(',').map(|x| x.trim().parse().ok()).collect()
 }
 
+/// The last three numbers of a per-axis field (`spacings`, `axis mins`): the spatial
+/// axes, after a channel axis whose entry may be `nan`. Anything that is not a number is
+/// an error, not a silent default.
+fn spatial_numbers(line: usize, text: &str, what: &str) -> Result<[f32; 3]> {
+    let values: Vec<f32> = text
+        .split_whitespace()
+        .map(|t| {
+            t.parse().map_err(|_| {
+                nrrd_error(
+                    format!("line {line}"),
+                    format!("`{t}` in {what} is not a number"),
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    match values[..] {
+        [.., x, y, z] => Ok([x, y, z]),
+        _ => Err(nrrd_error(
+            format!("line {line}"),
+            format!("{what} needs a value for each of the three spatial axes"),
+        )),
+    }
+}
+
 /// Parses an NRRD file held in memory.
 pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
     let mut pos = 0usize;
@@ -283,35 +307,46 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
                 "only axis-aligned cubic cells are supported",
             ));
         }
-        let origin = get("space origin")
-            .and_then(|(_, o)| parse_vector(o))
-            .unwrap_or_else(|| vec![0.0; 3]);
+        let origin = match get("space origin") {
+            Some((line, o)) => parse_vector(o).filter(|v| v.len() == 3).ok_or_else(|| {
+                nrrd_error(
+                    format!("line {line}"),
+                    format!("space origin `{o}` is not three numbers (x,y,z)"),
+                )
+            })?,
+            None => vec![0.0; 3],
+        };
         (s, origin)
     } else {
         let (line, sp) = require("spacings")?;
-        let sp: Vec<f32> = sp
-            .split_whitespace()
-            .filter_map(|s| s.parse().ok())
-            .collect();
-        let s = *sp
-            .last()
-            .ok_or_else(|| nrrd_error(format!("line {line}"), "no spacings"))?;
-        let mins: Vec<f32> = get("axis mins")
-            .map(|(_, m)| {
-                m.split_whitespace()
-                    .filter_map(|s| s.parse().ok())
-                    .collect()
-            })
-            .unwrap_or_default();
-        let origin = if mins.len() >= 3 {
-            mins[mins.len() - 3..].to_vec()
-        } else {
-            vec![0.0; 3]
+        let sp = spatial_numbers(line, sp, "spacings")?;
+        let s = sp[0];
+        if sp.iter().any(|&v| (v - s).abs() > 1e-6 * s.abs()) {
+            return Err(nrrd_error(
+                format!("line {line}"),
+                format!(
+                    "spacings {} {} {}: only cubic cells are supported",
+                    sp[0], sp[1], sp[2]
+                ),
+            ));
+        }
+        let origin = match get("axis mins") {
+            Some((line, m)) => spatial_numbers(line, m, "axis mins")?.to_vec(),
+            None => vec![0.0; 3],
         };
         (s, origin)
     };
-    if origin.len() != 3 {
-        return Err(nrrd_error("header", "space origin needs three numbers"));
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(nrrd_error(
+            "header",
+            format!("the node spacing {spacing} is not a positive length"),
+        ));
+    }
+    if origin.iter().any(|v| !v.is_finite()) {
+        return Err(nrrd_error(
+            "header",
+            format!("the origin {origin:?} is not finite"),
+        ));
     }
     let count = dims
         .iter()

@@ -426,6 +426,16 @@ fn nrrd_round_trips_and_rejects_short_data() {
         "{head}"
     );
 
+    // Per-axis spacings and minima, with `nan` for a leading channel axis (as teem writes).
+    let mut axis_fields =
+        b"NRRD0004\ntype: float\nsizes: 1 2 1 1\nencoding: raw\nspacings: nan 0.5 0.5 0.5\n"
+            .to_vec();
+    axis_fields.extend_from_slice(b"axis mins: nan 1 2 3\n\n");
+    axis_fields.extend_from_slice(&[0u8; 8]);
+    let read = nrrd::read(&axis_fields).unwrap();
+    assert_eq!((read.dims, read.channels), ([2, 1, 1], 1));
+    assert_eq!((read.origin, read.spacing), (Vec3::new(1.0, 2.0, 3.0), 0.5));
+
     // Truncated data and lying headers are errors, not allocations or panics.
     assert!(matches!(
         nrrd::read(&bytes[..bytes.len() - 3]),
@@ -439,6 +449,15 @@ fn nrrd_round_trips_and_rejects_short_data() {
         &b"NRRD0004\ntype: float\nsizes: 1 1\nencoding: raw\nspacings: 1 1\n\n"[..],
         &b"not nrrd\n\n"[..],
         &b"NRRD0004\ntype: float"[..],
+        // Per-axis fields that do not say what they should are errors, not defaults.
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspacings: 1 2 1\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspacings: 1 x 1\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspacings: 0 0 0\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\naxis mins: 0 y 0\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\naxis mins: 0 nan 0\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2)\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: 1 2 3\n\n0000"[..],
     ] {
         assert!(
             matches!(nrrd::read(bad), Err(FieldError::Nrrd { .. })),
