@@ -512,3 +512,37 @@ fn band_limited_bunny_grid_agrees_with_unlimited_queries() {
         );
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    /// Any edit of a valid file (bytes replaced, the file cut short) reads as a volume
+    /// whose data fills its dims, or as an error; never a panic.
+    #[test]
+    fn nrrd_edits_are_read_or_refused(
+        edits in proptest::collection::vec((0usize..400, any::<u8>()), 1..6),
+        cut in 0usize..600,
+        vec4 in any::<bool>(),
+    ) {
+        let grid = analytic_grid(4, 1.0, |p| p.x + p.y * p.z);
+        let mut bytes = Vec::new();
+        if vec4 {
+            let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::ONE), 4, 0.0).unwrap();
+            let sdf = SdfGrid::from_surface(&AnalyticSphere(0.5), &spec, 1.0).unwrap();
+            nrrd::write_vec4(&mut bytes, sdf.grid()).unwrap();
+        } else {
+            nrrd::write_scalar(&mut bytes, &grid).unwrap();
+        }
+        for (at, byte) in edits {
+            if let Some(b) = bytes.get_mut(at) {
+                *b = byte;
+            }
+        }
+        bytes.truncate(bytes.len().saturating_sub(cut % bytes.len().max(1)));
+        if let Ok(volume) = nrrd::read(&bytes) {
+            let nodes: usize = volume.dims.iter().product();
+            prop_assert_eq!(volume.data.len(), nodes * volume.channels);
+            prop_assert!(volume.spacing > 0.0 && volume.origin.is_finite());
+            let _ = volume.scalar_grid();
+        }
+    }
+}
