@@ -6,6 +6,12 @@
 //! channels, merges all objects and groups into one mesh, and ignores materials and line
 //! elements. A file without faces (bare `v` lines, the usual point-cloud OBJ) becomes a
 //! point set; `vn` lines are its normals when there is one per vertex.
+//!
+//! Before `tobj` reads the file, its `v`, `vt`, `vn` and `f` lines are checked, so that a
+//! malformed file is refused with the line at fault ([`crate::Error::Malformed`]): numbers
+//! that do not parse, too few of them, face corners that refer to elements not defined
+//! before them, faces of fewer than three corners (which `tobj` would drop silently), and
+//! comments after a face.
 
 use std::io::Write;
 use std::path::Path;
@@ -27,6 +33,117 @@ fn triples(values: &[f64]) -> impl Iterator<Item = DVec3> + '_ {
     values.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2]))
 }
 
+fn malformed(line: usize, message: impl Into<String>) -> Error {
+    Error::Malformed {
+        format: super::FileFormat::Obj,
+        location: crate::Location::Line(line),
+        message: message.into(),
+    }
+}
+
+/// The file as text (OBJ is a text format).
+fn obj_text(bytes: &[u8]) -> Result<&str> {
+    std::str::from_utf8(bytes)
+        .map_err(|e| malformed(1, format!("not UTF-8 text (at byte {})", e.valid_up_to())))
+}
+
+/// The numbers after a `v`, `vn` or `vt` keyword on line `line`; at least `least`.
+fn numbers<'a>(
+    words: impl Iterator<Item = &'a str>,
+    line: usize,
+    least: usize,
+) -> Result<Vec<f64>> {
+    let values = words
+        .map(|w| {
+            w.parse::<f64>()
+                .map_err(|_| malformed(line, format!("`{w}` is not a number")))
+        })
+        .collect::<Result<Vec<f64>>>()?;
+    if values.len() < least {
+        return Err(malformed(
+            line,
+            format!("expected at least {least} numbers"),
+        ));
+    }
+    Ok(values)
+}
+
+/// Checks one `f` line's corners (`v`, `v/vt`, `v//vn`, `v/vt/vn`, 1-based or negative
+/// relative indices) against the `v`, `vt` and `vn` counts so far.
+fn check_face<'a>(
+    corners: impl Iterator<Item = &'a str>,
+    line: usize,
+    counts: [usize; 3],
+) -> Result<()> {
+    const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    let mut n = 0;
+    for corner in corners {
+        if corner.starts_with('#') {
+            return Err(malformed(
+                line,
+                "a comment after a face: OBJ comments must start their own line",
+            ));
+        }
+        n += 1;
+        for (k, part) in corner.split('/').enumerate().take(3) {
+            if part.is_empty() && k > 0 {
+                continue;
+            }
+            let index: i64 = part
+                .parse()
+                .map_err(|_| malformed(line, format!("`{corner}` is not a face corner")))?;
+            let count = counts[k] as i64;
+            if index == 0 || index > count || index < -count {
+                return Err(malformed(
+                    line,
+                    format!(
+                        "face corner `{corner}` refers to {} {index}, but the file defines \
+                         {count} before it",
+                        KINDS[k]
+                    ),
+                ));
+            }
+        }
+    }
+    if n < 3 {
+        return Err(malformed(
+            line,
+            format!("a face needs three corners, this one has {n}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks the lines `tobj` reads (`v`, `vn`, `vt`, `f`), so that a malformed file is refused
+/// with its line number, and a face with fewer than three corners is refused instead of
+/// dropped. Files with `\` line continuations are left to `tobj`.
+fn check_lines(text: &str) -> Result<()> {
+    if text.lines().any(|l| l.trim_end().ends_with('\\')) {
+        return Ok(());
+    }
+    let mut counts = [0usize; 3];
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                numbers(words, i + 1, 3)?;
+                counts[0] += 1;
+            }
+            Some("vt") => {
+                numbers(words, i + 1, 2)?;
+                counts[1] += 1;
+            }
+            Some("vn") => {
+                numbers(words, i + 1, 3)?;
+                counts[2] += 1;
+            }
+            Some("f") => check_face(words, i + 1, counts)?,
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Reads an OBJ file held in memory; `path` is used in error messages only.
 pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
     read_obj_at(path, bytes, false).map(|(geometry, _)| geometry)
@@ -46,6 +163,7 @@ pub(crate) fn read_obj_at(
         ignore_points: true,
         ignore_lines: true,
     };
+    check_lines(obj_text(bytes)?)?;
     let mut reader = std::io::BufReader::new(bytes);
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         Ok((Vec::new(), Default::default()))
@@ -106,13 +224,7 @@ pub(crate) fn read_obj_at(
 
 /// Reads a face-less OBJ: `v x y z [r g b]` lines and optional `vn` lines.
 fn read_point_cloud(bytes: &[u8], recentre_far: bool) -> Result<(PointSet, DVec3)> {
-    let malformed = |line: usize, message: String| Error::Malformed {
-        format: super::FileFormat::Obj,
-        location: crate::Location::Line(line),
-        message,
-    };
-    let text = std::str::from_utf8(bytes)
-        .map_err(|e| malformed(1, format!("not UTF-8 text (at byte {})", e.valid_up_to())))?;
+    let text = obj_text(bytes)?;
     let (mut positions, mut normals, mut colors) = (Vec::new(), Vec::new(), Vec::new());
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
@@ -120,15 +232,7 @@ fn read_point_cloud(bytes: &[u8], recentre_far: bool) -> Result<(PointSet, DVec3
         if !matches!(keyword, Some("v" | "vn")) {
             continue;
         }
-        let values = words
-            .map(|w| {
-                w.parse::<f64>()
-                    .map_err(|_| malformed(i + 1, format!("`{w}` is not a number")))
-            })
-            .collect::<Result<Vec<f64>>>()?;
-        if values.len() < 3 {
-            return Err(malformed(i + 1, "expected at least three numbers".into()));
-        }
+        let values = numbers(words, i + 1, 3)?;
         let v = DVec3::new(values[0], values[1], values[2]);
         if keyword == Some("vn") {
             normals.push(v.as_vec3());
@@ -140,7 +244,7 @@ fn read_point_cloud(bytes: &[u8], recentre_far: bool) -> Result<(PointSet, DVec3
         }
     }
     if positions.is_empty() {
-        return Err(malformed(1, "no vertices (`v` lines) found".into()));
+        return Err(malformed(1, "no vertices (`v` lines) found"));
     }
     let count = positions.len();
     let (positions, origin) = relative_positions(&positions, recentre_far);

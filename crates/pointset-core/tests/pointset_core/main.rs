@@ -12,7 +12,9 @@ use glam::{DVec3, Vec2, Vec3};
 use pointset_core::io::ply::PlyEncoding;
 use pointset_core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions};
 use pointset_core::testdata::shared_data;
-use pointset_core::{Attribute, BucketGrid, Error, KdIndex, PointSet, ScalarType, TriMesh, rng};
+use pointset_core::{
+    Attribute, BucketGrid, Error, KdIndex, Location, PointSet, ScalarType, TriMesh, rng,
+};
 use proptest::prelude::*;
 use rand::RngExt;
 
@@ -315,10 +317,39 @@ fn malformed_files_give_specific_errors() {
         read("off.off", b"OFF\n1 0 0\ninf 0 0\n"),
         Err(Error::NonFinite { .. })
     ));
-    assert!(matches!(
-        read("t.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 5\n"),
-        Err(Error::Obj { .. } | Error::IndexOutOfRange { .. })
-    ));
+    // OBJ errors name their line; a face of two corners is refused, not dropped.
+    for (text, line) in [
+        (&b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 5\n"[..], 4),
+        (b"v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", 2),
+        (b"v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3\n", 2),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", 4),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n", 4),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//2 3//1\n",
+            5,
+        ),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\n# c\nf 1/1 2/1 3/1\n", 5),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 0\n", 4),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 a\n", 4),
+    ] {
+        let err = read("t.obj", text);
+        assert!(
+            matches!(err, Err(Error::Malformed { location: Location::Line(l), .. }) if l == line),
+            "{:?}: {err:?}",
+            String::from_utf8_lossy(text)
+        );
+    }
+    // Relative indices and every corner form read.
+    let corners = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf -3/1/1 2/1/1 3//1\n";
+    assert_eq!(
+        read("c.obj", corners)
+            .unwrap()
+            .geometry
+            .mesh()
+            .unwrap()
+            .face_count(),
+        1
+    );
     assert!(matches!(
         read("v.obj", b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"),
         Err(Error::NonFinite { .. })
