@@ -20,8 +20,9 @@ use crate::error::{FieldError, Result};
 pub struct NrrdVolume {
     /// Nodes along x, y, z.
     pub dims: [usize; 3],
-    /// World position of node (0, 0, 0).
-    pub origin: Vec3,
+    /// World position of node (0, 0, 0), in double precision as the file gives it (a
+    /// georeferenced field's origin can lie where an `f32` steps by 0.25 or more).
+    pub origin: DVec3,
     /// Node spacing (the files we read must have cubic cells).
     pub spacing: f32,
     /// Values per node: 1 (scalar) or 4 (distance + gradient).
@@ -33,10 +34,16 @@ pub struct NrrdVolume {
 impl NrrdVolume {
     /// The volume as a scalar grid (the first channel of multi-channel volumes).
     pub fn scalar_grid(&self) -> Result<Grid3<f32>> {
+        self.scalar_grid_at(DVec3::ZERO)
+    }
+
+    /// [`Self::scalar_grid`] with its origin stored relative to `offset` (the inverse of
+    /// [`write_scalar_at`]): a georeferenced field keeps its node positions' precision.
+    pub fn scalar_grid_at(&self, offset: DVec3) -> Result<Grid3<f32>> {
         let values = self.data.iter().step_by(self.channels).copied().collect();
         Ok(Grid3::from_vec(
             self.dims,
-            self.origin,
+            (self.origin - offset).as_vec3(),
             self.spacing,
             values,
         )?)
@@ -44,6 +51,12 @@ impl NrrdVolume {
 
     /// A 4-channel volume as a grid of `Vec4`.
     pub fn vec4_grid(&self) -> Result<Grid3<Vec4>> {
+        self.vec4_grid_at(DVec3::ZERO)
+    }
+
+    /// [`Self::vec4_grid`] with its origin stored relative to `offset` (the inverse of
+    /// [`write_vec4_at`]).
+    pub fn vec4_grid_at(&self, offset: DVec3) -> Result<Grid3<Vec4>> {
         if self.channels != 4 {
             return Err(nrrd_error(
                 "header",
@@ -53,7 +66,7 @@ impl NrrdVolume {
         let values = self.data.chunks_exact(4).map(Vec4::from_slice).collect();
         Ok(Grid3::from_vec(
             self.dims,
-            self.origin,
+            (self.origin - offset).as_vec3(),
             self.spacing,
             values,
         )?)
@@ -155,7 +168,7 @@ pub fn write_file(
     write(&mut f).map_err(io)
 }
 
-fn parse_vector(s: &str) -> Option<Vec<f32>> {
+fn parse_vector(s: &str) -> Option<Vec<f64>> {
     let inner = s.trim().strip_prefix('(')?.strip_suffix(')')?;
     inner.split(',').map(|x| x.trim().parse().ok()).collect()
 }
@@ -163,8 +176,8 @@ fn parse_vector(s: &str) -> Option<Vec<f32>> {
 /// The last three numbers of a per-axis field (`spacings`, `axis mins`): the spatial
 /// axes, after a channel axis whose entry may be `nan`. Anything that is not a number is
 /// an error, not a silent default.
-fn spatial_numbers(line: usize, text: &str, what: &str) -> Result<[f32; 3]> {
-    let values: Vec<f32> = text
+fn spatial_numbers(line: usize, text: &str, what: &str) -> Result<[f64; 3]> {
+    let values: Vec<f64> = text
         .split_whitespace()
         .map(|t| {
             t.parse().map_err(|_| {
@@ -280,7 +293,7 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
         }
     };
     let (spacing, origin) = if let Some((line, dirs)) = get("space directions") {
-        let vectors: Vec<Vec<f32>> = dirs
+        let vectors: Vec<Vec<f64>> = dirs
             .split_whitespace()
             .filter(|d| *d != "none")
             .filter_map(parse_vector)
@@ -336,6 +349,7 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
         };
         (s, origin)
     };
+    let spacing = spacing as f32;
     if !(spacing.is_finite() && spacing > 0.0) {
         return Err(nrrd_error(
             "header",
@@ -389,7 +403,7 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
     };
     Ok(NrrdVolume {
         dims,
-        origin: Vec3::new(origin[0], origin[1], origin[2]),
+        origin: DVec3::new(origin[0], origin[1], origin[2]),
         spacing,
         channels,
         data,

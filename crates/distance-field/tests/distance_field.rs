@@ -425,6 +425,11 @@ fn nrrd_round_trips_and_rejects_short_data() {
         head.contains(&format!("space origin: ({},{},{})", o.x, o.y, o.z)),
         "{head}"
     );
+    // Read back in double precision and relative to the same offset, it is the grid again
+    // (in single precision its origin would be off by up to 0.25).
+    let back_far = nrrd::read(&far).unwrap();
+    assert_eq!(back_far.origin, o);
+    assert_eq!(back_far.scalar_grid_at(offset).unwrap(), grid);
 
     // Per-axis spacings and minima, with `nan` for a leading channel axis (as teem writes).
     let mut axis_fields =
@@ -434,7 +439,10 @@ fn nrrd_round_trips_and_rejects_short_data() {
     axis_fields.extend_from_slice(&[0u8; 8]);
     let read = nrrd::read(&axis_fields).unwrap();
     assert_eq!((read.dims, read.channels), ([2, 1, 1], 1));
-    assert_eq!((read.origin, read.spacing), (Vec3::new(1.0, 2.0, 3.0), 0.5));
+    assert_eq!(
+        (read.origin, read.spacing),
+        (glam::DVec3::new(1.0, 2.0, 3.0), 0.5)
+    );
 
     // Truncated data and lying headers are errors, not allocations or panics.
     assert!(matches!(
