@@ -410,6 +410,13 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
     })
 }
 
+/// Whether a path names an NRRD file (`.nrrd`, any case).
+pub fn is_nrrd_path(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("nrrd"))
+}
+
 /// Reads an NRRD file.
 pub fn read_file(path: &Path) -> Result<NrrdVolume> {
     let bytes = std::fs::read(path).map_err(|source| FieldError::Io {

@@ -521,6 +521,52 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         volume.data.iter().step_by(4).any(|d| *d < 0.0)
             && volume.data.iter().step_by(4).any(|d| *d > 0.0)
     );
+    // info describes the field; render draws its zero level set, a torus like the mesh.
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--json", field.to_str().unwrap()])).unwrap();
+    assert_eq!(json["channels"], 4);
+    assert_eq!(json["dims"], serde_json::json!(volume.dims));
+    let inside = json["inside_share"].as_f64().unwrap();
+    assert!(inside > 0.0 && inside < 0.5, "{json}");
+    assert_eq!(json["non_finite"], 0);
+    let picture = dir.path().join("field.png");
+    ok(&[
+        "render",
+        field.to_str().unwrap(),
+        "-o",
+        picture.to_str().unwrap(),
+        "--width",
+        "160",
+        "--height",
+        "120",
+    ]);
+    let drawn = image::open(&picture).unwrap().into_rgb8();
+    let covered = drawn.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+    assert!(covered > 500, "{covered} pixels drawn");
+    // A field that never crosses zero, or holds NaN, has no surface: an error, not a blank.
+    let header =
+        b"NRRD0004\ntype: float\nsizes: 2 2 2\nencoding: raw\nspacings: 1 1 1\n\n".to_vec();
+    for (name, last) in [("positive.nrrd", 1.0f32), ("nan.nrrd", f32::NAN)] {
+        let path = dir.path().join(name);
+        let mut bytes = header.clone();
+        for k in 0..8 {
+            let v = if k == 7 { last } else { 1.0 };
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let out = geosynth(&[
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            picture.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success(), "{name}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("no surface to draw") && !err.contains("panicked"),
+            "{err}"
+        );
+    }
 
     let bad = geosynth(&[
         "reconstruct",

@@ -6,6 +6,8 @@ use clap::Args;
 use geosynth::core::io::{self, Geometry, LoadedGeometry, ReadOptions};
 use geosynth::imagery;
 use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
+use geosynth::sdf::nrrd;
+use glam::DVec3;
 use serde::Serialize;
 
 use crate::output::{print_line, status};
@@ -14,8 +16,8 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The file to describe: .ply, .obj, .off, a picture (.png, .jpg) or a raw height field
-    /// (`name_WxH.f32le`).
+    /// The file to describe: .ply, .obj, .off, a picture (.png, .jpg), a raw height field
+    /// (`name_WxH.f32le`) or an NRRD volume (.nrrd, as `sdf` and `voxel --field` write).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -225,6 +227,87 @@ impl GridInfo {
     }
 }
 
+/// What `info` reports about an NRRD volume (a distance field, as `sdf` and `voxel` write).
+#[derive(Debug, Serialize)]
+pub struct VolumeInfo {
+    path: String,
+    format: &'static str,
+    kind: &'static str,
+    dims: [usize; 3],
+    channels: usize,
+    spacing: f32,
+    /// Position of node (0, 0, 0), at the file's precision.
+    origin: [f64; 3],
+    /// Position of the last node.
+    far_corner: [f64; 3],
+    /// Range of the first channel's finite values (`None` when none is finite).
+    min: Option<f32>,
+    max: Option<f32>,
+    /// Share of nodes with a negative first channel (inside, for a signed distance).
+    inside_share: f64,
+    /// Values that are NaN or infinite (any channel), of `values`.
+    non_finite: usize,
+    /// Values in the file (nodes × channels).
+    values: usize,
+}
+
+impl VolumeInfo {
+    fn load(path: &Path) -> CliResult<Self> {
+        let volume = nrrd::read_file(path)?;
+        let first = volume.data.iter().step_by(volume.channels.max(1));
+        let finite: Vec<f32> = first.clone().copied().filter(|v| v.is_finite()).collect();
+        let nodes = volume.dims.iter().product::<usize>().max(1);
+        let span = DVec3::from(volume.dims.map(|d| d.saturating_sub(1) as f64));
+        Ok(Self {
+            path: path.display().to_string(),
+            format: "NRRD",
+            kind: if volume.channels == 4 {
+                "volume (distance + gradient)"
+            } else {
+                "volume"
+            },
+            dims: volume.dims,
+            channels: volume.channels,
+            spacing: volume.spacing,
+            origin: volume.origin.to_array(),
+            far_corner: (volume.origin + span * f64::from(volume.spacing)).to_array(),
+            min: finite.iter().copied().reduce(f32::min),
+            max: finite.iter().copied().reduce(f32::max),
+            inside_share: first.filter(|v| **v < 0.0).count() as f64 / nodes as f64,
+            non_finite: volume.data.iter().filter(|v| !v.is_finite()).count(),
+            values: volume.data.len(),
+        })
+    }
+
+    fn text(&self) -> String {
+        let [x, y, z] = self.dims;
+        let corner = |c: [f64; 3]| format!("{:.6} {:.6} {:.6}", c[0], c[1], c[2]);
+        let mut s = format!(
+            "file:        {}\nformat:      {}\nkind:        {}\nsize:        {x} x {y} x {z} \
+             nodes, spacing {}\norigin:      {}\nfar corner:  {}",
+            self.path,
+            self.format,
+            self.kind,
+            self.spacing,
+            corner(self.origin),
+            corner(self.far_corner)
+        );
+        if let (Some(lo), Some(hi)) = (self.min, self.max) {
+            s.push_str(&format!(
+                "\nvalues:      {lo} .. {hi}, {:.1}% of nodes negative (inside)",
+                100.0 * self.inside_share
+            ));
+        }
+        if self.non_finite > 0 {
+            s.push_str(&format!(
+                "\nnon-finite:  {} of {} values",
+                self.non_finite, self.values
+            ));
+        }
+        s
+    }
+}
+
 fn print(globals: Globals, json: bool, value: &impl Serialize, text: String) -> CliResult {
     if json {
         print_line(&serde_json::to_string_pretty(value)?)?;
@@ -237,6 +320,11 @@ fn print(globals: Globals, json: bool, value: &impl Serialize, text: String) -> 
 /// Runs `geosynth info`.
 pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
     let path = args.file.as_path();
+    if nrrd::is_nrrd_path(path) {
+        let info = VolumeInfo::load(path)?;
+        let text = info.text();
+        return print(globals, args.json, &info, text);
+    }
     if imagery::is_image_path(path) || imagery::is_raw_heightfield_path(path) {
         let info = GridInfo::load(path)?;
         let text = info.text();

@@ -3,9 +3,11 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
+use geosynth::core::TriMesh;
 use geosynth::core::io::{self, Geometry, ReadOptions};
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
+use geosynth::sdf::{isosurface, nrrd};
 
 use crate::output::{check_output_paths, status};
 use crate::{CliResult, Globals};
@@ -89,8 +91,9 @@ fn parse_color(s: &str) -> Result<[f32; 3], String> {
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     /// Files to render, each a panel, left to right: point sets and meshes (.ply, .obj,
-    /// .off), pictures (.png, .jpg) and raw height fields (`name_WxH.f32le`, drawn as
-    /// shaded terrain).
+    /// .off), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`, drawn as
+    /// shaded terrain) and NRRD volumes (.nrrd, drawn as the zero level set of their first
+    /// channel: the surface of a signed distance field).
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Output PNG.
@@ -123,6 +126,12 @@ fn load(path: &Path, args: &RenderArgs) -> CliResult<Input> {
     if imagery::is_image_path(path) {
         return Ok(Input::Picture(imagery::read_image(path)?.into_rgb8()));
     }
+    if nrrd::is_nrrd_path(path) {
+        return Ok(Input::Geometry(
+            Geometry::Mesh(zero_surface(path)?),
+            args.view.up.into(),
+        ));
+    }
     // A picture does not depend on where the data lies, so georeferenced files are read
     // relative to an origin, at full precision.
     let recentred = ReadOptions::default().recentre_far(true);
@@ -130,6 +139,37 @@ fn load(path: &Path, args: &RenderArgs) -> CliResult<Input> {
         io::read_geometry_with(path, &recentred)?.geometry,
         args.view.up.into(),
     ))
+}
+
+/// The zero level set of an NRRD volume's first channel (the surface of a signed distance
+/// field), placed relative to the volume's origin (a picture does not depend on where the
+/// data lies).
+fn zero_surface(path: &Path) -> CliResult<TriMesh> {
+    let volume = nrrd::read_file(path)?;
+    if let Some(i) = volume.data.iter().position(|v| !v.is_finite()) {
+        return Err(format!(
+            "{}: value {i} is {}; a field with non-finite values has no surface to draw",
+            path.display(),
+            volume.data[i]
+        )
+        .into());
+    }
+    let grid = volume.scalar_grid_at(volume.origin)?;
+    let mesh = isosurface(&grid, 0.0)?;
+    if mesh.face_count() == 0 {
+        let (lo, hi) = grid
+            .data()
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
+        return Err(format!(
+            "{}: the field never crosses zero (values {lo} .. {hi}); no surface to draw",
+            path.display()
+        )
+        .into());
+    }
+    Ok(mesh)
 }
 
 /// Runs `geosynth render`.
