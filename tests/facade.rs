@@ -423,3 +423,32 @@ fn oriented_fixtures_and_scans_agree_and_random_signs_do_not() {
         assert!(score < 0.01, "bunny scan: {score}");
     }
 }
+
+#[test]
+fn normals_estimated_on_a_bare_scan_match_the_scanned_ones() {
+    // docs: `mls_surface::estimate_normals`. The bunny scan's positions alone: local PCA
+    // then propagation from the top (+Y up) gives every point the scan's own side, and
+    // tangent planes within a few degrees of the scan's.
+    use geosynth::mls::{NORMAL_NEIGHBOURS, estimate_normals, orient_normals};
+    let Some(path) =
+        geosynth::core::testdata::shared_data("estimate normals", "pointsets/bunny16k_normals.ply")
+    else {
+        return;
+    };
+    let scan = io::read_geometry(path).unwrap().geometry;
+    let truth = scan.points().normals().unwrap();
+    let bare = geosynth::core::PointSet::new(scan.points().positions().to_vec()).unwrap();
+    let estimated = estimate_normals(&bare, NORMAL_NEIGHBOURS).unwrap();
+    let oriented = orient_normals(&estimated, Vec3::Y).unwrap();
+    let normals = oriented.normals().unwrap();
+    let agree = normals.iter().zip(truth).filter(|(a, b)| a.dot(**b) > 0.0);
+    assert_eq!(agree.count(), truth.len());
+    let mut angles: Vec<f32> = normals
+        .iter()
+        .zip(truth)
+        .map(|(a, b)| a.dot(*b).min(1.0).acos().to_degrees())
+        .collect();
+    angles.sort_by(f32::total_cmp);
+    let (median, p90) = (angles[angles.len() / 2], angles[angles.len() * 9 / 10]);
+    assert!(median < 3.0 && p90 < 10.0, "median {median}°, 90% {p90}°");
+}

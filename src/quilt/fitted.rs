@@ -82,7 +82,7 @@ pub fn read_texture_file_fitted(path: &Path) -> Result<TextureFile> {
     }
     let points = oriented_samples(&loaded.geometry)?;
     let normals = points.normals().ok_or_else(|| {
-        file_error("the exemplar has no normals; patch quilting needs oriented points".into())
+        file_error("the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into())
     })?;
     let positions = points.positions();
     let fit = Covariance::of(positions, 0..positions.len())

@@ -28,6 +28,8 @@ enum Command {
     Info(commands::info::InfoArgs),
     /// Render point sets and meshes to a PNG, one panel per input file.
     Render(commands::render::RenderArgs),
+    /// Estimate a point set's normals by local PCA and orient them by propagation.
+    Normals(commands::normals::NormalsArgs),
     /// Turn an oriented point set into a closed mesh (MLS surface → distance field →
     /// iso-surface).
     Reconstruct(commands::reconstruct::ReconstructArgs),
@@ -72,6 +74,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(args) => commands::info::run(&args, globals),
         Command::Render(args) => commands::render::run(&args, globals),
+        Command::Normals(args) => commands::normals::run(&args, globals),
         Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(&args, globals),
         Command::Sdf(args) => commands::reconstruct::run_sdf(&args, globals),
         Command::Warp(args) => commands::warp::run(&args, globals),

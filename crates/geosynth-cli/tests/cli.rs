@@ -422,6 +422,58 @@ fn voxel_keeps_georeferenced_exemplars_in_place() {
 }
 
 #[test]
+fn normals_command_gives_a_bare_point_set_outward_normals() {
+    use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let truth = read_geometry(&fixture).unwrap().geometry.points().clone();
+    let bare = dir.path().join("bare.ply");
+    let positions = geosynth::core::PointSet::new(truth.positions().to_vec()).unwrap();
+    write_geometry(
+        &bare,
+        &Geometry::Points(positions),
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    let with_normals = dir.path().join("with_normals.ply");
+    let said = ok(&[
+        "normals",
+        bare.to_str().unwrap(),
+        "-o",
+        with_normals.to_str().unwrap(),
+    ]);
+    assert!(said.contains("0.0% face away"), "{said}");
+    let got = read_geometry(&with_normals).unwrap().geometry;
+    let got = got.points().normals().unwrap();
+    let worst = got
+        .iter()
+        .zip(truth.normals().unwrap())
+        .map(|(a, b)| a.dot(*b))
+        .fold(1.0f32, f32::min);
+    assert!(worst > 0.95, "least agreement {worst}");
+    // Without normals reconstruct refuses and names the remedy; with them it closes.
+    let mesh = dir.path().join("mesh.ply");
+    let refused = geosynth(&["reconstruct", bare.to_str().unwrap(), "-o", "x.ply"]);
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("geosynth normals"));
+    ok(&[
+        "reconstruct",
+        with_normals.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "32",
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--json", mesh.to_str().unwrap()])).unwrap();
+    assert_eq!(json["topology"]["closed_manifold"], true);
+    assert_eq!(json["topology"]["euler_characteristic"], 2, "a sphere");
+    // A mesh is not estimated: its faces give its normals.
+    let refused = geosynth(&["normals", mesh.to_str().unwrap(), "-o", "x.ply"]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("is a mesh"));
+}
+
+#[test]
 fn fixtures_command_reproduces_the_committed_files() {
     let dir = tempfile::tempdir().unwrap();
     ok(&["fixtures", "--quiet", "--out", dir.path().to_str().unwrap()]);

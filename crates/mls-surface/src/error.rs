@@ -8,7 +8,9 @@ pub enum MlsError {
     #[error(transparent)]
     Core(#[from] pointset_core::Error),
     /// The surface definition needs oriented points.
-    #[error("the point set has no normals; the MLS surface needs oriented points")]
+    #[error(
+        "the point set has no normals; the MLS surface needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)"
+    )]
     MissingNormals,
     /// No points at all.
     #[error("{what} is empty")]

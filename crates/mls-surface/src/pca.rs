@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use nalgebra::{Matrix3, SymmetricEigen};
-use pointset_core::KdIndex;
+use pointset_core::{KdIndex, PointSet};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
@@ -94,4 +94,63 @@ pub fn surface_variation(index: &KdIndex, k: usize) -> Result<Vec<f32>> {
             Ok(Covariance::of(points, nn.iter().map(|n| n.index)).map_or(0.0, |c| c.variation()))
         })
         .collect()
+}
+
+/// Neighbours (the point included) [`estimate_normals`] fits each tangent plane to, unless
+/// told otherwise.
+pub const NORMAL_NEIGHBOURS: usize = 12;
+
+/// Unit normals estimated by local PCA (Hoppe et al. 1992): each point's normal is the
+/// direction of least spread of its `k` nearest neighbours, itself included. The signs are
+/// whatever the eigen-decomposition gives, so they flip from point to point:
+/// [`orient_normals`](crate::orient_normals) makes them consistent. Any normals `points`
+/// had are replaced. A neighbourhood with no direction of least spread (all its points on
+/// one line, or equal) still gets the decomposition's unit vector, which is then only
+/// perpendicular to the line. Errors: `k` below 3, no points, a non-finite position.
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::{NORMAL_NEIGHBOURS, estimate_normals, orient_normals};
+/// use pointset_core::PointSet;
+///
+/// // A gently curved sheet z = 0.1 sin(x), without normals.
+/// let p: Vec<Vec3> = (0..900)
+///     .map(|i| {
+///         let (x, y) = ((i % 30) as f32 * 0.1, (i / 30) as f32 * 0.1);
+///         Vec3::new(x, y, 0.1 * x.sin())
+///     })
+///     .collect();
+/// let estimated = estimate_normals(&PointSet::new(p)?, NORMAL_NEIGHBOURS)?;
+/// let up = orient_normals(&estimated, Vec3::Z)?;
+/// let normals = up.normals().ok_or("no normals")?;
+/// assert!(normals.iter().all(|n| n.z > 0.99 && (n.length() - 1.0).abs() < 1e-5));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn estimate_normals(points: &PointSet, k: usize) -> Result<PointSet> {
+    if k < 3 {
+        return Err(MlsError::InvalidParameter {
+            name: "k",
+            value: k.to_string(),
+            expected: "at least 3 neighbours",
+        });
+    }
+    if points.is_empty() {
+        return Err(MlsError::EmptyInput {
+            what: "the point set",
+        });
+    }
+    let positions = points.positions();
+    let index = KdIndex::new(positions)?;
+    let normals = positions
+        .par_iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            let nn = index.nearest(p, k)?;
+            Covariance::of(positions, nn.iter().map(|n| n.index))
+                .map(|c| c.eigenvectors[0])
+                .filter(|n| n.is_normalized())
+                .ok_or(MlsError::DegenerateNormal { index: i })
+        })
+        .collect::<Result<Vec<Vec3>>>()?;
+    Ok(points.clone().with_normals(normals)?)
 }

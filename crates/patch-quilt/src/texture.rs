@@ -57,7 +57,7 @@ impl GeometryTexture {
     /// Errors: no normals, fewer than 16 points, a box with zero extent, no points inside it.
     pub fn new(points: &PointSet, bounds: Aabb, up: UpAxis) -> Result<Self> {
         let normals = points.normals().ok_or_else(|| QuiltError::InvalidTexture {
-            reason: "the exemplar has no normals; patch quilting needs oriented points".into(),
+            reason: "the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into(),
         })?;
         if points.len() < 16 {
             return Err(QuiltError::InvalidTexture {

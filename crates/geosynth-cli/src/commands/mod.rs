@@ -3,6 +3,7 @@
 pub mod demo;
 pub mod fixtures;
 pub mod info;
+pub mod normals;
 pub mod quilt;
 pub mod reconstruct;
 pub mod render;
