@@ -528,4 +528,9 @@ fn estimated_normals_are_the_analytic_ones_up_to_sign_and_orientation_fixes_the_
         estimate_normals(&PointSet::new(Vec::new()).unwrap(), 12),
         Err(MlsError::EmptyInput { .. })
     ));
+    let two = PointSet::new(vec![Vec3::ZERO, Vec3::X]).unwrap();
+    assert!(matches!(
+        estimate_normals(&two, 12),
+        Err(MlsError::InvalidParameter { .. })
+    ));
 }
