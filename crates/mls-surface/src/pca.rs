@@ -106,7 +106,8 @@ pub const NORMAL_NEIGHBOURS: usize = 12;
 /// [`orient_normals`](crate::orient_normals) makes them consistent. Any normals `points`
 /// had are replaced. A neighbourhood with no direction of least spread (all its points on
 /// one line, or equal) still gets the decomposition's unit vector, which is then only
-/// perpendicular to the line. Errors: `k` below 3, no points, a non-finite position.
+/// perpendicular to the line. Errors: `k` below 3, fewer than 3 points, a non-finite
+/// position.
 ///
 /// ```
 /// use glam::Vec3;
@@ -137,6 +138,13 @@ pub fn estimate_normals(points: &PointSet, k: usize) -> Result<PointSet> {
     if points.is_empty() {
         return Err(MlsError::EmptyInput {
             what: "the point set",
+        });
+    }
+    if points.len() < 3 {
+        return Err(MlsError::InvalidParameter {
+            name: "points",
+            value: points.len().to_string(),
+            expected: "at least 3 points to fit a tangent plane to",
         });
     }
     let positions = points.positions();
