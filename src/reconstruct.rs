@@ -6,9 +6,11 @@
 //! (exactly) into an [`SdfGrid`].
 
 use distance_field::{GridSpec, MeshSurface, SdfGrid, sdf_isosurface};
+use glam::Vec3;
 use mls_surface::{MlsError, MlsParams, MlsSurface};
 use pointset_core::io::Geometry;
-use pointset_core::{PointSet, RunContext, Stage, Surface, TriMesh};
+use pointset_core::{Aabb, DisjointSets, KdIndex, PointSet, RunContext, Stage, Surface, TriMesh};
+use rayon::prelude::*;
 
 use crate::{Error, Result};
 
@@ -189,4 +191,99 @@ impl Stage for Reconstruct {
         ctx.check_cancelled()?;
         ctx.timed("reconstruct: iso-surface", |_| Ok(sdf_isosurface(&sdf)?))
     }
+}
+
+/// `mesh` without the parts that run away from the samples it was reconstructed from. The
+/// zero set of an open scan's distance field does not end where the scan does: the MLS
+/// surface carries on past the scan's border to the edge of the grid and folds back there.
+///
+/// A face is *far* when all its corners lie farther than `max_distance` from every
+/// sample. Far faces that share corners form regions; a region that leaves the samples'
+/// bounding box (grown by `max_distance`) runs on past the scan, and is cut. Far regions
+/// inside it — gaps in the sampling the reconstruction bridged — stay, so a randomly
+/// sampled sheet is not left full of pinholes, and a scan's holes stay closed.
+/// The vertices no kept face uses are dropped; normals are kept. A closed surface sampled
+/// all over loses nothing.
+///
+/// Errors: no samples, a non-finite sample, `max_distance` not positive.
+///
+/// ```
+/// use geosynth::reconstruct::{FieldParams, Reconstruct, trim_to_samples};
+/// use geosynth::{fixtures, RunContext, Stage};
+///
+/// let points = fixtures::sphere_points(3000)?;
+/// let stage = Reconstruct { params: FieldParams::default().resolution(32) };
+/// let mesh = stage.run(points.clone(), &mut RunContext::new(0))?;
+/// let spacing = geosynth::core::KdIndex::new(points.positions())?.median_spacing()?;
+/// let trimmed = trim_to_samples(&mesh, points.positions(), 2.0 * spacing)?;
+/// assert_eq!(trimmed.face_count(), mesh.face_count());
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> Result<TriMesh> {
+    if !(max_distance.is_finite() && max_distance > 0.0) {
+        return Error::invalid(
+            "max_distance",
+            max_distance.to_string(),
+            "a positive length",
+        );
+    }
+    if samples.is_empty() {
+        return Error::invalid("samples", "none", "at least one sample");
+    }
+    let index = KdIndex::new(samples)?;
+    let limit = max_distance * max_distance;
+    let near = mesh
+        .positions()
+        .par_iter()
+        .map(|&p| {
+            Ok(index
+                .nearest_one(p)?
+                .is_some_and(|n| n.distance_squared <= limit))
+        })
+        .collect::<Result<Vec<bool>>>()?;
+    let triangles = mesh.triangles();
+    let is_far = |t: &[u32; 3]| t.iter().all(|&v| !near[v as usize]);
+    // Regions of far faces: their corners joined face by face.
+    let mut regions = DisjointSets::new(mesh.vertex_count());
+    for t in triangles.iter().filter(|t| is_far(t)) {
+        regions.join(t[0], t[1]);
+        regions.join(t[1], t[2]);
+    }
+    // A region that leaves the samples' box (by more than `max_distance`) runs on past
+    // the scan; one that stays inside it fills a gap between samples.
+    let reach = Aabb::from_points(samples)
+        .map(|b| b.inflated(max_distance))
+        .ok_or(Error::InvalidParameter {
+            name: "samples",
+            value: "none".into(),
+            expected: "at least one sample".into(),
+        })?;
+    let mut runaway = vec![false; mesh.vertex_count()];
+    for t in triangles.iter().filter(|t| is_far(t)) {
+        if t.iter()
+            .any(|&v| !reach.contains(mesh.positions()[v as usize]))
+        {
+            let root = regions.root(t[0]);
+            runaway[root as usize] = true;
+        }
+    }
+    let kept: Vec<[u32; 3]> = triangles
+        .iter()
+        .copied()
+        .filter(|t| !(is_far(t) && runaway[regions.root(t[0]) as usize]))
+        .collect();
+    let mut used = vec![false; mesh.vertex_count()];
+    for &v in kept.iter().flatten() {
+        used[v as usize] = true;
+    }
+    let order: Vec<usize> = (0..used.len()).filter(|&v| used[v]).collect();
+    let mut renumber = vec![0u32; used.len()];
+    for (new, &old) in order.iter().enumerate() {
+        renumber[old] = new as u32;
+    }
+    let kept = kept
+        .iter()
+        .map(|t| t.map(|v| renumber[v as usize]))
+        .collect();
+    Ok(TriMesh::new(mesh.vertices().subset(&order)?, kept)?)
 }

@@ -452,3 +452,55 @@ fn normals_estimated_on_a_bare_scan_match_the_scanned_ones() {
     let (median, p90) = (angles[angles.len() / 2], angles[angles.len() * 9 / 10]);
     assert!(median < 3.0 && p90 < 10.0, "median {median}°, 90% {p90}°");
 }
+
+#[test]
+fn trimming_cuts_the_continuation_past_an_open_sheet_and_keeps_its_gaps_bridged() {
+    use geosynth::core::{KdIndex, PointSet};
+    use geosynth::reconstruct::{FieldParams, Reconstruct, trim_to_samples};
+    use geosynth::{RunContext, Stage};
+    // A flat sheet z = 0 over [0, 4]², sampled on a 0.1 grid, with a gap of radius 0.25
+    // (2.5 spacings) in the middle.
+    let positions: Vec<Vec3> = (0..41 * 41)
+        .map(|i| Vec3::new((i % 41) as f32 * 0.1, (i / 41) as f32 * 0.1, 0.0))
+        .filter(|p| p.distance(Vec3::new(2.0, 2.0, 0.0)) > 0.25)
+        .collect();
+    let n = positions.len();
+    let sheet = PointSet::new(positions)
+        .unwrap()
+        .with_normals(vec![Vec3::Z; n])
+        .unwrap();
+    // A wide margin and band (8 grid spacings, about 0.68 and 0.9) so the continuation
+    // has room to run on.
+    let mut params = FieldParams::default().resolution(48);
+    (params.margin, params.band) = (8.0, 8.0);
+    let stage = Reconstruct { params };
+    let mesh = stage.run(sheet.clone(), &mut RunContext::new(0)).unwrap();
+    let spacing = KdIndex::new(sheet.positions())
+        .unwrap()
+        .median_spacing()
+        .unwrap();
+    // A kept face has a corner within 2 spacings (0.2) of a sample, so it ends at most one
+    // face (a grid spacing, 0.11, across) further out.
+    let beyond = |p: &Vec3| p.x < -0.4 || p.y < -0.4 || p.x > 4.4 || p.y > 4.4;
+    // Untrimmed, the surface runs on past the sheet.
+    assert!(
+        mesh.positions().iter().any(beyond),
+        "{:?}",
+        mesh.bounding_box()
+    );
+    let trimmed = trim_to_samples(&mesh, sheet.positions(), 2.0 * spacing).unwrap();
+    assert!(!trimmed.positions().iter().any(beyond));
+    // The continuation bends away from the sheet's plane; trimmed, only the fringe of one
+    // face where it starts to bend is left.
+    assert!(mesh.positions().iter().any(|p| p.z.abs() > 0.3));
+    assert!(trimmed.positions().iter().all(|p| p.z.abs() < 0.15));
+    // One disc: the gap in the middle stays bridged (a hole would make χ = 0).
+    let topology = trimmed.topology();
+    assert_eq!((topology.components, topology.euler_characteristic), (1, 1));
+    let covered = |c: Vec3| trimmed.positions().iter().any(|p| p.distance(c) < 0.1);
+    assert!(covered(Vec3::new(2.0, 2.0, 0.0)));
+    // Parameters out of range are errors.
+    assert!(trim_to_samples(&mesh, sheet.positions(), 0.0).is_err());
+    assert!(trim_to_samples(&mesh, sheet.positions(), f32::NAN).is_err());
+    assert!(trim_to_samples(&mesh, &[], 1.0).is_err());
+}

@@ -422,7 +422,7 @@ fn voxel_keeps_georeferenced_exemplars_in_place() {
 }
 
 #[test]
-fn normals_command_gives_a_bare_point_set_outward_normals() {
+fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
     use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
     let dir = tempfile::tempdir().unwrap();
     let fixture = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
@@ -467,6 +467,30 @@ fn normals_command_gives_a_bare_point_set_outward_normals() {
         serde_json::from_str(&ok(&["info", "--json", mesh.to_str().unwrap()])).unwrap();
     assert_eq!(json["topology"]["closed_manifold"], true);
     assert_eq!(json["topology"]["euler_characteristic"], 2, "a sphere");
+    // An open sheet (the bumpy fixture) trimmed: the surface ends near its samples
+    // instead of running on to the grid's edge.
+    let bumpy = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
+    let samples = read_geometry(&bumpy)
+        .unwrap()
+        .geometry
+        .bounding_box()
+        .unwrap();
+    let reach = |trim: &[&str]| {
+        let mut args = vec!["reconstruct", bumpy.to_str().unwrap(), "-o"];
+        args.extend([mesh.to_str().unwrap(), "--resolution", "40"]);
+        args.extend(trim);
+        ok(&args);
+        let b = read_geometry(&mesh)
+            .unwrap()
+            .geometry
+            .bounding_box()
+            .unwrap();
+        (samples.min - b.min)
+            .max_element()
+            .max((b.max - samples.max).max_element())
+    };
+    let (untrimmed, trimmed) = (reach(&[]), reach(&["--trim"]));
+    assert!(untrimmed > 0.4 && trimmed < 0.15, "{untrimmed} / {trimmed}");
     // A mesh is not estimated: its faces give its normals.
     let refused = geosynth(&["normals", mesh.to_str().unwrap(), "-o", "x.ply"]);
     assert!(!refused.status.success());

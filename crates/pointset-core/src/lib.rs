@@ -50,6 +50,7 @@
 #![deny(missing_docs)]
 
 mod aabb;
+mod disjoint;
 mod error;
 mod grid;
 mod heightfield;
@@ -64,6 +65,7 @@ mod surface;
 pub mod testdata;
 
 pub use aabb::Aabb;
+pub use disjoint::DisjointSets;
 pub use error::{Error, Location, Result};
 pub use grid::Grid3;
 pub use heightfield::{HeightField, dims_from_name};

@@ -2,7 +2,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::{Aabb, Error, PointSet, Result};
+use crate::{Aabb, DisjointSets, Error, PointSet, Result};
 
 /// How face normals are weighted when averaged into vertex normals.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -234,29 +234,19 @@ impl TriMesh {
                 _ => non_manifold += 1,
             }
         }
-        // Connected components of the vertices used by faces (union-find).
-        let mut parent: Vec<u32> = (0..self.vertex_count() as u32).collect();
-        fn find(parent: &mut [u32], mut x: u32) -> u32 {
-            while parent[x as usize] != x {
-                parent[x as usize] = parent[parent[x as usize] as usize];
-                x = parent[x as usize];
-            }
-            x
-        }
+        // Connected components of the vertices used by faces.
+        let mut sets = DisjointSets::new(self.vertex_count());
         let mut used = vec![false; self.vertex_count()];
         for t in &self.triangles {
             for &v in t {
                 used[v as usize] = true;
             }
-            let r0 = find(&mut parent, t[0]);
-            for &v in &t[1..] {
-                let r = find(&mut parent, v);
-                parent[r as usize] = r0;
-            }
+            sets.join(t[0], t[1]);
+            sets.join(t[0], t[2]);
         }
         let used_count = used.iter().filter(|&&u| u).count();
         let components = (0..self.vertex_count() as u32)
-            .filter(|&v| used[v as usize] && find(&mut parent, v) == v)
+            .filter(|&v| used[v as usize] && sets.root(v) == v)
             .count();
         MeshTopology {
             edges: undirected.len(),

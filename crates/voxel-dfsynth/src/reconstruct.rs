@@ -19,7 +19,7 @@
 use std::collections::{HashMap, HashSet, VecDeque};
 
 use glam::Vec3;
-use pointset_core::{Grid3, KdIndex, PointSet, TriMesh};
+use pointset_core::{DisjointSets, Grid3, KdIndex, PointSet, TriMesh};
 
 use crate::error::{Result, VoxelError};
 use crate::synth::Synthesis;
@@ -127,14 +127,6 @@ fn boundary_edges(triangles: &[[u32; 3]]) -> HashMap<(u32, u32), u32> {
     count
 }
 
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
-    while parent[v as usize] != v {
-        parent[v as usize] = parent[parent[v as usize] as usize];
-        v = parent[v as usize];
-    }
-    v
-}
-
 /// Copies the triangles of `source_mesh` (in the world frame of the source field) block by
 /// block to the target, then welds and relaxes the seams (reconstruction (b), see the
 /// module docs).
@@ -217,7 +209,7 @@ pub fn copied_mesh(
         v.sort_unstable();
         v
     };
-    let mut parent: Vec<u32> = (0..verts.len() as u32).collect();
+    let mut sets = DisjointSets::new(verts.len());
     if !boundary.is_empty() && relax.weld_radius > 0.0 {
         let points: Vec<Vec3> = boundary.iter().map(|&v| verts[v as usize]).collect();
         let index = KdIndex::new(&points)?;
@@ -228,16 +220,11 @@ pub fn copied_mesh(
                 .iter()
                 .find(|n| piece[boundary[n.index] as usize] != piece[v as usize])
             {
-                let (a, b) = (find(&mut parent, v), find(&mut parent, boundary[n.index]));
-                if a != b {
-                    parent[a.max(b) as usize] = a.min(b);
-                }
+                sets.join(v, boundary[n.index]);
             }
         }
     }
-    let roots: Vec<u32> = (0..verts.len() as u32)
-        .map(|v| find(&mut parent, v))
-        .collect();
+    let roots: Vec<u32> = (0..verts.len() as u32).map(|v| sets.root(v)).collect();
     let mut sum: HashMap<u32, (Vec3, u32)> = HashMap::new();
     for (v, &r) in roots.iter().enumerate() {
         let e = sum.entry(r).or_insert((Vec3::ZERO, 0));

@@ -3,9 +3,10 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
 use geosynth::mls::orient_normals;
-use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
+use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance, trim_to_samples};
 use geosynth::sdf::nrrd;
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
@@ -54,6 +55,12 @@ pub struct ReconstructArgs {
     /// interlinked thin tubes (docs/mls-surface.md).
     #[arg(long)]
     orient_normals: bool,
+    /// For open scans (a façade, a terrain, a quilted sheet): cut the surface where it runs
+    /// on past the scan's border, beyond this many median sample spacings from every point
+    /// (`--trim` alone: 2). Gaps inside the scan stay bridged. Below about 2 the gaps of a
+    /// random sampling join up with the border and the sheet falls apart.
+    #[arg(long, value_name = "SPACINGS", num_args = 0..=1, default_missing_value = "2")]
+    trim: Option<f32>,
 }
 
 /// Runs `geosynth reconstruct`.
@@ -69,9 +76,20 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     if let Some(note) = super::unoriented_normals_note(&points) {
         status(globals, note);
     }
+    if let Some(t) = args.trim
+        && !(t.is_finite() && t > 0.0)
+    {
+        return Err(format!("--trim must be a positive number of spacings, not {t}").into());
+    }
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
-    let mesh = Reconstruct { params }.run(points, &mut ctx)?;
+    let mut mesh = Reconstruct { params }.run(points.clone(), &mut ctx)?;
+    if let Some(spacings) = args.trim {
+        let spacing = KdIndex::new(points.positions())?.median_spacing()?;
+        mesh = ctx.timed("trim", |_| {
+            trim_to_samples(&mesh, points.positions(), spacings * spacing)
+        })?;
+    }
     bar.finish_and_clear();
     let options = WriteOptions::default()
         .comment(format!(
