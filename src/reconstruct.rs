@@ -227,9 +227,11 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
             "a positive length",
         );
     }
-    if samples.is_empty() {
+    // A region that leaves the samples' box (by more than `max_distance`) runs on past
+    // the scan; one that stays inside it fills a gap between samples.
+    let Some(reach) = Aabb::from_points(samples).map(|b| b.inflated(max_distance)) else {
         return Error::invalid("samples", "none", "at least one sample");
-    }
+    };
     let index = KdIndex::new(samples)?;
     let limit = max_distance * max_distance;
     let near = mesh
@@ -249,15 +251,6 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
         regions.join(t[0], t[1]);
         regions.join(t[1], t[2]);
     }
-    // A region that leaves the samples' box (by more than `max_distance`) runs on past
-    // the scan; one that stays inside it fills a gap between samples.
-    let reach = Aabb::from_points(samples)
-        .map(|b| b.inflated(max_distance))
-        .ok_or(Error::InvalidParameter {
-            name: "samples",
-            value: "none".into(),
-            expected: "at least one sample".into(),
-        })?;
     let mut runaway = vec![false; mesh.vertex_count()];
     for t in triangles.iter().filter(|t| is_far(t)) {
         if t.iter()
