@@ -107,7 +107,8 @@ pub struct QuiltArgs {
     /// Geometry texture: an oriented point set whose comments give `texture_box` and
     /// `texture_up` (as `geosynth fixtures` writes them); otherwise the box is the points'
     /// box inset by a sixth on every side across the reference plane (one sample spacing
-    /// thick for a flat file).
+    /// thick for a flat file). A mesh gets normals from its faces; a point set without
+    /// normals needs them first (`geosynth normals`).
     #[arg(required_unless_present = "heightfield")]
     exemplar: Option<PathBuf>,
     /// Use a height field instead (PNG 8/16-bit or raw `name_WxH.f32le`): sampled as points
