@@ -435,6 +435,7 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
         &WriteOptions::default(),
     )
     .unwrap();
+    assert!(ok(&["info", bare.to_str().unwrap()]).contains("no (geosynth normals"));
     let with_normals = dir.path().join("with_normals.ply");
     let said = ok(&[
         "normals",

@@ -146,10 +146,14 @@ impl FileInfo {
             "normals:     {}\ncolours:     {}\nuvs:         {}\nattributes:  {}\nbbox min:    {}\nbbox max:    {}",
             match self.normal_disagreement {
                 Some(share) if share > LIKELY_UNORIENTED => format!(
-                    "yes, {:.1}% facing away from most neighbours (unoriented?)",
+                    "yes, {:.1}% facing away from most neighbours (unoriented? geosynth normals \
+                     re-estimates them, --orient-normals orients them)",
                     100.0 * share
                 ),
                 Some(share) => format!("yes, {:.1}% facing away from most neighbours", 100.0 * share),
+                None if !self.normals && self.faces == 0 => {
+                    "no (geosynth normals estimates them)".to_string()
+                }
                 None => yes(self.normals).to_string(),
             },
             yes(self.colors),
