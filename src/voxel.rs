@@ -3,7 +3,8 @@
 //!
 //! An exemplar is a closed mesh whose comments may give the box to sample
 //! (`texture_box X0 Y0 Z0 X1 Y1 Z1`, as `geosynth fixtures` writes them); without one, the
-//! mesh's bounding box is used. Its signed distance field over that box, with
+//! mesh's bounding box is used. An NRRD volume is read as the solid where it is negative
+//! ([`read_exemplar`]). Its signed distance field over that box, with
 //! `source_resolution` samples along the longest side, is the synthesis source.
 //!
 //! ```
@@ -24,8 +25,8 @@
 
 use std::path::Path;
 
-use distance_field::{GridSpec, MeshSurface, SdfGrid};
-use glam::DVec3;
+use distance_field::{GridSpec, MeshSurface, SdfGrid, closed_isosurface, nrrd};
+use glam::{DVec3, Vec3};
 use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, RunContext, Stage, TriMesh};
 pub use voxel_dfsynth::{
@@ -74,7 +75,14 @@ impl From<&VolumeExemplar> for VoxelExemplar {
 /// `f32` steps by a quarter unit or more) is read relative to a double-precision origin
 /// (`pointset_core::io::ReadOptions::recentre_far`), so its distance field is sampled at
 /// full precision; [`VoxelExemplar::origin`] says where.
+///
+/// An NRRD volume (`.nrrd`, as `geosynth sdf` writes one) is read as the solid where its
+/// first channel is negative (inside, for a signed distance): the exemplar mesh is that
+/// zero set, capped where the solid meets the volume's edge, and the box is the volume's.
 pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
+    if nrrd::is_nrrd_path(path) {
+        return read_volume_exemplar(path);
+    }
     let loaded = io::read_geometry_with(path, &ReadOptions::default().recentre_far(true))?;
     let mesh = match loaded.geometry {
         io::Geometry::Mesh(m) => m,
@@ -102,6 +110,49 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
         mesh,
         bounds,
         origin: loaded.origin,
+    })
+}
+
+/// [`read_exemplar`] of an NRRD volume.
+fn read_volume_exemplar(path: &Path) -> Result<VoxelExemplar> {
+    let file_error = |message: String| Error::TextureFile {
+        path: path.to_path_buf(),
+        message,
+    };
+    let volume = nrrd::read_file(path)?;
+    // A field further from the file's origin than its own size (georeferenced) is stored
+    // relative to its corner, so it keeps its precision; others stay where they are.
+    let size =
+        volume.dims.iter().map(|&d| d as f64).fold(0.0, f64::max) * f64::from(volume.spacing);
+    let origin = if volume.origin.abs().max_element() > size {
+        volume.origin
+    } else {
+        DVec3::ZERO
+    };
+    let grid = volume.scalar_grid_at(origin)?;
+    if let Some(i) = grid.data().iter().position(|v| !v.is_finite()) {
+        return Err(file_error(format!(
+            "value {i} is {}; a solid needs finite values",
+            grid.data()[i]
+        )));
+    }
+    let largest = grid.data().iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let mesh = closed_isosurface(&grid, 0.0, largest + grid.spacing())?;
+    if mesh.face_count() == 0 {
+        return Err(file_error(
+            "the field is negative nowhere: it holds no solid".into(),
+        ));
+    }
+    let dims = grid.dims().map(|d| d.saturating_sub(1) as f32);
+    let bounds = Aabb::new(
+        grid.origin(),
+        grid.origin() + Vec3::from(dims) * grid.spacing(),
+    );
+    Ok(VoxelExemplar {
+        mesh,
+        bounds,
+        origin,
+        single_precision_step: None,
     })
 }
 
@@ -202,6 +253,58 @@ mod tests {
             options = options.comment(c);
         }
         io::write_geometry(path, &Geometry::Mesh(exemplar.mesh.clone()), &options).unwrap();
+    }
+
+    #[test]
+    fn a_signed_distance_volume_is_read_as_its_solid() {
+        use crate::reconstruct::{FieldParams, signed_distance};
+        use pointset_core::Surface;
+        let grid = VoxelExemplar::from(&crate::fixtures::volumes::grid(1).unwrap());
+        let field = signed_distance(
+            &Geometry::Mesh(grid.mesh.clone()),
+            &FieldParams::default().resolution(48),
+        )
+        .unwrap();
+        let distances = field.distances().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("grid.nrrd");
+        nrrd::write_file(&path, |f| nrrd::write_scalar(f, &distances)).unwrap();
+
+        let read = read_exemplar(&path).unwrap();
+        // The volume's box, and a closed solid on the original surface (the field's margin
+        // keeps the solid off the box's sides, so nothing is capped; marching cubes stays
+        // within a grid spacing of it, measured 0.55 spacings at the junctions).
+        let spacing = distances.spacing();
+        let corner =
+            distances.origin() + Vec3::from(distances.dims().map(|d| (d - 1) as f32)) * spacing;
+        assert!((read.bounds.min - distances.origin()).abs().max_element() < 1e-5);
+        assert!((read.bounds.max - corner).abs().max_element() < 1e-4);
+        assert!(read.mesh.topology().is_closed_manifold());
+        let original = MeshSurface::new(&grid.mesh).unwrap();
+        let worst = read
+            .mesh
+            .positions()
+            .iter()
+            .map(|&p| {
+                original
+                    .signed_distance(p)
+                    .map_or(f32::MAX, |(d, _)| d.abs())
+            })
+            .fold(0.0f32, f32::max);
+        assert!(worst < spacing, "{worst} against spacing {spacing}");
+
+        // A field without an inside, or with a NaN, is no solid: errors.
+        for (name, value) in [("outside.nrrd", 1.0f32), ("nan.nrrd", f32::NAN)] {
+            let mut bad = distances.clone();
+            bad.data_mut().fill(1.0);
+            bad.data_mut()[0] = value;
+            let path = dir.path().join(name);
+            nrrd::write_file(&path, |f| nrrd::write_scalar(f, &bad)).unwrap();
+            assert!(matches!(
+                read_exemplar(&path),
+                Err(Error::TextureFile { .. })
+            ));
+        }
     }
 
     #[test]

@@ -15,7 +15,7 @@ use std::collections::HashMap;
 use glam::{IVec3, Vec3, Vec4};
 use pointset_core::{Grid3, NormalWeighting, PointSet, TriMesh};
 
-use crate::error::Result;
+use crate::error::{FieldError, Result};
 use crate::sdf::SdfGrid;
 
 /// The six tetrahedra of the Kuhn split; corners numbered `x + 2y + 4z`.
@@ -144,6 +144,38 @@ impl Builder<'_> {
 /// with normals from the mesh (angle-weighted).
 pub fn isosurface(grid: &Grid3<f32>, iso: f32) -> Result<TriMesh> {
     extract(grid, iso, None)
+}
+
+/// [`isosurface`] of the grid padded by one layer of `outside` on every side: a solid that
+/// reaches the grid's edge is capped there, so the surface is closed (a 2-manifold without
+/// border) wherever the values inside the grid are finite. `outside` must exceed `iso`.
+pub fn closed_isosurface(grid: &Grid3<f32>, iso: f32, outside: f32) -> Result<TriMesh> {
+    if !(outside.is_finite() && iso.is_finite() && outside > iso) {
+        return Err(FieldError::InvalidParameter {
+            name: "outside",
+            value: format!("{outside} (iso {iso})"),
+            expected: "a finite value above the iso value",
+        });
+    }
+    let d = grid.dims();
+    let padded = [d[0] + 2, d[1] + 2, d[2] + 2];
+    let mut data = vec![outside; padded.iter().product()];
+    for z in 0..d[2] {
+        for y in 0..d[1] {
+            for x in 0..d[0] {
+                if let Some(&v) = grid.get(x, y, z) {
+                    data[x + 1 + padded[0] * (y + 1 + padded[1] * (z + 1))] = v;
+                }
+            }
+        }
+    }
+    let padded = Grid3::from_vec(
+        padded,
+        grid.origin() - Vec3::splat(grid.spacing()),
+        grid.spacing(),
+        data,
+    )?;
+    extract(&padded, iso, None)
 }
 
 /// Extracts the zero set of a signed distance grid; vertex normals interpolate the stored

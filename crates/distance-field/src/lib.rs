@@ -69,7 +69,7 @@ mod sdf;
 mod triangle;
 
 pub use error::{FieldError, Result};
-pub use iso::{isosurface, sdf_isosurface};
+pub use iso::{closed_isosurface, isosurface, sdf_isosurface};
 pub use mesh_surface::{MeshHit, MeshSurface};
 pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};
 pub use sdf::{GridSpec, SdfGrid};

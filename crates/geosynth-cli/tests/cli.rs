@@ -398,6 +398,25 @@ fn voxel_keeps_georeferenced_exemplars_in_place() {
         .unwrap();
     assert!(b.min.x > 499_990.0 && b.min.y > 3_999_990.0, "{b:?}");
     assert!(b.max.x < 500_010.0 && b.max.y < 4_000_010.0, "{b:?}");
+    // Its signed distance volume (NRRD, origin written at full precision) is an exemplar
+    // too: the solid where it is negative, synthesized in place.
+    let field = dir.path().join("precise.nrrd");
+    ok(&[
+        "sdf",
+        precise.to_str().unwrap(),
+        "-o",
+        field.to_str().unwrap(),
+        "--resolution",
+        "24",
+        "-q",
+    ]);
+    run(&field, &out);
+    let b = read_geometry(&out)
+        .unwrap()
+        .geometry
+        .bounding_box()
+        .unwrap();
+    assert!(b.min.x > 499_990.0 && b.max.y < 4_000_010.0, "{b:?}");
     // In single precision the file has lost its detail (0.25 apart at 4e6); the run says so.
     let shifted: Vec<glam::Vec3> = grid
         .mesh

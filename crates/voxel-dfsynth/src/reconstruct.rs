@@ -19,7 +19,7 @@
 use std::collections::{HashMap, HashSet, VecDeque};
 
 use glam::Vec3;
-use pointset_core::{DisjointSets, Grid3, KdIndex, PointSet, TriMesh};
+use pointset_core::{DisjointSets, KdIndex, PointSet, TriMesh};
 
 use crate::error::{Result, VoxelError};
 use crate::synth::Synthesis;
@@ -27,30 +27,11 @@ use crate::synth::Synthesis;
 /// The zero set of the synthesized field as a mesh (reconstruction (a)).
 pub fn isosurface_mesh(synthesis: &Synthesis, closed: bool) -> Result<TriMesh> {
     let grid = synthesis.distances()?;
-    let grid = if closed {
-        let outside = synthesis.quantizer.range();
-        let d = grid.dims();
-        let padded = [d[0] + 2, d[1] + 2, d[2] + 2];
-        let mut data = vec![outside; padded.iter().product()];
-        for z in 0..d[2] {
-            for y in 0..d[1] {
-                for x in 0..d[0] {
-                    if let Some(&v) = grid.get(x, y, z) {
-                        data[x + 1 + padded[0] * (y + 1 + padded[1] * (z + 1))] = v;
-                    }
-                }
-            }
-        }
-        Grid3::from_vec(
-            padded,
-            grid.origin() - Vec3::splat(grid.spacing()),
-            grid.spacing(),
-            data,
-        )?
+    Ok(if closed {
+        distance_field::closed_isosurface(&grid, 0.0, synthesis.quantizer.range())?
     } else {
-        grid
-    };
-    Ok(distance_field::isosurface(&grid, 0.0)?)
+        distance_field::isosurface(&grid, 0.0)?
+    })
 }
 
 /// Parameters of the seam relaxation in [`copied_mesh`].

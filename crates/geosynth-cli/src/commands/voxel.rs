@@ -45,7 +45,8 @@ impl From<MatcherArg> for MatcherKind {
 #[derive(Debug, Args)]
 pub struct VoxelArgs {
     /// Exemplar mesh (.ply, .obj, .off); a `texture_box` comment selects the sampled box
-    /// (as `geosynth fixtures` writes it), otherwise the mesh's bounding box.
+    /// (as `geosynth fixtures` writes it), otherwise the mesh's bounding box. Or an NRRD
+    /// volume (as `geosynth sdf` writes one): the solid where it is negative, in its box.
     exemplar: PathBuf,
     /// Output mesh: the source triangles copied block by block, welded and relaxed (the
     /// paper's reconstruction).
