@@ -47,13 +47,15 @@ fn obj_text(bytes: &[u8]) -> Result<&str> {
         .map_err(|e| malformed(1, format!("not UTF-8 text (at byte {})", e.valid_up_to())))
 }
 
-/// The numbers after a `v`, `vn` or `vt` keyword on line `line`; at least `least`.
+/// The numbers after a `v`, `vn` or `vt` keyword on line `line` (up to a trailing `#`
+/// comment); at least `least`.
 fn numbers<'a>(
     words: impl Iterator<Item = &'a str>,
     line: usize,
     least: usize,
 ) -> Result<Vec<f64>> {
     let values = words
+        .take_while(|w| !w.starts_with('#'))
         .map(|w| {
             w.parse::<f64>()
                 .map_err(|_| malformed(line, format!("`{w}` is not a number")))
