@@ -8,12 +8,12 @@
 //! | module | crate | what |
 //! |---|---|---|
 //! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF I/O, [`Stage`] |
-//! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation |
+//! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation, normal estimation and orientation |
 //! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
 //! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |
 //! | [`voxel`] | `voxel-dfsynth` | paper 001: distance-field block matching and synthesis, the `VoxelSynth` stage |
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage |
-//! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid |
+//! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid; trimming open scans |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
 //! | [`imagery`] | (facade) | textures and height fields from PNG/JPEG/raw `f32` files |
