@@ -40,6 +40,29 @@
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## Cookbook: a bare scan to a mesh
+//!
+//! Positions alone (an XYZ scan) get normals by local PCA, oriented by propagation, and
+//! become a closed mesh; an open scan would be trimmed with
+//! [`reconstruct::trim_to_samples`].
+//!
+//! ```
+//! use geosynth::core::PointSet;
+//! use geosynth::mls::{NORMAL_NEIGHBOURS, estimate_normals, orient_normals};
+//! use geosynth::reconstruct::{FieldParams, Reconstruct};
+//! use geosynth::{RunContext, Stage};
+//!
+//! let scan = geosynth::fixtures::sphere_points(2000)?;
+//! let bare = PointSet::new(scan.positions().to_vec())?;
+//! let estimated = estimate_normals(&bare, NORMAL_NEIGHBOURS)?;
+//! let oriented = orient_normals(&estimated, glam::Vec3::Z)?;
+//! let stage = Reconstruct { params: FieldParams::default().resolution(32) };
+//! let mesh = stage.run(oriented, &mut RunContext::new(0))?;
+//! let topology = mesh.topology();
+//! assert!(topology.is_closed_manifold() && topology.euler_characteristic == 2);
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! ## Composing stages
 //!
 //! Every algorithm is a [`Stage`]; `then` chains them with typed inputs and outputs, and the
