@@ -25,6 +25,18 @@ fn ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// `geosynth info --json` of a file.
+fn info_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap()
+}
+
+/// Asserts that `info` finds `path` a closed manifold of Euler characteristic `euler`.
+fn assert_closed(path: &Path, euler: i64, what: &str) {
+    let json = info_json(path);
+    assert_eq!(json["topology"]["closed_manifold"], true, "{what}");
+    assert_eq!(json["topology"]["euler_characteristic"], euler, "{what}");
+}
+
 /// Every data file under `GEOSYNTH_DATA` (geometry, pictures, height fields), skipping the
 /// folder's own text documentation.
 fn shared_data_files() -> Option<Vec<PathBuf>> {
@@ -60,7 +72,7 @@ fn info_and_render_work_on_every_shared_file() {
     let dir = tempfile::tempdir().unwrap();
     for file in &files {
         let f = file.to_str().unwrap();
-        let json: serde_json::Value = serde_json::from_str(&ok(&["info", "--json", f])).unwrap();
+        let json = info_json(file);
         match json["kind"].as_str().unwrap() {
             "points" | "mesh" => {
                 assert!(json["vertices"].as_u64().unwrap() > 0, "{f}");
@@ -152,8 +164,7 @@ fn info_reports_kept_attributes() {
     ) else {
         return;
     };
-    let json: serde_json::Value =
-        serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap();
+    let json = info_json(&path);
     assert_eq!(json["vertices"], 8171);
     assert_eq!(json["faces"], 16301);
     let names: Vec<&str> = json["attributes"]
@@ -483,10 +494,7 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
         "--resolution",
         "32",
     ]);
-    let json: serde_json::Value =
-        serde_json::from_str(&ok(&["info", "--json", mesh.to_str().unwrap()])).unwrap();
-    assert_eq!(json["topology"]["closed_manifold"], true);
-    assert_eq!(json["topology"]["euler_characteristic"], 2, "a sphere");
+    assert_closed(&mesh, 2, "a sphere");
     // An open sheet (the bumpy fixture) trimmed: the surface ends near its samples
     // instead of running on to the grid's edge.
     let bumpy = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
@@ -543,10 +551,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         "40",
         "-q",
     ]);
-    let json: serde_json::Value =
-        serde_json::from_str(&ok(&["info", "--json", mesh.to_str().unwrap()])).unwrap();
-    assert_eq!(json["topology"]["closed_manifold"], true);
-    assert_eq!(json["topology"]["euler_characteristic"], 0, "a torus");
+    assert_closed(&mesh, 0, "a torus");
     // The same points with every third normal flipped, as unoriented estimates come: the
     // run warns, the oriented one does not.
     let torus = geosynth::core::io::read_geometry(&points).unwrap().geometry;
@@ -567,8 +572,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
     )
     .unwrap();
     let share = |path: &Path| {
-        let json: serde_json::Value =
-            serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap();
+        let json = info_json(path);
         json["normal_disagreement"].as_f64().unwrap()
     };
     assert!(share(&points) < 0.05 && share(&mixed) > 0.15);
@@ -595,10 +599,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         "--orient-normals",
     ]);
     assert!(!said.contains("look unoriented"), "{said}");
-    let json: serde_json::Value =
-        serde_json::from_str(&ok(&["info", "--json", probe.to_str().unwrap()])).unwrap();
-    assert_eq!(json["topology"]["closed_manifold"], true);
-    assert_eq!(json["topology"]["euler_characteristic"], 0, "a torus");
+    assert_closed(&probe, 0, "a torus");
 
     let field = dir.path().join("torus.nrrd");
     ok(&[
@@ -618,8 +619,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
             && volume.data.iter().step_by(4).any(|d| *d > 0.0)
     );
     // info describes the field; render draws its zero level set, a torus like the mesh.
-    let json: serde_json::Value =
-        serde_json::from_str(&ok(&["info", "--json", field.to_str().unwrap()])).unwrap();
+    let json = info_json(&field);
     assert_eq!(json["channels"], 4);
     assert_eq!(json["dims"], serde_json::json!(volume.dims));
     let inside = json["inside_share"].as_f64().unwrap();
@@ -721,8 +721,7 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
         mesh_out.to_str().unwrap(),
         "-q",
     ]);
-    let json: serde_json::Value =
-        serde_json::from_str(&ok(&["info", "--json", mesh_out.to_str().unwrap()])).unwrap();
+    let json = info_json(&mesh_out);
     assert_eq!(json["faces"], 48 * 24 * 2);
     // Bad pairs files fail with the line.
     std::fs::write(&pairs, "1 0 0 0 1 0\n1 2 3\n").unwrap();
