@@ -26,7 +26,7 @@
 use std::path::Path;
 
 use distance_field::{GridSpec, MeshSurface, SdfGrid, closed_isosurface, nrrd};
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, RunContext, Stage, TriMesh};
 pub use voxel_dfsynth::{
@@ -120,15 +120,8 @@ fn read_volume_exemplar(path: &Path) -> Result<VoxelExemplar> {
         message,
     };
     let volume = nrrd::read_file(path)?;
-    // A field further from the file's origin than its own size (georeferenced) is stored
-    // relative to its corner, so it keeps its precision; others stay where they are.
-    let size =
-        volume.dims.iter().map(|&d| d as f64).fold(0.0, f64::max) * f64::from(volume.spacing);
-    let origin = if volume.origin.abs().max_element() > size {
-        volume.origin
-    } else {
-        DVec3::ZERO
-    };
+    // A georeferenced field is stored relative to an origin, as mesh files are.
+    let origin = io::far_origin(volume.origin, volume.far_corner());
     let grid = volume.scalar_grid_at(origin)?;
     if let Some(i) = grid.data().iter().position(|v| !v.is_finite()) {
         return Err(file_error(format!(
@@ -143,10 +136,9 @@ fn read_volume_exemplar(path: &Path) -> Result<VoxelExemplar> {
             "the field is negative nowhere: it holds no solid".into(),
         ));
     }
-    let dims = grid.dims().map(|d| d.saturating_sub(1) as f32);
     let bounds = Aabb::new(
-        grid.origin(),
-        grid.origin() + Vec3::from(dims) * grid.spacing(),
+        (volume.origin - origin).as_vec3(),
+        (volume.far_corner() - origin).as_vec3(),
     );
     Ok(VoxelExemplar {
         mesh,
@@ -275,8 +267,8 @@ mod tests {
         // keeps the solid off the box's sides, so nothing is capped; marching cubes stays
         // within a grid spacing of it, measured 0.55 spacings at the junctions).
         let spacing = distances.spacing();
-        let corner =
-            distances.origin() + Vec3::from(distances.dims().map(|d| (d - 1) as f32)) * spacing;
+        let corner = distances.origin()
+            + glam::Vec3::from(distances.dims().map(|d| (d - 1) as f32)) * spacing;
         assert!((read.bounds.min - distances.origin()).abs().max_element() < 1e-5);
         assert!((read.bounds.max - corner).abs().max_element() < 1e-4);
         assert!(read.mesh.topology().is_closed_manifold());

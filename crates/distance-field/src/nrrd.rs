@@ -32,6 +32,12 @@ pub struct NrrdVolume {
 }
 
 impl NrrdVolume {
+    /// World position of the last node, in double precision.
+    pub fn far_corner(&self) -> DVec3 {
+        let span = DVec3::from(self.dims.map(|d| d.saturating_sub(1) as f64));
+        self.origin + span * f64::from(self.spacing)
+    }
+
     /// The volume as a scalar grid (the first channel of multi-channel volumes).
     pub fn scalar_grid(&self) -> Result<Grid3<f32>> {
         self.scalar_grid_at(DVec3::ZERO)

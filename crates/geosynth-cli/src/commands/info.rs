@@ -7,7 +7,6 @@ use geosynth::core::io::{self, Geometry, LoadedGeometry, ReadOptions};
 use geosynth::imagery;
 use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
 use geosynth::sdf::nrrd;
-use glam::DVec3;
 use serde::Serialize;
 
 use crate::output::{print_line, status};
@@ -261,7 +260,6 @@ impl VolumeInfo {
         let first = volume.data.iter().step_by(volume.channels.max(1));
         let finite: Vec<f32> = first.clone().copied().filter(|v| v.is_finite()).collect();
         let nodes = volume.dims.iter().product::<usize>().max(1);
-        let span = DVec3::from(volume.dims.map(|d| d.saturating_sub(1) as f64));
         Ok(Self {
             path: path.display().to_string(),
             format: "NRRD",
@@ -274,7 +272,7 @@ impl VolumeInfo {
             channels: volume.channels,
             spacing: volume.spacing,
             origin: volume.origin.to_array(),
-            far_corner: (volume.origin + span * f64::from(volume.spacing)).to_array(),
+            far_corner: volume.far_corner().to_array(),
             min: finite.iter().copied().reduce(f32::min),
             max: finite.iter().copied().reduce(f32::max),
             inside_share: first.filter(|v| **v < 0.0).count() as f64 / nodes as f64,

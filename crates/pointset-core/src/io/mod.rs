@@ -172,19 +172,34 @@ impl ReadOptions {
     }
 }
 
+/// The origin data spanning the box `lo..hi` is stored relative to under
+/// [`ReadOptions::recentre_far`]: the box's centre rounded to whole units when the box lies
+/// further from the file's origin than its own extent (georeferenced data), else zero.
+///
+/// ```
+/// use glam::DVec3;
+/// use pointset_core::io::far_origin;
+/// let near = far_origin(DVec3::ZERO, DVec3::splat(4.0));
+/// let far = far_origin(DVec3::new(5e5, 4e6, 0.0), DVec3::new(5e5 + 8.0, 4e6 + 8.0, 2.0));
+/// assert_eq!((near, far), (DVec3::ZERO, DVec3::new(500_004.0, 4_000_004.0, 1.0)));
+/// ```
+pub fn far_origin(lo: DVec3, hi: DVec3) -> DVec3 {
+    let centre = 0.5 * (lo + hi);
+    let far = centre.abs().max_element() > (hi - lo).max_element();
+    if far && centre.is_finite() {
+        centre.round()
+    } else {
+        DVec3::ZERO
+    }
+}
+
 /// The origin positions are stored relative to (see [`ReadOptions::recentre_far`]), and
 /// the positions relative to it in single precision.
 pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3>, DVec3) {
     let origin = if recentre_far && !raw.is_empty() {
         let lo = raw.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
         let hi = raw.iter().fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
-        let centre = 0.5 * (lo + hi);
-        let far = centre.abs().max_element() > (hi - lo).max_element();
-        if far && centre.is_finite() {
-            centre.round()
-        } else {
-            DVec3::ZERO
-        }
+        far_origin(lo, hi)
     } else {
         DVec3::ZERO
     };
