@@ -118,13 +118,13 @@ fn check_face<'a>(
 
 /// Checks the lines `tobj` reads (`v`, `vn`, `vt`, `f`), so that a malformed file is refused
 /// with its line number, and a face with fewer than three corners is refused instead of
-/// dropped. Files with `\` line continuations are left to `tobj`.
+/// dropped. From the first `\` line continuation on, the lines are left to `tobj`.
 fn check_lines(text: &str) -> Result<()> {
-    if text.lines().any(|l| l.trim_end().ends_with('\\')) {
-        return Ok(());
-    }
     let mut counts = [0usize; 3];
     for (i, line) in text.lines().enumerate() {
+        if line.trim_end().ends_with('\\') {
+            return Ok(());
+        }
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {
@@ -165,7 +165,8 @@ pub(crate) fn read_obj_at(
         ignore_points: true,
         ignore_lines: true,
     };
-    check_lines(obj_text(bytes)?)?;
+    let text = obj_text(bytes)?;
+    check_lines(text)?;
     let mut reader = std::io::BufReader::new(bytes);
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         Ok((Vec::new(), Default::default()))
@@ -206,7 +207,7 @@ pub(crate) fn read_obj_at(
         }
     }
     if positions.is_empty() {
-        return read_point_cloud(bytes, recentre_far)
+        return read_point_cloud(text, recentre_far)
             .map(|(points, origin)| (Geometry::Points(points), origin));
     }
     let (positions, origin) = relative_positions(&positions, recentre_far);
@@ -225,8 +226,7 @@ pub(crate) fn read_obj_at(
 }
 
 /// Reads a face-less OBJ: `v x y z [r g b]` lines and optional `vn` lines.
-fn read_point_cloud(bytes: &[u8], recentre_far: bool) -> Result<(PointSet, DVec3)> {
-    let text = obj_text(bytes)?;
+fn read_point_cloud(text: &str, recentre_far: bool) -> Result<(PointSet, DVec3)> {
     let (mut positions, mut normals, mut colors) = (Vec::new(), Vec::new(), Vec::new());
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
