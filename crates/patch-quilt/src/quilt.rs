@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use distance_field::{GridSpec, SdfGrid};
 use glam::{Vec2, Vec3};
-use mls_surface::{MlsParams, MlsSurface, RelaxParams, relax};
+use mls_surface::{MlsParams, MlsSurface, RelaxParams, nearest_neighbour_spread, relax};
 use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarType, rng};
 use rand::RngExt;
 
@@ -215,6 +215,15 @@ fn check_layout(
         )),
         None => Ok(()),
     }
+}
+
+/// The entries of `values` whose flag in `inside` is set, in order.
+fn kept<T>(values: Vec<T>, inside: &[bool]) -> Vec<T> {
+    values
+        .into_iter()
+        .zip(inside)
+        .filter_map(|(v, &i)| i.then_some(v))
+        .collect()
 }
 
 /// Runs the synthesis.
@@ -458,29 +467,29 @@ pub fn quilt(
         }
     }
 
-    // Step 8: trim w_E along the border (keep the requested output box), then relax. The
-    // box's height is the exemplar's, widened by the overlap width: warps may move geometry
-    // that far; anything beyond is trimmed too.
+    // Step 8: relax (the paper's optional post-process), then trim w_E along the border to
+    // the requested output box. The box's height is the exemplar's, widened by the overlap
+    // width: warps may move geometry that far; anything beyond is trimmed too. Relaxing
+    // before the trim gives the border's points neighbours on every side; relaxed after
+    // it, they were pushed out of the box by neighbours on one side only.
     let t = Instant::now();
     let zlo = frame.bounds.min.z - g.overlap();
     let zhi = frame.bounds.max.z + g.overlap();
+    let in_height = |p: Vec3| p.z >= zlo && p.z <= zhi;
+    let in_box = |p: Vec3| {
+        let q = p.truncate();
+        in_height(p) && q.cmpge(layout.out_lo).all() && q.cmple(layout.out_hi).all()
+    };
     let (mut pts, mut nrm, mut patch) = (Vec::new(), Vec::new(), Vec::new());
     for (_, p, (n, id)) in out.iter() {
-        let q = p.truncate();
-        if q.cmpge(layout.out_lo).all() && q.cmple(layout.out_hi).all() && p.z >= zlo && p.z <= zhi
-        {
+        if in_height(p) {
             pts.push(p);
             nrm.push(*n);
             patch.push(*id as f32);
         }
     }
-    if pts.is_empty() {
-        return Err(QuiltError::InvalidTexture {
-            reason: "the synthesis produced no points inside the output box".into(),
-        });
-    }
     let mut relaxation_spread = None;
-    if params.relaxation_rounds > 0 {
+    if params.relaxation_rounds > 0 && !pts.is_empty() {
         let set = PointSet::new(pts.clone())?.with_normals(nrm.clone())?;
         let surface = MlsSurface::new(&set, &mls)?;
         let relaxed = relax(
@@ -488,9 +497,21 @@ pub fn quilt(
             &pts,
             &RelaxParams::default().iterations(params.relaxation_rounds),
         )?;
-        relaxation_spread = Some((relaxed.spread_before, relaxed.spread_after));
+        // The spreads are the output's: measured inside the box, before and after.
+        let in_output =
+            |v: &[Vec3]| -> Vec<Vec3> { v.iter().copied().filter(|&p| in_box(p)).collect() };
+        let before = nearest_neighbour_spread(&in_output(&pts))?;
+        let after = nearest_neighbour_spread(&in_output(&relaxed.positions))?;
+        relaxation_spread = Some((before, after));
         pts = relaxed.positions;
         nrm = relaxed.normals;
+    }
+    let inside: Vec<bool> = pts.iter().map(|&p| in_box(p)).collect();
+    let (pts, nrm, patch) = (kept(pts, &inside), kept(nrm, &inside), kept(patch, &inside));
+    if pts.is_empty() {
+        return Err(QuiltError::InvalidTexture {
+            reason: "the synthesis produced no points inside the output box".into(),
+        });
     }
     let up = texture.up();
     let world_p: Vec<Vec3> = pts.iter().map(|&p| up.to_world(p)).collect();

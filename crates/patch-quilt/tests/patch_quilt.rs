@@ -111,10 +111,11 @@ fn a_flat_plane_stays_flat_and_whole() {
 }
 
 #[test]
-fn relaxation_keeps_the_orientation_of_surfaces_that_face_down() {
+fn relaxation_evens_the_spacing_inside_the_box_and_keeps_orientation() {
     // The underside of a sheet, sampled at random: some samples have too few neighbours for
     // the MLS projection. The relaxed output must keep every normal pointing down, as the
-    // exemplar's do (an unprojectable point once fell back to +Z).
+    // exemplar's do (an unprojectable point once fell back to +Z), and stay in the output
+    // box (relaxed after trimming, the border's points were pushed out of it).
     let mut g = pointset_core::rng::rng_from_seed(11);
     let positions: Vec<Vec3> = (0..2500)
         .map(|_| Vec3::new(g.random_range(-0.6..2.6), g.random_range(-0.6..2.6), 0.0))
@@ -128,7 +129,8 @@ fn relaxation_keeps_the_orientation_of_surfaces_that_face_down() {
     let t = GeometryTexture::new(&set, bounds, UpAxis::Z).unwrap();
     let params = small_params().relaxation_rounds(2);
     let out = quilt(&t, &params, &mut RunContext::new(2)).unwrap();
-    assert!(out.stats.relaxation_spread.is_some());
+    let (before, after) = out.stats.relaxation_spread.unwrap();
+    assert!(after < 0.8 * before, "spread {before} -> {after}");
     for (p, n) in out
         .points
         .positions()
@@ -136,6 +138,7 @@ fn relaxation_keeps_the_orientation_of_surfaces_that_face_down() {
         .zip(out.points.normals().unwrap())
     {
         assert!(n.z < -0.99, "normal {n} at {p}");
+        assert!(out.bounds.contains(*p), "{p} outside {:?}", out.bounds);
     }
 }
 
@@ -333,6 +336,15 @@ fn invalid_input_is_an_error() {
         GeometryTexture::new(&bare, b, UpAxis::Z),
         Err(QuiltError::InvalidTexture { .. })
     ));
+    let heap = PointSet::new(vec![Vec3::splat(0.5); 100])
+        .unwrap()
+        .with_normals(vec![Vec3::Z; 100])
+        .unwrap();
+    let heap = GeometryTexture::new(&heap, b, UpAxis::Z).unwrap_err();
+    assert!(
+        heap.to_string().contains("all 100 points coincide"),
+        "{heap}"
+    );
     let flat_box = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0));
     let oriented = bare.clone().with_normals(vec![Vec3::Z; 100]).unwrap();
     let flat = GeometryTexture::new(&oriented, flat_box, UpAxis::Z).unwrap_err();
