@@ -50,8 +50,10 @@
 //!    at its inner edge).
 //! 6. Points of `T_out` (a hashed bucket grid) inside `B_k` are removed and the points of
 //!    `F''_k` inside `B_k` inserted.
-//! 7. Until the layout is covered; 8. everything outside the requested box (a `w_E` band) is
-//!    trimmed; optional relaxation on the output's own MLS surface.
+//! 7. Until the layout is covered; 8. optional relaxation on the texture's own MLS surface
+//!    (the paper's post-process, run while the `w_E` band still surrounds the box so the
+//!    border's points have neighbours on every side), then everything outside the requested
+//!    box (that band) is trimmed.
 //!
 //! Timings are recorded in the [`pointset_core::RunContext`] as `search`, `warp`, `blend`
 //! and `other` (Table 1's split); [`QuiltStats`] has the counts.
@@ -109,7 +111,8 @@
 //! [`QuiltError`]: invalid parameters, exemplars without normals, boxes without volume
 //! (the message says whether across the plane or along the up axis), boxes so much taller
 //! than wide that `D(T_in)` would exceed [`MAX_FIELD_NODES`], padding too narrow for the
-//! extra region, and errors of the building blocks. An exemplar without relief quilts,
+//! extra region, and errors of the building blocks. The quality measure refuses exemplar
+//! fields whose fine sampling would exceed [`MAX_MEASURE_NODES`]. An exemplar without relief quilts,
 //! but its window errors mean nothing ([`QualityReport::featureless_exemplar`]).
 
 #![deny(missing_docs)]
@@ -130,6 +133,7 @@ pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
 pub use exemplar::{BASE_SIDE, MAX_FIELD_NODES, PatchGeometry};
 pub use params::{Method, OutputSize, QuiltParams, WarpTargets};
+pub use quality::windows::MAX_MEASURE_NODES;
 pub use quality::{FEATURELESS_VARIATION, QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};
 pub use texture::{GeometryTexture, UpAxis};

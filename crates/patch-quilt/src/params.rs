@@ -115,7 +115,8 @@ pub struct QuiltParams {
     pub output: OutputSize,
     /// Seed of every random choice; default 0.
     pub seed: u64,
-    /// Relaxation rounds after trimming (paper §6 post-process); default 0 (off).
+    /// Relaxation rounds (paper §6 post-process), run on the whole synthesized texture just
+    /// before it is trimmed to the output box; default 0 (off).
     pub relaxation_rounds: usize,
     /// Which parts run; default the full algorithm.
     pub method: Method,

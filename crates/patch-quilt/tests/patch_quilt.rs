@@ -110,21 +110,26 @@ fn a_flat_plane_stays_flat_and_whole() {
     );
 }
 
+/// `n` points of the plane z = 0 drawn at random over [-0.6, 2.6]², all with `normal`: a
+/// sheet for a box [0, 2]² with padding.
+fn random_sheet(seed: u64, n: usize, normal: Vec3) -> PointSet {
+    let mut g = pointset_core::rng::rng_from_seed(seed);
+    let positions: Vec<Vec3> = (0..n)
+        .map(|_| Vec3::new(g.random_range(-0.6..2.6), g.random_range(-0.6..2.6), 0.0))
+        .collect();
+    PointSet::new(positions)
+        .unwrap()
+        .with_normals(vec![normal; n])
+        .unwrap()
+}
+
 #[test]
 fn relaxation_evens_the_spacing_inside_the_box_and_keeps_orientation() {
     // The underside of a sheet, sampled at random: some samples have too few neighbours for
     // the MLS projection. The relaxed output must keep every normal pointing down, as the
     // exemplar's do (an unprojectable point once fell back to +Z), and stay in the output
     // box (relaxed after trimming, the border's points were pushed out of it).
-    let mut g = pointset_core::rng::rng_from_seed(11);
-    let positions: Vec<Vec3> = (0..2500)
-        .map(|_| Vec3::new(g.random_range(-0.6..2.6), g.random_range(-0.6..2.6), 0.0))
-        .collect();
-    let normals = vec![Vec3::NEG_Z; positions.len()];
-    let set = PointSet::new(positions)
-        .unwrap()
-        .with_normals(normals)
-        .unwrap();
+    let set = random_sheet(11, 2500, Vec3::NEG_Z);
     let bounds = Aabb::new(Vec3::new(0.0, 0.0, -0.1), Vec3::new(2.0, 2.0, 0.1));
     let t = GeometryTexture::new(&set, bounds, UpAxis::Z).unwrap();
     let params = small_params().relaxation_rounds(2);
@@ -140,6 +145,31 @@ fn relaxation_evens_the_spacing_inside_the_box_and_keeps_orientation() {
         assert!(n.z < -0.99, "normal {n} at {p}");
         assert!(out.bounds.contains(*p), "{p} outside {:?}", out.bounds);
     }
+}
+
+#[test]
+fn the_quality_measure_refuses_a_field_it_cannot_hold() {
+    // A sheet in a box 40 times taller than wide: `D(T_in)` has about a million nodes, which
+    // the synthesis handles, but the measure's field 4 times finer would have 88 million.
+    let set = random_sheet(4, 2000, Vec3::Z);
+    let tall = Aabb::new(Vec3::new(0.0, 0.0, -40.0), Vec3::new(2.0, 2.0, 40.0));
+    let t = GeometryTexture::new(&set, tall, UpAxis::Z).unwrap();
+    let params = QuiltParams::default().field_resolution(32);
+    let refused = QualityMeasure::new(&t, &params).err().unwrap();
+    assert!(
+        matches!(
+            refused,
+            QuiltError::InvalidParameter {
+                name: "field_resolution",
+                ..
+            }
+        ),
+        "{refused}"
+    );
+    assert!(
+        refused.to_string().contains("lower field_resolution"),
+        "{refused}"
+    );
 }
 
 /// Dominant period along x of a height field sampled from points (autocorrelation peak).

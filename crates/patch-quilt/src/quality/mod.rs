@@ -188,7 +188,9 @@ impl<'t> QualityMeasure<'t> {
     /// Prepares the measure for outputs of `texture` quilted with `params` (any
     /// [`Method`](crate::Method): only the parameters shaping the exemplar's field, the
     /// patch and the windows, and the seed that draws the windows, are used). Errors: a
-    /// texture without normals and whatever building its surface or fields fails on.
+    /// texture without normals, a finely sampled exemplar field over
+    /// [`MAX_MEASURE_NODES`](crate::MAX_MEASURE_NODES) nodes, and whatever building its
+    /// surface or fields fails on.
     pub fn new(texture: &'t GeometryTexture, params: &QuiltParams) -> Result<Self> {
         let ex = ExemplarFrame::new(texture, params)?;
         let w = (ex.geometry.patch_nodes / 2).max(3);

@@ -32,13 +32,19 @@ use distance_field::{GridSpec, SdfGrid};
 use glam::Vec3;
 use mls_surface::MlsSurface;
 
-use crate::error::Result;
+use crate::error::{Result, invalid};
 use crate::exemplar::ExemplarFrame;
 
 /// Finer samples per field spacing in the second pass.
 pub const SUBSTEPS: usize = 4;
 /// Node-aligned exemplar windows whose surroundings are searched in the second pass.
 pub const REFINED: usize = 8;
+/// Most nodes the measure's fine exemplar field may have (about 1.3 GB while it is built,
+/// and minutes of MLS projections). Sampled 4 times finer, it has 64 times the nodes of
+/// `D(T_in)`, so field resolutions that the synthesis handles in seconds can ask the
+/// measure for more memory than the machine has. Measured on the bumpy fixture (2 cores):
+/// 9 M fine nodes (`field_resolution` 96) take 10 s to build, 40 M (160) take 48 s.
+pub const MAX_MEASURE_NODES: usize = 1 << 26;
 /// Halvings of the step in the continuous pass (the last step is
 /// `1 / (SUBSTEPS · 2^CONTINUOUS_LEVELS)` spacing).
 pub const CONTINUOUS_LEVELS: usize = 3;
@@ -189,6 +195,24 @@ impl ExemplarWindows {
             origin: ex.spec.origin - Vec3::splat(spacing),
             spacing: spacing / SUBSTEPS as f32,
         };
+        let nodes = spec
+            .dims
+            .iter()
+            .try_fold(1usize, |n, &d| n.checked_mul(d))
+            .unwrap_or(usize::MAX);
+        if nodes > MAX_MEASURE_NODES {
+            let [x, y, z] = coarse;
+            return Err(invalid(
+                "field_resolution",
+                format!("{x} x {y} x {z} nodes of D(T_in)"),
+                format!(
+                    "a quality measure within {MAX_MEASURE_NODES} nodes: its exemplar field, \
+                     {SUBSTEPS} times finer, would have {nodes} (about {:.1} GB); lower \
+                     field_resolution, or leave the output unmeasured",
+                    nodes as f64 * 20.0 / 1e9
+                ),
+            ));
+        }
         let positions = (0..=coarse[1].saturating_sub(w))
             .flat_map(|j| (0..=coarse[0].saturating_sub(w)).map(move |i| (i, j)))
             .collect();
