@@ -50,6 +50,12 @@ pub enum Error {
         #[source]
         source: image::ImageError,
     },
+    /// A stage found no surface to produce (its distance field never crosses zero).
+    #[error("no surface: {reason}")]
+    NoSurface {
+        /// What was found instead.
+        reason: String,
+    },
     /// A rendering or pipeline parameter is out of range.
     #[error("parameter `{name}` = {value} is out of range: expected {expected}")]
     InvalidParameter {

@@ -157,6 +157,9 @@ impl Stage for SignedDistance {
 
 /// Stage: oriented points → closed mesh (MLS surface → SDF grid → iso-surface).
 ///
+/// Errors: those of [`signed_distance`], and [`Error::NoSurface`] when the field never
+/// crosses zero (an empty mesh is not a reconstruction).
+///
 /// ```
 /// use geosynth::reconstruct::{FieldParams, Reconstruct};
 /// use geosynth::{fixtures, RunContext, Stage};
@@ -189,7 +192,26 @@ impl Stage for Reconstruct {
             signed_distance(&Geometry::Points(input), &self.params)
         })?;
         ctx.check_cancelled()?;
-        ctx.timed("reconstruct: iso-surface", |_| Ok(sdf_isosurface(&sdf)?))
+        let mesh: TriMesh = ctx.timed("reconstruct: iso-surface", |_| {
+            Ok::<_, Error>(sdf_isosurface(&sdf)?)
+        })?;
+        if mesh.face_count() == 0 {
+            let (lo, hi) = sdf
+                .grid()
+                .data()
+                .iter()
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(v.x), hi.max(v.x))
+                });
+            let [x, y, z] = sdf.grid().dims();
+            return Err(Error::NoSurface {
+                reason: format!(
+                    "the signed distance on the {x}x{y}x{z} grid never crosses zero (values \
+                     {lo} to {hi}); the MLS surface of the points could not be sampled there"
+                ),
+            });
+        }
+        Ok(mesh)
     }
 }
 

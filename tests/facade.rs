@@ -294,6 +294,29 @@ fn bunny_points_reconstruct_to_one_closed_genus_zero_mesh() {
 }
 
 #[test]
+fn a_field_without_a_zero_crossing_is_no_surface_not_an_empty_mesh() {
+    use geosynth::reconstruct::{FieldParams, Reconstruct};
+    use geosynth::{RunContext, Stage};
+    // At 1e30 the squared distances overflow single precision: no node of the grid gets a
+    // distance, the field never crosses zero, and the reconstruction once came out as an
+    // empty mesh that the CLI wrote as a success.
+    let sphere = fixtures::sphere_points(800).unwrap();
+    let huge: Vec<glam::Vec3> = sphere.positions().iter().map(|&p| p * 1e30).collect();
+    let huge = geosynth::core::PointSet::new(huge)
+        .unwrap()
+        .with_normals(sphere.normals().unwrap().to_vec())
+        .unwrap();
+    let stage = Reconstruct {
+        params: FieldParams::default().resolution(16),
+    };
+    let err = stage.run(huge, &mut RunContext::new(0)).unwrap_err();
+    assert!(matches!(err, geosynth::Error::NoSurface { .. }), "{err}");
+    assert!(err.to_string().contains("never crosses zero"), "{err}");
+    // The same sphere at its own scale has one.
+    assert!(stage.run(sphere, &mut RunContext::new(0)).is_ok());
+}
+
+#[test]
 fn a_kernel_too_small_for_the_sampling_is_refused() {
     use geosynth::reconstruct::{FieldParams, signed_distance};
     let sphere = Geometry::Points(fixtures::sphere_points(800).unwrap());

@@ -73,7 +73,7 @@ impl MlsSurface {
                     return Err(MlsError::InvalidParameter {
                         name: "kernel",
                         value: "estimated 0".into(),
-                        expected: "an explicit kernel: the points all coincide, so they have no spacing to estimate it from",
+                        expected: "an explicit kernel: the points have no spacing to estimate it from (they all coincide, or lie closer together than single precision resolves)",
                     });
                 }
                 params.kernel_spacing_factor * spacing
