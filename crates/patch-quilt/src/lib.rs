@@ -112,8 +112,9 @@
 //! (the message says whether across the plane or along the up axis), boxes so much taller
 //! than wide that `D(T_in)` would exceed [`MAX_FIELD_NODES`], padding too narrow for the
 //! extra region, and errors of the building blocks. The quality measure refuses exemplar
-//! fields whose fine sampling would exceed [`MAX_MEASURE_NODES`]. An exemplar without relief quilts,
-//! but its window errors mean nothing ([`QualityReport::featureless_exemplar`]).
+//! fields whose fine sampling would exceed [`MAX_MEASURE_NODES`]. An exemplar without
+//! relief quilts, but its window errors mean nothing
+//! ([`QualityReport::featureless_exemplar`]).
 
 #![deny(missing_docs)]
 
