@@ -370,6 +370,54 @@ fn voxel_synthesizes_a_fixture_and_rejects_bad_input() {
 }
 
 #[test]
+fn voxel_says_why_a_few_large_triangles_copy_to_nothing() {
+    // A unit cube of 12 triangles, faces outward: its solid synthesizes, but no triangle's
+    // nearest source sample is picked up by a block, so the copied mesh is empty.
+    let dir = tempfile::tempdir().unwrap();
+    let cube = dir.path().join("cube.obj");
+    let mut obj = String::new();
+    for i in 0..8 {
+        obj += &format!("v {} {} {}\n", i >> 2 & 1, i >> 1 & 1, i & 1);
+    }
+    for f in [
+        [1, 2, 4],
+        [1, 4, 3],
+        [5, 7, 8],
+        [5, 8, 6],
+        [1, 5, 6],
+        [1, 6, 2],
+        [3, 4, 8],
+        [3, 8, 7],
+        [1, 3, 7],
+        [1, 7, 5],
+        [2, 6, 8],
+        [2, 8, 4],
+    ] {
+        obj += &format!("f {} {} {}\n", f[0], f[1], f[2]);
+    }
+    std::fs::write(&cube, obj).unwrap();
+    assert_closed(&cube, 2, "the cube");
+    let out = dir.path().join("v.ply");
+    let said = ok(&[
+        "voxel",
+        cube.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--source-res",
+        "16",
+        "--target-res",
+        "20",
+        "--levels",
+        "1",
+        "--block",
+        "4",
+    ]);
+    assert!(said.contains("no source triangle was copied"), "{said}");
+    assert!(said.contains("--isosurface writes"), "{said}");
+    assert_eq!(info_json(&out)["faces"], 0);
+}
+
+#[test]
 fn voxel_keeps_georeferenced_exemplars_in_place() {
     use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
     let dir = tempfile::tempdir().unwrap();

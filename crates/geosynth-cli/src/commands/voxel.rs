@@ -245,6 +245,29 @@ fn precision_note(exemplar: &VoxelExemplar, source_res: usize) -> Option<String>
     )
 }
 
+/// Why the copied-triangle mesh came out empty, when it did: each source triangle travels
+/// with the source sample nearest its centroid, so an exemplar of a few large triangles
+/// has too few of them for the blocks to pick up.
+fn empty_copy_note(
+    exemplar: &VoxelExemplar,
+    run: &VoxelRun,
+    has_isosurface: bool,
+) -> Option<String> {
+    (run.output.copied.mesh.face_count() == 0).then(|| {
+        let remedy = if has_isosurface {
+            "the iso-surface file holds the synthesized solid"
+        } else {
+            "--isosurface writes the synthesized solid's surface"
+        };
+        format!(
+            "note: no source triangle was copied: each travels with the source sample nearest \
+             its centroid, and the exemplar's {} triangles are too few for the blocks to pick \
+             up (a finer mesh of it would copy); {remedy}",
+            exemplar.mesh.face_count()
+        )
+    })
+}
+
 /// Runs `geosynth voxel`.
 pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     check_output_paths(
@@ -301,6 +324,9 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     if let Some(path) = &args.report {
         std::fs::write(path, serde_json::to_string_pretty(&run_json(&run, &stage))?)
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    if let Some(note) = empty_copy_note(&exemplar, &run, args.isosurface.is_some()) {
+        status(globals, note);
     }
     let q = &run.quality;
     status(
