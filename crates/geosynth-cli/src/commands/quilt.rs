@@ -324,20 +324,21 @@ pub fn measured_run(
     globals: Globals,
     label: &str,
 ) -> CliResult<MeasuredRun> {
+    Ok(unmeasured_run(texture, params, globals, label)?.measured(measure, globals, label))
+}
+
+/// Runs `quilt` with a progress bar; its quality is left to [`MeasuredRun::measured`].
+fn unmeasured_run(
+    texture: &GeometryTexture,
+    params: &QuiltParams,
+    globals: Globals,
+    label: &str,
+) -> CliResult<MeasuredRun> {
     let (mut ctx, bar) = progress_context(globals, params.seed, label, false);
     let start = Instant::now();
     let output = quilt(texture, params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let quality = match measure {
-        Ok(m) => {
-            let bar = spinner(globals, format!("{label}: measuring quality"));
-            let quality = m.evaluate(&output, 48).map_err(|e| e.to_string());
-            bar.finish_and_clear();
-            quality
-        }
-        Err(reason) => Err(reason.clone()),
-    };
     let timings = ctx
         .timings()
         .iter()
@@ -347,8 +348,24 @@ pub fn measured_run(
         output,
         timings,
         seconds,
-        quality,
+        quality: Err("not measured".into()),
     })
+}
+
+impl MeasuredRun {
+    /// The run with its quality measured by `measure` (or the reason it has none).
+    fn measured(mut self, measure: &Measure<'_>, globals: Globals, label: &str) -> Self {
+        self.quality = match measure {
+            Ok(m) => {
+                let bar = spinner(globals, format!("{label}: measuring quality"));
+                let quality = m.evaluate(&self.output, 48).map_err(|e| e.to_string());
+                bar.finish_and_clear();
+                quality
+            }
+            Err(reason) => Err(reason.clone()),
+        };
+        self
+    }
 }
 
 fn mean(values: impl Iterator<Item = f32>) -> f32 {
@@ -538,12 +555,10 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
         params = params.pairing(PairingParams::table1(preset));
     }
     params.validate()?;
-    let measure = if args.no_quality {
-        Err("skipped (--no-quality)".to_string())
-    } else {
-        measure_for(texture, &params, globals)
-    };
-    let main = measured_run(texture, &params, &measure, globals, "quilt")?;
+    // The output (and its preview) are written before it is measured: on large exemplars
+    // the measure can take longer than the synthesis, and an interrupted measure must not
+    // cost the result.
+    let main = unmeasured_run(texture, &params, globals, "quilt")?;
     let mut comments = vec![format!(
         "quilted by geosynth (seed {}, {:?})",
         args.seed, params.method
@@ -561,6 +576,12 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
     if let Some(path) = &args.preview {
         texture_preview(texture, &[&main.output], path, 480, 360)?;
     }
+    let measure = if args.no_quality {
+        Err("skipped (--no-quality)".to_string())
+    } else {
+        measure_for(texture, &params, globals)
+    };
+    let main = main.measured(&measure, globals, "quilt");
     if let Some(path) = &args.report {
         let mut report = json!({
             "method": format!("{:?}", params.method),
