@@ -196,13 +196,7 @@ impl Stage for Reconstruct {
             Ok::<_, Error>(sdf_isosurface(&sdf)?)
         })?;
         if mesh.face_count() == 0 {
-            let (lo, hi) = sdf
-                .grid()
-                .data()
-                .iter()
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(v.x), hi.max(v.x))
-                });
+            let (lo, hi) = sdf.distances()?.value_range();
             let [x, y, z] = sdf.grid().dims();
             return Err(Error::NoSurface {
                 reason: format!(

@@ -156,6 +156,26 @@ impl<T> Grid3<T> {
     }
 }
 
+impl Grid3<f32> {
+    /// The smallest and largest sample, NaN ignored (`(∞, −∞)` when no sample is a number):
+    /// what a field that never crosses a level ranges over, for the error that says so.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::Grid3;
+    /// let g = Grid3::from_vec([3, 1, 1], Vec3::ZERO, 1.0, vec![0.5, f32::NAN, -2.0])?;
+    /// assert_eq!(g.value_range(), (-2.0, 0.5));
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn value_range(&self) -> (f32, f32) {
+        self.data
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            })
+    }
+}
+
 impl<T> Grid3<T>
 where
     T: Copy + Add<Output = T> + Mul<f32, Output = T>,

@@ -157,12 +157,7 @@ fn zero_surface(path: &Path) -> CliResult<TriMesh> {
     let grid = volume.scalar_grid_at(volume.origin)?;
     let mesh = isosurface(&grid, 0.0)?;
     if mesh.face_count() == 0 {
-        let (lo, hi) = grid
-            .data()
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
-                (lo.min(v), hi.max(v))
-            });
+        let (lo, hi) = grid.value_range();
         return Err(format!(
             "{}: the field never crosses zero (values {lo} .. {hi}); no surface to draw",
             path.display()
