@@ -61,6 +61,7 @@
 #![deny(missing_docs)]
 
 mod error;
+pub mod far_signs;
 mod iso;
 mod mesh_surface;
 pub mod nrrd;
@@ -69,6 +70,7 @@ mod sdf;
 mod triangle;
 
 pub use error::{FieldError, Result};
+pub use far_signs::FarSigns;
 pub use iso::{closed_isosurface, isosurface, sdf_isosurface};
 pub use mesh_surface::{MeshHit, MeshSurface};
 pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};

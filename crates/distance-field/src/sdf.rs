@@ -5,6 +5,7 @@ use pointset_core::{Aabb, Grid3, Surface};
 use rayon::prelude::*;
 
 use crate::error::{FieldError, Result, positive};
+use crate::far_signs::{FarSigns, UNKNOWN, fill_far_signs};
 
 /// Where the nodes of a grid lie: `dims` nodes from `origin`, `spacing` apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,26 +90,34 @@ pub struct SdfGrid {
     undefined: usize,
 }
 
-/// A node whose distance is not known yet (farther than the band).
-const UNKNOWN: f32 = f32::INFINITY;
-
 impl SdfGrid {
     /// Samples `surface` at every node of `spec` (parallel over rows, deterministic).
     ///
     /// 1. Every node asks for the surface within `band` only. Along a row the previous
     ///    node's distance plus the spacing bounds the next one's, so exact mesh searches
     ///    prune to a small ball.
-    /// 2. Nodes with no surface within `band` take the sign of their 6-connected region of
-    ///    such nodes, read from a neighbouring node that has a distance. This is exact when
-    ///    `band` exceeds the spacing: two neighbouring nodes on opposite sides of the surface
-    ///    would both lie within one spacing of it. A region with no such neighbour (no
-    ///    surface near the grid at all) asks the surface once, without a limit.
+    /// 2. Nodes with no surface within `band` hold `±band`, signed from the nodes that have
+    ///    a distance by [`FarSigns::Nearest`]. This is exact when `band` exceeds the spacing
+    ///    and the surface answered every node within `band` of it: two neighbouring nodes
+    ///    on opposite sides of the surface would both lie within one spacing of it. A grid
+    ///    with no node within `band` (no surface near it at all) asks the surface once,
+    ///    without a limit.
     ///
     /// Errors when `band` is not larger than the spacing.
     pub fn from_surface(
         surface: &(impl Surface + ?Sized),
         spec: &GridSpec,
         band: f32,
+    ) -> Result<Self> {
+        Self::from_surface_with(surface, spec, band, FarSigns::default())
+    }
+
+    /// [`SdfGrid::from_surface`] with the far nodes signed by `far_signs`.
+    pub fn from_surface_with(
+        surface: &(impl Surface + ?Sized),
+        spec: &GridSpec,
+        band: f32,
+        far_signs: FarSigns,
     ) -> Result<Self> {
         positive("band", band)?;
         positive("spacing", spec.spacing)?;
@@ -140,7 +149,7 @@ impl SdfGrid {
             }
         });
         let far = data.iter().filter(|v| v.x == UNKNOWN).count();
-        let undefined = fill_far_signs(&mut data, spec, band, surface);
+        let undefined = fill_far_signs(&mut data, spec, band, surface, far_signs);
         Ok(Self {
             grid: Grid3::from_vec(spec.dims, spec.origin, spec.spacing, data)?,
             band,
@@ -170,13 +179,13 @@ impl SdfGrid {
         self.band
     }
 
-    /// Nodes farther than the band from the surface (sign from their region).
+    /// Nodes farther than the band from the surface (signed by a [`FarSigns`] rule).
     pub fn far_nodes(&self) -> usize {
         self.far
     }
 
-    /// Nodes whose sign could not be determined (the surface gave no answer anywhere in
-    /// their region); they hold `+band`.
+    /// Nodes whose sign could not be determined (no node lies within the band and the
+    /// surface gave no answer); they hold `+band`.
     pub fn undefined_nodes(&self) -> usize {
         self.undefined
     }
@@ -211,120 +220,5 @@ impl SdfGrid {
             self.grid.spacing(),
             self.grid.data().iter().map(|v| v.x).collect(),
         )?)
-    }
-}
-
-/// Gives every node still marked unknown `±band`, with the sign of its 6-connected region of
-/// unknown nodes: the majority sign of the known nodes bordering the region (each contact
-/// between a region node and a known neighbour counts once; a tie counts as outside), or
-/// one unlimited surface query when the region borders no known node. Returns the number of
-/// nodes left undefined.
-///
-/// Majority, not the first neighbour met: for a closed, consistently oriented surface every
-/// border node has the region's sign and the two agree. For open sheets (petals, a ground
-/// plane's rim) a few border nodes can carry the other side's sign. Taking the first one met
-/// then flipped the whole air above a quilted flower field to `−band` (search-only output,
-/// flowers fixture, seed 11: window errors above 1 for a verbatim copy).
-fn fill_far_signs(
-    data: &mut [Vec4],
-    spec: &GridSpec,
-    band: f32,
-    surface: &(impl Surface + ?Sized),
-) -> usize {
-    let [nx, ny, nz] = spec.dims;
-    let mut visited = vec![false; data.len()];
-    let mut region = Vec::new();
-    let mut undefined = 0;
-    for seed in 0..data.len() {
-        if visited[seed] || data[seed].x != UNKNOWN {
-            continue;
-        }
-        region.clear();
-        region.push(seed);
-        visited[seed] = true;
-        let (mut outside, mut inside) = (0usize, 0usize);
-        let mut head = 0;
-        while head < region.len() {
-            let n = region[head];
-            head += 1;
-            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
-            let neighbours = [
-                (i > 0).then(|| n - 1),
-                (i + 1 < nx).then(|| n + 1),
-                (j > 0).then(|| n - nx),
-                (j + 1 < ny).then(|| n + nx),
-                (k > 0).then(|| n - nx * ny),
-                (k + 1 < nz).then(|| n + nx * ny),
-            ];
-            for m in neighbours.into_iter().flatten() {
-                let d = data[m].x;
-                if d != UNKNOWN {
-                    if d > 0.0 {
-                        outside += 1;
-                    } else if d < 0.0 {
-                        inside += 1;
-                    }
-                } else if !visited[m] {
-                    visited[m] = true;
-                    region.push(m);
-                }
-            }
-        }
-        let majority = (outside + inside > 0).then_some(if inside > outside { -1.0 } else { 1.0 });
-        let sign = majority.or_else(|| {
-            let (i, j, k) = (seed % nx, (seed / nx) % ny, seed / (nx * ny));
-            surface
-                .signed_distance(spec.node(i, j, k))
-                .map(|(d, _)| if d < 0.0 { -1.0 } else { 1.0 })
-        });
-        if sign.is_none() {
-            undefined += region.len();
-        }
-        for &n in &region {
-            data[n] = Vec4::new(sign.unwrap_or(1.0) * band, 0.0, 0.0, 0.0);
-        }
-    }
-    undefined
-}
-
-#[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used)]
-
-    use super::*;
-
-    /// A surface that answers nothing: the fill must rely on the known border nodes.
-    struct Silent;
-
-    impl Surface for Silent {
-        fn closest_point(&self, _: Vec3) -> Option<pointset_core::SurfacePoint> {
-            None
-        }
-    }
-
-    #[test]
-    fn a_far_region_takes_the_majority_sign_of_its_border() {
-        // A 3 × 3 × 1 slab: the centre is unknown, its four 6-connected neighbours are known,
-        // and only the first the walk meets (the left one) is inside.
-        let spec = GridSpec {
-            dims: [3, 3, 1],
-            origin: Vec3::ZERO,
-            spacing: 1.0,
-        };
-        let mut data = vec![Vec4::new(0.5, 0.0, 0.0, 1.0); 9];
-        data[3] = Vec4::new(-0.5, 0.0, 0.0, -1.0); // left of the centre: met first
-        data[4] = Vec4::new(UNKNOWN, 0.0, 0.0, 0.0);
-        let undefined = fill_far_signs(&mut data, &spec, 2.0, &Silent);
-        assert_eq!(undefined, 0);
-        assert_eq!(data[4].x, 2.0, "three outside contacts outvote one inside");
-        // All contacts inside: the region is inside.
-        let mut data = vec![Vec4::new(-0.5, 0.0, 0.0, -1.0); 9];
-        data[4] = Vec4::new(UNKNOWN, 0.0, 0.0, 0.0);
-        fill_far_signs(&mut data, &spec, 2.0, &Silent);
-        assert_eq!(data[4].x, -2.0);
-        // No known node and a silent surface: undefined, held at +band.
-        let mut data = vec![Vec4::new(UNKNOWN, 0.0, 0.0, 0.0); 9];
-        assert_eq!(fill_far_signs(&mut data, &spec, 2.0, &Silent), 9);
-        assert!(data.iter().all(|v| v.x == 2.0));
     }
 }

@@ -1,9 +1,9 @@
 //! Precomputation on `T_in`: its distance field `D(T_in)`, surface variation, point bins.
 
-use distance_field::{GridSpec, SdfGrid};
+use distance_field::{FarSigns, GridSpec, SdfGrid};
 use glam::{Vec2, Vec3, Vec4};
 use mls_surface::{MlsParams, MlsSurface, surface_variation};
-use pointset_core::{Aabb, BucketGrid};
+use pointset_core::{Aabb, BucketGrid, Surface};
 
 use crate::error::{QuiltError, Result};
 use crate::params::{Method, QuiltParams, WarpTargets};
@@ -50,6 +50,20 @@ impl PatchGeometry {
 /// longer box side / `BASE_SIDE`; every other length of a run is already a fraction of
 /// the box, the field spacing or the MLS kernel.
 pub const BASE_SIDE: f32 = 4.0;
+
+/// The distance field of a geometry texture's surface over `spec` (the exemplar's `D(T_in)`,
+/// the on-the-fly `D(O^N_k)`, the quality measure's fields): far nodes signed by
+/// [`FarSigns::RegionVote`]. Geometry textures are open sheets, with no inside that a hole
+/// in the band could flip, and a few wrong-signed nodes at a petal's rim cannot sign
+/// anything with the region vote. It was the only rule until the nineteenth session, and
+/// every quality number in docs/patch-quilt.md was measured with it.
+pub(crate) fn texture_field(
+    surface: &(impl Surface + ?Sized),
+    spec: &GridSpec,
+    band: f32,
+) -> distance_field::Result<SdfGrid> {
+    SdfGrid::from_surface_with(surface, spec, band, FarSigns::RegionVote)
+}
 
 /// Divides the distance channel of `values` (distance, gradient) by `unit`, in place: a
 /// field as the search compares it.
@@ -101,7 +115,7 @@ impl Exemplar {
         let variation = surface_variation(frame.surface.index(), 12)?;
         let feet = params.method == Method::Full && params.warp_targets == WarpTargets::SurfaceGap;
         let foot_offset = feet.then(|| foot_offsets(&frame.surface, &frame.points, &frame.normals));
-        let field = SdfGrid::from_surface(
+        let field = texture_field(
             &frame.surface,
             &frame.spec,
             params.band * frame.geometry.spacing,

@@ -10,7 +10,7 @@ use rand::RngExt;
 
 use crate::blend::{BlendCounts, GapLimits, KeptFootprint, Overlap, blend};
 use crate::error::{QuiltError, Result, invalid};
-use crate::exemplar::{Exemplar, ExemplarFrame, PatchGeometry, to_base_units};
+use crate::exemplar::{Exemplar, ExemplarFrame, PatchGeometry, texture_field, to_base_units};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
@@ -176,7 +176,7 @@ fn overlap_field(
             origin: corner,
             spacing: g.spacing,
         };
-        let sdf = SdfGrid::from_surface(surface, &spec, band)?;
+        let sdf = texture_field(surface, &spec, band)?;
         let data = vec4_field(&sdf);
         for c in 0..nz {
             for b in 0..dims[1] {
@@ -592,7 +592,7 @@ mod tests {
         };
         let (corner, nz, band) = (Vec3::new(0.3, 0.2, -0.3), 7, 0.25);
         let side = g.patch_nodes + 1;
-        let whole = SdfGrid::from_surface(
+        let whole = texture_field(
             &surface,
             &GridSpec {
                 dims: [side, side, nz],

@@ -11,7 +11,7 @@
 
 pub mod windows;
 
-use distance_field::{GridSpec, SdfGrid};
+use distance_field::GridSpec;
 use glam::{Vec2, Vec3};
 use mls_surface::{MlsParams, MlsSurface};
 use pointset_core::rng::{self, SeededRng};
@@ -20,7 +20,7 @@ use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::error::{Result, invalid};
-use crate::exemplar::ExemplarFrame;
+use crate::exemplar::{ExemplarFrame, texture_field};
 use crate::params::QuiltParams;
 use crate::quilt::{Placement, QuiltOutput};
 use crate::texture::GeometryTexture;
@@ -312,11 +312,7 @@ impl<'t> QualityMeasure<'t> {
             origin: lo.extend(ex.spec.origin.z),
             spacing: s,
         };
-        let field = Field::distances(&SdfGrid::from_surface(
-            &surface,
-            &spec,
-            self.params.band * s,
-        )?);
+        let field = Field::distances(&texture_field(&surface, &spec, self.params.band * s)?);
         if dims[0] < w || dims[1] < w {
             return Err(invalid(
                 "output",

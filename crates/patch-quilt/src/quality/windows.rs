@@ -33,7 +33,7 @@ use glam::Vec3;
 use mls_surface::MlsSurface;
 
 use crate::error::{Result, invalid};
-use crate::exemplar::ExemplarFrame;
+use crate::exemplar::{ExemplarFrame, texture_field};
 
 /// Finer samples per field spacing in the second pass.
 pub const SUBSTEPS: usize = 4;
@@ -217,7 +217,7 @@ impl ExemplarWindows {
             .flat_map(|j| (0..=coarse[0].saturating_sub(w)).map(move |i| (i, j)))
             .collect();
         Ok(Self {
-            fine: Field::distances(&SdfGrid::from_surface(surface, &spec, band)?),
+            fine: Field::distances(&texture_field(surface, &spec, band)?),
             spec,
             band,
             shape: [w, coarse[2]],
@@ -298,9 +298,7 @@ impl ExemplarWindows {
             origin: self.spec.origin + p * self.spec.spacing,
             spacing: self.spec.spacing * SUBSTEPS as f32,
         };
-        Ok(Field::distances(&SdfGrid::from_surface(
-            surface, &spec, self.band,
-        )?))
+        Ok(Field::distances(&texture_field(surface, &spec, self.band)?))
     }
 
     /// Mean squared difference between the window of `out` starting at node `at` and the
