@@ -534,7 +534,7 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
     let mesh = dir.path().join("mesh.ply");
     let refused = geosynth(&["reconstruct", bare.to_str().unwrap(), "-o", "x.ply"]);
     assert!(String::from_utf8_lossy(&refused.stderr).contains("geosynth normals"));
-    ok(&[
+    let said = ok(&[
         "reconstruct",
         with_normals.to_str().unwrap(),
         "-o",
@@ -543,8 +543,11 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
         "32",
     ]);
     assert_closed(&mesh, 2, "a sphere");
+    assert!(said.contains("1 component(s), closed"), "{said}");
+    assert!(!said.contains("sides of the grid"), "{said}");
     // An open sheet (the bumpy fixture) trimmed: the surface ends near its samples
-    // instead of running on to the grid's edge.
+    // instead of running on to the grid's edge. Untrimmed, the run says why its mesh is
+    // open and what to do about it.
     let bumpy = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
     let samples = read_geometry(&bumpy)
         .unwrap()
@@ -555,7 +558,9 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
         let mut args = vec!["reconstruct", bumpy.to_str().unwrap(), "-o"];
         args.extend([mesh.to_str().unwrap(), "--resolution", "40"]);
         args.extend(trim);
-        ok(&args);
+        let said = ok(&args);
+        let noted = said.contains("runs out to the sides of the grid") && said.contains("--trim");
+        assert_eq!(noted, trim.is_empty(), "{said}");
         let b = read_geometry(&mesh)
             .unwrap()
             .geometry

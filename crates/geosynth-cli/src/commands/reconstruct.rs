@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
-use geosynth::mls::orient_normals;
+use geosynth::mls::{MlsParams, orient_normals};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance, trim_to_samples};
 use geosynth::sdf::nrrd;
 use geosynth::{RunContext, Stage};
@@ -84,6 +84,10 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
     let mut mesh = Reconstruct { params }.run(points.clone(), &mut ctx)?;
+    let open_note = match args.trim {
+        None => grid_side_note(&mesh, &points, args.grid.kernel)?,
+        Some(_) => None,
+    };
     if let Some(spacings) = args.trim {
         let spacing = KdIndex::new(points.positions())?.median_spacing()?;
         mesh = ctx.timed("trim", |_| {
@@ -103,17 +107,64 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
         .iter()
         .map(|(n, d)| format!("{n} {:.2}s", d.as_secs_f64()))
         .collect();
+    let topology = mesh.topology();
+    let shape = if topology.is_closed_manifold() {
+        "closed".to_string()
+    } else {
+        format!("{} open edges", topology.boundary_edges)
+    };
     status(
         globals,
         format!(
-            "wrote {} ({} vertices, {} faces; {})",
+            "wrote {} ({} vertices, {} faces, {} component(s), {shape}; {})",
             args.output.display(),
             mesh.vertex_count(),
             mesh.face_count(),
+            topology.components,
             timings.join(", ")
         ),
     );
+    if let Some(note) = open_note {
+        status(globals, note);
+    }
     Ok(())
+}
+
+/// A note when an untrimmed reconstruction has open edges. The iso-surface of a grid is
+/// closed except where it meets the grid's sides, so open edges say the zero set ran out to
+/// them: an open scan's continuation past its border, or, on a closed object, a kernel too
+/// small for the sampling (fins past sharp edges, wrong signs at thin parts:
+/// docs/mls-surface.md, "Known limits"). `kernel` is the one asked for, if any.
+fn grid_side_note(
+    mesh: &geosynth::core::TriMesh,
+    points: &geosynth::core::PointSet,
+    kernel: Option<f32>,
+) -> CliResult<Option<String>> {
+    let open = mesh.topology().boundary_edges;
+    if open == 0 {
+        return Ok(None);
+    }
+    let h = match kernel {
+        Some(h) => h,
+        None => {
+            MlsParams::default().kernel_spacing_factor
+                * KdIndex::new(points.positions())?.median_spacing()?
+        }
+    };
+    Ok(Some(format!(
+        "note: the surface runs out to the sides of the grid ({open} open edges). An open \
+         scan does that past its border (--trim cuts it back); on a closed object the MLS \
+         kernel (h = {}) is probably too small for the sampling, leaving fins past sharp \
+         edges or wrong signs at thin parts (try a larger --kernel, such as {})",
+        three_digits(h),
+        three_digits(2.0 * h)
+    )))
+}
+
+/// `x` rounded to three significant digits, printed without trailing noise (0.054, not
+/// 0.05396507).
+fn three_digits(x: f32) -> String {
+    format!("{x:.2e}").parse::<f32>().unwrap_or(x).to_string()
 }
 
 /// Arguments of `geosynth sdf`.
