@@ -245,6 +245,25 @@ impl MlsSurface {
         })
     }
 
+    /// Whether `query` lies inside by the tangent planes of its
+    /// [`MlsParams::fallback_sign_samples`](crate::MlsParams::fallback_sign_samples) nearest
+    /// samples: the sum of its signed distances to them, each over its squared distance to
+    /// the sample, is negative. `None` when the index cannot answer.
+    fn inside_by_nearby_planes(&self, query: Vec3) -> Option<bool> {
+        let nearest = self
+            .index
+            .nearest(query, self.params.fallback_sign_samples)
+            .ok()?;
+        let vote: f32 = nearest
+            .iter()
+            .map(|n| {
+                let offset = query - self.points[n.index];
+                offset.dot(self.normals[n.index]) / offset.length_squared().max(f32::MIN_POSITIVE)
+            })
+            .sum();
+        Some(vote < 0.0)
+    }
+
     fn finish(
         &self,
         query: Vec3,
@@ -298,8 +317,9 @@ impl Surface for MlsSurface {
 
     /// Magnitude from the projection; sign from `f(query)` where the kernel reaches the
     /// query (the surface *is* the zero set of `f`, so the grid's zero crossings match it),
-    /// otherwise from the closest point's normal. The neighbours of the query are gathered
-    /// once for both.
+    /// otherwise from the planes of the nearest samples
+    /// ([`MlsParams::fallback_sign_samples`](crate::MlsParams::fallback_sign_samples)). The
+    /// neighbours of the query are gathered once for the projection and `f`.
     fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
         let (start, projection) = match self.project_with_start(query) {
             Some((start, projection)) => (Some(start), projection),
@@ -315,6 +335,7 @@ impl Surface for MlsSurface {
         let offset = query - c.point;
         let inside = match start {
             Some(fit) => fit.value < 0.0,
+            None if self.params.fallback_sign_samples > 1 => self.inside_by_nearby_planes(query)?,
             None => offset.dot(c.normal) < 0.0,
         };
         let d = offset.length();

@@ -256,7 +256,8 @@ fn rays_hit_the_sphere_where_geometry_says() {
 fn the_signed_distance_is_its_definition_near_and_far() {
     // `Surface::signed_distance` shares one neighbour search between the projection and
     // `f(query)`. Rebuilt here from the public parts: magnitude from `closest_point`, sign
-    // from `f(query)` where the kernel reaches, else from the closest sample's normal.
+    // from `f(query)` where the kernel reaches, else from the tangent planes of the
+    // `fallback_sign_samples` nearest samples (1: the closest sample's own plane).
     let mut points = sphere(3000, 1.0);
     let mut g = rng::rng_from_seed(6);
     let jitter: Vec<Vec3> = points
@@ -268,28 +269,92 @@ fn the_signed_distance_is_its_definition_near_and_far() {
         .unwrap()
         .with_normals(points.normals().unwrap().to_vec())
         .unwrap();
-    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
-    let (mut near, mut far) = (0, 0);
-    for _ in 0..2000 {
-        let q = random_unit(&mut g) * g.random_range(0.0..1.6);
-        let (d, c) = Surface::signed_distance(&surface, q).unwrap();
-        let closest = surface.closest_point(q).unwrap();
-        let offset = q - closest.point;
-        let inside = match surface.fit(q) {
-            Some(fit) => {
-                near += 1;
-                fit.value < 0.0
-            }
-            None => {
-                far += 1;
-                offset.dot(closest.normal) < 0.0
-            }
-        };
-        assert_eq!(c, closest, "query {q}");
-        let sign = if inside { -1.0 } else { 1.0 };
-        assert_eq!(d, sign * offset.length());
+    for planes in [1, 8] {
+        let params = MlsParams::default().fallback_sign_samples(planes);
+        let surface = MlsSurface::new(&points, &params).unwrap();
+        let (mut near, mut far) = (0, 0);
+        for _ in 0..2000 {
+            let q = random_unit(&mut g) * g.random_range(0.0..1.6);
+            let (d, c) = Surface::signed_distance(&surface, q).unwrap();
+            let closest = surface.closest_point(q).unwrap();
+            let offset = q - closest.point;
+            let inside = match surface.fit(q) {
+                Some(fit) => {
+                    near += 1;
+                    fit.value < 0.0
+                }
+                None if planes == 1 => {
+                    far += 1;
+                    offset.dot(closest.normal) < 0.0
+                }
+                None => {
+                    far += 1;
+                    let vote: f32 = surface
+                        .index()
+                        .nearest(q, planes)
+                        .unwrap()
+                        .iter()
+                        .map(|n| {
+                            let o = q - surface.points()[n.index];
+                            o.dot(surface.normals()[n.index]) / o.length_squared()
+                        })
+                        .sum();
+                    vote < 0.0
+                }
+            };
+            assert_eq!(c, closest, "query {q}");
+            let sign = if inside { -1.0 } else { 1.0 };
+            assert_eq!(d, sign * offset.length(), "query {q}, {planes} planes");
+        }
+        assert!(near > 100 && far > 100, "near {near}, far {far}");
     }
-    assert!(near > 100 && far > 100, "near {near}, far {far}");
+}
+
+#[test]
+fn out_of_reach_queries_are_signed_by_the_nearby_planes_not_the_nearest_alone() {
+    // The edge of a box: a bottom face z = 0 (normal −z, y from 0.1) and a front face
+    // y = 0 (normal −y, z from 0.02), samples 0.1 apart, a kernel far too small to reach
+    // the query. The query lies below the bottom face, just behind the front face's plane:
+    // outside. Its nearest sample is on the front face, whose plane alone says inside; the
+    // bottom face's planes, nearer in the sense that counts, say outside.
+    let (mut points, mut normals) = (Vec::new(), Vec::new());
+    for i in 0..11 {
+        for j in 1..11 {
+            points.push(Vec3::new(i as f32 * 0.1, j as f32 * 0.1, 0.0));
+            normals.push(Vec3::NEG_Z);
+            points.push(Vec3::new(i as f32 * 0.1, 0.0, 0.02 + (j - 1) as f32 * 0.1));
+            normals.push(Vec3::NEG_Y);
+        }
+    }
+    let set = PointSet::new(points)
+        .unwrap()
+        .with_normals(normals)
+        .unwrap();
+    let query = Vec3::new(0.5, 0.01, -0.05);
+    let distance = |planes: usize| {
+        let params = MlsParams::default()
+            .kernel(0.01)
+            .fallback_sign_samples(planes);
+        let surface = MlsSurface::new(&set, &params).unwrap();
+        assert!(surface.fit(query).is_none(), "the kernel must not reach");
+        Surface::signed_distance(&surface, query).unwrap().0
+    };
+    assert!(
+        distance(1) < 0.0,
+        "the nearest sample's plane alone: inside"
+    );
+    assert!(distance(8) > 0.0, "eight nearby planes: outside");
+    assert!(
+        distance(8) == -distance(1),
+        "the magnitude stays the nearest sample's"
+    );
+    assert!(matches!(
+        MlsSurface::new(&set, &MlsParams::default().fallback_sign_samples(0)),
+        Err(MlsError::InvalidParameter {
+            name: "fallback_sign_samples",
+            ..
+        })
+    ));
 }
 
 #[test]

@@ -51,6 +51,14 @@ impl PatchGeometry {
 /// the box, the field spacing or the MLS kernel.
 pub const BASE_SIDE: f32 = 4.0;
 
+/// MLS parameters of every surface over a geometry texture's points: the defaults, with a
+/// query out of the kernel's reach signed by its nearest sample's plane alone
+/// (`fallback_sign_samples` 1), the rule every quality number in docs/patch-quilt.md was
+/// measured with. Like [`texture_field`]'s far signs, the textures keep it.
+pub(crate) fn texture_mls_params() -> MlsParams {
+    MlsParams::default().fallback_sign_samples(1)
+}
+
 /// The distance field of a geometry texture's surface over `spec` (the exemplar's `D(T_in)`,
 /// the on-the-fly `D(O^N_k)`, the quality measure's fields): far nodes signed by
 /// [`FarSigns::RegionVote`]. Geometry textures are open sheets, with no inside that a hole
@@ -154,7 +162,7 @@ impl ExemplarFrame {
                     reason: "no normals".into(),
                 })?;
         let bounds = texture.canonical_bounds();
-        let surface = MlsSurface::new(set, &MlsParams::default())?;
+        let surface = MlsSurface::new(set, &texture_mls_params())?;
         let ext = bounds.extent();
         let spacing = ext.x.max(ext.y) / (params.field_resolution - 1) as f32;
         let layers = (ext.z / spacing).ceil();

@@ -4,13 +4,15 @@ use std::time::Instant;
 
 use distance_field::{GridSpec, SdfGrid};
 use glam::{Vec2, Vec3};
-use mls_surface::{MlsParams, MlsSurface, RelaxParams, nearest_neighbour_spread, relax};
+use mls_surface::{MlsSurface, RelaxParams, nearest_neighbour_spread, relax};
 use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarType, rng};
 use rand::RngExt;
 
 use crate::blend::{BlendCounts, GapLimits, KeptFootprint, Overlap, blend};
 use crate::error::{QuiltError, Result, invalid};
-use crate::exemplar::{Exemplar, ExemplarFrame, PatchGeometry, texture_field, to_base_units};
+use crate::exemplar::{
+    Exemplar, ExemplarFrame, PatchGeometry, texture_field, texture_mls_params, to_base_units,
+};
 use crate::params::{Method, OutputSize, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
@@ -245,7 +247,7 @@ pub fn quilt(
     // Eq. 2's position term and Eq. 3's length term in base units (see `BASE_SIDE`).
     pairing.w_p /= frame.length_unit;
     pairing.w_l /= frame.length_unit;
-    let mls = MlsParams::default().kernel(frame.surface.kernel());
+    let mls = texture_mls_params().kernel(frame.surface.kernel());
     let [nx, _, nz] = frame.spec.dims;
     let total = layout.cols * layout.rows;
     if let Some(sources) = &params.layout {
@@ -583,7 +585,7 @@ mod tests {
         let set = PointSet::new(points)
             .and_then(|s| s.with_normals(normals))
             .unwrap();
-        let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
+        let surface = MlsSurface::new(&set, &texture_mls_params()).unwrap();
         let g = PatchGeometry {
             spacing: 0.1,
             patch_nodes: 12,

@@ -13,14 +13,14 @@ pub mod windows;
 
 use distance_field::GridSpec;
 use glam::{Vec2, Vec3};
-use mls_surface::{MlsParams, MlsSurface};
+use mls_surface::MlsSurface;
 use pointset_core::rng::{self, SeededRng};
 use pointset_core::{KdIndex, PointSet, RunContext};
 use rand::RngExt;
 use rayon::prelude::*;
 
 use crate::error::{Result, invalid};
-use crate::exemplar::{ExemplarFrame, texture_field};
+use crate::exemplar::{ExemplarFrame, texture_field, texture_mls_params};
 use crate::params::QuiltParams;
 use crate::quilt::{Placement, QuiltOutput};
 use crate::texture::GeometryTexture;
@@ -295,7 +295,7 @@ impl<'t> QualityMeasure<'t> {
             .map(|n| n.iter().map(|&v| up.to_canonical(v)).collect())
             .unwrap_or_default();
         let set = PointSet::new(points.clone())?.with_normals(normals)?;
-        let surface = MlsSurface::new(&set, &MlsParams::default().kernel(ex.surface.kernel()))?;
+        let surface = MlsSurface::new(&set, &texture_mls_params().kernel(ex.surface.kernel()))?;
         let (a, b) = (
             up.to_canonical(output.bounds.min).truncate(),
             up.to_canonical(output.bounds.max).truncate(),
