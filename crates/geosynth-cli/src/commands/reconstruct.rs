@@ -84,10 +84,6 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
     let mut mesh = Reconstruct { params }.run(points.clone(), &mut ctx)?;
-    let open_note = match args.trim {
-        None => grid_side_note(&mesh, &points, args.grid.kernel)?,
-        Some(_) => None,
-    };
     if let Some(spacings) = args.trim {
         let spacing = KdIndex::new(points.positions())?.median_spacing()?;
         mesh = ctx.timed("trim", |_| {
@@ -108,10 +104,10 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
         .map(|(n, d)| format!("{n} {:.2}s", d.as_secs_f64()))
         .collect();
     let topology = mesh.topology();
-    let shape = if topology.is_closed_manifold() {
-        "closed".to_string()
-    } else {
-        format!("{} open edges", topology.boundary_edges)
+    let shape = match (topology.is_closed_manifold(), topology.boundary_edges) {
+        (true, _) => "closed".to_string(),
+        (false, 0) => "no open edges but not an oriented manifold".to_string(),
+        (false, open) => format!("{open} open edges"),
     };
     status(
         globals,
@@ -124,26 +120,23 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
             timings.join(", ")
         ),
     );
-    if let Some(note) = open_note {
+    if args.trim.is_none() && topology.boundary_edges > 0 {
+        let note = grid_side_note(topology.boundary_edges, &points, args.grid.kernel)?;
         status(globals, note);
     }
     Ok(())
 }
 
-/// A note when an untrimmed reconstruction has open edges. The iso-surface of a grid is
-/// closed except where it meets the grid's sides, so open edges say the zero set ran out to
-/// them: an open scan's continuation past its border, or, on a closed object, a kernel too
-/// small for the sampling (fins past sharp edges, wrong signs at thin parts:
+/// The note for an untrimmed reconstruction with `open` open edges. The iso-surface of a
+/// grid is closed except where it meets the grid's sides, so open edges say the zero set
+/// ran out to them: an open scan's continuation past its border, or, on a closed object, a
+/// kernel too small for the sampling (fins past sharp edges, wrong signs at thin parts:
 /// docs/mls-surface.md, "Known limits"). `kernel` is the one asked for, if any.
 fn grid_side_note(
-    mesh: &geosynth::core::TriMesh,
+    open: usize,
     points: &geosynth::core::PointSet,
     kernel: Option<f32>,
-) -> CliResult<Option<String>> {
-    let open = mesh.topology().boundary_edges;
-    if open == 0 {
-        return Ok(None);
-    }
+) -> CliResult<String> {
     let h = match kernel {
         Some(h) => h,
         None => {
@@ -151,14 +144,14 @@ fn grid_side_note(
                 * KdIndex::new(points.positions())?.median_spacing()?
         }
     };
-    Ok(Some(format!(
+    Ok(format!(
         "note: the surface runs out to the sides of the grid ({open} open edges). An open \
          scan does that past its border (--trim cuts it back); on a closed object the MLS \
          kernel (h = {}) is probably too small for the sampling, leaving fins past sharp \
          edges or wrong signs at thin parts (try a larger --kernel, such as {})",
         three_digits(h),
         three_digits(2.0 * h)
-    )))
+    ))
 }
 
 /// `x` rounded to three significant digits, printed without trailing noise (0.054, not
