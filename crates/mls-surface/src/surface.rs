@@ -321,6 +321,26 @@ impl Surface for MlsSurface {
     /// ([`MlsParams::fallback_sign_samples`](crate::MlsParams::fallback_sign_samples)). The
     /// neighbours of the query are gathered once for the projection and `f`.
     fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
+        self.signed_distance_up_to(query, f32::INFINITY)
+    }
+
+    /// [`Surface::signed_distance`] filtered to `max_distance`; the sign is not worked out
+    /// for an answer that is too far (out of the kernel's reach that costs a search for
+    /// the nearest samples, and most nodes of a distance grid are out of reach).
+    fn signed_distance_within(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+    ) -> Option<(f32, SurfacePoint)> {
+        self.signed_distance_up_to(query, max_distance)
+    }
+}
+
+impl MlsSurface {
+    /// The signed distance and closest point of `query`, or `None` when the distance
+    /// exceeds `max_distance` (checked before the sign is worked out) or the surface has
+    /// no answer.
+    fn signed_distance_up_to(&self, query: Vec3, max_distance: f32) -> Option<(f32, SurfacePoint)> {
         let (start, projection) = match self.project_with_start(query) {
             Some((start, projection)) => (Some(start), projection),
             None => (None, None),
@@ -333,12 +353,15 @@ impl Surface for MlsSurface {
             None => self.nearest_sample(query)?,
         };
         let offset = query - c.point;
+        let d = offset.length();
+        if d.is_nan() || d > max_distance {
+            return None;
+        }
         let inside = match start {
             Some(fit) => fit.value < 0.0,
             None if self.params.fallback_sign_samples > 1 => self.inside_by_nearby_planes(query)?,
             None => offset.dot(c.normal) < 0.0,
         };
-        let d = offset.length();
         Some((if inside { -d } else { d }, c))
     }
 }

@@ -305,6 +305,11 @@ fn the_signed_distance_is_its_definition_near_and_far() {
             assert_eq!(c, closest, "query {q}");
             let sign = if inside { -1.0 } else { 1.0 };
             assert_eq!(d, sign * offset.length(), "query {q}, {planes} planes");
+            // Bounded, the same answer or none (it skips the sign of too distant ones).
+            for bound in [0.01, 0.1, 0.5] {
+                let within = Surface::signed_distance_within(&surface, q, bound);
+                assert_eq!(within, (d.abs() <= bound).then_some((d, c)), "query {q}");
+            }
         }
         assert!(near > 100 && far > 100, "near {near}, far {far}");
     }
