@@ -94,4 +94,4 @@ pub use params::MlsParams;
 pub use pca::{Covariance, NORMAL_NEIGHBOURS, estimate_normals, surface_variation};
 pub use ray::{RayHit, Snap, SnapMethod};
 pub use relax::{RelaxParams, Relaxed, nearest_neighbour_spread, relax};
-pub use surface::{LocalFit, MlsSurface, Projection};
+pub use surface::{LocalFit, MlsSurface, Projection, SINGLE_PLANE_COSINE};

@@ -27,16 +27,18 @@ pub struct MlsParams {
     pub max_iterations: usize,
     /// Where the kernel does not reach a query (fewer than `min_neighbours` points in the
     /// support), [`Surface::signed_distance`](pointset_core::Surface::signed_distance)
-    /// falls back to the nearest sample for the distance and signs it by the tangent planes
-    /// of this many nearest samples: the sum of the query's signed distances to them, each
-    /// divided by its squared distance to the sample, so near planes outvote far ones.
-    /// Default 8; 1 is the nearest sample's own plane, the rule until the nineteenth
-    /// session, which paper 000's geometry textures keep (their measured numbers depend on
-    /// it). Measured on `geosynth reconstruct` (96 nodes, default kernel): 3000 random
-    /// points on a sphere with normals off by a median of 20° went from 26 components to 1;
-    /// a random thin closed box from 59 components to 3 and closed; a random cube from 32
-    /// to 10 (its fins, see docs/mls-surface.md, remain); the chameleon from 31 to 25 and
-    /// from 72 open edges to 56. 4 and 16 were worse on the cube or the chameleon.
+    /// falls back to the nearest sample for the distance. Its sign comes from that
+    /// sample's plane when the query lies within 45° of its normal
+    /// ([`SINGLE_PLANE_COSINE`](crate::SINGLE_PLANE_COSINE)), and otherwise from the tangent
+    /// planes of this many nearest samples: the sum of the query's signed distances to
+    /// them, each divided by its squared distance to the sample, so near planes outvote far
+    /// ones. Default 8; 1 is the nearest sample's own plane always, the rule until the
+    /// nineteenth session, which paper 000's geometry textures keep (their measured numbers
+    /// depend on it). Measured on `geosynth reconstruct` (96 nodes, default kernel): 3000
+    /// random points on a sphere with normals off by a median of 20° went from 26
+    /// components to 1; a random thin closed box from 59 components to 3 and closed; a
+    /// random cube from 32 to 9 (its fins, see docs/mls-surface.md, remain); the chameleon
+    /// from 31 to 27. Votes of 4 or 16 planes were worse on the cube or the chameleon.
     pub fallback_sign_samples: usize,
 }
 

@@ -7,8 +7,8 @@
 use glam::Vec3;
 use mls_surface::{
     ClusterParams, Covariance, MlsError, MlsParams, MlsSurface, NORMAL_NEIGHBOURS, RelaxParams,
-    adaptive_clusters, estimate_normals, nearest_neighbour_spread, orient_normals, relax,
-    surface_variation,
+    SINGLE_PLANE_COSINE, adaptive_clusters, estimate_normals, nearest_neighbour_spread,
+    orient_normals, relax, surface_variation,
 };
 use pointset_core::{KdIndex, PointSet, Surface, rng};
 use proptest::prelude::*;
@@ -256,8 +256,9 @@ fn rays_hit_the_sphere_where_geometry_says() {
 fn the_signed_distance_is_its_definition_near_and_far() {
     // `Surface::signed_distance` shares one neighbour search between the projection and
     // `f(query)`. Rebuilt here from the public parts: magnitude from `closest_point`, sign
-    // from `f(query)` where the kernel reaches, else from the tangent planes of the
-    // `fallback_sign_samples` nearest samples (1: the closest sample's own plane).
+    // from `f(query)` where the kernel reaches, else from the closest sample's own plane
+    // when the query lies within 45° of its normal (or `fallback_sign_samples` is 1), else
+    // from the tangent planes of the `fallback_sign_samples` nearest samples.
     let mut points = sphere(3000, 1.0);
     let mut g = rng::rng_from_seed(6);
     let jitter: Vec<Vec3> = points
@@ -283,7 +284,10 @@ fn the_signed_distance_is_its_definition_near_and_far() {
                     near += 1;
                     fit.value < 0.0
                 }
-                None if planes == 1 => {
+                None if planes == 1
+                    || offset.dot(closest.normal).abs()
+                        >= SINGLE_PLANE_COSINE * offset.length() =>
+                {
                     far += 1;
                     offset.dot(closest.normal) < 0.0
                 }
