@@ -54,9 +54,10 @@
 //!   implementation falls back to the nearest sample and its normal, so distance fields
 //!   remain defined far from the points. Its signed distance takes the magnitude from the
 //!   projection and the sign from `f` at the query (the surface is `f`'s zero set); out of
-//!   the kernel's reach, the magnitude from the nearest sample and the sign from the
-//!   tangent planes of the nearest few samples ([`MlsParams::fallback_sign_samples`]: one
-//!   plane is wrong too often near sharp edges, thin parts and tilted normals).
+//!   the kernel's reach, the magnitude from the nearest sample and the sign from its plane
+//!   when the query lies within 45° of its normal, else from the tangent planes of the
+//!   nearest few samples ([`MlsParams::fallback_sign_samples`], [`SINGLE_PLANE_COSINE`]:
+//!   one plane is wrong too often near sharp edges, thin parts and tilted normals).
 //! - Clusters are represented by the member nearest the centroid (a real oriented sample).
 //! - Relaxation moves all points simultaneously (Jacobi style), which makes it independent
 //!   of thread scheduling.
