@@ -1,5 +1,7 @@
 //! Configuration of the MLS surface.
 
+use pointset_core::KdIndex;
+
 use crate::error::{MlsError, Result, positive};
 
 /// Parameters of [`crate::MlsSurface`]. Construct with `MlsParams::default()` and the
@@ -98,6 +100,25 @@ impl MlsParams {
     pub fn fallback_sign_samples(mut self, n: usize) -> Self {
         self.fallback_sign_samples = n;
         self
+    }
+
+    /// The kernel size `h` these parameters give over the points of `index`: the explicit
+    /// [`MlsParams::kernel`], or [`MlsParams::kernel_spacing_factor`] × their median
+    /// nearest-neighbour spacing. Errors when that spacing is 0 (all points coincide, or lie
+    /// closer together than single precision resolves).
+    pub fn kernel_for(&self, index: &KdIndex) -> Result<f32> {
+        if let Some(h) = self.kernel {
+            return Ok(h);
+        }
+        let spacing = index.median_spacing()?;
+        if spacing <= 0.0 {
+            return Err(MlsError::InvalidParameter {
+                name: "kernel",
+                value: "estimated 0".into(),
+                expected: "an explicit kernel: the points have no spacing to estimate it from (they all coincide, or lie closer together than single precision resolves)",
+            });
+        }
+        Ok(self.kernel_spacing_factor * spacing)
     }
 
     /// Checks every field's range.

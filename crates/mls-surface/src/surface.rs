@@ -75,20 +75,7 @@ impl MlsSurface {
             );
         }
         let index = KdIndex::new(points.positions())?;
-        let h = match params.kernel {
-            Some(h) => h,
-            None => {
-                let spacing = index.median_spacing()?;
-                if spacing <= 0.0 {
-                    return Err(MlsError::InvalidParameter {
-                        name: "kernel",
-                        value: "estimated 0".into(),
-                        expected: "an explicit kernel: the points have no spacing to estimate it from (they all coincide, or lie closer together than single precision resolves)",
-                    });
-                }
-                params.kernel_spacing_factor * spacing
-            }
-        };
+        let h = params.kernel_for(&index)?;
         Ok(Self {
             points: points.positions().to_vec(),
             normals: unit,
@@ -274,6 +261,39 @@ impl MlsSurface {
         Some(vote < 0.0)
     }
 
+    /// The signed distance and closest point of `query`, or `None` when the distance
+    /// exceeds `max_distance` (checked before the sign is worked out) or the surface has
+    /// no answer.
+    fn signed_distance_up_to(&self, query: Vec3, max_distance: f32) -> Option<(f32, SurfacePoint)> {
+        let (start, projection) = match self.project_with_start(query) {
+            Some((start, projection)) => (Some(start), projection),
+            None => (None, None),
+        };
+        let c = match projection {
+            Some(p) => SurfacePoint {
+                point: p.point,
+                normal: p.normal,
+            },
+            None => self.nearest_sample(query)?,
+        };
+        let offset = query - c.point;
+        let d = offset.length();
+        if d.is_nan() || d > max_distance {
+            return None;
+        }
+        let along_normal = offset.dot(c.normal);
+        let inside = match start {
+            Some(fit) => fit.value < 0.0,
+            None if self.params.fallback_sign_samples > 1
+                && along_normal.abs() < SINGLE_PLANE_COSINE * d =>
+            {
+                self.inside_by_nearby_planes(query)?
+            }
+            None => along_normal < 0.0,
+        };
+        Some((if inside { -d } else { d }, c))
+    }
+
     fn finish(
         &self,
         query: Vec3,
@@ -343,40 +363,5 @@ impl Surface for MlsSurface {
         max_distance: f32,
     ) -> Option<(f32, SurfacePoint)> {
         self.signed_distance_up_to(query, max_distance)
-    }
-}
-
-impl MlsSurface {
-    /// The signed distance and closest point of `query`, or `None` when the distance
-    /// exceeds `max_distance` (checked before the sign is worked out) or the surface has
-    /// no answer.
-    fn signed_distance_up_to(&self, query: Vec3, max_distance: f32) -> Option<(f32, SurfacePoint)> {
-        let (start, projection) = match self.project_with_start(query) {
-            Some((start, projection)) => (Some(start), projection),
-            None => (None, None),
-        };
-        let c = match projection {
-            Some(p) => SurfacePoint {
-                point: p.point,
-                normal: p.normal,
-            },
-            None => self.nearest_sample(query)?,
-        };
-        let offset = query - c.point;
-        let d = offset.length();
-        if d.is_nan() || d > max_distance {
-            return None;
-        }
-        let along_normal = offset.dot(c.normal);
-        let inside = match start {
-            Some(fit) => fit.value < 0.0,
-            None if self.params.fallback_sign_samples > 1
-                && along_normal.abs() < SINGLE_PLANE_COSINE * d =>
-            {
-                self.inside_by_nearby_planes(query)?
-            }
-            None => along_normal < 0.0,
-        };
-        Some((if inside { -d } else { d }, c))
     }
 }

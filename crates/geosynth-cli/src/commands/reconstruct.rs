@@ -137,13 +137,11 @@ fn grid_side_note(
     points: &geosynth::core::PointSet,
     kernel: Option<f32>,
 ) -> CliResult<String> {
-    let h = match kernel {
-        Some(h) => h,
-        None => {
-            MlsParams::default().kernel_spacing_factor
-                * KdIndex::new(points.positions())?.median_spacing()?
-        }
-    };
+    let mut mls = MlsParams::default();
+    if let Some(h) = kernel {
+        mls = mls.kernel(h);
+    }
+    let h = mls.kernel_for(&KdIndex::new(points.positions())?)?;
     Ok(format!(
         "note: the surface runs out to the sides of the grid ({open} open edges). An open \
          scan does that past its border (--trim cuts it back); on a closed object the MLS \
