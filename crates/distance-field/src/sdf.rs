@@ -1,7 +1,7 @@
 //! Signed distance + gradient grids sampled from any [`Surface`] (paper 000 §5.1 `D(S)`).
 
 use glam::{Vec3, Vec4};
-use pointset_core::{Aabb, Grid3, Surface};
+use pointset_core::{Aabb, BandAnswer, Grid3, Surface};
 use rayon::prelude::*;
 
 use crate::error::{FieldError, Result, positive};
@@ -93,9 +93,11 @@ pub struct SdfGrid {
 impl SdfGrid {
     /// Samples `surface` at every node of `spec` (parallel over rows, deterministic).
     ///
-    /// 1. Every node asks for the surface within `band` only. Along a row the previous
-    ///    node's distance plus the spacing bounds the next one's, so exact mesh searches
-    ///    prune to a small ball.
+    /// 1. Every node asks for the surface within `band` only
+    ///    ([`Surface::signed_distance_or_clearance`]). Along a row the previous node's
+    ///    distance plus the spacing is passed as the likely bound, so exact mesh searches
+    ///    prune to a small ball; a node answered with a clearance lets the row skip the
+    ///    nodes within it (the same grid, fewer queries).
     /// 2. Nodes with no surface within `band` hold `±band`, signed from the nodes that have
     ///    a distance by [`FarSigns::Nearest`]. This is exact when `band` exceeds the spacing
     ///    and the surface answered every node within `band` of it: two neighbouring nodes
@@ -134,13 +136,27 @@ impl SdfGrid {
         data.par_chunks_mut(nx).enumerate().for_each(|(row, out)| {
             let (j, k) = (row % ny, row / ny);
             let mut previous: Option<f32> = None;
+            // The last node that answered with a clearance, and that clearance: the nodes
+            // within it are beyond the band without asking.
+            let mut clear: Option<(Vec3, f32)> = None;
             for (i, slot) in out.iter_mut().enumerate() {
                 let q = spec.node(i, j, k);
-                let hinted = previous
-                    .map(|d| d.abs() + spec.spacing * 1.001)
-                    .filter(|&bound| bound < band)
-                    .and_then(|bound| surface.signed_distance_within(q, bound));
-                let answer = hinted.or_else(|| surface.signed_distance_within(q, band));
+                let cleared =
+                    clear.is_some_and(|(at, radius)| at.distance(q) * (1.0 + 1e-5) < radius);
+                let likely = previous.map(|d| d.abs() + spec.spacing * 1.001);
+                let answer = if cleared {
+                    None
+                } else {
+                    match surface.signed_distance_or_clearance(q, band, likely) {
+                        BandAnswer::Within { distance, closest } => Some((distance, closest)),
+                        BandAnswer::Beyond { clearance } => {
+                            if clearance > 0.0 {
+                                clear = Some((q, clearance));
+                            }
+                            None
+                        }
+                    }
+                };
                 previous = answer.map(|(d, _)| d);
                 *slot = match answer {
                     Some((d, p)) => Vec4::new(d, p.normal.x, p.normal.y, p.normal.z),

@@ -12,7 +12,7 @@ use distance_field::{
 use glam::Vec3;
 use mls_surface::{MlsParams, MlsSurface};
 use pointset_core::testdata::shared_data;
-use pointset_core::{Aabb, Grid3, PointSet, Surface, SurfacePoint, TriMesh, io, rng};
+use pointset_core::{Aabb, BandAnswer, Grid3, PointSet, Surface, SurfacePoint, TriMesh, io, rng};
 use proptest::prelude::*;
 use rand::RngExt;
 
@@ -257,6 +257,90 @@ fn grid_filling_does_not_depend_on_thread_count() {
             .install(|| SdfGrid::from_surface(&surface, &spec, 1.0).unwrap())
     };
     assert_eq!(run(1), run(2));
+}
+
+/// An MLS surface that counts the queries it answers, asked the trait's default way (the
+/// likely bound first, then the band, no clearance).
+struct Counted<'s> {
+    surface: &'s MlsSurface,
+    queries: std::sync::atomic::AtomicUsize,
+}
+
+impl Counted<'_> {
+    fn count(&self) {
+        self.queries
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+impl Surface for Counted<'_> {
+    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
+        self.surface.closest_point(query)
+    }
+
+    fn signed_distance_within(&self, query: Vec3, max: f32) -> Option<(f32, SurfacePoint)> {
+        self.count();
+        self.surface.signed_distance_within(query, max)
+    }
+}
+
+/// [`Counted`], asked the MLS surface's way (one query, with its clearance).
+struct Clearing<'s>(Counted<'s>);
+
+impl Surface for Clearing<'_> {
+    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
+        self.0.closest_point(query)
+    }
+
+    fn signed_distance_or_clearance(
+        &self,
+        query: Vec3,
+        max: f32,
+        likely: Option<f32>,
+    ) -> BandAnswer {
+        self.0.count();
+        self.0
+            .surface
+            .signed_distance_or_clearance(query, max, likely)
+    }
+}
+
+#[test]
+fn clearances_skip_queries_without_changing_the_grid() {
+    // 300 random points on a unit sphere in a box three times its size: most nodes lie far
+    // beyond the band, where the MLS surface answers with a clearance.
+    let mut g = rng::rng_from_seed(4);
+    let dirs: Vec<Vec3> = (0..300)
+        .map(|_| {
+            Vec3::new(
+                g.random_range(-1.0..1.0),
+                g.random_range(-1.0..1.0),
+                g.random_range(-1.0..1.0),
+            )
+            .normalize_or(Vec3::X)
+        })
+        .collect();
+    let points = PointSet::new(dirs.clone())
+        .unwrap()
+        .with_normals(dirs)
+        .unwrap();
+    let mls = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let spec = GridSpec::covering(Aabb::new(Vec3::splat(-3.0), Vec3::splat(3.0)), 40, 0.0).unwrap();
+    let band = 3.0 * spec.spacing;
+    let counted = || Counted {
+        surface: &mls,
+        queries: Default::default(),
+    };
+    let (clearing, plain) = (Clearing(counted()), counted());
+    let with = SdfGrid::from_surface(&clearing, &spec, band).unwrap();
+    let without = SdfGrid::from_surface(&plain, &spec, band).unwrap();
+    let (asked, asked_without) = (clearing.0.queries.into_inner(), plain.queries.into_inner());
+    assert_eq!(with, without);
+    assert_eq!(with, SdfGrid::from_surface(&mls, &spec, band).unwrap());
+    assert!(with.far_nodes() > 40 * 40 * 40 / 2);
+    // The default way asks every node at least once; with clearances, far fewer.
+    assert!(asked_without >= 40 * 40 * 40);
+    assert!(asked < asked_without / 2, "{asked} of {asked_without}");
 }
 
 // ------------------------------------------------------------ pyramids (paper 001 Eq. 2)

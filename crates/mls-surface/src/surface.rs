@@ -1,7 +1,7 @@
 //! The MLS point-set surface of Adamson & Alexa (2004): evaluation and projection.
 
 use glam::Vec3;
-use pointset_core::{KdIndex, PointSet, Surface, SurfacePoint};
+use pointset_core::{BandAnswer, KdIndex, PointSet, Surface, SurfacePoint};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
@@ -16,6 +16,10 @@ use crate::params::MlsParams;
 /// grid of 100k points 57% slower at 64³ (0.221 s against 0.141 s with one plane); with
 /// the gate it took 0.151 s (docs/performance.md).
 pub const SINGLE_PLANE_COSINE: f32 = 0.7;
+
+/// Relative margin taken off a nearest-sample distance before it becomes a clearance
+/// ([`Surface::signed_distance_or_clearance`]), for the rounding of the distance.
+const CLEARANCE_MARGIN: f32 = 1e-5;
 
 /// The local quantities of the surface definition at a point `x`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -261,25 +265,45 @@ impl MlsSurface {
         Some(vote < 0.0)
     }
 
-    /// The signed distance and closest point of `query`, or `None` when the distance
-    /// exceeds `max_distance` (checked before the sign is worked out) or the surface has
-    /// no answer.
-    fn signed_distance_up_to(&self, query: Vec3, max_distance: f32) -> Option<(f32, SurfacePoint)> {
+    /// The signed distance and closest point of `query`, or [`BandAnswer::Beyond`] when the
+    /// distance exceeds `max_distance` (checked before the sign is worked out) or the
+    /// surface has no answer. Out of the kernel's reach the answer is the nearest sample,
+    /// and so it stays for every query whose nearest sample lies beyond the support radius:
+    /// the clearance is how much farther than both that radius and `max_distance` the
+    /// nearest sample is (the nearest-sample distance is 1-Lipschitz).
+    fn signed_distance_up_to(&self, query: Vec3, max_distance: f32) -> BandAnswer {
+        let nothing = BandAnswer::Beyond { clearance: 0.0 };
         let (start, projection) = match self.project_with_start(query) {
             Some((start, projection)) => (Some(start), projection),
             None => (None, None),
         };
-        let c = match projection {
-            Some(p) => SurfacePoint {
-                point: p.point,
-                normal: p.normal,
+        let (c, out_of_reach) = match projection {
+            Some(p) => (
+                SurfacePoint {
+                    point: p.point,
+                    normal: p.normal,
+                },
+                false,
+            ),
+            None => match self.nearest_sample(query) {
+                Some(c) => (c, start.is_none()),
+                None => return nothing,
             },
-            None => self.nearest_sample(query)?,
         };
         let offset = query - c.point;
         let d = offset.length();
-        if d.is_nan() || d > max_distance {
-            return None;
+        if d.is_nan() {
+            return nothing;
+        }
+        if d > max_distance {
+            let clearance = d * (1.0 - CLEARANCE_MARGIN) - self.support_radius().max(max_distance);
+            return BandAnswer::Beyond {
+                clearance: if out_of_reach {
+                    clearance.max(0.0)
+                } else {
+                    0.0
+                },
+            };
         }
         let along_normal = offset.dot(c.normal);
         let inside = match start {
@@ -287,11 +311,17 @@ impl MlsSurface {
             None if self.params.fallback_sign_samples > 1
                 && along_normal.abs() < SINGLE_PLANE_COSINE * d =>
             {
-                self.inside_by_nearby_planes(query)?
+                match self.inside_by_nearby_planes(query) {
+                    Some(inside) => inside,
+                    None => return nothing,
+                }
             }
             None => along_normal < 0.0,
         };
-        Some((if inside { -d } else { d }, c))
+        BandAnswer::Within {
+            distance: if inside { -d } else { d },
+            closest: c,
+        }
     }
 
     fn finish(
@@ -351,7 +381,7 @@ impl Surface for MlsSurface {
     /// ([`MlsParams::fallback_sign_samples`](crate::MlsParams::fallback_sign_samples)). The
     /// neighbours of the query are gathered once for the projection and `f`.
     fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
-        self.signed_distance_up_to(query, f32::INFINITY)
+        self.signed_distance_up_to(query, f32::INFINITY).within()
     }
 
     /// [`Surface::signed_distance`] filtered to `max_distance`; the sign is not worked out
@@ -362,6 +392,20 @@ impl Surface for MlsSurface {
         query: Vec3,
         max_distance: f32,
     ) -> Option<(f32, SurfacePoint)> {
+        self.signed_distance_up_to(query, max_distance).within()
+    }
+
+    /// Out of the kernel's reach the clearance is the nearest sample's distance less the
+    /// larger of the support radius and `max_distance`: every query that near still has
+    /// no sample in its support and its nearest sample beyond the bound. `likely` is
+    /// ignored: the projection costs the same whatever the bound, and trying a smaller
+    /// bound first would repeat it whenever the answer lies between the two.
+    fn signed_distance_or_clearance(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+        _likely: Option<f32>,
+    ) -> BandAnswer {
         self.signed_distance_up_to(query, max_distance)
     }
 }

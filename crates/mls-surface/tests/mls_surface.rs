@@ -10,7 +10,7 @@ use mls_surface::{
     SINGLE_PLANE_COSINE, adaptive_clusters, estimate_normals, nearest_neighbour_spread,
     orient_normals, relax, surface_variation,
 };
-use pointset_core::{KdIndex, PointSet, Surface, rng};
+use pointset_core::{BandAnswer, KdIndex, PointSet, Surface, rng};
 use proptest::prelude::*;
 use rand::RngExt;
 
@@ -317,6 +317,63 @@ fn the_signed_distance_is_its_definition_near_and_far() {
         }
         assert!(near > 100 && far > 100, "near {near}, far {far}");
     }
+}
+
+#[test]
+fn a_clearance_keeps_its_promise_and_is_the_nearest_sample_gap() {
+    // A sparse random sphere (kernel reach leaves holes) inside a larger box of queries.
+    // Every query answered `Beyond { clearance }` promises that queries nearer than the
+    // clearance have no answer within the bound either; the clearance is the nearest
+    // sample's distance less the larger of the support radius and the bound.
+    let mut g = rng::rng_from_seed(11);
+    let dirs: Vec<Vec3> = (0..400).map(|_| random_unit(&mut g)).collect();
+    let points = PointSet::new(dirs.clone())
+        .unwrap()
+        .with_normals(dirs)
+        .unwrap();
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let index = KdIndex::new(points.positions()).unwrap();
+    let (mut cleared, mut kept) = (0, 0);
+    for _ in 0..400 {
+        let q = random_unit(&mut g) * g.random_range(0.0..3.0);
+        let bound = g.random_range(0.02..0.4);
+        let answer = surface.signed_distance_or_clearance(q, bound, None);
+        assert_eq!(answer.within(), surface.signed_distance_within(q, bound));
+        let BandAnswer::Beyond { clearance } = answer else {
+            continue;
+        };
+        let nearest = index
+            .nearest_one(q)
+            .unwrap()
+            .unwrap()
+            .distance_squared
+            .sqrt();
+        let expected = nearest - surface.support_radius().max(bound);
+        if surface.fit(q).is_none() && expected > 1e-4 {
+            assert!(
+                (clearance - expected).abs() < 1e-4,
+                "{clearance} vs {expected}"
+            );
+            cleared += 1;
+        } else {
+            assert_eq!(clearance, 0.0, "query {q}");
+        }
+        for _ in 0..10 {
+            // Up to just inside the clearance, where the promise is tightest.
+            let r = clearance * g.random_range(0.5f32..1.0).sqrt().min(0.9999);
+            let other = q + random_unit(&mut g) * r;
+            assert_eq!(
+                surface.signed_distance_within(other, bound),
+                None,
+                "{other}"
+            );
+            kept += 1;
+        }
+    }
+    assert!(
+        cleared > 100 && kept > 1000,
+        "{cleared} cleared, {kept} checked"
+    );
 }
 
 #[test]

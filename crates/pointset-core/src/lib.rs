@@ -74,7 +74,7 @@ pub use pointset::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES};
 pub use scalar::ScalarType;
 pub use spatial::{BucketGrid, KdIndex, Neighbour, PointKey};
 pub use stage::{CancelFlag, NoProgress, Progress, ProgressUpdate, RunContext, Stage, Then};
-pub use surface::{Surface, SurfacePoint};
+pub use surface::{BandAnswer, Surface, SurfacePoint};
 
 /// Re-export of the `glam` version used for all geometry.
 pub use glam;

@@ -47,6 +47,58 @@ pub trait Surface: Send + Sync {
         self.signed_distance(query)
             .filter(|(d, _)| d.abs() <= max_distance)
     }
+
+    /// [`Surface::signed_distance_within`], and when it has no answer, how far around
+    /// `query` that stays so ([`BandAnswer::Beyond`]): grids sampling the surface skip the
+    /// nodes inside that clearance without asking. `likely` is a smaller bound the answer
+    /// probably lies within (a grid passes its previous node's distance plus a spacing);
+    /// surfaces whose search prunes by distance try it first. The default tries `likely`,
+    /// then `max_distance`, and promises no clearance.
+    fn signed_distance_or_clearance(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+        likely: Option<f32>,
+    ) -> BandAnswer {
+        let answer = likely
+            .filter(|&bound| bound < max_distance)
+            .and_then(|bound| self.signed_distance_within(query, bound))
+            .or_else(|| self.signed_distance_within(query, max_distance));
+        match answer {
+            Some((distance, closest)) => BandAnswer::Within { distance, closest },
+            None => BandAnswer::Beyond { clearance: 0.0 },
+        }
+    }
+}
+
+/// A surface's answer to a query with a distance bound:
+/// [`Surface::signed_distance_or_clearance`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BandAnswer {
+    /// The surface lies within the bound: the signed distance and the closest point, as
+    /// [`Surface::signed_distance_within`] gives them.
+    Within {
+        /// Signed distance (positive on the normal's side).
+        distance: f32,
+        /// The closest surface point.
+        closest: SurfacePoint,
+    },
+    /// No answer within the bound, and none for any query closer than `clearance` to this
+    /// one (0: no promise beyond this query).
+    Beyond {
+        /// Radius around the query with no answer within the bound.
+        clearance: f32,
+    },
+}
+
+impl BandAnswer {
+    /// The signed distance and closest point, if within the bound.
+    pub fn within(self) -> Option<(f32, SurfacePoint)> {
+        match self {
+            Self::Within { distance, closest } => Some((distance, closest)),
+            Self::Beyond { .. } => None,
+        }
+    }
 }
 
 #[cfg(test)]
