@@ -24,7 +24,7 @@ pub struct FieldParams {
     pub kernel: Option<f32>,
     /// Margin around the geometry's box, in grid spacings; default 3.
     pub margin: f32,
-    /// Distances are clamped to this many grid spacings; default 4.
+    /// Distances are clamped to this many grid spacings (more than 1); default 4.
     pub band: f32,
 }
 
@@ -52,7 +52,7 @@ impl FieldParams {
         self
     }
 
-    /// Checks ranges: resolution 4..=1024, positive margin and band.
+    /// Checks ranges: resolution 4..=1024, a non-negative margin, a band over 1 spacing.
     pub fn validate(&self) -> Result<()> {
         let bad = Error::invalid::<()>;
         if !(4..=1024).contains(&self.resolution) {
@@ -65,11 +65,11 @@ impl FieldParams {
                 "a non-negative number of spacings",
             );
         }
-        if !(self.band.is_finite() && self.band > 0.0) {
+        if !(self.band.is_finite() && self.band > 1.0) {
             return bad(
                 "band",
                 self.band.to_string(),
-                "a positive number of spacings",
+                "more than 1 spacing (far nodes take their sign from neighbours within one)",
             );
         }
         Ok(())
@@ -81,6 +81,13 @@ impl FieldParams {
             value: "no points".into(),
             expected: "a non-empty point set or mesh".into(),
         })?;
+        if bounds.extent().max_element() <= 0.0 {
+            return Error::invalid(
+                "geometry",
+                format!("{} positions, all at one point", geometry.points().len()),
+                "positions spread over a box of some size (one point has no surface to sample)",
+            );
+        }
         let rough = GridSpec::covering(bounds, self.resolution, 0.0)?;
         Ok(GridSpec::covering(
             bounds,

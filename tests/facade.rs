@@ -424,6 +424,32 @@ fn a_kernel_too_small_for_the_sampling_is_refused() {
 }
 
 #[test]
+fn a_point_like_geometry_and_a_band_of_one_spacing_are_refused_by_name() {
+    use geosynth::core::PointSet;
+    use geosynth::reconstruct::{FieldParams, signed_distance};
+    let one_place = PointSet::new(vec![Vec3::new(1.0, 2.0, 3.0); 5])
+        .unwrap()
+        .with_normals(vec![Vec3::Z; 5])
+        .unwrap();
+    match signed_distance(&Geometry::Points(one_place), &FieldParams::default()) {
+        Err(geosynth::Error::InvalidParameter { name, value, .. }) => {
+            assert_eq!(name, "geometry");
+            assert_eq!(value, "5 positions, all at one point");
+        }
+        other => panic!("{other:?}"),
+    }
+    let sphere = Geometry::Points(fixtures::sphere_points(800).unwrap());
+    for band in [1.0, 0.5] {
+        let mut params = FieldParams::default().resolution(16);
+        params.band = band;
+        assert!(matches!(
+            signed_distance(&sphere, &params),
+            Err(geosynth::Error::InvalidParameter { name: "band", .. })
+        ));
+    }
+}
+
+#[test]
 fn figure_6_solids_are_closed_manifolds_filling_their_boxes() {
     for v in fixtures::volumes::all(fixtures::FIXTURE_SEED).unwrap() {
         let topo = v.mesh.topology();

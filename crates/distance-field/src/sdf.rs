@@ -20,7 +20,8 @@ pub struct GridSpec {
 
 impl GridSpec {
     /// A grid covering `bounds` grown by `margin` on every side, with `resolution` nodes
-    /// along the longest side (at least 2).
+    /// along the longest side (at least 2). Errors: fewer than 2 nodes, a negative or
+    /// non-finite margin, and a grown box of no (or non-finite) extent.
     pub fn covering(bounds: Aabb, resolution: usize, margin: f32) -> Result<Self> {
         if resolution < 2 {
             return Err(FieldError::InvalidParameter {
@@ -38,7 +39,14 @@ impl GridSpec {
         }
         let b = bounds.inflated(margin);
         let longest = b.extent().max_element();
-        positive("bounds extent", longest)?;
+        if !(longest.is_finite() && longest > 0.0) {
+            return Err(FieldError::InvalidParameter {
+                name: "bounds",
+                value: format!("the box {} to {} grown by {margin}", bounds.min, bounds.max),
+                expected: "a box with a positive, finite longest side (all the geometry \
+                           sits at one point: give it a margin, or more than one position)",
+            });
+        }
         let spacing = longest / (resolution - 1) as f32;
         let dims = (b.extent() / spacing)
             .to_array()

@@ -1,0 +1,232 @@
+//! Odd point sets, meshes and parameters through the distance-field stages: each either
+//! refuses them with a typed error or returns a field and a mesh that keep their contracts
+//! (finite, clamped to the band, inside the grid's box). Never a panic.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use geosynth::core::io::Geometry;
+use geosynth::core::rng::rng_from_seed;
+use geosynth::core::{PointSet, TriMesh};
+use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
+use geosynth::{RunContext, Stage};
+use glam::Vec3;
+use proptest::prelude::*;
+use rand::RngExt;
+
+/// How the samples are laid out in a cube of side `scale` around `offset`.
+#[derive(Debug, Clone, Copy)]
+enum Layout {
+    /// On a sphere, at random.
+    Sphere,
+    /// Uniformly at random in the cube.
+    Uniform,
+    /// Every sample at one point.
+    Coincident,
+    /// On one line.
+    Line,
+    /// A regular grid on one plane.
+    Plane,
+    /// Two tight clusters at opposite corners.
+    Clusters,
+}
+
+/// Which normals the samples get.
+#[derive(Debug, Clone, Copy)]
+enum Normals {
+    /// Away from the layout's centre (up where a sample sits at the centre).
+    Outward,
+    /// All the same.
+    Up,
+    /// Outward with random signs.
+    Unoriented,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Cloud {
+    layout: Layout,
+    normals: Normals,
+    samples: usize,
+    scale: f32,
+    offset: f32,
+    seed: u64,
+}
+
+fn cloud() -> impl Strategy<Value = Cloud> {
+    let layout = prop_oneof![
+        4 => Just(Layout::Sphere),
+        2 => Just(Layout::Uniform),
+        1 => Just(Layout::Coincident),
+        1 => Just(Layout::Line),
+        1 => Just(Layout::Plane),
+        1 => Just(Layout::Clusters),
+    ];
+    let normals = prop_oneof![
+        3 => Just(Normals::Outward),
+        1 => Just(Normals::Up),
+        1 => Just(Normals::Unoriented),
+    ];
+    (
+        layout,
+        normals,
+        1usize..400,
+        -4.0f32..4.0,
+        prop_oneof![Just(0.0f32), -1.0f32..6.0],
+        any::<u64>(),
+    )
+        .prop_map(|(layout, normals, samples, scale, offset, seed)| Cloud {
+            layout,
+            normals,
+            samples,
+            scale: 10f32.powf(scale),
+            offset: if offset == 0.0 {
+                0.0
+            } else {
+                10f32.powf(offset)
+            },
+            seed,
+        })
+}
+
+fn points(c: &Cloud) -> PointSet {
+    let mut g = rng_from_seed(c.seed);
+    let mut unit = || {
+        Vec3::new(
+            g.random_range(-1.0f32..1.0),
+            g.random_range(-1.0f32..1.0),
+            g.random_range(-1.0f32..1.0),
+        )
+    };
+    let side = (c.samples as f32).sqrt().ceil() as usize;
+    let local: Vec<Vec3> = (0..c.samples)
+        .map(|i| match c.layout {
+            Layout::Sphere => unit().normalize_or(Vec3::Z),
+            Layout::Uniform => unit(),
+            Layout::Coincident => Vec3::splat(0.25),
+            Layout::Line => Vec3::new(unit().x, 0.0, 0.0),
+            Layout::Plane => Vec3::new(
+                (i % side) as f32 / side as f32,
+                (i / side) as f32 / side as f32,
+                0.0,
+            ),
+            Layout::Clusters => {
+                let corner = if i % 2 == 0 { Vec3::ONE } else { -Vec3::ONE };
+                corner + 1e-3 * unit()
+            }
+        })
+        .collect();
+    let normals: Vec<Vec3> = local
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let outward = p.normalize_or(Vec3::Z);
+            match c.normals {
+                Normals::Outward => outward,
+                Normals::Up => Vec3::Z,
+                Normals::Unoriented if i % 3 == 0 => -outward,
+                Normals::Unoriented => outward,
+            }
+        })
+        .collect();
+    let positions = local
+        .iter()
+        .map(|p| *p * c.scale + Vec3::splat(c.offset))
+        .collect();
+    PointSet::new(positions)
+        .unwrap()
+        .with_normals(normals)
+        .unwrap()
+}
+
+fn params() -> impl Strategy<Value = (FieldParams, Option<f32>)> {
+    (
+        4usize..40,
+        prop_oneof![Just(None), (-3.0f32..1.0).prop_map(Some)],
+        0.0f32..4.0,
+        0.5f32..8.0,
+    )
+        .prop_map(|(resolution, kernel, margin, band)| {
+            let mut p = FieldParams::default().resolution(resolution);
+            p.margin = margin;
+            p.band = band;
+            // The kernel is relative to the cloud's scale: set once the cloud is known.
+            (p, kernel.map(|k| 10f32.powf(k)))
+        })
+}
+
+/// The field's contracts: finite distances within the band, and a mesh made of it (when
+/// there is one) with finite vertices inside the grid's box.
+fn check_field_and_mesh(geometry: &Geometry, params: &FieldParams) {
+    let field = match signed_distance(geometry, params) {
+        Ok(field) => field,
+        Err(e) => {
+            assert!(!e.to_string().is_empty());
+            return;
+        }
+    };
+    let band = field.band();
+    let distances = field.distances().unwrap();
+    for &d in distances.data() {
+        assert!(
+            d.is_finite() && d.abs() <= band * (1.0 + 1e-5),
+            "distance {d}, band {band}"
+        );
+    }
+    let Geometry::Points(points) = geometry else {
+        return;
+    };
+    let stage = Reconstruct {
+        params: params.clone(),
+    };
+    let grid = field.grid();
+    let extent = grid.dims().map(|n| (n - 1) as f32);
+    let (lo, hi) = (
+        grid.origin(),
+        grid.origin() + Vec3::from(extent) * grid.spacing(),
+    );
+    let slack = Vec3::splat(1e-3 * grid.spacing() + 1e-6 * lo.abs().max(hi.abs()).max_element());
+    match stage.run(points.clone(), &mut RunContext::new(0)) {
+        Ok(mesh) => check_mesh(&mesh, lo - slack, hi + slack),
+        Err(e) => assert!(!e.to_string().is_empty()),
+    }
+}
+
+fn check_mesh(mesh: &TriMesh, lo: Vec3, hi: Vec3) {
+    assert!(mesh.face_count() > 0);
+    for p in mesh.positions() {
+        assert!(
+            p.is_finite() && p.cmpge(lo).all() && p.cmple(hi).all(),
+            "{p} outside {lo}..{hi}"
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(160))]
+
+    #[test]
+    fn odd_point_sets_give_a_field_and_mesh_or_an_error(c in cloud(), (p, kernel) in params()) {
+        let points = points(&c);
+        let p = p.kernel(kernel.map(|k| k * c.scale));
+        check_field_and_mesh(&Geometry::Points(points), &p);
+    }
+
+    #[test]
+    fn odd_meshes_give_a_field_or_an_error(
+        c in cloud(),
+        (p, _) in params(),
+        faces in proptest::collection::vec((0usize..400, 0usize..400, 0usize..400), 1..60),
+    ) {
+        // Triangles over the cloud's samples: degenerate, repeated and crossing ones too.
+        let points = points(&c);
+        let n = points.len();
+        let faces: Vec<[u32; 3]> = faces
+            .iter()
+            .map(|&(a, b, c)| [a % n, b % n, c % n].map(|i| i as u32))
+            .collect();
+        match TriMesh::new(PointSet::new(points.positions().to_vec()).unwrap(), faces) {
+            Ok(mesh) => check_field_and_mesh(&Geometry::Mesh(mesh), &p),
+            Err(e) => prop_assert!(!e.to_string().is_empty()),
+        }
+    }
+}
