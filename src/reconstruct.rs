@@ -5,7 +5,7 @@
 //! iso-surface. [`SignedDistance`] samples a point set (through its MLS surface) or a mesh
 //! (exactly) into an [`SdfGrid`].
 
-use distance_field::{GridSpec, MeshSurface, SdfGrid, sdf_isosurface};
+use distance_field::{GridSpec, MeshSign, MeshSurface, SdfGrid, sdf_isosurface};
 use glam::Vec3;
 use mls_surface::{MlsError, MlsParams, MlsSurface};
 use pointset_core::io::Geometry;
@@ -26,6 +26,9 @@ pub struct FieldParams {
     pub margin: f32,
     /// Distances are clamped to this many grid spacings (more than 1); default 4.
     pub band: f32,
+    /// How a mesh's distances are signed; default [`MeshSign::PseudoNormal`] (point sets
+    /// are signed by their MLS surface).
+    pub mesh_sign: MeshSign,
 }
 
 impl Default for FieldParams {
@@ -35,6 +38,7 @@ impl Default for FieldParams {
             kernel: None,
             margin: 3.0,
             band: 4.0,
+            mesh_sign: MeshSign::default(),
         }
     }
 }
@@ -49,6 +53,12 @@ impl FieldParams {
     /// Sets the MLS kernel (default estimated).
     pub fn kernel(mut self, h: Option<f32>) -> Self {
         self.kernel = h;
+        self
+    }
+
+    /// Sets how a mesh's distances are signed (default [`MeshSign::PseudoNormal`]).
+    pub fn mesh_sign(mut self, sign: MeshSign) -> Self {
+        self.mesh_sign = sign;
         self
     }
 
@@ -109,7 +119,7 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
     let spec = params.grid_for(geometry)?;
     let band = params.band * spec.spacing;
     let surface: Box<dyn Surface> = match geometry {
-        Geometry::Mesh(mesh) => Box::new(MeshSurface::new(mesh)?),
+        Geometry::Mesh(mesh) => Box::new(MeshSurface::new(mesh)?.with_sign(params.mesh_sign)),
         Geometry::Points(points) => {
             let mut mls = MlsParams::default();
             if let Some(h) = params.kernel {

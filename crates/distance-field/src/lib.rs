@@ -30,7 +30,8 @@
 //!
 //! | item | what |
 //! |---|---|
-//! | [`MeshSurface`] | BVH closest point on a triangle mesh; sign from angle-weighted pseudo-normals (rule for open meshes in its docs) |
+//! | [`MeshSurface`] | BVH closest point on a triangle mesh; sign from angle-weighted pseudo-normals (rule for open meshes in its docs) or, by [`MeshSign`], from generalized winding numbers |
+//! | [`winding`] | solid angles of triangles and the hierarchy's fast winding number (intersecting or nearly closed pieces) |
 //! | [`GridSpec`], [`SdfGrid`] | node layout; 4-channel `(distance, gradient)` grid, clamped to a band, parallel and deterministic |
 //! | [`BlockPyramid`], [`Quantizer`] | paper 001 §4.1 pyramids by 2×2×2 averaging; 256 levels over `[−range, range]` |
 //! | [`isosurface`], [`sdf_isosurface`] | marching tetrahedra (Kuhn split): closed, welded, outward-oriented meshes |
@@ -69,10 +70,11 @@ pub mod nrrd;
 mod pyramid;
 mod sdf;
 mod triangle;
+pub mod winding;
 
 pub use error::{FieldError, Result};
 pub use far_signs::FarSigns;
 pub use iso::{closed_isosurface, isosurface, sdf_isosurface};
-pub use mesh_surface::{MeshHit, MeshSurface};
+pub use mesh_surface::{MeshHit, MeshSign, MeshSurface};
 pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};
 pub use sdf::{GridSpec, SdfGrid};

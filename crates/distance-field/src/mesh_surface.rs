@@ -8,7 +8,9 @@
 //! face normals at a vertex. On closed, consistently oriented meshes this is exactly
 //! inside/outside. On open meshes it tells which side of the *nearest* surface piece `q` is
 //! on (boundary edges use their single face's normal), which is the useful answer for
-//! terrain-like or partial geometry.
+//! terrain-like or partial geometry. Solids built from intersecting or nearly closed
+//! pieces are signed right by generalized winding numbers instead ([`MeshSign`],
+//! [`crate::winding`]).
 
 use std::collections::HashMap;
 
@@ -17,6 +19,7 @@ use pointset_core::{Aabb, Surface, SurfacePoint, TriMesh};
 
 use crate::error::{FieldError, Result};
 use crate::triangle::{Feature, closest_point};
+use crate::winding::{Dipole, triangle_solid_angle};
 
 /// Triangles per BVH leaf.
 const LEAF_SIZE: usize = 4;
@@ -63,6 +66,19 @@ pub struct MeshHit {
     pub pseudo_normal: Vec3,
 }
 
+/// Which rule signs a mesh's distances.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum MeshSign {
+    /// The side of the closest feature's pseudo-normal (the module docs): exact on closed,
+    /// consistently oriented meshes, and on open sheets the side of the nearest piece.
+    #[default]
+    PseudoNormal,
+    /// Inside where the generalized winding number exceeds ½ ([`crate::winding`]): right
+    /// on solids built from intersecting or overlapping pieces and on nearly closed meshes
+    /// with small gaps; an open sheet has no inside by it (everything is outside).
+    WindingNumber,
+}
+
 /// A triangle mesh prepared for closest-point and signed-distance queries.
 #[derive(Debug, Clone)]
 pub struct MeshSurface {
@@ -72,6 +88,9 @@ pub struct MeshSurface {
     vertex_normals: Vec<[Vec3; 3]>,
     order: Vec<usize>,
     nodes: Vec<Node>,
+    /// Far-field summaries of the nodes, for winding numbers.
+    dipoles: Vec<Dipole>,
+    sign: MeshSign,
 }
 
 impl MeshSurface {
@@ -130,9 +149,65 @@ impl MeshSurface {
             vertex_normals,
             order: (0..tris.len()).collect(),
             nodes: Vec::new(),
+            dipoles: Vec::new(),
+            sign: MeshSign::default(),
         };
         surface.build();
+        surface.dipoles = surface.node_dipoles();
         Ok(surface)
+    }
+
+    /// This surface with distances signed by `sign` (default [`MeshSign::PseudoNormal`]).
+    pub fn with_sign(mut self, sign: MeshSign) -> Self {
+        self.sign = sign;
+        self
+    }
+
+    /// The rule signing this surface's distances.
+    pub fn sign_rule(&self) -> MeshSign {
+        self.sign
+    }
+
+    /// Every node's dipole; children come after their parent, so a reverse pass sees both
+    /// children of a node before the node.
+    fn node_dipoles(&self) -> Vec<Dipole> {
+        let mut dipoles = vec![Dipole::default(); self.nodes.len()];
+        for n in (0..self.nodes.len()).rev() {
+            dipoles[n] = match &self.nodes[n] {
+                Node::Leaf { start, end, .. } => {
+                    Dipole::of_triangles(self.order[*start..*end].iter().map(|&t| &self.corners[t]))
+                }
+                Node::Inner { left, right, .. } => dipoles[*left].join(&dipoles[*right]),
+            };
+        }
+        dipoles
+    }
+
+    /// The generalized winding number of the mesh at `q` ([`crate::winding`]): 1 inside
+    /// a closed outward-oriented mesh, 0 outside, fractional near gaps; NaN for a
+    /// non-finite `q`.
+    pub fn winding_number(&self, q: Vec3) -> f32 {
+        if !q.is_finite() {
+            return f32::NAN;
+        }
+        let mut solid_angle = 0.0f64;
+        let mut stack = vec![0usize];
+        while let Some(node) = stack.pop() {
+            if let Some(far) = self.dipoles[node].far_solid_angle(q) {
+                solid_angle += far;
+                continue;
+            }
+            match &self.nodes[node] {
+                Node::Leaf { start, end, .. } => {
+                    solid_angle += self.order[*start..*end]
+                        .iter()
+                        .map(|&t| triangle_solid_angle(q, self.corners[t]))
+                        .sum::<f64>();
+                }
+                Node::Inner { left, right, .. } => stack.extend([*left, *right]),
+            }
+        }
+        (solid_angle / (4.0 * std::f64::consts::PI)) as f32
     }
 
     fn tri_bounds(&self, t: usize) -> Aabb {
@@ -287,7 +362,7 @@ impl MeshSurface {
         })
     }
 
-    /// Signed distance to the mesh (see the module docs for the sign rule).
+    /// Signed distance to the mesh, signed by [`Self::sign_rule`].
     pub fn signed_distance_to(&self, q: Vec3) -> Option<f32> {
         self.signed_distance_bounded_search(q, f32::INFINITY)
             .map(|(d, _)| d)
@@ -296,11 +371,11 @@ impl MeshSurface {
     fn signed_distance_bounded_search(&self, q: Vec3, bound: f32) -> Option<(f32, SurfacePoint)> {
         let hit = self.closest(q, bound)?;
         let d = hit.distance_squared.sqrt();
-        let sign = if (q - hit.point).dot(hit.pseudo_normal) < 0.0 {
-            -1.0
-        } else {
-            1.0
+        let inside = match self.sign {
+            MeshSign::PseudoNormal => (q - hit.point).dot(hit.pseudo_normal) < 0.0,
+            MeshSign::WindingNumber => self.winding_number(q) > 0.5,
         };
+        let sign = if inside { -1.0 } else { 1.0 };
         // The normal reported is the outward direction of the field: the unit offset from
         // the closest point (oriented by the sign), or the face normal on the surface itself.
         let normal = ((q - hit.point) * sign)

@@ -1166,3 +1166,86 @@ fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     xs.dedup();
     assert!(xs.len() > 1000, "{} distinct x values", xs.len());
 }
+
+#[test]
+fn sdf_signs_intersecting_pieces_by_winding_numbers_when_asked() {
+    // Two unit icospheres whose centres are 1.2 apart, as one mesh of two intersecting
+    // closed components: inside one, next to the other's surface, the nearest piece's
+    // pseudo-normal says outside. The run says so, and `--sign winding` fixes it.
+    let dir = tempfile::tempdir().unwrap();
+    let sphere = geosynth::fixtures::icosphere_mesh(3).unwrap();
+    let shift = glam::Vec3::new(1.2, 0.0, 0.0);
+    let n = sphere.vertex_count() as u32;
+    let positions = sphere
+        .positions()
+        .iter()
+        .copied()
+        .chain(sphere.positions().iter().map(|p| *p + shift))
+        .collect();
+    let triangles = sphere
+        .triangles()
+        .iter()
+        .copied()
+        .chain(sphere.triangles().iter().map(|t| t.map(|v| v + n)))
+        .collect();
+    let pair =
+        geosynth::core::TriMesh::new(geosynth::core::PointSet::new(positions).unwrap(), triangles)
+            .unwrap();
+    let mesh = dir.path().join("pair.ply");
+    geosynth::core::io::write_geometry(
+        &mesh,
+        &geosynth::core::io::Geometry::Mesh(pair),
+        &geosynth::core::io::WriteOptions::default(),
+    )
+    .unwrap();
+    let wrong_signs = |sign: &str| {
+        let field = dir.path().join(format!("{sign}.nrrd"));
+        let said = ok(&[
+            "sdf",
+            mesh.to_str().unwrap(),
+            "-o",
+            field.to_str().unwrap(),
+            "--resolution",
+            "32",
+            "--sign",
+            sign,
+        ]);
+        let volume = geosynth::sdf::nrrd::read_file(&field).unwrap();
+        let [nx, ny, _] = volume.dims;
+        let wrong = volume
+            .data
+            .iter()
+            .enumerate()
+            .filter(|&(i, d)| {
+                let node = glam::Vec3::new(
+                    (i % nx) as f32,
+                    ((i / nx) % ny) as f32,
+                    (i / (nx * ny)) as f32,
+                );
+                let p = volume.origin.as_vec3() + node * volume.spacing;
+                let union = (p.length() - 1.0).min((p - shift).length() - 1.0);
+                // The icosphere lies within 0.01 of the unit sphere.
+                union.abs() > 0.02 && (*d < 0.0) != (union < 0.0)
+            })
+            .count();
+        (said, wrong)
+    };
+    let (said, wrong) = wrong_signs("pseudo-normal");
+    assert!(said.contains("note: the mesh has 2 components"), "{said}");
+    assert!(wrong > 10, "{wrong}");
+    let (said, wrong) = wrong_signs("winding");
+    assert!(!said.contains("note"), "{said}");
+    assert_eq!(wrong, 0);
+    // Point sets are signed by their MLS surface; asking otherwise is an error.
+    let points = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let out = geosynth(&[
+        "sdf",
+        points.to_str().unwrap(),
+        "-o",
+        dir.path().join("p.nrrd").to_str().unwrap(),
+        "--sign",
+        "winding",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("applies to meshes"));
+}
