@@ -138,4 +138,20 @@ mod tests {
                 .is_some()
         );
     }
+
+    #[test]
+    fn the_default_band_answer_tries_the_likely_bound_then_the_band_and_promises_nothing() {
+        let q = Vec3::new(0.0, 0.0, 3.0);
+        let exact = UnitSphere.signed_distance(q).unwrap();
+        // A likely bound too small, one large enough, none, one beyond the band: the same
+        // answer within the band.
+        for likely in [Some(1.0), Some(2.5), None, Some(9.0)] {
+            let answer = UnitSphere.signed_distance_or_clearance(q, 3.0, likely);
+            assert_eq!(answer.within(), Some(exact), "{likely:?}");
+        }
+        assert_eq!(
+            UnitSphere.signed_distance_or_clearance(q, 1.5, Some(1.0)),
+            BandAnswer::Beyond { clearance: 0.0 }
+        );
+    }
 }
