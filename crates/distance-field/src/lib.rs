@@ -52,7 +52,8 @@
 //!
 //! A mesh query is `O(log n)` expected with the BVH; grid filling walks rows in parallel,
 //! bounds each node's search by the previous node's distance plus the spacing, and skips
-//! the nodes inside a clearance the surface gives (MLS surfaces out of reach). Extraction
+//! the nodes inside a clearance the surface gives (meshes, and MLS surfaces out of reach,
+//! say how far beyond the band a node is). Extraction
 //! is linear in the number of cells. All results are independent of the thread count.
 //!
 //! ## Errors

@@ -15,7 +15,7 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
-use pointset_core::{Aabb, Surface, SurfacePoint, TriMesh};
+use pointset_core::{Aabb, BandAnswer, Surface, SurfacePoint, TriMesh};
 
 use crate::error::{FieldError, Result};
 use crate::triangle::{Feature, closest_point};
@@ -306,9 +306,17 @@ impl MeshSurface {
     /// The closest point on the mesh, searching only within distance `bound` (use infinity
     /// for an unbounded search). `None` for a non-finite query or nothing within `bound`.
     pub fn closest(&self, q: Vec3, bound: f32) -> Option<MeshHit> {
+        self.closest_or_gap(q, bound).ok()
+    }
+
+    /// [`Self::closest`], and when nothing lies within `bound`, a lower bound on the
+    /// distance to the mesh: the nearest box the search pruned or triangle it passed over
+    /// (0 for a non-finite query).
+    fn closest_or_gap(&self, q: Vec3, bound: f32) -> std::result::Result<MeshHit, f32> {
         if !q.is_finite() {
-            return None;
+            return Err(0.0);
         }
+        let mut pruned_d2 = f32::INFINITY;
         let mut best_d2 = if bound.is_finite() {
             bound * bound
         } else {
@@ -318,6 +326,7 @@ impl MeshSurface {
         let mut stack: Vec<(usize, f32)> = vec![(0, self.nodes[0].bounds().distance_squared(q))];
         while let Some((node, d2)) = stack.pop() {
             if d2 > best_d2 {
+                pruned_d2 = pruned_d2.min(d2);
                 continue;
             }
             match &self.nodes[node] {
@@ -331,6 +340,8 @@ impl MeshSurface {
                         {
                             best_d2 = dist;
                             best = Some((t, p, feature));
+                        } else {
+                            pruned_d2 = pruned_d2.min(dist);
                         }
                     }
                 }
@@ -348,13 +359,15 @@ impl MeshSurface {
                 }
             }
         }
-        let (t, point, feature) = best?;
+        let Some((t, point, feature)) = best else {
+            return Err(pruned_d2.sqrt());
+        };
         let pseudo_normal = match feature {
             Feature::Face => self.face_normals[t],
             Feature::Edge(k) => self.edge_normals[t][k],
             Feature::Vertex(k) => self.vertex_normals[t][k],
         };
-        Some(MeshHit {
+        Ok(MeshHit {
             point,
             triangle: t,
             distance_squared: best_d2,
@@ -365,11 +378,18 @@ impl MeshSurface {
     /// Signed distance to the mesh, signed by [`Self::sign_rule`].
     pub fn signed_distance_to(&self, q: Vec3) -> Option<f32> {
         self.signed_distance_bounded_search(q, f32::INFINITY)
+            .ok()
             .map(|(d, _)| d)
     }
 
-    fn signed_distance_bounded_search(&self, q: Vec3, bound: f32) -> Option<(f32, SurfacePoint)> {
-        let hit = self.closest(q, bound)?;
+    /// The signed distance and closest point within `bound`, or a lower bound on the
+    /// distance ([`Self::closest_or_gap`]).
+    fn signed_distance_bounded_search(
+        &self,
+        q: Vec3,
+        bound: f32,
+    ) -> std::result::Result<(f32, SurfacePoint), f32> {
+        let hit = self.closest_or_gap(q, bound)?;
         let d = hit.distance_squared.sqrt();
         let inside = match self.sign {
             MeshSign::PseudoNormal => (q - hit.point).dot(hit.pseudo_normal) < 0.0,
@@ -381,7 +401,7 @@ impl MeshSurface {
         let normal = ((q - hit.point) * sign)
             .try_normalize()
             .unwrap_or(self.face_normals[hit.triangle]);
-        Some((
+        Ok((
             sign * d,
             SurfacePoint {
                 point: hit.point,
@@ -394,11 +414,13 @@ impl MeshSurface {
 impl Surface for MeshSurface {
     fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
         self.signed_distance_bounded_search(query, f32::INFINITY)
+            .ok()
             .map(|(_, p)| p)
     }
 
     fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
         self.signed_distance_bounded_search(query, f32::INFINITY)
+            .ok()
     }
 
     fn signed_distance_within(
@@ -407,5 +429,27 @@ impl Surface for MeshSurface {
         max_distance: f32,
     ) -> Option<(f32, SurfacePoint)> {
         self.signed_distance_bounded_search(query, max_distance)
+            .ok()
+    }
+
+    /// The `likely` bound first, then `max_distance`; with nothing within it, the
+    /// clearance is how much farther the nearest pruned box or passed-over triangle is (a
+    /// lower bound on the distance, less a relative 1e-5 for rounding).
+    fn signed_distance_or_clearance(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+        likely: Option<f32>,
+    ) -> BandAnswer {
+        let within = |bound| {
+            self.signed_distance_bounded_search(query, bound)
+                .map(|(distance, closest)| BandAnswer::Within { distance, closest })
+        };
+        if let Some(Ok(answer)) = likely.filter(|&bound| bound < max_distance).map(within) {
+            return answer;
+        }
+        within(max_distance).unwrap_or_else(|gap| BandAnswer::Beyond {
+            clearance: (gap * (1.0 - 1e-5) - max_distance).max(0.0),
+        })
     }
 }

@@ -260,10 +260,10 @@ fn grid_filling_does_not_depend_on_thread_count() {
     assert_eq!(run(1), run(2));
 }
 
-/// An MLS surface that counts the queries it answers, asked the trait's default way (the
-/// likely bound first, then the band, no clearance).
+/// A surface that counts the queries it answers, asked the trait's default way (the likely
+/// bound first, then the band, no clearance).
 struct Counted<'s> {
-    surface: &'s MlsSurface,
+    surface: &'s dyn Surface,
     queries: std::sync::atomic::AtomicUsize,
 }
 
@@ -285,7 +285,7 @@ impl Surface for Counted<'_> {
     }
 }
 
-/// [`Counted`], asked the MLS surface's way (one query, with its clearance).
+/// [`Counted`], asked the surface's own way (with its clearances).
 struct Clearing<'s>(Counted<'s>);
 
 impl Surface for Clearing<'_> {
@@ -327,21 +327,44 @@ fn clearances_skip_queries_without_changing_the_grid() {
         .unwrap();
     let mls = MlsSurface::new(&points, &MlsParams::default()).unwrap();
     let spec = GridSpec::covering(Aabb::new(Vec3::splat(-3.0), Vec3::splat(3.0)), 40, 0.0).unwrap();
+    let (asked, asked_without) = queries_with_and_without_clearances(&mls, &spec);
+    assert!(asked < asked_without / 2, "{asked} of {asked_without}");
+}
+
+#[test]
+fn mesh_clearances_skip_queries_without_changing_the_grid() {
+    // Two intersecting spheres in a box about three times their size; both sign rules.
+    let (mesh, _) = overlapping_spheres();
+    let spec = GridSpec::covering(Aabb::new(Vec3::splat(-2.2), Vec3::splat(2.8)), 40, 0.0).unwrap();
+    for sign in [MeshSign::PseudoNormal, MeshSign::WindingNumber] {
+        let surface = MeshSurface::new(&mesh).unwrap().with_sign(sign);
+        let (asked, asked_without) = queries_with_and_without_clearances(&surface, &spec);
+        assert!(
+            asked < asked_without / 2,
+            "{sign:?}: {asked} of {asked_without}"
+        );
+    }
+}
+
+/// Fills `spec` with `surface` twice, band 3 spacings: asked with its clearances and the
+/// trait's default way. The grids are equal (and equal to the plain fill); returns the
+/// queries each way. Most nodes must be far, and the default asks every node.
+fn queries_with_and_without_clearances(surface: &dyn Surface, spec: &GridSpec) -> (usize, usize) {
     let band = 3.0 * spec.spacing;
     let counted = || Counted {
-        surface: &mls,
+        surface,
         queries: Default::default(),
     };
     let (clearing, plain) = (Clearing(counted()), counted());
-    let with = SdfGrid::from_surface(&clearing, &spec, band).unwrap();
-    let without = SdfGrid::from_surface(&plain, &spec, band).unwrap();
-    let (asked, asked_without) = (clearing.0.queries.into_inner(), plain.queries.into_inner());
+    let with = SdfGrid::from_surface(&clearing, spec, band).unwrap();
+    let without = SdfGrid::from_surface(&plain, spec, band).unwrap();
     assert_eq!(with, without);
-    assert_eq!(with, SdfGrid::from_surface(&mls, &spec, band).unwrap());
-    assert!(with.far_nodes() > 40 * 40 * 40 / 2);
-    // The default way asks every node at least once; with clearances, far fewer.
-    assert!(asked_without >= 40 * 40 * 40);
-    assert!(asked < asked_without / 2, "{asked} of {asked_without}");
+    assert_eq!(with, SdfGrid::from_surface(surface, spec, band).unwrap());
+    let nodes = spec.dims.iter().product::<usize>();
+    assert!(with.far_nodes() > nodes / 2);
+    let asked_without = plain.queries.into_inner();
+    assert!(asked_without >= nodes);
+    (clearing.0.queries.into_inner(), asked_without)
 }
 
 // ------------------------------------------------------------ pyramids (paper 001 Eq. 2)
