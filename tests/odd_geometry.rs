@@ -1,6 +1,7 @@
-//! Odd point sets, meshes and parameters through the distance-field stages: each either
-//! refuses them with a typed error or returns a field and a mesh that keep their contracts
-//! (finite, clamped to the band, inside the grid's box). Never a panic.
+//! Odd point sets, meshes (signed either way) and parameters through the distance-field
+//! stages: each either refuses them with a typed error or returns a field and a mesh that
+//! keep their contracts (finite, clamped to the band, inside the grid's box). Never a
+//! panic.
 
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -9,6 +10,7 @@ use geosynth::core::io::Geometry;
 use geosynth::core::rng::rng_from_seed;
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
+use geosynth::sdf::MeshSign;
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
 use proptest::prelude::*;
@@ -202,7 +204,7 @@ fn check_mesh(mesh: &TriMesh, lo: Vec3, hi: Vec3) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(160))]
+    #![proptest_config(ProptestConfig::with_cases(100))]
 
     #[test]
     fn odd_point_sets_give_a_field_and_mesh_or_an_error(c in cloud(), (p, kernel) in params()) {
@@ -216,6 +218,7 @@ proptest! {
         c in cloud(),
         (p, _) in params(),
         faces in proptest::collection::vec((0usize..400, 0usize..400, 0usize..400), 1..60),
+        winding in any::<bool>(),
     ) {
         // Triangles over the cloud's samples: degenerate, repeated and crossing ones too.
         let points = points(&c);
@@ -225,7 +228,10 @@ proptest! {
             .map(|&(a, b, c)| [a % n, b % n, c % n].map(|i| i as u32))
             .collect();
         match TriMesh::new(PointSet::new(points.positions().to_vec()).unwrap(), faces) {
-            Ok(mesh) => check_field_and_mesh(&Geometry::Mesh(mesh), &p),
+            Ok(mesh) => {
+                let sign = if winding { MeshSign::WindingNumber } else { MeshSign::PseudoNormal };
+                check_field_and_mesh(&Geometry::Mesh(mesh), &p.mesh_sign(sign));
+            }
             Err(e) => prop_assert!(!e.to_string().is_empty()),
         }
     }
