@@ -25,7 +25,7 @@
 
 use std::path::Path;
 
-use distance_field::{GridSpec, MeshSurface, SdfGrid, closed_isosurface, nrrd};
+use distance_field::{GridSpec, MeshSign, MeshSurface, SdfGrid, closed_isosurface, nrrd};
 use glam::DVec3;
 use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, RunContext, Stage, TriMesh};
@@ -149,8 +149,14 @@ fn read_volume_exemplar(path: &Path) -> Result<VoxelExemplar> {
 }
 
 /// The exemplar's signed distance field with `resolution` samples along the box's longest
-/// side, exact everywhere (the band is the box's diagonal).
-pub fn source_field(exemplar: &VoxelExemplar, resolution: usize) -> Result<SdfGrid> {
+/// side, exact everywhere (the band is the box's diagonal), signed by `sign`
+/// ([`MeshSign::WindingNumber`] for solids built from intersecting or nearly closed
+/// pieces).
+pub fn source_field(
+    exemplar: &VoxelExemplar,
+    resolution: usize,
+    sign: MeshSign,
+) -> Result<SdfGrid> {
     if !(4..=512).contains(&resolution) {
         return Err(Error::InvalidParameter {
             name: "source resolution",
@@ -159,7 +165,7 @@ pub fn source_field(exemplar: &VoxelExemplar, resolution: usize) -> Result<SdfGr
         });
     }
     let spec = GridSpec::covering(exemplar.bounds, resolution, 0.0)?;
-    let surface = MeshSurface::new(&exemplar.mesh)?;
+    let surface = MeshSurface::new(&exemplar.mesh)?.with_sign(sign);
     let diagonal = exemplar.bounds.extent().length().max(2.0 * spec.spacing);
     Ok(SdfGrid::from_surface(&surface, &spec, diagonal)?)
 }
@@ -174,6 +180,9 @@ pub fn source_dims(exemplar: &VoxelExemplar, resolution: usize) -> Result<[usize
 pub struct VoxelSynth {
     /// Source samples along the exemplar box's longest side (paper: 64).
     pub source_resolution: usize,
+    /// How the exemplar mesh's distances are signed (default
+    /// [`MeshSign::PseudoNormal`]; [`source_field`]).
+    pub mesh_sign: MeshSign,
     /// Synthesis parameters.
     pub params: VoxelParams,
     /// Seam relaxation of the copied-triangle reconstruction.
@@ -184,6 +193,7 @@ impl Default for VoxelSynth {
     fn default() -> Self {
         Self {
             source_resolution: 64,
+            mesh_sign: MeshSign::default(),
             params: VoxelParams::default(),
             relax: RelaxParams::default(),
         }
@@ -214,7 +224,7 @@ impl Stage for VoxelSynth {
 
     fn run(&self, input: VoxelExemplar, ctx: &mut RunContext) -> Result<VoxelOutput> {
         let source = ctx.timed("source field", |_| {
-            source_field(&input, self.source_resolution)
+            source_field(&input, self.source_resolution, self.mesh_sign)
         })?;
         let synthesis = synthesize(&source, &self.params, ctx)?;
         let isosurface = ctx.timed("isosurface", |_| isosurface_mesh(&synthesis, true))?;
@@ -332,8 +342,8 @@ mod tests {
         );
         // So the synthesis source is the near exemplar's field.
         let (a, b) = (
-            source_field(&near, 16).unwrap(),
-            source_field(&read, 16).unwrap(),
+            source_field(&near, 16, MeshSign::PseudoNormal).unwrap(),
+            source_field(&read, 16, MeshSign::PseudoNormal).unwrap(),
         );
         let field_gap = a
             .grid()

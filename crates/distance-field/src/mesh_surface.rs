@@ -16,6 +16,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 use pointset_core::{Aabb, BandAnswer, Surface, SurfacePoint, TriMesh};
+use rayon::prelude::*;
 
 use crate::error::{FieldError, Result};
 use crate::triangle::{Feature, closest_point};
@@ -208,6 +209,47 @@ impl MeshSurface {
             }
         }
         (solid_angle / (4.0 * std::f64::consts::PI)) as f32
+    }
+
+    /// How many (non-degenerate) triangles lie inside another part of the mesh. From each
+    /// triangle's centroid two probes step off along its normal and against it, by a
+    /// thousandth of its longest edge. Probes whose closest triangle is their own have
+    /// crossed nothing else, and crossing an outward-facing triangle raises the winding
+    /// number by 1; so where it does (the triangle faces the way its part does, which a
+    /// sliver's rounded normal may not), the outer probe lies just outside its own part,
+    /// where a closed, embedded part contributes 0, and a winding number over ½ there
+    /// means another part encloses the triangle. Closed parts that intersect or overlap
+    /// have such triangles; separate parts and cavities (inner shells facing inward) have
+    /// none. Triangles whose probes are nearer another triangle (narrow gaps) are not
+    /// counted.
+    ///
+    /// At most `max_probed` triangles are probed, evenly spread over the mesh (every
+    /// `k`-th); returns how many of those lie inside and how many were probed. Each probe
+    /// costs two closest-point searches and two winding numbers (about 20 µs on a
+    /// 200k-triangle mesh), so a small intersection can go unseen on a large mesh.
+    pub fn triangles_inside_other_parts(&self, max_probed: usize) -> (usize, usize) {
+        let every = self.corners.len().div_ceil(max_probed.max(1));
+        let probed: Vec<usize> = (0..self.corners.len()).step_by(every).collect();
+        let inside = probed
+            .par_iter()
+            .filter(|&&t| {
+                let [a, b, c] = self.corners[t];
+                let step = 1e-3 * (b - a).length().max((c - b).length()).max((a - c).length());
+                let centroid = (a + b + c) / 3.0;
+                let probes = [1.0, -1.0].map(|side| centroid + side * step * self.face_normals[t]);
+                let own = |probe: Vec3| {
+                    self.closest(probe, 2.0 * step).is_some_and(|hit| {
+                        hit.triangle == t && hit.distance_squared >= (0.5 * step).powi(2)
+                    })
+                };
+                if !probes.iter().all(|&p| own(p)) {
+                    return false;
+                }
+                let [outer, inner] = probes.map(|p| self.winding_number(p));
+                inner - outer > 0.5 && outer > 0.5
+            })
+            .count();
+        (inside, probed.len())
     }
 
     fn tri_bounds(&self, t: usize) -> Aabb {

@@ -810,3 +810,57 @@ fn the_teapot_signed_by_winding_numbers_agrees_with_brute_force() {
     assert!(checked > 1000, "{checked}");
     assert!(pseudo_wrong > 10, "{pseudo_wrong} of {checked}");
 }
+
+#[test]
+fn triangles_inside_other_parts_find_intersecting_pieces_only() {
+    let (pair, _) = overlapping_spheres();
+    let count = |mesh: &TriMesh| {
+        let (inside, probed) = MeshSurface::new(mesh)
+            .unwrap()
+            .triangles_inside_other_parts(usize::MAX);
+        assert_eq!(probed, mesh.face_count());
+        inside
+    };
+    // Each sphere's cap inside the other: radius 0.5, centres 0.6 apart, so a cap of
+    // height 0.2 of each, about a fifth of its area.
+    let inside = count(&pair);
+    let share = inside as f32 / pair.face_count() as f32;
+    assert!(
+        share > 0.15 && share < 0.25,
+        "{inside} of {}",
+        pair.face_count()
+    );
+    // One sphere; two apart; a shell with an inward-facing cavity: none.
+    let grid = analytic_grid(40, 1.0, |p| p.length() - 0.5);
+    let sphere = isosurface(&grid, 0.0).unwrap();
+    assert_eq!(count(&sphere), 0);
+    let n = sphere.vertex_count() as u32;
+    let combined = |scale: f32, shift: Vec3, flip: bool| {
+        let positions = sphere
+            .positions()
+            .iter()
+            .copied()
+            .chain(sphere.positions().iter().map(|p| *p * scale + shift))
+            .collect();
+        let triangles = sphere
+            .triangles()
+            .iter()
+            .copied()
+            .chain(sphere.triangles().iter().map(|t| {
+                let t = t.map(|v| v + n);
+                if flip { [t[0], t[2], t[1]] } else { t }
+            }))
+            .collect();
+        TriMesh::new(PointSet::new(positions).unwrap(), triangles).unwrap()
+    };
+    assert_eq!(count(&combined(1.0, Vec3::new(1.5, 0.0, 0.0), false)), 0);
+    assert_eq!(count(&combined(0.5, Vec3::ZERO, true)), 0);
+    // A sample of the pair's triangles, every 10th: about the same share.
+    let at_most = pair.face_count() / 10;
+    let (inside, probed) = MeshSurface::new(&pair)
+        .unwrap()
+        .triangles_inside_other_parts(at_most);
+    assert!(probed <= at_most && probed > at_most / 2, "{probed}");
+    let sampled = inside as f32 / probed as f32;
+    assert!((sampled - share).abs() < 0.03, "{sampled} vs {share}");
+}

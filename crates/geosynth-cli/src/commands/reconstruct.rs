@@ -3,14 +3,15 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
-use geosynth::core::{KdIndex, MeshTopology};
 use geosynth::mls::{MlsParams, orient_normals};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance, trim_to_samples};
 use geosynth::sdf::{MeshSign, nrrd};
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
 
+use super::SignArgs;
 use crate::output::{check_output_paths, spinner, status};
 use crate::{CliResult, Globals};
 
@@ -152,28 +153,6 @@ fn grid_side_note(
     ))
 }
 
-/// A note for a mesh signed by pseudo-normals whose signs may be wrong somewhere: an open
-/// or non-manifold mesh, or several components (which may intersect). `None` for one
-/// closed, consistently oriented component.
-fn pseudo_normal_note(topology: &MeshTopology) -> Option<String> {
-    let remedy = "--sign winding signs by the generalized winding number instead";
-    if !topology.is_closed_manifold() {
-        return Some(format!(
-            "note: the mesh is not closed ({} open, {} non-manifold, {} misoriented edges), \
-             so each node takes the side of the nearest piece: right for an open sheet such \
-             as a terrain; for a solid with gaps or intersecting pieces, {remedy}",
-            topology.boundary_edges, topology.non_manifold_edges, topology.misoriented_edges
-        ));
-    }
-    (topology.components > 1).then(|| {
-        format!(
-            "note: the mesh has {} components; where they intersect, the side of the nearest \
-             one is wrong inside the others ({remedy})",
-            topology.components
-        )
-    })
-}
-
 /// `x` rounded to three significant digits, printed without trailing noise (0.054, not
 /// 0.05396507).
 fn three_digits(x: f32) -> String {
@@ -193,34 +172,23 @@ pub struct SdfArgs {
     gradient: bool,
     #[command(flatten)]
     grid: GridArgs,
-    /// How a mesh's distances are signed: `pseudo-normal`, the side of the nearest piece
-    /// (exact on closed meshes; open sheets such as terrains keep a sign), or `winding`,
-    /// inside where the generalized winding number exceeds ½ (solids built from
-    /// intersecting or nearly closed pieces, such as the Utah teapot).
-    #[arg(long, value_enum, default_value_t = SignArg::PseudoNormal)]
-    sign: SignArg,
-}
-
-/// `--sign` values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum SignArg {
-    /// The closest feature's pseudo-normal.
-    PseudoNormal,
-    /// The generalized winding number.
-    Winding,
+    #[command(flatten)]
+    sign: SignArgs,
 }
 
 /// Runs `geosynth sdf`.
 pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
     check_output_paths([], [args.output.as_path()])?;
-    let params = args.grid.params()?.mesh_sign(match args.sign {
-        SignArg::PseudoNormal => MeshSign::PseudoNormal,
-        SignArg::Winding => MeshSign::WindingNumber,
-    });
+    let params = args.grid.params()?.mesh_sign(args.sign.rule());
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
-    match (loaded.geometry.mesh(), args.sign) {
-        (None, SignArg::Winding) => {
+    match loaded.geometry.mesh() {
+        Some(mesh) => {
+            if let Some(note) = args.sign.note(mesh)? {
+                status(globals, note);
+            }
+        }
+        None if args.sign.rule() == MeshSign::WindingNumber => {
             return Err(format!(
                 "{}: --sign winding applies to meshes; a point set's distances are signed \
                  by its MLS surface",
@@ -228,12 +196,7 @@ pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
             )
             .into());
         }
-        (Some(mesh), SignArg::PseudoNormal) => {
-            if let Some(note) = pseudo_normal_note(&mesh.topology()) {
-                status(globals, note);
-            }
-        }
-        _ => {}
+        None => {}
     }
     let bar = spinner(globals, "sampling distances");
     let sdf = signed_distance(&loaded.geometry, &params)?;

@@ -14,6 +14,7 @@ use geosynth::voxel::{
 };
 use serde_json::{Value, json};
 
+use super::SignArgs;
 use crate::output::{check_output_paths, progress_context, status};
 use crate::{CliResult, Globals};
 
@@ -55,6 +56,8 @@ pub struct VoxelArgs {
     /// Also write the closed iso-surface of the synthesized field (.ply, .obj, .off).
     #[arg(long)]
     isosurface: Option<PathBuf>,
+    #[command(flatten)]
+    sign: SignArgs,
     /// Source samples along the exemplar box's longest side.
     #[arg(long, default_value_t = 64)]
     source_res: usize,
@@ -281,8 +284,12 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     if let Some(note) = precision_note(&exemplar, args.source_res) {
         status(globals, note);
     }
+    if let Some(note) = args.sign.note(&exemplar.mesh)? {
+        status(globals, note);
+    }
     let stage = VoxelSynth {
         source_resolution: args.source_res,
+        mesh_sign: args.sign.rule(),
         params: VoxelParams {
             target_dims: args.target_dims.unwrap_or([args.target_res; 3]),
             levels: args.levels,
