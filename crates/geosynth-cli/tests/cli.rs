@@ -1231,7 +1231,10 @@ fn sdf_signs_intersecting_pieces_by_winding_numbers_when_asked() {
         (said, wrong)
     };
     let (said, wrong) = wrong_signs("pseudo-normal");
-    assert!(said.contains("triangles probed lie inside other parts"), "{said}");
+    assert!(
+        said.contains("triangles probed lie inside other parts"),
+        "{said}"
+    );
     assert!(wrong > 10, "{wrong}");
     let (said, wrong) = wrong_signs("winding");
     assert!(!said.contains("note"), "{said}");
