@@ -83,6 +83,13 @@ fn info_and_render_work_on_every_shared_file() {
         }
         let text = ok(&["info", f]);
         assert!(text.contains("kind:"), "{f}");
+        if f.ends_with("spot_triangulated.obj") {
+            // Split along its UV seams into open pieces; closed once welded by position.
+            assert_eq!(json["topology"]["closed_manifold"], false);
+            assert_eq!(json["welded_topology"]["closed_manifold"], true, "{json}");
+            assert_eq!(json["welded_topology"]["components"], 1);
+            assert!(text.contains("welded:"), "{text}");
+        }
         let png = dir.path().join(format!(
             "{}.png",
             file.file_stem().unwrap().to_str().unwrap()

@@ -204,6 +204,50 @@ impl TriMesh {
         self.vertices.set_normals(Some(normals))
     }
 
+    /// The mesh with the vertices that share a position merged into the first of them.
+    /// Files that split vertices along UV or normal seams (OBJ readers do, and this one
+    /// too) describe the same surface with more vertices, and their [`Self::topology`]
+    /// shows the seams as open borders; the welded mesh's shows the surface's. Triangles
+    /// keep their order and orientation; normals, UVs and attributes are dropped (they no
+    /// longer have one value per vertex).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::{PointSet, TriMesh};
+    /// // Two triangles of a square, each with its own copy of the shared diagonal.
+    /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::ZERO, Vec3::ONE, Vec3::Y];
+    /// let split = TriMesh::new(PointSet::new(p)?, vec![[0, 1, 2], [3, 4, 5]])?;
+    /// assert_eq!(split.topology().components, 2);
+    /// let welded = split.welded()?;
+    /// assert_eq!((welded.vertex_count(), welded.triangles()), (4, &[[0, 1, 2], [0, 2, 3]][..]));
+    /// assert_eq!(welded.topology().components, 1);
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn welded(&self) -> Result<TriMesh> {
+        let key = |p: Vec3| {
+            p.to_array()
+                .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
+        };
+        let mut first: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+        let mut positions = Vec::new();
+        let remap: Vec<u32> = self
+            .positions()
+            .iter()
+            .map(|&p| {
+                *first.entry(key(p)).or_insert_with(|| {
+                    positions.push(p);
+                    (positions.len() - 1) as u32
+                })
+            })
+            .collect();
+        let triangles = self
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| remap[v as usize]))
+            .collect();
+        TriMesh::new(PointSet::new(positions)?, triangles)
+    }
+
     /// Edge and component counts: what `geosynth info` reports and what tests check for
     /// "closed 2-manifold".
     pub fn topology(&self) -> MeshTopology {

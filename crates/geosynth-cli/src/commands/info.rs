@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use geosynth::core::MeshTopology;
 use geosynth::core::io::{self, Geometry, LoadedGeometry, ReadOptions};
 use geosynth::imagery;
 use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
@@ -34,6 +35,10 @@ pub struct FileInfo {
     faces: usize,
     degenerate_faces: usize,
     topology: Option<TopologyInfo>,
+    /// The topology with the vertices that share a position welded
+    /// ([`TriMesh::welded`](geosynth::core::TriMesh::welded)), when some do (OBJ files
+    /// split vertices along UV seams): the surface's own, seams closed.
+    welded_topology: Option<WeldedTopology>,
     normals: bool,
     /// Share of points whose normal faces away from most of their nearest neighbours'
     /// (`mls_surface::orientation_disagreement`); `None` without normals.
@@ -55,6 +60,47 @@ pub struct TopologyInfo {
     boundary_edges: usize,
     non_manifold_edges: usize,
     misoriented_edges: usize,
+}
+
+/// A mesh's topology after welding the vertices that share a position.
+#[derive(Debug, Serialize)]
+pub struct WeldedTopology {
+    /// Vertices merged into another at the same position.
+    merged_vertices: usize,
+    #[serde(flatten)]
+    topology: TopologyInfo,
+}
+
+impl From<&MeshTopology> for TopologyInfo {
+    fn from(t: &MeshTopology) -> Self {
+        Self {
+            closed_manifold: t.is_closed_manifold(),
+            components: t.components,
+            euler_characteristic: t.euler_characteristic,
+            boundary_edges: t.boundary_edges,
+            non_manifold_edges: t.non_manifold_edges,
+            misoriented_edges: t.misoriented_edges,
+        }
+    }
+}
+
+impl TopologyInfo {
+    fn text(&self) -> String {
+        format!(
+            "{}, {} component(s), Euler characteristic {}, {} border / {} non-manifold / {} \
+             misoriented edges",
+            if self.closed_manifold {
+                "closed manifold"
+            } else {
+                "open or non-manifold"
+            },
+            self.components,
+            self.euler_characteristic,
+            self.boundary_edges,
+            self.non_manifold_edges,
+            self.misoriented_edges
+        )
+    }
 }
 
 /// One attribute channel.
@@ -80,16 +126,13 @@ impl FileInfo {
             vertices: points.len(),
             faces: g.mesh().map_or(0, |m| m.face_count()),
             degenerate_faces: g.mesh().map_or(0, |m| m.degenerate_faces().len()),
-            topology: g.mesh().map(|m| {
-                let t = m.topology();
-                TopologyInfo {
-                    closed_manifold: t.is_closed_manifold(),
-                    components: t.components,
-                    euler_characteristic: t.euler_characteristic,
-                    boundary_edges: t.boundary_edges,
-                    non_manifold_edges: t.non_manifold_edges,
-                    misoriented_edges: t.misoriented_edges,
-                }
+            topology: g.mesh().map(|m| TopologyInfo::from(&m.topology())),
+            welded_topology: g.mesh().and_then(|m| {
+                let welded = m.welded().ok()?;
+                (welded.vertex_count() < m.vertex_count()).then(|| WeldedTopology {
+                    merged_vertices: m.vertex_count() - welded.vertex_count(),
+                    topology: TopologyInfo::from(&welded.topology()),
+                })
             }),
             normals: points.normals().is_some(),
             normal_disagreement: orientation_disagreement(points).ok(),
@@ -131,14 +174,13 @@ impl FileInfo {
             s.push_str(&format!("degenerate:  {}\n", self.degenerate_faces));
         }
         if let Some(t) = &self.topology {
+            s.push_str(&format!("topology:    {}\n", t.text()));
+        }
+        if let Some(w) = &self.welded_topology {
             s.push_str(&format!(
-                "topology:    {}, {} component(s), Euler characteristic {}, {} border / {} non-manifold / {} misoriented edges\n",
-                if t.closed_manifold { "closed manifold" } else { "open or non-manifold" },
-                t.components,
-                t.euler_characteristic,
-                t.boundary_edges,
-                t.non_manifold_edges,
-                t.misoriented_edges
+                "welded:      {} vertices share a position with another; welded, {}\n",
+                w.merged_vertices,
+                w.topology.text()
             ));
         }
         s.push_str(&format!(

@@ -59,7 +59,8 @@ impl SignArgs {
             return Ok(None);
         }
         let remedy = "--sign winding signs by the generalized winding number instead";
-        let topology = mesh.topology();
+        // By position: seams where a file splits its vertices (UVs) are not openings.
+        let topology = mesh.welded()?.topology();
         if !topology.is_closed_manifold() {
             return Ok(Some(format!(
                 "note: the mesh is not closed ({} open, {} non-manifold, {} misoriented \
