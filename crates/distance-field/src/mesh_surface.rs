@@ -475,23 +475,16 @@ impl Surface for MeshSurface {
     }
 
     /// The `likely` bound first, then `max_distance`; with nothing within it, the
-    /// clearance is how much farther the nearest pruned box or passed-over triangle is (a
-    /// lower bound on the distance, less a relative 1e-5 for rounding).
+    /// clearance is how much farther the nearest pruned box or passed-over triangle is
+    /// ([`BandAnswer::from_bounded_search`]).
     fn signed_distance_or_clearance(
         &self,
         query: Vec3,
         max_distance: f32,
         likely: Option<f32>,
     ) -> BandAnswer {
-        let within = |bound| {
+        BandAnswer::from_bounded_search(max_distance, likely, |bound| {
             self.signed_distance_bounded_search(query, bound)
-                .map(|(distance, closest)| BandAnswer::Within { distance, closest })
-        };
-        if let Some(Ok(answer)) = likely.filter(|&bound| bound < max_distance).map(within) {
-            return answer;
-        }
-        within(max_distance).unwrap_or_else(|gap| BandAnswer::Beyond {
-            clearance: (gap * (1.0 - 1e-5) - max_distance).max(0.0),
         })
     }
 }

@@ -60,14 +60,9 @@ pub trait Surface: Send + Sync {
         max_distance: f32,
         likely: Option<f32>,
     ) -> BandAnswer {
-        let answer = likely
-            .filter(|&bound| bound < max_distance)
-            .and_then(|bound| self.signed_distance_within(query, bound))
-            .or_else(|| self.signed_distance_within(query, max_distance));
-        match answer {
-            Some((distance, closest)) => BandAnswer::Within { distance, closest },
-            None => BandAnswer::Beyond { clearance: 0.0 },
-        }
+        BandAnswer::from_bounded_search(max_distance, likely, |bound| {
+            self.signed_distance_within(query, bound).ok_or(0.0)
+        })
     }
 }
 
@@ -92,6 +87,27 @@ pub enum BandAnswer {
 }
 
 impl BandAnswer {
+    /// The answer of a search that takes a distance bound: `search(bound)` gives the signed
+    /// distance and closest point within `bound`, or else a lower bound on the distance (0
+    /// when it knows none). `likely` is tried first when it is below `max_distance`, then
+    /// `max_distance`; the clearance is how far the lower bound exceeds `max_distance`,
+    /// less a relative 1e-5 for rounding.
+    pub fn from_bounded_search(
+        max_distance: f32,
+        likely: Option<f32>,
+        search: impl Fn(f32) -> Result<(f32, SurfacePoint), f32>,
+    ) -> Self {
+        let hinted = likely
+            .filter(|&bound| bound < max_distance)
+            .and_then(|bound| search(bound).ok());
+        match hinted.map_or_else(|| search(max_distance), Ok) {
+            Ok((distance, closest)) => Self::Within { distance, closest },
+            Err(gap) => Self::Beyond {
+                clearance: (gap * (1.0 - 1e-5) - max_distance).max(0.0),
+            },
+        }
+    }
+
     /// The signed distance and closest point, if within the bound.
     pub fn within(self) -> Option<(f32, SurfacePoint)> {
         match self {
