@@ -63,6 +63,7 @@
 
 #![deny(missing_docs)]
 
+mod bvh;
 mod error;
 pub mod far_signs;
 mod iso;

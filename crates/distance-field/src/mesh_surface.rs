@@ -18,41 +18,13 @@ use glam::Vec3;
 use pointset_core::{Aabb, BandAnswer, Surface, SurfacePoint, TriMesh};
 use rayon::prelude::*;
 
+use crate::bvh::{Bvh, Node};
 use crate::error::{FieldError, Result};
 use crate::triangle::{Feature, closest_point};
 use crate::winding::{Dipole, triangle_solid_angle};
 
 /// Triangles per BVH leaf.
 const LEAF_SIZE: usize = 4;
-
-#[derive(Debug, Clone)]
-enum Node {
-    Leaf {
-        bounds: Aabb,
-        start: usize,
-        end: usize,
-    },
-    Inner {
-        bounds: Aabb,
-        left: usize,
-        right: usize,
-    },
-}
-
-impl Node {
-    fn bounds(&self) -> &Aabb {
-        match self {
-            Node::Leaf { bounds, .. } | Node::Inner { bounds, .. } => bounds,
-        }
-    }
-}
-
-/// A range of `order` waiting to become a node, and its parent link (index, is-left).
-struct PendingNode {
-    start: usize,
-    end: usize,
-    parent: Option<(usize, bool)>,
-}
 
 /// The closest point on a mesh to a query.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,9 +59,8 @@ pub struct MeshSurface {
     face_normals: Vec<Vec3>,
     edge_normals: Vec<[Vec3; 3]>,
     vertex_normals: Vec<[Vec3; 3]>,
-    order: Vec<usize>,
-    nodes: Vec<Node>,
-    /// Far-field summaries of the nodes, for winding numbers.
+    bvh: Bvh,
+    /// Far-field summaries of the hierarchy's nodes, for winding numbers.
     dipoles: Vec<Dipole>,
     sign: MeshSign,
 }
@@ -143,19 +114,28 @@ impl MeshSurface {
             .zip(&face_normals)
             .map(|(t, n)| t.map(|v| vertex_acc[v as usize].try_normalize().unwrap_or(*n)))
             .collect();
-        let mut surface = Self {
+        let bvh = Bvh::build(
+            corners.len(),
+            LEAF_SIZE,
+            |t| {
+                let [a, b, c] = corners[t];
+                Aabb::new(a, b).including(c)
+            },
+            |t| {
+                let [a, b, c] = corners[t];
+                (a + b + c) / 3.0
+            },
+        );
+        let dipoles = bvh.dipoles(|items| Dipole::of_triangles(items.iter().map(|&t| &corners[t])));
+        Ok(Self {
             corners,
             face_normals,
             edge_normals,
             vertex_normals,
-            order: (0..tris.len()).collect(),
-            nodes: Vec::new(),
-            dipoles: Vec::new(),
+            bvh,
+            dipoles,
             sign: MeshSign::default(),
-        };
-        surface.build();
-        surface.dipoles = surface.node_dipoles();
-        Ok(surface)
+        })
     }
 
     /// This surface with distances signed by `sign` (default [`MeshSign::PseudoNormal`]).
@@ -169,46 +149,13 @@ impl MeshSurface {
         self.sign
     }
 
-    /// Every node's dipole; children come after their parent, so a reverse pass sees both
-    /// children of a node before the node.
-    fn node_dipoles(&self) -> Vec<Dipole> {
-        let mut dipoles = vec![Dipole::default(); self.nodes.len()];
-        for n in (0..self.nodes.len()).rev() {
-            dipoles[n] = match &self.nodes[n] {
-                Node::Leaf { start, end, .. } => {
-                    Dipole::of_triangles(self.order[*start..*end].iter().map(|&t| &self.corners[t]))
-                }
-                Node::Inner { left, right, .. } => dipoles[*left].join(&dipoles[*right]),
-            };
-        }
-        dipoles
-    }
-
     /// The generalized winding number of the mesh at `q` ([`crate::winding`]): 1 inside
     /// a closed outward-oriented mesh, 0 outside, fractional near gaps; NaN for a
     /// non-finite `q`.
     pub fn winding_number(&self, q: Vec3) -> f32 {
-        if !q.is_finite() {
-            return f32::NAN;
-        }
-        let mut solid_angle = 0.0f64;
-        let mut stack = vec![0usize];
-        while let Some(node) = stack.pop() {
-            if let Some(far) = self.dipoles[node].far_solid_angle(q) {
-                solid_angle += far;
-                continue;
-            }
-            match &self.nodes[node] {
-                Node::Leaf { start, end, .. } => {
-                    solid_angle += self.order[*start..*end]
-                        .iter()
-                        .map(|&t| triangle_solid_angle(q, self.corners[t]))
-                        .sum::<f64>();
-                }
-                Node::Inner { left, right, .. } => stack.extend([*left, *right]),
-            }
-        }
-        (solid_angle / (4.0 * std::f64::consts::PI)) as f32
+        self.bvh.winding_number(&self.dipoles, q, |t| {
+            triangle_solid_angle(q, self.corners[t])
+        })
     }
 
     /// How many (non-degenerate) triangles lie inside another part of the mesh. From each
@@ -252,89 +199,6 @@ impl MeshSurface {
         (inside, probed.len())
     }
 
-    fn tri_bounds(&self, t: usize) -> Aabb {
-        let [a, b, c] = self.corners[t];
-        Aabb::new(a, b).including(c)
-    }
-
-    fn centroid(&self, t: usize) -> Vec3 {
-        let [a, b, c] = self.corners[t];
-        (a + b + c) / 3.0
-    }
-
-    /// Builds the hierarchy by median splits along the longest axis of the centroids' box.
-    fn build(&mut self) {
-        let mut order = std::mem::take(&mut self.order);
-        let mut nodes = Vec::with_capacity(2 * order.len() / LEAF_SIZE + 1);
-        // Explicit stack of pending ranges and where to link them in their parent.
-        let mut stack = vec![PendingNode {
-            start: 0,
-            end: order.len(),
-            parent: None,
-        }];
-        while let Some(PendingNode { start, end, parent }) = stack.pop() {
-            let slice = &mut order[start..end];
-            let bounds = slice
-                .iter()
-                .map(|&t| self.tri_bounds(t))
-                .reduce(Aabb::union)
-                .unwrap_or(Aabb::new(Vec3::ZERO, Vec3::ZERO));
-            let me = nodes.len();
-            if let Some((p, is_left)) = parent
-                && let Node::Inner { left, right, .. } = &mut nodes[p]
-            {
-                if is_left {
-                    *left = me;
-                } else {
-                    *right = me;
-                }
-            }
-            if slice.len() <= LEAF_SIZE {
-                nodes.push(Node::Leaf { bounds, start, end });
-                continue;
-            }
-            let cb = slice
-                .iter()
-                .map(|&t| {
-                    let c = self.centroid(t);
-                    Aabb::new(c, c)
-                })
-                .reduce(Aabb::union)
-                .unwrap_or(bounds);
-            let e = cb.extent();
-            let axis = if e.x >= e.y && e.x >= e.z {
-                0
-            } else if e.y >= e.z {
-                1
-            } else {
-                2
-            };
-            let mid = slice.len() / 2;
-            slice.select_nth_unstable_by(mid, |&a, &b| {
-                self.centroid(a)[axis]
-                    .total_cmp(&self.centroid(b)[axis])
-                    .then(a.cmp(&b))
-            });
-            nodes.push(Node::Inner {
-                bounds,
-                left: usize::MAX,
-                right: usize::MAX,
-            });
-            stack.push(PendingNode {
-                start: start + mid,
-                end,
-                parent: Some((me, false)),
-            });
-            stack.push(PendingNode {
-                start,
-                end: start + mid,
-                parent: Some((me, true)),
-            });
-        }
-        self.order = order;
-        self.nodes = nodes;
-    }
-
     /// Number of (non-degenerate) triangles.
     pub fn triangle_count(&self) -> usize {
         self.corners.len()
@@ -342,7 +206,7 @@ impl MeshSurface {
 
     /// Bounding box of the mesh.
     pub fn bounds(&self) -> Aabb {
-        *self.nodes[0].bounds()
+        self.bvh.bounds()
     }
 
     /// The closest point on the mesh, searching only within distance `bound` (use infinity
@@ -365,15 +229,16 @@ impl MeshSurface {
             f32::INFINITY
         };
         let mut best: Option<(usize, Vec3, Feature)> = None;
-        let mut stack: Vec<(usize, f32)> = vec![(0, self.nodes[0].bounds().distance_squared(q))];
+        let mut stack: Vec<(usize, f32)> =
+            vec![(0, self.bvh.nodes[0].bounds().distance_squared(q))];
         while let Some((node, d2)) = stack.pop() {
             if d2 > best_d2 {
                 pruned_d2 = pruned_d2.min(d2);
                 continue;
             }
-            match &self.nodes[node] {
+            match &self.bvh.nodes[node] {
                 Node::Leaf { start, end, .. } => {
-                    for &t in &self.order[*start..*end] {
+                    for &t in &self.bvh.order[*start..*end] {
                         let [a, b, c] = self.corners[t];
                         let (p, feature) = closest_point(q, a, b, c);
                         let dist = p.distance_squared(q);
@@ -388,8 +253,8 @@ impl MeshSurface {
                     }
                 }
                 Node::Inner { left, right, .. } => {
-                    let dl = self.nodes[*left].bounds().distance_squared(q);
-                    let dr = self.nodes[*right].bounds().distance_squared(q);
+                    let dl = self.bvh.nodes[*left].bounds().distance_squared(q);
+                    let dr = self.bvh.nodes[*right].bounds().distance_squared(q);
                     // Push the farther child first so the nearer one is explored first.
                     if dl <= dr {
                         stack.push((*right, dr));
