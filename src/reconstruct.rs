@@ -5,7 +5,10 @@
 //! iso-surface. [`SignedDistance`] samples a point set (through its MLS surface) or a mesh
 //! (exactly) into an [`SdfGrid`].
 
-use distance_field::{GridSpec, MeshSign, MeshSurface, SdfGrid, sdf_isosurface};
+use distance_field::{
+    GridSpec, MeshSign, MeshSurface, PointSign, PointWinding, SdfGrid, WindingSigned,
+    sdf_isosurface,
+};
 use glam::Vec3;
 use mls_surface::{MlsError, MlsParams, MlsSurface};
 use pointset_core::io::Geometry;
@@ -26,9 +29,12 @@ pub struct FieldParams {
     pub margin: f32,
     /// Distances are clamped to this many grid spacings (more than 1); default 4.
     pub band: f32,
-    /// How a mesh's distances are signed; default [`MeshSign::PseudoNormal`] (point sets
-    /// are signed by their MLS surface).
+    /// How a mesh's distances are signed; default [`MeshSign::PseudoNormal`].
     pub mesh_sign: MeshSign,
+    /// How a point set's distances (to its MLS surface) are signed; default
+    /// [`PointSign::Implicit`]. [`PointSign::WindingNumber`] keeps closed objects with
+    /// thin parts or stray normals whole (the chameleon of the shared data).
+    pub point_sign: PointSign,
 }
 
 impl Default for FieldParams {
@@ -39,6 +45,7 @@ impl Default for FieldParams {
             margin: 3.0,
             band: 4.0,
             mesh_sign: MeshSign::default(),
+            point_sign: PointSign::default(),
         }
     }
 }
@@ -59,6 +66,12 @@ impl FieldParams {
     /// Sets how a mesh's distances are signed (default [`MeshSign::PseudoNormal`]).
     pub fn mesh_sign(mut self, sign: MeshSign) -> Self {
         self.mesh_sign = sign;
+        self
+    }
+
+    /// Sets how a point set's distances are signed (default [`PointSign::Implicit`]).
+    pub fn point_sign(mut self, sign: PointSign) -> Self {
+        self.point_sign = sign;
         self
     }
 
@@ -141,7 +154,12 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
                     .into());
                 }
             }
-            Box::new(surface)
+            match params.point_sign {
+                PointSign::Implicit => Box::new(surface),
+                PointSign::WindingNumber => {
+                    Box::new(WindingSigned::new(surface, PointWinding::new(points)?))
+                }
+            }
         }
     };
     Ok(SdfGrid::from_surface(surface.as_ref(), &spec, band)?)

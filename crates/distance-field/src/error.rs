@@ -20,6 +20,12 @@ pub enum FieldError {
     /// A mesh without triangles has no distance field.
     #[error("the mesh has no non-degenerate triangles")]
     EmptyMesh,
+    /// Winding numbers of a point cloud need its samples' normals.
+    #[error(
+        "the point set has no normals: its winding numbers need oriented samples \
+         (`geosynth normals` estimates them)"
+    )]
+    MissingNormals,
     /// An NRRD file that this crate cannot read.
     #[error("NRRD {location}: {message}")]
     Nrrd {

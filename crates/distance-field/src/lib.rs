@@ -32,6 +32,7 @@
 //! |---|---|
 //! | [`MeshSurface`] | BVH closest point on a triangle mesh; sign from angle-weighted pseudo-normals (rule for open meshes in its docs) or, by [`MeshSign`], from generalized winding numbers |
 //! | [`winding`] | solid angles of triangles and the hierarchy's fast winding number (intersecting or nearly closed pieces) |
+//! | [`point_winding`] | winding numbers of oriented point clouds ([`PointWinding`], per-sample areas) and [`WindingSigned`], which signs any surface sampled by a cloud by them ([`PointSign`]: thin parts, stray normals) |
 //! | [`GridSpec`], [`SdfGrid`] | node layout; 4-channel `(distance, gradient)` grid, clamped to a band, parallel and deterministic |
 //! | [`BlockPyramid`], [`Quantizer`] | paper 001 §4.1 pyramids by 2×2×2 averaging; 256 levels over `[−range, range]` |
 //! | [`isosurface`], [`sdf_isosurface`] | marching tetrahedra (Kuhn split): closed, welded, outward-oriented meshes |
@@ -69,6 +70,7 @@ pub mod far_signs;
 mod iso;
 mod mesh_surface;
 pub mod nrrd;
+pub mod point_winding;
 mod pyramid;
 mod sdf;
 mod triangle;
@@ -78,5 +80,6 @@ pub use error::{FieldError, Result};
 pub use far_signs::FarSigns;
 pub use iso::{closed_isosurface, isosurface, sdf_isosurface};
 pub use mesh_surface::{MeshHit, MeshSign, MeshSurface};
+pub use point_winding::{PointSign, PointWinding, WindingSigned};
 pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};
 pub use sdf::{GridSpec, SdfGrid};

@@ -60,6 +60,34 @@ impl Dipole {
         }
     }
 
+    /// The dipole of oriented samples given as `(position, area vector)` pairs: centre
+    /// weighted by area, the area vectors summed.
+    pub fn of_points(samples: impl Iterator<Item = (Vec3, Vec3)> + Clone) -> Self {
+        let (mut area, mut weighted, mut total, mut count, mut sum) =
+            (Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32, Vec3::ZERO);
+        for (p, a) in samples.clone() {
+            let size = a.length();
+            area += a;
+            weighted += size * p;
+            total += size;
+            count += 1.0;
+            sum += p;
+        }
+        let centre = if total > 0.0 {
+            weighted / total
+        } else {
+            sum / count.max(1.0)
+        };
+        let radius = samples
+            .map(|(p, _)| p.distance(centre))
+            .fold(0.0f32, f32::max);
+        Self {
+            centre,
+            area,
+            radius,
+        }
+    }
+
     /// The dipole of two nodes together (the radius bounds both children's corners).
     pub fn join(&self, other: &Self) -> Self {
         let (wa, wb) = (self.area.length(), other.area.length());

@@ -13,7 +13,8 @@ pub mod warp;
 use clap::Args;
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disagreement};
-use geosynth::sdf::{MeshSign, MeshSurface};
+use geosynth::reconstruct::FieldParams;
+use geosynth::sdf::{MeshSign, MeshSurface, PointSign};
 use glam::DVec3;
 
 use crate::CliResult;
@@ -22,40 +23,58 @@ use crate::CliResult;
 /// (about 0.1 s on 2 cores).
 const PROBED_TRIANGLES: usize = 4096;
 
-/// `--sign`, for the commands that sample a mesh's signed distance (`sdf`, `voxel`).
+/// `--sign`, for the commands that sample a signed distance (`sdf`, `reconstruct`,
+/// `voxel`).
 #[derive(Debug, Args)]
 pub struct SignArgs {
-    /// How a mesh's distances are signed: `pseudo-normal`, the side of the nearest piece
-    /// (exact on one closed mesh; open sheets such as terrains keep a sign), or `winding`,
+    /// How distances are signed: `local`, by the nearest piece of surface (a mesh's
+    /// pseudo-normals, exact on one closed mesh; a point set's MLS surface; open sheets
+    /// such as terrains and scans keep a sign; alias `pseudo-normal`), or `winding`,
     /// inside where the generalized winding number exceeds ½ (solids built from
-    /// intersecting or nearly closed pieces, such as the Utah teapot).
-    #[arg(long, value_enum, default_value_t = SignArg::PseudoNormal)]
+    /// intersecting or nearly closed pieces, such as the Utah teapot; closed point sets
+    /// with parts thinner than the kernel or stray normals, such as the chameleon).
+    #[arg(long, value_enum, default_value_t = SignArg::Local)]
     sign: SignArg,
 }
 
 /// `--sign` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum SignArg {
-    /// The closest feature's pseudo-normal.
-    PseudoNormal,
+    /// The nearest piece of surface.
+    #[value(alias = "pseudo-normal")]
+    Local,
     /// The generalized winding number.
     Winding,
 }
 
 impl SignArgs {
-    /// The rule asked for.
-    pub fn rule(&self) -> MeshSign {
+    /// The rule asked for, for meshes.
+    pub fn mesh_rule(&self) -> MeshSign {
         match self.sign {
-            SignArg::PseudoNormal => MeshSign::PseudoNormal,
+            SignArg::Local => MeshSign::PseudoNormal,
             SignArg::Winding => MeshSign::WindingNumber,
         }
+    }
+
+    /// `params` with both sign rules set as asked.
+    pub fn apply(&self, params: FieldParams) -> FieldParams {
+        let points = match self.sign {
+            SignArg::Local => PointSign::Implicit,
+            SignArg::Winding => PointSign::WindingNumber,
+        };
+        params.mesh_sign(self.mesh_rule()).point_sign(points)
+    }
+
+    /// Whether `--sign winding` was asked for.
+    pub fn is_winding(&self) -> bool {
+        self.sign == SignArg::Winding
     }
 
     /// A note when `mesh` is signed by pseudo-normals and they may be wrong somewhere: an
     /// open, non-manifold or misoriented mesh, or closed parts that intersect (triangles
     /// inside other parts). `None` otherwise, and with `--sign winding`.
     pub fn note(&self, mesh: &TriMesh) -> CliResult<Option<String>> {
-        if self.sign == SignArg::Winding {
+        if self.is_winding() {
             return Ok(None);
         }
         let remedy = "--sign winding signs by the generalized winding number instead";

@@ -7,7 +7,7 @@ use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
 use geosynth::mls::{MlsParams, orient_normals};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance, trim_to_samples};
-use geosynth::sdf::{MeshSign, nrrd};
+use geosynth::sdf::nrrd;
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
 
@@ -62,12 +62,14 @@ pub struct ReconstructArgs {
     /// random sampling join up with the border and the sheet falls apart.
     #[arg(long, value_name = "SPACINGS", num_args = 0..=1, default_missing_value = "2")]
     trim: Option<f32>,
+    #[command(flatten)]
+    sign: SignArgs,
 }
 
 /// Runs `geosynth reconstruct`.
 pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
-    let params = args.grid.params()?;
+    let params = args.sign.apply(args.grid.params()?);
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
     let mut points = loaded.geometry.points().clone();
@@ -125,6 +127,18 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
         let note = grid_side_note(topology.boundary_edges, &points, args.grid.kernel)?;
         status(globals, note);
     }
+    if args.trim.is_none() && !args.sign.is_winding() && topology.components > 1 {
+        status(
+            globals,
+            format!(
+                "note: the surface came out in {} pieces. If the points sample one closed \
+                 object, parts thinner than the kernel or normals facing the wrong way have \
+                 broken it apart; --sign winding signs the field by the points' winding \
+                 number, which keeps such objects whole",
+                topology.components
+            ),
+        );
+    }
     Ok(())
 }
 
@@ -179,24 +193,13 @@ pub struct SdfArgs {
 /// Runs `geosynth sdf`.
 pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
     check_output_paths([], [args.output.as_path()])?;
-    let params = args.grid.params()?.mesh_sign(args.sign.rule());
+    let params = args.sign.apply(args.grid.params()?);
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
-    match loaded.geometry.mesh() {
-        Some(mesh) => {
-            if let Some(note) = args.sign.note(mesh)? {
-                status(globals, note);
-            }
-        }
-        None if args.sign.rule() == MeshSign::WindingNumber => {
-            return Err(format!(
-                "{}: --sign winding applies to meshes; a point set's distances are signed \
-                 by its MLS surface",
-                args.input.display()
-            )
-            .into());
-        }
-        None => {}
+    if let Some(mesh) = loaded.geometry.mesh()
+        && let Some(note) = args.sign.note(mesh)?
+    {
+        status(globals, note);
     }
     let bar = spinner(globals, "sampling distances");
     let sdf = signed_distance(&loaded.geometry, &params)?;

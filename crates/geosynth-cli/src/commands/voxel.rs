@@ -289,7 +289,7 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     }
     let stage = VoxelSynth {
         source_resolution: args.source_res,
-        mesh_sign: args.sign.rule(),
+        mesh_sign: args.sign.mesh_rule(),
         params: VoxelParams {
             target_dims: args.target_dims.unwrap_or([args.target_res; 3]),
             levels: args.levels,

@@ -1,0 +1,152 @@
+//! Signing a point set's distance field by the points' winding number
+//! ([`PointSign::WindingNumber`]) against its MLS surface's own sign, with the true inside
+//! of the meshes the points were sampled from as the reference.
+
+// Test helpers fail the test by panicking; that is their job.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use geosynth::core::io::{self, Geometry};
+use geosynth::core::rng::rng_from_seed;
+use geosynth::core::testdata::shared_data;
+use geosynth::core::{PointSet, TriMesh};
+use geosynth::reconstruct::{FieldParams, signed_distance};
+use geosynth::sdf::{MeshSign, MeshSurface, PointSign, SdfGrid, sdf_isosurface};
+use glam::Vec3;
+use rand::RngExt;
+
+/// `n` points spread uniformly over the mesh's area, with their faces' normals; a share
+/// `flipped` of them face the wrong way.
+fn sample(mesh: &TriMesh, n: usize, flipped: f64, seed: u64) -> PointSet {
+    let positions = mesh.positions();
+    let corners: Vec<[Vec3; 3]> = mesh
+        .triangles()
+        .iter()
+        .map(|t| t.map(|v| positions[v as usize]))
+        .collect();
+    let mut cumulative = Vec::with_capacity(corners.len());
+    let mut total = 0.0f32;
+    for [a, b, c] in &corners {
+        total += 0.5 * (*b - *a).cross(*c - *a).length();
+        cumulative.push(total);
+    }
+    let mut g = rng_from_seed(seed);
+    let (mut points, mut normals) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for _ in 0..n {
+        let r: f32 = g.random_range(0.0..total);
+        let t = cumulative
+            .partition_point(|&c| c < r)
+            .min(corners.len() - 1);
+        let [a, b, c] = corners[t];
+        let (mut u, mut v): (f32, f32) = (g.random(), g.random());
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        points.push(a + u * (b - a) + v * (c - a));
+        let normal = (b - a).cross(c - a).normalize();
+        normals.push(if g.random_bool(flipped) {
+            -normal
+        } else {
+            normal
+        });
+    }
+    PointSet::new(points)
+        .unwrap()
+        .with_normals(normals)
+        .unwrap()
+}
+
+/// Nodes farther than one spacing from the true surface whose sign is wrong, and the
+/// components of the field's zero set.
+fn wrong_nodes_and_components(field: &SdfGrid, truth: &MeshSurface) -> (usize, usize) {
+    let distances = field.distances().unwrap();
+    let [nx, ny, _] = distances.dims();
+    let spacing = distances.spacing();
+    let wrong = distances
+        .data()
+        .iter()
+        .enumerate()
+        .filter(|&(i, d)| {
+            let node = Vec3::new(
+                (i % nx) as f32,
+                ((i / nx) % ny) as f32,
+                (i / (nx * ny)) as f32,
+            );
+            let t = truth
+                .signed_distance_to(distances.origin() + spacing * node)
+                .unwrap();
+            t.abs() > spacing && (t < 0.0) != (*d < 0.0)
+        })
+        .count();
+    let components = sdf_isosurface(field).unwrap().topology().components;
+    (wrong, components)
+}
+
+fn field(points: &PointSet, resolution: usize, sign: PointSign) -> SdfGrid {
+    let params = FieldParams::default()
+        .resolution(resolution)
+        .point_sign(sign);
+    signed_distance(&Geometry::Points(points.clone()), &params).unwrap()
+}
+
+#[test]
+fn winding_signs_keep_a_bunny_with_flipped_normals_whole() {
+    let Some(path) = shared_data("bunny_flipped_normals", "meshes/bunny_watertight.obj") else {
+        return;
+    };
+    let Geometry::Mesh(mesh) = io::read_geometry(&path).unwrap().geometry else {
+        panic!("the bunny is a mesh");
+    };
+    let truth = MeshSurface::new(&mesh)
+        .unwrap()
+        .with_sign(MeshSign::WindingNumber);
+    // 8000 samples, 2% of them facing inward: each flipped sample turns the MLS surface's
+    // implicit function around near it, so its sign is wrong there and the zero set grows
+    // bubbles; the winding number outvotes it.
+    let points = sample(&mesh, 8000, 0.02, 1);
+    let (implicit_wrong, implicit_parts) =
+        wrong_nodes_and_components(&field(&points, 48, PointSign::Implicit), &truth);
+    let (winding_wrong, winding_parts) =
+        wrong_nodes_and_components(&field(&points, 48, PointSign::WindingNumber), &truth);
+    println!(
+        "wrong nodes / components: implicit {implicit_wrong} / {implicit_parts}, \
+         winding {winding_wrong} / {winding_parts}"
+    );
+    assert!(
+        winding_wrong * 20 < implicit_wrong,
+        "{winding_wrong} against {implicit_wrong}"
+    );
+    assert!(winding_parts <= 2, "{winding_parts}");
+    assert!(implicit_parts > 10, "{implicit_parts}");
+}
+
+#[test]
+fn on_a_clean_sphere_both_rules_sign_every_node_right() {
+    let points = geosynth::fixtures::sphere_points(2000).unwrap();
+    let truth = MeshSurface::new(&geosynth::fixtures::icosphere_mesh(5).unwrap())
+        .unwrap()
+        .with_sign(MeshSign::WindingNumber);
+    for sign in [PointSign::Implicit, PointSign::WindingNumber] {
+        let (wrong, parts) = wrong_nodes_and_components(&field(&points, 40, sign), &truth);
+        assert_eq!((wrong, parts), (0, 1), "{sign:?}");
+    }
+}
+
+#[test]
+fn the_chameleon_holds_together_with_winding_signs() {
+    let Some(path) = shared_data("chameleon_winding", "pointsets/chameleon4k_normals.ply") else {
+        return;
+    };
+    let points = io::read_geometry(&path).unwrap().geometry.points().clone();
+    // Its tongue, toes and tail are a few samples thick, and some of its normals face away
+    // from their neighbours: its MLS surface falls apart into pieces and stray blobs.
+    let parts = |sign| {
+        sdf_isosurface(&field(&points, 96, sign))
+            .unwrap()
+            .topology()
+            .components
+    };
+    let (implicit, winding) = (parts(PointSign::Implicit), parts(PointSign::WindingNumber));
+    println!("components: implicit {implicit}, winding {winding}");
+    assert!(implicit >= 20, "{implicit}");
+    assert!(winding <= 8, "{winding}");
+}
