@@ -1,4 +1,4 @@
-//! Odd point sets, meshes (signed either way) and parameters through the distance-field
+//! Odd point sets and meshes (each signed either way) and parameters through the distance-field
 //! stages: each either refuses them with a typed error or returns a field and a mesh that
 //! keep their contracts (finite, clamped to the band, inside the grid's box). Never a
 //! panic.
@@ -10,7 +10,7 @@ use geosynth::core::io::Geometry;
 use geosynth::core::rng::rng_from_seed;
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
-use geosynth::sdf::MeshSign;
+use geosynth::sdf::{MeshSign, PointSign};
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
 use proptest::prelude::*;
@@ -207,9 +207,14 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(100))]
 
     #[test]
-    fn odd_point_sets_give_a_field_and_mesh_or_an_error(c in cloud(), (p, kernel) in params()) {
+    fn odd_point_sets_give_a_field_and_mesh_or_an_error(
+        c in cloud(),
+        (p, kernel) in params(),
+        winding in any::<bool>(),
+    ) {
         let points = points(&c);
-        let p = p.kernel(kernel.map(|k| k * c.scale));
+        let sign = if winding { PointSign::WindingNumber } else { PointSign::Implicit };
+        let p = p.kernel(kernel.map(|k| k * c.scale)).point_sign(sign);
         check_field_and_mesh(&Geometry::Points(points), &p);
     }
 

@@ -1317,6 +1317,19 @@ fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding()
         "{said}"
     );
     assert!(!said.contains("pieces"), "{said}");
+    // Trimming says that winding numbers are for closed objects.
+    let said = ok(&[
+        "reconstruct",
+        points.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "24",
+        "--sign",
+        "winding",
+        "--trim",
+    ]);
+    assert!(said.contains("open scan has no inside"), "{said}");
     // `sdf` takes the flag for point sets too.
     ok(&[
         "sdf",

@@ -84,6 +84,14 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     {
         return Err(format!("--trim must be a positive number of spacings, not {t}").into());
     }
+    if args.trim.is_some() && args.sign.is_winding() {
+        status(
+            globals,
+            "note: --trim is for open scans, and an open scan has no inside for --sign \
+             winding: below the sheet the winding number hovers near ½ and the surface comes \
+             out speckled; the default --sign local follows the sheet",
+        );
+    }
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
     let mut mesh = Reconstruct { params }.run(points.clone(), &mut ctx)?;
