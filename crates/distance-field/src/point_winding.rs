@@ -47,6 +47,7 @@
 
 use glam::Vec3;
 use pointset_core::{Aabb, BandAnswer, KdIndex, PointSet, Surface, SurfacePoint};
+use rayon::prelude::*;
 
 use crate::bvh::Bvh;
 use crate::error::{FieldError, Result};
@@ -165,13 +166,16 @@ impl PointWinding {
     }
 }
 
-/// Each sample's share of the surface area, fitted to the distances of its
-/// [`AREA_NEIGHBOURS`] nearest neighbours in its tangent plane (module docs); fewer when
-/// the cloud has fewer points, and 0 for a lone point. Normals need not be unit length; a
-/// zero normal measures distances in 3D.
+/// Each sample's share of the surface area, fitted to the tangent-plane distances of its
+/// [`AREA_NEIGHBOURS`] nearest neighbours that face the same way, looked for among twice
+/// as many nearest (module docs). A sample with fewer than half of [`AREA_NEIGHBOURS`]
+/// such neighbours gets 0: one facing against its neighbours, or any sample of a cloud of
+/// fewer than five. Normals need not be unit length; a zero normal faces every way and
+/// measures distances in 3D. Parallel over the samples; the result does not depend on the
+/// thread count.
 pub fn sample_areas(positions: &[Vec3], normals: &[Vec3], index: &KdIndex) -> Result<Vec<f32>> {
     positions
-        .iter()
+        .par_iter()
         .zip(normals)
         .enumerate()
         .map(|(i, (&p, n))| {
@@ -370,6 +374,28 @@ mod tests {
             let ratio = total / (4.0 * std::f32::consts::PI);
             assert!((ratio - 1.0).abs() < 0.05, "{ratio}");
         }
+    }
+
+    #[test]
+    fn clouds_without_normals_or_points_are_errors() {
+        let bare = PointSet::new(vec![Vec3::ZERO, Vec3::X]).unwrap();
+        assert!(matches!(
+            PointWinding::new(&bare),
+            Err(FieldError::MissingNormals)
+        ));
+        let empty = PointSet::new(Vec::new())
+            .unwrap()
+            .with_normals(Vec::new())
+            .unwrap();
+        assert!(matches!(
+            PointWinding::new(&empty),
+            Err(FieldError::InvalidParameter { .. })
+        ));
+        // Four points have at most three neighbours each: no area, winding number 0.
+        let four = sphere(4, 1.0, Vec3::ZERO, 5);
+        let winding = PointWinding::new(&four).unwrap();
+        assert!(winding.areas().iter().all(|a| *a == 0.0));
+        assert_eq!(winding.winding_number(Vec3::ZERO), 0.0);
     }
 
     #[test]
