@@ -1,5 +1,6 @@
 //! Surface kernels: MLS projection throughput, signed distance grids from a mesh and from a
-//! point set, iso-surface extraction.
+//! point set (signed either way), winding numbers of meshes and point clouds, iso-surface
+//! extraction.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -12,7 +13,9 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use geosynth::core::rng;
 use geosynth::fixtures;
 use geosynth::mls::{MlsParams, MlsSurface};
-use geosynth::sdf::{GridSpec, MeshSurface, SdfGrid, sdf_isosurface};
+use geosynth::sdf::{
+    GridSpec, MeshSign, MeshSurface, PointWinding, SdfGrid, WindingSigned, sdf_isosurface,
+};
 use glam::Vec3;
 use rand::RngExt;
 
@@ -74,6 +77,17 @@ fn sdf_grids(c: &mut Criterion) {
             b.iter(|| SdfGrid::from_surface(&mls, spec, 4.0 * spec.spacing))
         });
     }
+    // The same grid signed by the points' winding number.
+    let signed = WindingSigned::new(
+        MlsSurface::new(&points, &MlsParams::default()).expect("benchmark setup"),
+        PointWinding::new(&points).expect("benchmark setup"),
+    );
+    let spec = GridSpec::covering(bounds, 64, 0.1).expect("grid");
+    group.bench_with_input(
+        BenchmarkId::new("mls_100k_points_winding_signs", 64),
+        &spec,
+        |b, spec| b.iter(|| SdfGrid::from_surface(&signed, spec, 4.0 * spec.spacing)),
+    );
     let spec = GridSpec::covering(bounds, 128, 0.1).expect("grid");
     let field = SdfGrid::from_surface(&mls, &spec, 4.0 * spec.spacing).expect("field");
     group.bench_function("isosurface_128", |b| {
@@ -82,5 +96,52 @@ fn sdf_grids(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, mls_projection, sdf_grids);
+/// 10k queries spread over the box around `bounds`, as a distance grid asks near and far.
+fn box_queries(bounds: geosynth::core::Aabb, seed: u64) -> Vec<Vec3> {
+    let mut g = rng::rng_from_seed(seed);
+    let (lo, extent) = (bounds.min, bounds.extent());
+    (0..10_000)
+        .map(|_| lo + extent * Vec3::new(g.random(), g.random(), g.random()))
+        .collect()
+}
+
+fn winding_numbers(c: &mut Criterion) {
+    let mut group = c.benchmark_group("winding_numbers");
+    group.sample_size(10);
+    let points = fixtures::torus_points(100_000, 1.0, 0.35, 4).expect("benchmark setup");
+    group.bench_function("point_cloud_100k_build", |b| {
+        b.iter(|| PointWinding::new(black_box(&points)))
+    });
+    let winding = PointWinding::new(&points).expect("benchmark setup");
+    let queries = box_queries(points.bounding_box().expect("bounds"), 5);
+    group.throughput(Throughput::Elements(queries.len() as u64));
+    group.bench_function("point_cloud_100k_10k_queries", |b| {
+        b.iter(|| {
+            black_box(&queries)
+                .iter()
+                .map(|&q| winding.winding_number(q))
+                .sum::<f32>()
+        })
+    });
+    match common::watertight_bunny() {
+        Some(bunny) => {
+            let surface = MeshSurface::new(&bunny)
+                .expect("benchmark setup")
+                .with_sign(MeshSign::WindingNumber);
+            let queries = box_queries(bunny.bounding_box().expect("bounds"), 6);
+            group.bench_function("bunny_mesh_70k_triangles_10k_queries", |b| {
+                b.iter(|| {
+                    black_box(&queries)
+                        .iter()
+                        .map(|&q| surface.winding_number(q))
+                        .sum::<f32>()
+                })
+            });
+        }
+        None => eprintln!("skipped winding_numbers/bunny_mesh: GEOSYNTH_DATA is not set"),
+    }
+    group.finish();
+}
+
+criterion_group!(benches, mls_projection, sdf_grids, winding_numbers);
 criterion_main!(benches);
