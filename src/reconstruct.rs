@@ -70,6 +70,29 @@ impl FieldParams {
     }
 
     /// Sets how a point set's distances are signed (default [`PointSign::Implicit`]).
+    ///
+    /// ```
+    /// use geosynth::reconstruct::{FieldParams, Reconstruct};
+    /// use geosynth::sdf::PointSign;
+    /// use geosynth::{fixtures, RunContext, Stage};
+    ///
+    /// // A closed sphere whose every 25th normal faces inward, as scans and estimated
+    /// // normals have them: the MLS surface's own sign breaks it into pieces.
+    /// let sphere = fixtures::sphere_points(4000)?;
+    /// let normals = sphere.normals().ok_or("normals")?.iter().enumerate()
+    ///     .map(|(i, n)| if i % 25 == 0 { -*n } else { *n })
+    ///     .collect();
+    /// let points = sphere.with_normals(normals)?;
+    /// let params = FieldParams::default().resolution(48);
+    /// let pieces = |params: FieldParams| -> Result<usize, geosynth::Error> {
+    ///     let mesh = Reconstruct { params }.run(points.clone(), &mut RunContext::new(0))?;
+    ///     Ok(mesh.topology().components)
+    /// };
+    /// assert!(pieces(params.clone())? > 1);
+    /// // The points' winding number outvotes the stray normals.
+    /// assert_eq!(pieces(params.point_sign(PointSign::WindingNumber))?, 1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn point_sign(mut self, sign: PointSign) -> Self {
         self.point_sign = sign;
         self
