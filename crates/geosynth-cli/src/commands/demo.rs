@@ -13,6 +13,7 @@ use geosynth::fixtures::{self, Fixture};
 use geosynth::preview::{self, RenderOptions};
 use geosynth::quilt::{Method, OutputSize, QualityReport, QuiltParams};
 use geosynth::reconstruct::{FieldParams, Reconstruct};
+use geosynth::sdf::PointSign;
 use geosynth::tps::{PairingParams, Table1Preset};
 use geosynth::{RunContext, Stage};
 use serde::Serialize;
@@ -88,12 +89,21 @@ struct QuiltEntry {
     full_beats_baselines: bool,
 }
 
+/// A point set to reconstruct, and how its field is signed.
+struct ReconstructionJob {
+    name: String,
+    input: PathBuf,
+    sign: PointSign,
+}
+
 /// One point set turned into a mesh.
 #[derive(Debug, Serialize)]
 struct ReconstructionEntry {
     name: String,
     input: String,
     input_points: usize,
+    /// `--sign`: `local` (the MLS surface's own) or `winding` (the points' winding number).
+    sign: &'static str,
     resolution: usize,
     vertices: usize,
     faces: usize,
@@ -215,33 +225,55 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
                 .join("data")
         });
     let mut skipped = Vec::new();
-    let mut jobs: Vec<(String, PathBuf)> =
-        vec![("torus_points".into(), dir.join("torus_points.ply"))];
+    let job = |name: &str, input: PathBuf, sign| ReconstructionJob {
+        name: name.into(),
+        input,
+        sign,
+    };
+    let mut jobs = vec![job(
+        "torus_points",
+        dir.join("torus_points.ply"),
+        PointSign::Implicit,
+    )];
     let bunny = data_dir.join("pointsets").join("bunny16k_normals.ply");
     if bunny.is_file() {
-        jobs.push(("bunny16k".into(), bunny));
+        jobs.push(job("bunny16k", bunny, PointSign::Implicit));
     } else {
         skipped.push(format!(
             "bunny reconstruction: {} not found (set GEOSYNTH_DATA or --data)",
             bunny.display()
         ));
     }
+    // The chameleon's thin tongue, toes and tail and its stray normals break the MLS
+    // surface's own sign apart; its winding number keeps the animal whole. Both shown.
+    let chameleon = data_dir.join("pointsets").join("chameleon4k_normals.ply");
+    if chameleon.is_file() {
+        jobs.push(job("chameleon", chameleon.clone(), PointSign::Implicit));
+        jobs.push(job(
+            "chameleon_winding",
+            chameleon,
+            PointSign::WindingNumber,
+        ));
+    } else {
+        skipped.push(format!(
+            "chameleon reconstructions: {} not found (set GEOSYNTH_DATA or --data)",
+            chameleon.display()
+        ));
+    }
     let resolution = if args.quick { 48 } else { 96 };
     let mut reconstructions = Vec::new();
     let bar = progress_bar(globals, jobs.len() as u64, "reconstruct");
-    for (name, input) in &jobs {
-        let points = match io::read_geometry(input) {
+    for job in &jobs {
+        let points = match io::read_geometry(&job.input) {
             Ok(l) => l.geometry.points().clone(),
             // The torus comes from the fixtures, which may be in memory only.
             Err(_) => fixtures
                 .iter()
-                .find(|f| f.name == name)
+                .find(|f| f.name == job.name)
                 .map(|f| f.geometry.points().clone())
                 .ok_or("missing input")?,
         };
-        reconstructions.push(reconstruct_one(
-            name, input, points, resolution, w, h, &args.out,
-        )?);
+        reconstructions.push(reconstruct_one(job, points, resolution, w, h, &args.out)?);
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -304,12 +336,13 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
         ));
     }
     md.push_str("\n## Reconstructions (MLS surface → distance field → iso-surface)\n\n");
-    md.push_str("| input | points | grid | vertices | faces | closed manifold | components | χ | field s | iso s | preview |\n|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---|\n");
+    md.push_str("| input | points | sign | grid | vertices | faces | closed manifold | components | χ | field s | iso s | preview |\n|---|---:|---|---:|---:|---:|---|---:|---:|---:|---:|---|\n");
     for r in &report.reconstructions {
         md.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | ![]({}) |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | ![]({}) |\n",
             r.name,
             r.input_points,
+            r.sign,
             r.resolution,
             r.vertices,
             r.faces,
@@ -393,8 +426,7 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
 
 /// Reconstructs one point set, writes the mesh and a points | mesh preview.
 fn reconstruct_one(
-    name: &str,
-    input: &Path,
+    job: &ReconstructionJob,
     points: geosynth::core::PointSet,
     resolution: usize,
     w: u32,
@@ -404,7 +436,9 @@ fn reconstruct_one(
     let input_points = points.len();
     let mut ctx = RunContext::new(0);
     let stage = Reconstruct {
-        params: FieldParams::default().resolution(resolution),
+        params: FieldParams::default()
+            .resolution(resolution)
+            .point_sign(job.sign),
     };
     let mesh = stage.run(points.clone(), &mut ctx)?;
     let seconds = |stage: &str| {
@@ -416,16 +450,16 @@ fn reconstruct_one(
     let topology = mesh.topology();
     let geometry_path = out
         .join("geometry")
-        .join(format!("{name}_reconstructed.ply"));
+        .join(format!("{}_reconstructed.ply", job.name));
     let mesh = Geometry::Mesh(mesh);
     io::write_geometry(
         &geometry_path,
         &mesh,
-        &WriteOptions::default().comment(format!("reconstructed from {name}")),
+        &WriteOptions::default().comment(format!("reconstructed from {}", job.name)),
     )?;
     let preview_path = out
         .join("previews")
-        .join(format!("{name}_reconstructed.png"));
+        .join(format!("{}_reconstructed.png", job.name));
     let cloud = Geometry::Points(points);
     let panels = [
         preview::Panel::Geometry(&cloud, preview::UpAxis::Y),
@@ -437,9 +471,13 @@ fn reconstruct_one(
     )?;
     let faces = mesh.mesh().map_or(0, |m| m.face_count());
     Ok(ReconstructionEntry {
-        name: name.to_string(),
-        input: input.display().to_string(),
+        name: job.name.clone(),
+        input: job.input.display().to_string(),
         input_points,
+        sign: match job.sign {
+            PointSign::Implicit => "local",
+            PointSign::WindingNumber => "winding",
+        },
         resolution,
         vertices: mesh.points().len(),
         faces,
