@@ -45,7 +45,7 @@
 //! nodes wrong (157–191 components) against 0–1 (1 component); with 10% flipped, 8067–16051
 //! against 19–175 (2–7 components). Margins of 0 and 0.25 did worse than 0.1.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use pointset_core::{Aabb, BandAnswer, KdIndex, PointSet, Surface, SurfacePoint};
 use rayon::prelude::*;
 
@@ -149,6 +149,25 @@ impl PointWinding {
     /// The estimated area of each sample ([`sample_areas`]).
     pub fn areas(&self) -> Vec<f32> {
         self.area_vectors.iter().map(|a| a.length()).collect()
+    }
+
+    /// How far the samples' area vectors fail to cancel: `|Σ a n| / Σ a`. Over a closed,
+    /// consistently oriented surface they sum to zero (the divergence theorem), so a
+    /// closed cloud reads near 0, a flat sheet 1 and a half-sphere ½. An open tube also
+    /// reads near 0: a small value says the cloud may be closed, not that it is. 0 for a
+    /// cloud without area.
+    pub fn open_flux(&self) -> f32 {
+        let (sum, total) = self
+            .area_vectors
+            .iter()
+            .fold((DVec3::ZERO, 0.0f64), |(s, t), a| {
+                (s + a.as_dvec3(), t + f64::from(a.length()))
+            });
+        if total > 0.0 {
+            (sum.length() / total) as f32
+        } else {
+            0.0
+        }
     }
 
     /// The cloud's winding number at `q`: about 1 inside a closed, outward-oriented cloud,
@@ -396,6 +415,33 @@ mod tests {
         let winding = PointWinding::new(&four).unwrap();
         assert!(winding.areas().iter().all(|a| *a == 0.0));
         assert_eq!(winding.winding_number(Vec3::ZERO), 0.0);
+    }
+
+    #[test]
+    fn closed_clouds_have_no_open_flux_and_sheets_do() {
+        let closed = PointWinding::new(&sphere(2000, 1.0, Vec3::ZERO, 6)).unwrap();
+        assert!(closed.open_flux() < 0.05, "{}", closed.open_flux());
+        // The upper half of the sphere: its area vectors add up to π against 2π of area.
+        let full = sphere(4000, 1.0, Vec3::ZERO, 7);
+        let (positions, normals): (Vec<Vec3>, Vec<Vec3>) = full
+            .positions()
+            .iter()
+            .zip(full.normals().unwrap())
+            .filter(|(p, _)| p.z > 0.0)
+            .map(|(p, n)| (*p, *n))
+            .unzip();
+        let dome = PointWinding::new(
+            &PointSet::new(positions)
+                .unwrap()
+                .with_normals(normals)
+                .unwrap(),
+        )
+        .unwrap();
+        assert!(
+            (dome.open_flux() - 0.5).abs() < 0.05,
+            "{}",
+            dome.open_flux()
+        );
     }
 
     #[test]

@@ -1317,6 +1317,41 @@ fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding()
         "{said}"
     );
     assert!(!said.contains("pieces"), "{said}");
+    // Two stacked flat patches (an open scan) come out in pieces too, but their normals do
+    // not cancel: no such note.
+    let patches: Vec<glam::Vec3> = (0..2)
+        .flat_map(|patch| {
+            (0..400).map(move |i| {
+                glam::Vec3::new(
+                    (i % 20) as f32 * 0.05,
+                    (i / 20) as f32 * 0.05,
+                    2.0 * patch as f32,
+                )
+            })
+        })
+        .collect();
+    let sheets = dir.path().join("sheets.ply");
+    geosynth::core::io::write_geometry(
+        &sheets,
+        &geosynth::core::io::Geometry::Points(
+            geosynth::core::PointSet::new(patches.clone())
+                .unwrap()
+                .with_normals(vec![glam::Vec3::Z; patches.len()])
+                .unwrap(),
+        ),
+        &geosynth::core::io::WriteOptions::default(),
+    )
+    .unwrap();
+    let said = ok(&[
+        "reconstruct",
+        sheets.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "32",
+    ]);
+    assert!(!said.contains(" 1 component(s)"), "{said}");
+    assert!(!said.contains("--sign winding"), "{said}");
     // Trimming says that winding numbers are for closed objects.
     let said = ok(&[
         "reconstruct",
