@@ -105,6 +105,18 @@ fn box_queries(bounds: geosynth::core::Aabb, seed: u64) -> Vec<Vec3> {
         .collect()
 }
 
+/// Benchmarks `winding` summed over `queries`.
+fn bench_queries(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    queries: &[Vec3],
+    winding: impl Fn(Vec3) -> f32,
+) {
+    group.bench_function(name, |b| {
+        b.iter(|| black_box(queries).iter().map(|&q| winding(q)).sum::<f32>())
+    });
+}
+
 fn winding_numbers(c: &mut Criterion) {
     let mut group = c.benchmark_group("winding_numbers");
     group.sample_size(10);
@@ -115,13 +127,8 @@ fn winding_numbers(c: &mut Criterion) {
     let winding = PointWinding::new(&points).expect("benchmark setup");
     let queries = box_queries(points.bounding_box().expect("bounds"), 5);
     group.throughput(Throughput::Elements(queries.len() as u64));
-    group.bench_function("point_cloud_100k_10k_queries", |b| {
-        b.iter(|| {
-            black_box(&queries)
-                .iter()
-                .map(|&q| winding.winding_number(q))
-                .sum::<f32>()
-        })
+    bench_queries(&mut group, "point_cloud_100k_10k_queries", &queries, |q| {
+        winding.winding_number(q)
     });
     match common::watertight_bunny() {
         Some(bunny) => {
@@ -129,14 +136,12 @@ fn winding_numbers(c: &mut Criterion) {
                 .expect("benchmark setup")
                 .with_sign(MeshSign::WindingNumber);
             let queries = box_queries(bunny.bounding_box().expect("bounds"), 6);
-            group.bench_function("bunny_mesh_70k_triangles_10k_queries", |b| {
-                b.iter(|| {
-                    black_box(&queries)
-                        .iter()
-                        .map(|&q| surface.winding_number(q))
-                        .sum::<f32>()
-                })
-            });
+            bench_queries(
+                &mut group,
+                "bunny_mesh_70k_triangles_10k_queries",
+                &queries,
+                |q| surface.winding_number(q),
+            );
         }
         None => eprintln!("skipped winding_numbers/bunny_mesh: GEOSYNTH_DATA is not set"),
     }

@@ -180,7 +180,8 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
             match params.point_sign {
                 PointSign::Implicit => Box::new(surface),
                 PointSign::WindingNumber => {
-                    Box::new(WindingSigned::new(surface, PointWinding::new(points)?))
+                    let winding = PointWinding::with_index(points, surface.index())?;
+                    Box::new(WindingSigned::new(surface, winding))
                 }
             }
         }

@@ -113,6 +113,13 @@ impl PointWinding {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn new(points: &PointSet) -> Result<Self> {
+        Self::with_index(points, &KdIndex::new(points.positions())?)
+    }
+
+    /// [`PointWinding::new`] with a k-d index the caller already holds over the same
+    /// positions (an MLS surface's `MlsSurface::index()`), so it is not built twice.
+    /// Errors as `new`, and when the index holds another number of points.
+    pub fn with_index(points: &PointSet, index: &KdIndex) -> Result<Self> {
         let normals = points.normals().ok_or(FieldError::MissingNormals)?;
         let positions = points.positions();
         if positions.is_empty() {
@@ -122,8 +129,14 @@ impl PointWinding {
                 expected: "at least one oriented point",
             });
         }
-        let index = KdIndex::new(positions)?;
-        let areas = sample_areas(positions, normals, &index)?;
+        if index.len() != positions.len() {
+            return Err(FieldError::InvalidParameter {
+                name: "index",
+                value: format!("{} points for {} samples", index.len(), positions.len()),
+                expected: "an index over the point set's own positions",
+            });
+        }
+        let areas = sample_areas(positions, normals, index)?;
         let area_vectors: Vec<Vec3> = normals
             .iter()
             .zip(&areas)
@@ -409,6 +422,13 @@ mod tests {
         assert!(matches!(
             PointWinding::new(&empty),
             Err(FieldError::InvalidParameter { .. })
+        ));
+        // An index over other points is refused.
+        let cloud = sphere(50, 1.0, Vec3::ZERO, 8);
+        let other = KdIndex::new(&cloud.positions()[..10]).unwrap();
+        assert!(matches!(
+            PointWinding::with_index(&cloud, &other),
+            Err(FieldError::InvalidParameter { name: "index", .. })
         ));
         // Four points have at most three neighbours each: no area, winding number 0.
         let four = sphere(4, 1.0, Vec3::ZERO, 5);

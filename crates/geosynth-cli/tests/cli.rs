@@ -25,6 +25,16 @@ fn ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// Writes `geometry` to `path` with the default options (the format from the extension).
+fn write_with_defaults(path: &Path, geometry: &geosynth::core::io::Geometry) {
+    geosynth::core::io::write_geometry(
+        path,
+        geometry,
+        &geosynth::core::io::WriteOptions::default(),
+    )
+    .unwrap();
+}
+
 /// `geosynth info --json` of a file.
 fn info_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap()
@@ -625,12 +635,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         .collect();
     let mixed = dir.path().join("mixed.ply");
     let unoriented = torus.points().clone().with_normals(signs).unwrap();
-    geosynth::core::io::write_geometry(
-        &mixed,
-        &geosynth::core::io::Geometry::Points(unoriented),
-        &geosynth::core::io::WriteOptions::default(),
-    )
-    .unwrap();
+    write_with_defaults(&mixed, &geosynth::core::io::Geometry::Points(unoriented));
     let share = |path: &Path| {
         let json = info_json(path);
         json["normal_disagreement"].as_f64().unwrap()
@@ -1199,12 +1204,7 @@ fn sdf_signs_intersecting_pieces_by_winding_numbers_when_asked() {
         geosynth::core::TriMesh::new(geosynth::core::PointSet::new(positions).unwrap(), triangles)
             .unwrap();
     let mesh = dir.path().join("pair.ply");
-    geosynth::core::io::write_geometry(
-        &mesh,
-        &geosynth::core::io::Geometry::Mesh(pair),
-        &geosynth::core::io::WriteOptions::default(),
-    )
-    .unwrap();
+    write_with_defaults(&mesh, &geosynth::core::io::Geometry::Mesh(pair));
     let wrong_signs = |sign: &str| {
         let field = dir.path().join(format!("{sign}.nrrd"));
         let said = ok(&[
@@ -1284,12 +1284,10 @@ fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding()
         .map(|(i, n)| if i % 25 == 0 { -*n } else { *n })
         .collect();
     let points = dir.path().join("stray.ply");
-    geosynth::core::io::write_geometry(
+    write_with_defaults(
         &points,
         &geosynth::core::io::Geometry::Points(sphere.with_normals(normals).unwrap()),
-        &geosynth::core::io::WriteOptions::default(),
-    )
-    .unwrap();
+    );
     let mesh = dir.path().join("mesh.ply");
     let reconstruct = |sign: &str| {
         let said = ok(&[
@@ -1331,7 +1329,7 @@ fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding()
         })
         .collect();
     let sheets = dir.path().join("sheets.ply");
-    geosynth::core::io::write_geometry(
+    write_with_defaults(
         &sheets,
         &geosynth::core::io::Geometry::Points(
             geosynth::core::PointSet::new(patches.clone())
@@ -1339,9 +1337,7 @@ fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding()
                 .with_normals(vec![glam::Vec3::Z; patches.len()])
                 .unwrap(),
         ),
-        &geosynth::core::io::WriteOptions::default(),
-    )
-    .unwrap();
+    );
     let said = ok(&[
         "reconstruct",
         sheets.to_str().unwrap(),
