@@ -21,6 +21,11 @@ pub const SINGLE_PLANE_COSINE: f32 = 0.7;
 /// ([`Surface::signed_distance_or_clearance`]), for the rounding of the distance.
 const CLEARANCE_MARGIN: f32 = 1e-5;
 
+/// Neighbours are gathered in a ball of this many support radii around an anchor, and
+/// reused while the projection's iterate stays within the excess (half a support radius)
+/// of it.
+const GATHER_RADIUS: f32 = 1.5;
+
 /// The local quantities of the surface definition at a point `x`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LocalFit {
@@ -47,6 +52,18 @@ pub struct Projection {
     pub iterations: usize,
     /// Whether `|f| < tolerance · h` was reached (otherwise the cap stopped it).
     pub converged: bool,
+}
+
+/// What one projection attempt from a query `x` found.
+struct ProjectionAttempt {
+    /// The fit at `x` itself; `None` where the surface is not defined at `x`.
+    start: Option<LocalFit>,
+    /// The projection; `None` also where the iteration leaves the surface.
+    projection: Option<Projection>,
+    /// The sample nearest to `x` among those gathered around it (every sample within 1.5
+    /// support radii, nearest first, the lowest index among equally near ones); `None`
+    /// when that ball is empty.
+    nearest_gathered: Option<usize>,
 }
 
 /// An oriented point-set surface: Gaussian-weighted centres and normals of the input points
@@ -186,25 +203,43 @@ impl MlsSurface {
     /// Quasi-orthogonal projection: repeats `x ← x − f(x) n(x)` until `|f| < tolerance · h`
     /// or the iteration cap. `None` where the surface is not defined (see [`Self::fit`]).
     pub fn project(&self, x: Vec3) -> Option<Projection> {
-        self.project_with_start(x)
-            .and_then(|(_, projection)| projection)
+        self.attempt_projection(x).projection
     }
 
-    /// [`Self::project`], also returning the fit at `x` itself (its first iteration), so a
-    /// caller that needs both `f(x)` and the projection gathers the neighbours once.
-    /// `None` where the surface is not defined at `x`; `Some((fit, None))` where it is
-    /// defined at `x` but the iteration leaves it.
-    fn project_with_start(&self, x: Vec3) -> Option<(LocalFit, Option<Projection>)> {
+    /// [`Self::project`], also keeping the fit at `x` itself (its first iteration) and the
+    /// nearest sample met on the way, so a caller that needs `f(x)`, the projection or,
+    /// failing both, the nearest sample gathers the neighbours once.
+    fn attempt_projection(&self, x: Vec3) -> ProjectionAttempt {
+        let mut attempt = ProjectionAttempt {
+            start: None,
+            projection: None,
+            nearest_gathered: None,
+        };
         if !x.is_finite() {
-            return None;
+            return attempt;
         }
+        // Candidates are gathered in a ball of radius 1.5·support around an anchor and
+        // reused while the iterate stays within 0.5·support of it.
+        let candidates = self.candidates(x, GATHER_RADIUS * self.support_radius());
+        attempt.nearest_gathered = candidates.first().copied();
+        attempt.start = self.fit_with(x, &candidates);
+        if let Some(start) = attempt.start {
+            attempt.projection = self.iterate_projection(x, start, candidates);
+        }
+        attempt
+    }
+
+    /// The iteration of [`Self::project`] from the fit `start` at `x`, with `candidates`
+    /// gathered around `x`; `None` where the iteration leaves the surface.
+    fn iterate_projection(
+        &self,
+        x: Vec3,
+        start: LocalFit,
+        mut candidates: Vec<usize>,
+    ) -> Option<Projection> {
         let radius = self.support_radius();
-        // Candidates are gathered in a ball of radius 1.5·support around `anchor` and reused
-        // while the iterate stays within 0.5·support of it.
-        let slack = 0.5 * radius;
+        let slack = (GATHER_RADIUS - 1.0) * radius;
         let mut anchor = x;
-        let mut candidates = self.candidates(anchor, radius + slack);
-        let start = self.fit_with(x, &candidates)?;
         let tolerance = self.params.tolerance * self.h;
         let mut y = x;
         let mut fit = start;
@@ -214,35 +249,36 @@ impl MlsSurface {
                     anchor = y;
                     candidates = self.candidates(anchor, radius + slack);
                 }
-                match self.fit_with(y, &candidates) {
-                    Some(next) => fit = next,
-                    None => return Some((start, None)),
-                }
+                fit = self.fit_with(y, &candidates)?;
             }
             if fit.value.abs() < tolerance {
-                return Some((start, Some(self.finish(x, y, fit.normal, iteration, true))));
+                return Some(self.finish(x, y, fit.normal, iteration, true));
             }
             y -= fit.value * fit.normal;
             if !y.is_finite() {
-                return Some((start, None));
+                return None;
             }
             if iteration == self.params.max_iterations {
                 let normal = self
                     .fit_with(y, &candidates)
                     .map_or(fit.normal, |f| f.normal);
-                return Some((start, Some(self.finish(x, y, normal, iteration, false))));
+                return Some(self.finish(x, y, normal, iteration, false));
             }
         }
-        Some((start, None))
+        None
     }
 
     /// The input point nearest to `query`, with its normal: the surface's stand-in where
-    /// the kernel does not reach.
-    fn nearest_sample(&self, query: Vec3) -> Option<SurfacePoint> {
-        let nearest = self.index.nearest_one(query).ok()??;
+    /// the kernel does not reach. `gathered` is the nearest sample a projection attempt
+    /// already found within its gathering ball; only beyond that ball is the index asked.
+    fn nearest_sample(&self, query: Vec3, gathered: Option<usize>) -> Option<SurfacePoint> {
+        let nearest = match gathered {
+            Some(index) => index,
+            None => self.index.nearest_one(query).ok()??.index,
+        };
         Some(SurfacePoint {
-            point: self.points[nearest.index],
-            normal: self.normals[nearest.index],
+            point: self.points[nearest],
+            normal: self.normals[nearest],
         })
     }
 
@@ -273,10 +309,11 @@ impl MlsSurface {
     /// nearest sample is (the nearest-sample distance is 1-Lipschitz).
     fn signed_distance_up_to(&self, query: Vec3, max_distance: f32) -> BandAnswer {
         let nothing = BandAnswer::Beyond { clearance: 0.0 };
-        let (start, projection) = match self.project_with_start(query) {
-            Some((start, projection)) => (Some(start), projection),
-            None => (None, None),
-        };
+        let ProjectionAttempt {
+            start,
+            projection,
+            nearest_gathered,
+        } = self.attempt_projection(query);
         let (c, out_of_reach) = match projection {
             Some(p) => (
                 SurfacePoint {
@@ -285,7 +322,7 @@ impl MlsSurface {
                 },
                 false,
             ),
-            None => match self.nearest_sample(query) {
+            None => match self.nearest_sample(query, nearest_gathered) {
                 Some(c) => (c, start.is_none()),
                 None => return nothing,
             },
@@ -366,13 +403,14 @@ impl MlsSurface {
 /// from the samples. [`MlsSurface::project`] itself returns `None` there.
 impl Surface for MlsSurface {
     fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
-        if let Some(p) = self.project(query) {
+        let attempt = self.attempt_projection(query);
+        if let Some(p) = attempt.projection {
             return Some(SurfacePoint {
                 point: p.point,
                 normal: p.normal,
             });
         }
-        self.nearest_sample(query)
+        self.nearest_sample(query, attempt.nearest_gathered)
     }
 
     /// Magnitude from the projection; sign from `f(query)` where the kernel reaches the

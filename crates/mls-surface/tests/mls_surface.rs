@@ -377,6 +377,45 @@ fn a_clearance_keeps_its_promise_and_is_the_nearest_sample_gap() {
 }
 
 #[test]
+fn out_of_reach_the_closest_point_is_the_brute_force_nearest_sample() {
+    // Out of the kernel's reach the surface stands in the nearest sample. Within 1.5
+    // support radii it is taken from the neighbours the projection gathered, beyond from
+    // the index; both must be the exact nearest sample (ties: equal distance suffices).
+    let mut g = rng::rng_from_seed(5);
+    let dirs: Vec<Vec3> = (0..300).map(|_| random_unit(&mut g)).collect();
+    let points = PointSet::new(dirs.clone())
+        .unwrap()
+        .with_normals(dirs.clone())
+        .unwrap();
+    let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let r = surface.support_radius();
+    let (mut gathered, mut beyond) = (0, 0);
+    for _ in 0..2000 {
+        let q = random_unit(&mut g) * g.random_range(0.0..2.5);
+        if surface.project(q).is_some() {
+            continue;
+        }
+        let nearest = dirs
+            .iter()
+            .map(|p| p.distance(q))
+            .fold(f32::INFINITY, f32::min);
+        let c = surface.closest_point(q).unwrap();
+        assert_eq!(c.point.distance(q), nearest, "query {q}");
+        let (d, _) = Surface::signed_distance(&surface, q).unwrap();
+        assert_eq!(d.abs(), nearest, "query {q}");
+        if nearest <= 1.5 * r {
+            gathered += 1;
+        } else {
+            beyond += 1;
+        }
+    }
+    assert!(
+        gathered > 50 && beyond > 50,
+        "{gathered} within 1.5 support radii, {beyond} beyond"
+    );
+}
+
+#[test]
 fn out_of_reach_queries_are_signed_by_the_nearby_planes_not_the_nearest_alone() {
     // The edge of a box: a bottom face z = 0 (normal −z, y from 0.1) and a front face
     // y = 0 (normal −y, z from 0.02), samples 0.1 apart, a kernel far too small to reach
