@@ -251,21 +251,25 @@ impl Stage for Reconstruct {
             signed_distance(&Geometry::Points(input), &self.params)
         })?;
         ctx.check_cancelled()?;
-        let mesh: TriMesh = ctx.timed("reconstruct: iso-surface", |_| {
-            Ok::<_, Error>(sdf_isosurface(&sdf)?)
-        })?;
-        if mesh.face_count() == 0 {
-            let (lo, hi) = sdf.distances()?.value_range();
-            let [x, y, z] = sdf.grid().dims();
-            return Err(Error::NoSurface {
-                reason: format!(
-                    "the signed distance on the {x}x{y}x{z} grid never crosses zero (values \
-                     {lo} to {hi}); the MLS surface of the points could not be sampled there"
-                ),
-            });
-        }
-        Ok(mesh)
+        ctx.timed("reconstruct: iso-surface", |_| surface_of(&sdf))
     }
+}
+
+/// The zero set of `sdf`, or [`Error::NoSurface`] when the field never crosses zero (an
+/// empty mesh is not a reconstruction).
+fn surface_of(sdf: &SdfGrid) -> Result<TriMesh> {
+    let mesh = sdf_isosurface(sdf)?;
+    if mesh.face_count() == 0 {
+        let (lo, hi) = sdf.distances()?.value_range();
+        let [x, y, z] = sdf.grid().dims();
+        return Err(Error::NoSurface {
+            reason: format!(
+                "the signed distance on the {x}x{y}x{z} grid never crosses zero (values \
+                 {lo} to {hi}); the MLS surface of the points could not be sampled there"
+            ),
+        });
+    }
+    Ok(mesh)
 }
 
 /// `mesh` without the parts that run away from the samples it was reconstructed from. The
@@ -354,4 +358,29 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
         .map(|t| t.map(|v| renumber[v as usize]))
         .collect();
     Ok(TriMesh::new(mesh.vertices().subset(&order)?, kept)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Vec3, Vec4};
+    use pointset_core::Grid3;
+
+    #[test]
+    fn a_field_without_a_zero_crossing_is_no_surface_not_an_empty_mesh() {
+        // The reconstruction once came out as an empty mesh that the CLI wrote as a
+        // success (found with coordinates of 1e30, which are now refused first).
+        let field = |value: f32| {
+            let mut grid =
+                Grid3::new([4, 4, 4], Vec3::ZERO, 1.0, Vec4::new(1.0, 0.0, 0.0, 1.0)).unwrap();
+            // Node (1, 1, 1).
+            grid.data_mut()[21].x = value;
+            SdfGrid::from_grid(grid, 2.0).unwrap()
+        };
+        let err = surface_of(&field(0.5)).unwrap_err();
+        assert!(matches!(err, Error::NoSurface { .. }), "{err}");
+        assert!(err.to_string().contains("never crosses zero"), "{err}");
+        // One node inside: a small closed surface around it.
+        assert!(surface_of(&field(-0.5)).unwrap().face_count() > 0);
+    }
 }

@@ -294,12 +294,12 @@ fn bunny_points_reconstruct_to_one_closed_genus_zero_mesh() {
 }
 
 #[test]
-fn a_field_without_a_zero_crossing_is_no_surface_not_an_empty_mesh() {
+fn points_spread_wider_than_f32_distances_allow_are_refused_by_name() {
     use geosynth::reconstruct::{FieldParams, Reconstruct};
     use geosynth::{RunContext, Stage};
-    // At 1e30 the squared distances overflow single precision: no node of the grid gets a
-    // distance, the field never crosses zero, and the reconstruction once came out as an
-    // empty mesh that the CLI wrote as a success.
+    // At 1e30 squared distances overflow f32: no node of the grid got a distance, and the
+    // reconstruction came out as an empty mesh (then as `NoSurface`). Now it is refused
+    // before any field is built, with the cause named.
     let sphere = fixtures::sphere_points(800).unwrap();
     let huge: Vec<glam::Vec3> = sphere.positions().iter().map(|&p| p * 1e30).collect();
     let huge = geosynth::core::PointSet::new(huge)
@@ -310,9 +310,20 @@ fn a_field_without_a_zero_crossing_is_no_surface_not_an_empty_mesh() {
         params: FieldParams::default().resolution(16),
     };
     let err = stage.run(huge, &mut RunContext::new(0)).unwrap_err();
-    assert!(matches!(err, geosynth::Error::NoSurface { .. }), "{err}");
-    assert!(err.to_string().contains("never crosses zero"), "{err}");
-    // The same sphere at its own scale has one.
+    assert!(
+        matches!(
+            &err,
+            geosynth::Error::Mls(geosynth::mls::MlsError::Core(
+                geosynth::core::Error::SpanTooLarge { .. }
+            ))
+        ),
+        "{err}"
+    );
+    assert!(
+        err.to_string().contains("rescale the file's units"),
+        "{err}"
+    );
+    // The same sphere at its own scale has a surface.
     assert!(stage.run(sphere, &mut RunContext::new(0)).is_ok());
 }
 

@@ -241,3 +241,77 @@ proptest! {
         }
     }
 }
+
+/// `geometry` with every position multiplied by `scale` (normals and faces kept).
+fn scaled(geometry: &Geometry, scale: f32) -> Geometry {
+    let points = geometry.points();
+    let positions = points.positions().iter().map(|&p| p * scale).collect();
+    let mut moved = PointSet::new(positions).unwrap();
+    moved
+        .set_normals(points.normals().map(<[Vec3]>::to_vec))
+        .unwrap();
+    match geometry {
+        Geometry::Points(_) => Geometry::Points(moved),
+        Geometry::Mesh(mesh) => {
+            Geometry::Mesh(TriMesh::new(moved, mesh.triangles().to_vec()).unwrap())
+        }
+    }
+}
+
+/// How many nodes of `geometry`'s field (24 nodes along the longest side) lie inside.
+fn inside_nodes(geometry: &Geometry, params: &FieldParams) -> usize {
+    let field = signed_distance(geometry, params).unwrap();
+    let values: Vec<f32> = field.grid().data().iter().map(|v| v.x).collect();
+    assert!(values.iter().all(|v| v.is_finite()));
+    values.iter().filter(|&&v| v < 0.0).count()
+}
+
+#[test]
+fn fields_do_not_depend_on_the_unit_of_length_up_to_the_widest_span() {
+    // A unit sphere's samples and a torus mesh, in units from 1e-15 to 1e17 of the
+    // original: the same nodes inside by either sign rule (measured: equal counts, but
+    // for 2 of 3135 with the sphere's winding numbers). Before the mesh was stored
+    // rescaled, its closest-point arithmetic (products of four lengths) overflowed for
+    // triangles longer than about 4e9 units, and the torus at 1e12 came out with no node
+    // inside. At 1e20 squared distances overflow f32 itself, and every entry point says
+    // so instead of computing NaNs (before: a NaN box, "no surface", "no non-degenerate
+    // triangles", or a field written without complaint).
+    let sphere = Geometry::Points(geosynth::fixtures::sphere_points(1500).unwrap());
+    let torus = Geometry::Mesh(geosynth::fixtures::torus_mesh(24, 12, 1.0, 0.3).unwrap());
+    let params = FieldParams::default().resolution(24);
+    let winding = params
+        .clone()
+        .point_sign(PointSign::WindingNumber)
+        .mesh_sign(MeshSign::WindingNumber);
+    for geometry in [&sphere, &torus] {
+        for rule in [&params, &winding] {
+            let inside = inside_nodes(geometry, rule);
+            assert!(inside > 300, "{inside} nodes inside");
+            for scale in [1e-15f32, 1e-5, 1e12, 1e17] {
+                // Rounding of the grid's nodes may move a node or two across.
+                let at_scale = inside_nodes(&scaled(geometry, scale), rule);
+                assert!(
+                    at_scale.abs_diff(inside) <= inside / 200,
+                    "scale {scale}: {at_scale} nodes inside against {inside}"
+                );
+            }
+        }
+        let err = signed_distance(&scaled(geometry, 1e20), &params).unwrap_err();
+        assert!(
+            err.to_string().contains("rescale the file's units"),
+            "{err}"
+        );
+    }
+    let texture = geosynth::fixtures::sphere_points(1500).unwrap();
+    let huge = scaled(&Geometry::Points(texture), 1e20).points().clone();
+    let bounds = geosynth::core::Aabb::from_points(huge.positions()).unwrap();
+    let err = geosynth::quilt::GeometryTexture::new(&huge, bounds, geosynth::quilt::UpAxis::Z)
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            geosynth::quilt::QuiltError::Core(geosynth::core::Error::SpanTooLarge { .. })
+        ),
+        "{err}"
+    );
+}

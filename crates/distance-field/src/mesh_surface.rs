@@ -63,11 +63,19 @@ pub struct MeshSurface {
     /// Far-field summaries of the hierarchy's nodes, for winding numbers.
     dipoles: Vec<Dipole>,
     sign: MeshSign,
+    /// The power of two the mesh is stored multiplied by (corners, hierarchy, dipoles),
+    /// bringing its extent into `[1, 2)`: closest-point arithmetic multiplies four
+    /// lengths together, which overflows `f32` for triangles a few billion units long
+    /// and vanishes for tiny ones. The scaling is exact, so at ordinary sizes every answer
+    /// is bit for bit the unscaled one. Queries are scaled on the way in, answers back.
+    scale: f32,
 }
 
 impl MeshSurface {
-    /// Prepares `mesh` (degenerate triangles are skipped). Errors when no triangle remains.
+    /// Prepares `mesh` (degenerate triangles are skipped). Errors when no triangle remains,
+    /// and when the vertices span more than [`pointset_core::MAX_SPAN`].
     pub fn new(mesh: &TriMesh) -> Result<Self> {
+        pointset_core::check_span(mesh.positions(), "mesh vertices")?;
         let degenerate: std::collections::HashSet<usize> =
             mesh.degenerate_faces().into_iter().collect();
         let tris: Vec<[u32; 3]> = mesh
@@ -81,10 +89,17 @@ impl MeshSurface {
             return Err(FieldError::EmptyMesh);
         }
         let pos = mesh.positions();
-        let corners: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|v| pos[v as usize])).collect();
+        let scale = pointset_core::power_of_two_scale(
+            mesh.bounding_box()
+                .map_or(0.0, |b| (b.max - b.min).max_element()),
+        );
+        let corners: Vec<[Vec3; 3]> = tris
+            .iter()
+            .map(|t| t.map(|v| pos[v as usize] * scale))
+            .collect();
         let face_normals: Vec<Vec3> = corners
             .iter()
-            .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize_or_zero())
+            .map(|&[a, b, c]| pointset_core::triangle_normal(a, b, c))
             .collect();
         // Vertex pseudo-normals: incident face normals weighted by the incident angle.
         let vertex_acc = mesh.vertex_normals(pointset_core::NormalWeighting::Angle);
@@ -135,6 +150,7 @@ impl MeshSurface {
             bvh,
             dipoles,
             sign: MeshSign::default(),
+            scale,
         })
     }
 
@@ -153,6 +169,11 @@ impl MeshSurface {
     /// a closed outward-oriented mesh, 0 outside, fractional near gaps; NaN for a
     /// non-finite `q`.
     pub fn winding_number(&self, q: Vec3) -> f32 {
+        self.winding_number_scaled(q * self.scale)
+    }
+
+    /// [`Self::winding_number`] at `q` in the stored (scaled) coordinates.
+    fn winding_number_scaled(&self, q: Vec3) -> f32 {
         self.bvh.winding_number(&self.dipoles, q, |t| {
             triangle_solid_angle(q, self.corners[t])
         })
@@ -185,14 +206,14 @@ impl MeshSurface {
                 let centroid = (a + b + c) / 3.0;
                 let probes = [1.0, -1.0].map(|side| centroid + side * step * self.face_normals[t]);
                 let own = |probe: Vec3| {
-                    self.closest(probe, 2.0 * step).is_some_and(|hit| {
+                    self.closest_or_gap(probe, 2.0 * step).is_ok_and(|hit| {
                         hit.triangle == t && hit.distance_squared >= (0.5 * step).powi(2)
                     })
                 };
                 if !probes.iter().all(|&p| own(p)) {
                     return false;
                 }
-                let [outer, inner] = probes.map(|p| self.winding_number(p));
+                let [outer, inner] = probes.map(|p| self.winding_number_scaled(p));
                 inner - outer > 0.5 && outer > 0.5
             })
             .count();
@@ -206,18 +227,25 @@ impl MeshSurface {
 
     /// Bounding box of the mesh.
     pub fn bounds(&self) -> Aabb {
-        self.bvh.bounds()
+        let stored = self.bvh.bounds();
+        Aabb::new(stored.min / self.scale, stored.max / self.scale)
     }
 
     /// The closest point on the mesh, searching only within distance `bound` (use infinity
     /// for an unbounded search). `None` for a non-finite query or nothing within `bound`.
     pub fn closest(&self, q: Vec3, bound: f32) -> Option<MeshHit> {
-        self.closest_or_gap(q, bound).ok()
+        self.closest_or_gap(q * self.scale, bound * self.scale)
+            .ok()
+            .map(|hit| MeshHit {
+                point: hit.point / self.scale,
+                distance_squared: hit.distance_squared / self.scale / self.scale,
+                ..hit
+            })
     }
 
-    /// [`Self::closest`], and when nothing lies within `bound`, a lower bound on the
-    /// distance to the mesh: the nearest box the search pruned or triangle it passed over
-    /// (0 for a non-finite query).
+    /// [`Self::closest`] in the stored (scaled) coordinates, and when nothing lies within
+    /// `bound`, a lower bound on the distance to the mesh: the nearest box the search
+    /// pruned or triangle it passed over (0 for a non-finite query).
     fn closest_or_gap(&self, q: Vec3, bound: f32) -> std::result::Result<MeshHit, f32> {
         if !q.is_finite() {
             return Err(0.0);
@@ -293,14 +321,17 @@ impl MeshSurface {
     /// distance ([`Self::closest_or_gap`]).
     fn signed_distance_bounded_search(
         &self,
-        q: Vec3,
+        world: Vec3,
         bound: f32,
     ) -> std::result::Result<(f32, SurfacePoint), f32> {
-        let hit = self.closest_or_gap(q, bound)?;
-        let d = hit.distance_squared.sqrt();
+        let q = world * self.scale;
+        let hit = self
+            .closest_or_gap(q, bound * self.scale)
+            .map_err(|gap| gap / self.scale)?;
+        let d = hit.distance_squared.sqrt() / self.scale;
         let inside = match self.sign {
             MeshSign::PseudoNormal => (q - hit.point).dot(hit.pseudo_normal) < 0.0,
-            MeshSign::WindingNumber => self.winding_number(q) > 0.5,
+            MeshSign::WindingNumber => self.winding_number_scaled(q) > 0.5,
         };
         let sign = if inside { -1.0 } else { 1.0 };
         // The normal reported is the outward direction of the field: the unit offset from
@@ -311,7 +342,7 @@ impl MeshSurface {
         Ok((
             sign * d,
             SurfacePoint {
-                point: hit.point,
+                point: hit.point / self.scale,
                 normal,
             },
         ))

@@ -54,8 +54,9 @@ pub struct GeometryTexture {
 impl GeometryTexture {
     /// A texture from oriented points (in world coordinates), the box and the up axis.
     ///
-    /// Errors: no normals, fewer than 16 points, points that all coincide, a box with zero
-    /// extent, no points inside it.
+    /// Errors: no normals, fewer than 16 points, points spanning more than
+    /// [`pointset_core::MAX_SPAN`], points that all coincide, a box with zero extent, no
+    /// points inside it.
     pub fn new(points: &PointSet, bounds: Aabb, up: UpAxis) -> Result<Self> {
         let normals = points.normals().ok_or_else(|| QuiltError::InvalidTexture {
             reason: "the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into(),
@@ -65,6 +66,7 @@ impl GeometryTexture {
                 reason: format!("{} points are too few for a texture", points.len()),
             });
         }
+        pointset_core::check_span(points.positions(), "exemplar points")?;
         let first = points.positions()[0];
         if points.positions().iter().all(|&p| p == first) {
             return Err(QuiltError::InvalidTexture {

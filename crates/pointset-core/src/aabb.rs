@@ -2,6 +2,43 @@
 
 use glam::Vec3;
 
+use crate::{Error, Result};
+
+/// The widest extent, along any axis, of positions that the workspace's `f32` distance
+/// arithmetic handles: squared distances overflow `f32` once two points lie about 1.8e19
+/// apart, and sums of squares over three axes and kernel weights need a margin below that.
+/// Surfaces, indices and textures refuse wider inputs with [`Error::SpanTooLarge`]
+/// ([`check_span`]) instead of computing infinities and NaNs. Positions far from the
+/// origin but close together are fine (and `io` reading can recentre them).
+pub const MAX_SPAN: f32 = 1e18;
+
+/// Errors with [`Error::SpanTooLarge`] when `positions` span more than [`MAX_SPAN`] along
+/// some axis (an infinite span, from coordinates near `f32::MAX` of both signs, included).
+/// `what` names the positions in the message. Empty input passes.
+///
+/// ```
+/// use glam::Vec3;
+/// use pointset_core::check_span;
+///
+/// assert!(check_span(&[Vec3::ZERO, Vec3::splat(1e6)], "points").is_ok());
+/// let err = check_span(&[Vec3::ZERO, Vec3::new(1e25, 0.0, 0.0)], "points").unwrap_err();
+/// assert!(err.to_string().contains("rescale"));
+/// ```
+pub fn check_span(positions: &[Vec3], what: &str) -> Result<()> {
+    let Some(bounds) = Aabb::from_points(positions) else {
+        return Ok(());
+    };
+    let extent = bounds.max - bounds.min;
+    let span = extent.max_element();
+    if span <= MAX_SPAN {
+        return Ok(());
+    }
+    Err(Error::SpanTooLarge {
+        what: what.to_string(),
+        span,
+    })
+}
+
 /// An axis-aligned box `[min, max]` (closed on both sides).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -102,6 +139,30 @@ mod tests {
         assert_eq!(b.max, Vec3::new(1.0, 5.0, 3.0));
         assert!(pts.iter().all(|&p| b.contains(p)));
         assert!(Aabb::from_points(&[]).is_none());
+    }
+
+    #[test]
+    fn spans_up_to_the_limit_pass_and_wider_ones_are_refused() {
+        let at = |x: f32| [Vec3::ZERO, Vec3::new(0.0, x, 0.0)];
+        assert!(check_span(&at(MAX_SPAN), "points").is_ok());
+        assert!(check_span(&[], "points").is_ok());
+        // Far from the origin but close together: fine; far apart: refused.
+        let far = Vec3::splat(1e12);
+        assert!(check_span(&[far, far + Vec3::X * 1e6], "points").is_ok());
+        assert!(check_span(&[far, -far], "points").is_ok());
+        assert!(check_span(&[far * 1e7, -far * 1e7], "points").is_err());
+        for wide in [2.0 * MAX_SPAN, 1e25, f32::MAX] {
+            match check_span(&at(wide), "points") {
+                Err(Error::SpanTooLarge { span, .. }) => assert_eq!(span, wide),
+                other => panic!("span {wide}: {other:?}"),
+            }
+        }
+        // Both signs near f32::MAX: the extent itself overflows to infinity.
+        let both = [Vec3::splat(-f32::MAX), Vec3::splat(f32::MAX)];
+        assert!(matches!(
+            check_span(&both, "points"),
+            Err(Error::SpanTooLarge { span, .. }) if span == f32::INFINITY
+        ));
     }
 
     #[test]

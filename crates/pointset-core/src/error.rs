@@ -195,6 +195,17 @@ pub enum Error {
         /// What was empty.
         what: String,
     },
+    /// Positions spread wider than [`crate::MAX_SPAN`]: squared distances between
+    /// them would overflow `f32`.
+    #[error(
+        "{what} span {span:e} units along one axis; distances between f32 coordinates overflow beyond about 1.8e19 and the library accepts spans up to 1e18: rescale the file's units"
+    )]
+    SpanTooLarge {
+        /// What the positions are (e.g. "points of the MLS surface").
+        what: String,
+        /// The widest extent along an axis.
+        span: f32,
+    },
     /// A parameter lies outside its valid range.
     #[error("parameter `{name}` = {value} is out of range: expected {expected}")]
     InvalidParameter {

@@ -135,15 +135,19 @@ impl TriMesh {
     }
 
     /// Indices of triangles with a repeated vertex or (near-)zero area: area below
-    /// `1e-12 ·` the squared bounding-box diagonal.
+    /// `1e-12 ·` the squared bounding-box diagonal. Both sides are compared after an exact
+    /// rescaling by a power of two ([`crate::power_of_two_scale`]), so the test does not
+    /// overflow for large meshes or vanish for tiny ones.
     pub fn degenerate_faces(&self) -> Vec<usize> {
-        let scale = self.bounding_box().map_or(0.0, |b| b.diagonal());
+        let diagonal = self.bounding_box().map_or(0.0, |b| b.diagonal());
+        let unit = crate::power_of_two_scale(diagonal);
+        let scale = diagonal * unit;
         let threshold = 1e-12 * scale * scale;
         self.triangles
             .iter()
             .enumerate()
             .filter(|(_, t)| {
-                let [a, b, c] = self.corners(t);
+                let [a, b, c] = self.corners(t).map(|p| p * unit);
                 t[0] == t[1]
                     || t[1] == t[2]
                     || t[0] == t[2]
@@ -159,7 +163,7 @@ impl TriMesh {
             .iter()
             .map(|t| {
                 let [a, b, c] = self.corners(t);
-                (b - a).cross(c - a).normalize_or_zero()
+                crate::triangle_normal(a, b, c)
             })
             .collect()
     }
@@ -169,8 +173,8 @@ impl TriMesh {
         self.triangles
             .iter()
             .map(|t| {
-                let [a, b, c] = self.corners(t);
-                f64::from((b - a).cross(c - a).length()) * 0.5
+                let [a, b, c] = self.corners(t).map(|p| p.as_dvec3());
+                (b - a).cross(c - a).length() * 0.5
             })
             .sum()
     }
@@ -182,20 +186,20 @@ impl TriMesh {
         for t in &self.triangles {
             let corners = self.corners(t);
             let face = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
-            let unit = face.normalize_or_zero();
+            let unit = crate::triangle_normal(corners[0], corners[1], corners[2]);
             for k in 0..3 {
                 let w = match weighting {
                     NormalWeighting::Area => face,
                     NormalWeighting::Angle => {
-                        let e1 = (corners[(k + 1) % 3] - corners[k]).normalize_or_zero();
-                        let e2 = (corners[(k + 2) % 3] - corners[k]).normalize_or_zero();
+                        let e1 = crate::unit_vector(corners[(k + 1) % 3] - corners[k]);
+                        let e2 = crate::unit_vector(corners[(k + 2) % 3] - corners[k]);
                         unit * e1.dot(e2).clamp(-1.0, 1.0).acos()
                     }
                 };
                 acc[t[k] as usize] += w;
             }
         }
-        acc.into_iter().map(Vec3::normalize_or_zero).collect()
+        acc.into_iter().map(crate::unit_vector).collect()
     }
 
     /// Stores freshly computed vertex normals in the mesh.

@@ -62,10 +62,12 @@ fn check_radius(radius: f32) -> Result<()> {
 }
 
 impl KdIndex {
-    /// Builds the index; errors if any point is NaN or infinite, or there are more than
-    /// `u32::MAX` points.
+    /// Builds the index; errors if any point is NaN or infinite, the points span more
+    /// than [`crate::MAX_SPAN`] (their squared distances would overflow), or there are more
+    /// than `u32::MAX` points.
     pub fn new(points: &[Vec3]) -> Result<Self> {
         crate::error::check_finite_vec3(points, "indexed point")?;
+        crate::check_span(points, "indexed points")?;
         if points.len() > u32::MAX as usize {
             return Err(Error::InvalidParameter {
                 name: "points",
