@@ -161,11 +161,7 @@ impl FileInfo {
             .iter()
             .map(|a| format!("{} ({})", a.name, a.storage))
             .collect();
-        let fmt3 = |v: Option<[f64; 3]>| {
-            v.map_or("-".to_string(), |v| {
-                format!("{:.6} {:.6} {:.6}", v[0], v[1], v[2])
-            })
-        };
+        let fmt3 = |v: Option<[f64; 3]>| v.map_or("-".to_string(), corner_text);
         let mut s = format!(
             "file:        {}\nformat:      {} ({})\nkind:        {}\nvertices:    {}\nfaces:       {}\n",
             self.path, self.format, self.encoding, self.kind, self.vertices, self.faces
@@ -325,7 +321,6 @@ impl VolumeInfo {
 
     fn text(&self) -> String {
         let [x, y, z] = self.dims;
-        let corner = |c: [f64; 3]| format!("{:.6} {:.6} {:.6}", c[0], c[1], c[2]);
         let mut s = format!(
             "file:        {}\nformat:      {}\nkind:        {}\nsize:        {x} x {y} x {z} \
              nodes, spacing {}\norigin:      {}\nfar corner:  {}",
@@ -333,8 +328,8 @@ impl VolumeInfo {
             self.format,
             self.kind,
             self.spacing,
-            corner(self.origin),
-            corner(self.far_corner)
+            corner_text(self.origin),
+            corner_text(self.far_corner)
         );
         if let (Some(lo), Some(hi)) = (self.min, self.max) {
             s.push_str(&format!(
@@ -378,4 +373,47 @@ pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
     let info = FileInfo::new(path, &loaded);
     let text = info.text();
     print(globals, args.json, &info, text)
+}
+
+/// A corner's coordinates for the text report: six decimals (micrometres of a metre-based
+/// georeferenced scan) when its largest coordinate lies between a thousandth and a
+/// trillion, seven significant digits in exponent form otherwise, where fixed decimals
+/// would print zeros or a run of digits no `f32` holds.
+fn corner_text(c: [f64; 3]) -> String {
+    let largest = c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let fixed = largest == 0.0 || (1e-3..1e12).contains(&largest);
+    c.map(|v| {
+        if fixed {
+            format!("{v:.6}")
+        } else {
+            format!("{v:.6e}")
+        }
+    })
+    .join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::corner_text;
+
+    #[test]
+    fn corners_print_with_decimals_or_exponents_by_magnitude() {
+        assert_eq!(
+            corner_text([0.0, 499_999.000_265, -2.5]),
+            "0.000000 499999.000265 -2.500000"
+        );
+        // A near-zero coordinate beside ordinary ones stays in decimals.
+        assert_eq!(
+            corner_text([8.6e-18, 4.99, 0.0]),
+            "0.000000 4.990000 0.000000"
+        );
+        assert_eq!(
+            corner_text([1e-20, -2e-21, 0.0]),
+            "1.000000e-20 -2.000000e-21 0.000000e0"
+        );
+        assert_eq!(
+            corner_text([-2.217e21, 0.5, 1.0]),
+            "-2.217000e21 5.000000e-1 1.000000e0"
+        );
+    }
 }
