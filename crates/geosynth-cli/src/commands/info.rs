@@ -327,11 +327,12 @@ impl VolumeInfo {
             self.path,
             self.format,
             self.kind,
-            self.spacing,
+            numbers_text([f64::from(self.spacing)]).join(""),
             corner_text(self.origin),
             corner_text(self.far_corner)
         );
         if let (Some(lo), Some(hi)) = (self.min, self.max) {
+            let [lo, hi] = numbers_text([f64::from(lo), f64::from(hi)]);
             s.push_str(&format!(
                 "\nvalues:      {lo} .. {hi}, {:.1}% of nodes negative (inside)",
                 100.0 * self.inside_share
@@ -375,21 +376,25 @@ pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
     print(globals, args.json, &info, text)
 }
 
-/// A corner's coordinates for the text report: six decimals (micrometres of a metre-based
-/// georeferenced scan) when its largest coordinate lies between a thousandth and a
-/// trillion, seven significant digits in exponent form otherwise, where fixed decimals
-/// would print zeros or a run of digits no `f32` holds.
-fn corner_text(c: [f64; 3]) -> String {
-    let largest = c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+/// Numbers printed together (a corner's coordinates, a value range) for the text report:
+/// six decimals (micrometres of a metre-based georeferenced scan) when the largest lies
+/// between a thousandth and a trillion, seven significant digits in exponent form
+/// otherwise, where fixed decimals would print zeros or a run of digits no `f32` holds.
+fn numbers_text<const N: usize>(values: [f64; N]) -> [String; N] {
+    let largest = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let fixed = largest == 0.0 || (1e-3..1e12).contains(&largest);
-    c.map(|v| {
+    values.map(|v| {
         if fixed {
             format!("{v:.6}")
         } else {
             format!("{v:.6e}")
         }
     })
-    .join(" ")
+}
+
+/// A corner's coordinates, by [`numbers_text`].
+fn corner_text(c: [f64; 3]) -> String {
+    numbers_text(c).join(" ")
 }
 
 #[cfg(test)]
