@@ -344,20 +344,7 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
         .copied()
         .filter(|t| !(is_far(t) && runaway[regions.root(t[0]) as usize]))
         .collect();
-    let mut used = vec![false; mesh.vertex_count()];
-    for &v in kept.iter().flatten() {
-        used[v as usize] = true;
-    }
-    let order: Vec<usize> = (0..used.len()).filter(|&v| used[v]).collect();
-    let mut renumber = vec![0u32; used.len()];
-    for (new, &old) in order.iter().enumerate() {
-        renumber[old] = new as u32;
-    }
-    let kept = kept
-        .iter()
-        .map(|t| t.map(|v| renumber[v as usize]))
-        .collect();
-    Ok(TriMesh::new(mesh.vertices().subset(&order)?, kept)?)
+    Ok(TriMesh::new(mesh.vertices().clone(), kept)?.without_unreferenced_vertices()?)
 }
 
 #[cfg(test)]

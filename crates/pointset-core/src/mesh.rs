@@ -284,14 +284,11 @@ impl TriMesh {
         }
         // Connected components of the vertices used by faces.
         let mut sets = DisjointSets::new(self.vertex_count());
-        let mut used = vec![false; self.vertex_count()];
         for t in &self.triangles {
-            for &v in t {
-                used[v as usize] = true;
-            }
             sets.join(t[0], t[1]);
             sets.join(t[0], t[2]);
         }
+        let used = self.referenced();
         let used_count = used.iter().filter(|&&u| u).count();
         let components = (0..self.vertex_count() as u32)
             .filter(|&v| used[v as usize] && sets.root(v) == v)
@@ -307,6 +304,58 @@ impl TriMesh {
         }
     }
 
+    /// How many vertices no triangle uses. Some tools warn about them (MeshLab) or drop
+    /// them on load and report a different vertex count; bounding boxes that count them
+    /// disagree with those that do not.
+    pub fn unreferenced_vertices(&self) -> usize {
+        self.vertex_count() - self.referenced().iter().filter(|&&u| u).count()
+    }
+
+    /// The mesh without the vertices no triangle uses, the others kept in order with their
+    /// normals, attributes and UVs, and the triangles renumbered.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::{PointSet, TriMesh};
+    /// // Vertex 1 is used by no triangle.
+    /// let p = vec![Vec3::ZERO, Vec3::splat(9.0), Vec3::X, Vec3::Y];
+    /// let mesh = TriMesh::new(PointSet::new(p)?, vec![[0, 2, 3]])?;
+    /// assert_eq!(mesh.unreferenced_vertices(), 1);
+    /// let compact = mesh.without_unreferenced_vertices()?;
+    /// assert_eq!(compact.triangles(), &[[0, 1, 2]]);
+    /// assert_eq!(compact.positions(), &[Vec3::ZERO, Vec3::X, Vec3::Y]);
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn without_unreferenced_vertices(&self) -> Result<TriMesh> {
+        let used = self.referenced();
+        let kept: Vec<usize> = (0..self.vertex_count()).filter(|&v| used[v]).collect();
+        let mut renumbered = vec![0u32; self.vertex_count()];
+        for (new, &old) in kept.iter().enumerate() {
+            renumbered[old] = new as u32;
+        }
+        let triangles = self
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| renumbered[v as usize]))
+            .collect();
+        let mesh = TriMesh::new(self.vertices.subset(&kept)?, triangles)?;
+        match &self.uvs {
+            Some(uvs) => mesh.with_uvs(kept.iter().map(|&v| uvs[v]).collect()),
+            None => Ok(mesh),
+        }
+    }
+
+    /// For each vertex, whether some triangle uses it.
+    fn referenced(&self) -> Vec<bool> {
+        let mut used = vec![false; self.vertex_count()];
+        for t in &self.triangles {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        used
+    }
+
     /// Consumes the mesh and returns its parts.
     pub fn into_parts(self) -> (PointSet, Vec<[u32; 3]>, Option<Vec<Vec2>>) {
         (self.vertices, self.triangles, self.uvs)
@@ -316,6 +365,57 @@ impl TriMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn dropping_unreferenced_vertices_keeps_the_rest_with_their_data() {
+        let p: Vec<Vec3> = (0..6)
+            .map(|i| Vec3::new(i as f32, (i * i) as f32, 1.0))
+            .collect();
+        let normals: Vec<Vec3> = (0..6)
+            .map(|i| Vec3::new(0.0, 0.0, i as f32 + 1.0))
+            .collect();
+        let uvs: Vec<Vec2> = (0..6).map(|i| Vec2::new(i as f32, 0.5)).collect();
+        let vertices = PointSet::new(p.clone())
+            .unwrap()
+            .with_normals(normals)
+            .unwrap()
+            .with_attribute(crate::Attribute::new(
+                "id",
+                (0..6).map(|i| i as f32).collect(),
+            ))
+            .unwrap();
+        // Vertices 0 and 3 are used by no triangle.
+        let mesh = TriMesh::new(vertices, vec![[1, 2, 4], [4, 2, 5]])
+            .unwrap()
+            .with_uvs(uvs)
+            .unwrap();
+        assert_eq!(mesh.unreferenced_vertices(), 2);
+        let compact = mesh.without_unreferenced_vertices().unwrap();
+        assert_eq!(compact.unreferenced_vertices(), 0);
+        assert_eq!(compact.triangles(), &[[0, 1, 2], [2, 1, 3]]);
+        let kept = [1usize, 2, 4, 5];
+        for (new, &old) in kept.iter().enumerate() {
+            assert_eq!(compact.positions()[new], p[old]);
+            assert_eq!(
+                compact.vertices().normals().unwrap()[new].z,
+                old as f32 + 1.0
+            );
+            assert_eq!(
+                compact.vertices().attribute("id").unwrap().values()[new],
+                old as f32
+            );
+            assert_eq!(compact.uvs().unwrap()[new].x, old as f32);
+        }
+        // The faces are the same triangles in space.
+        for (a, b) in mesh.triangles().iter().zip(compact.triangles()) {
+            assert_eq!(
+                a.map(|v| p[v as usize]),
+                b.map(|v| compact.positions()[v as usize])
+            );
+        }
+        // Nothing to drop: the same mesh.
+        assert_eq!(compact.without_unreferenced_vertices().unwrap(), compact);
+    }
 
     /// A unit cube with outward-facing triangles.
     pub(crate) fn cube() -> TriMesh {

@@ -310,7 +310,8 @@ pub fn copied_mesh(
     }
     let seam_distance_after = mean_abs(&out);
     let boundary_edges_after = boundary_edges(&tris).len();
-    let mesh = TriMesh::new(PointSet::new(out)?, tris)?;
+    // Welding collapses some copied triangles onto an edge; their vertices go too.
+    let mesh = TriMesh::new(PointSet::new(out)?, tris)?.without_unreferenced_vertices()?;
     Ok(CopiedMesh {
         mesh,
         copied_triangles,

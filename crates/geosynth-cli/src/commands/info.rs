@@ -34,6 +34,8 @@ pub struct FileInfo {
     vertices: usize,
     faces: usize,
     degenerate_faces: usize,
+    /// Vertices no face uses (meshes only): some tools drop them or warn.
+    unreferenced_vertices: usize,
     topology: Option<TopologyInfo>,
     /// The topology with the vertices that share a position welded
     /// ([`TriMesh::welded`](geosynth::core::TriMesh::welded)), when some do (OBJ files
@@ -126,6 +128,7 @@ impl FileInfo {
             vertices: points.len(),
             faces: g.mesh().map_or(0, |m| m.face_count()),
             degenerate_faces: g.mesh().map_or(0, |m| m.degenerate_faces().len()),
+            unreferenced_vertices: g.mesh().map_or(0, |m| m.unreferenced_vertices()),
             topology: g.mesh().map(|m| TopologyInfo::from(&m.topology())),
             welded_topology: g.mesh().and_then(|m| {
                 let welded = m.welded().ok()?;
@@ -168,6 +171,12 @@ impl FileInfo {
         );
         if self.faces > 0 {
             s.push_str(&format!("degenerate:  {}\n", self.degenerate_faces));
+            if self.unreferenced_vertices > 0 {
+                s.push_str(&format!(
+                    "unused:      {} vertices no face uses\n",
+                    self.unreferenced_vertices
+                ));
+            }
         }
         if let Some(t) = &self.topology {
             s.push_str(&format!("topology:    {}\n", t.text()));
