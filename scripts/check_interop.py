@@ -4,8 +4,9 @@
    compares counts, boxes and values with `geosynth info --json`;
 2. writes PLY files with plyfile (ascii, binary little and big endian; float and double
    coordinates; three list-count/index type pairs; colours, a double and a short
-   attribute; an extra element) and OBJ/OFF files with trimesh into DIR/foreign, and
-   checks that `geosynth info --json` reads the same counts, box and attributes.
+   attribute; an extra element), OBJ/OFF files with trimesh and NRRD fields with pynrrd
+   (raw, gzip, ascii; float, double, short, uchar) into DIR/foreign, and checks that
+   `geosynth info --json` reads the same counts, box, attributes and value range.
 
 A manual interoperability check, not part of CI (the readers are not project
 dependencies). Usage:
@@ -104,6 +105,26 @@ for ext in ['obj', 'off']:
     path = foreign / f'trimesh_icosphere.{ext}'
     sphere.export(str(path))
     written.append((path, len(sphere.vertices), len(sphere.faces), np.asarray(sphere.vertices), []))
+volume = rng.normal(size=(7, 5, 6))
+fields = []
+for encoding in ['raw', 'gzip', 'ascii']:
+    for dtype in ['float32', 'float64', 'int16', 'uint8']:
+        values = (volume * 10).astype(dtype) if 'int' in dtype else volume.astype(dtype)
+        path = foreign / f'pynrrd_{encoding}_{dtype}.nrrd'
+        nrrd.write(str(path), values, {'encoding': encoding, 'spacings': [0.5] * 3}, index_order='F')
+        fields.append((path, values))
+for path, values in fields:
+    result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
+    if result.returncode != 0:
+        ok, note = False, result.stderr.strip()
+    else:
+        ours = json.loads(result.stdout)
+        ok = (list(ours['dims']) == list(values.shape)
+              and np.isclose(ours['min'], values.min()) and np.isclose(ours['max'], values.max())
+              and np.isclose(ours['inside_share'], (values < 0).mean()))
+        note = f"dims {ours['dims']} values {ours['min']:.4g}..{ours['max']:.4g}"
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + str(path.relative_to(root)) + ': ' + note)
 for path, vertices, face_count, points, attributes in written:
     result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
     if result.returncode != 0:

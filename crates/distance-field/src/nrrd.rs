@@ -4,14 +4,16 @@
 //! Written: `NRRD0004`, `type: float`, `encoding: raw`, `endian: little`, `space dimension:
 //! 3`, `space directions` and `space origin`; 4-channel grids add a leading axis of size 4
 //! with `kinds: vector domain domain domain` (and `none` as its space direction). Read: the
-//! same, plus `spacings`/`axis mins` instead of space fields, `double` data (converted) and
-//! big-endian data. Gzip and detached data files are not supported and are reported as such.
+//! same, plus `spacings`/`axis mins` instead of space fields; `double` and 8-, 16- and 32-bit
+//! integer data (converted to `f32` as they are: no value scaling is applied); big-endian
+//! data; and `gzip` (pynrrd's default) and `ascii` encodings. 64-bit integers, `bzip2`,
+//! detached data files and byte or line skips are not supported and are reported as such.
 
 use std::io::Write;
 use std::path::Path;
 
 use glam::{DVec3, Vec3, Vec4};
-use pointset_core::Grid3;
+use pointset_core::{Grid3, ScalarType};
 
 use crate::error::{FieldError, Result};
 
@@ -255,22 +257,33 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
     };
 
     let (line, ty) = require("type")?;
-    let elem = match ty {
-        "float" | "float32" => 4,
-        "double" | "float64" => 8,
+    let scalar = scalar_type(ty).ok_or_else(|| {
+        nrrd_error(
+            format!("line {line}"),
+            format!(
+                "unsupported type `{ty}` (8-, 16- and 32-bit integers, float and double are read)"
+            ),
+        )
+    })?;
+    let (line, enc) = require("encoding")?;
+    let encoding = match enc {
+        "raw" => Encoding::Raw,
+        "gzip" | "gz" => Encoding::Gzip,
+        "ascii" | "text" | "txt" => Encoding::Ascii,
         other => {
             return Err(nrrd_error(
                 format!("line {line}"),
-                format!("unsupported type `{other}` (float or double only)"),
+                format!("unsupported encoding `{other}` (raw, gzip and ascii are read)"),
             ));
         }
     };
-    let (line, enc) = require("encoding")?;
-    if enc != "raw" {
-        return Err(nrrd_error(
-            format!("line {line}"),
-            format!("unsupported encoding `{enc}` (raw only)"),
-        ));
+    for key in ["byte skip", "byteskip", "line skip", "lineskip"] {
+        if let Some((line, skip)) = get(key).filter(|(_, v)| *v != "0") {
+            return Err(nrrd_error(
+                format!("line {line}"),
+                format!("`{key}: {skip}` is not supported (data must follow the header)"),
+            ));
+        }
     }
     if get("data file").or_else(|| get("datafile")).is_some() {
         return Err(nrrd_error(
@@ -372,40 +385,43 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
         .iter()
         .try_fold(channels, |acc, &d| acc.checked_mul(d))
         .ok_or_else(|| nrrd_error("header", "sizes overflow"))?;
-    let needed = count
-        .checked_mul(elem)
-        .ok_or_else(|| nrrd_error("header", "sizes overflow"))?;
-    let available = bytes.len() - pos;
-    if needed > available {
-        return Err(nrrd_error(
-            format!("byte {pos}"),
-            format!("the header promises {needed} data bytes but only {available} follow"),
-        ));
-    }
-    let raw = &bytes[pos..pos + needed];
-    let data: Vec<f32> = if elem == 4 {
-        raw.chunks_exact(4)
-            .map(|c| {
-                let b = [c[0], c[1], c[2], c[3]];
-                if big_endian {
-                    f32::from_be_bytes(b)
+    let body = &bytes[pos..];
+    let data = match encoding {
+        Encoding::Ascii => ascii_values(body, pos, count)?,
+        Encoding::Raw | Encoding::Gzip => {
+            let needed = count
+                .checked_mul(scalar.size())
+                .ok_or_else(|| nrrd_error("header", "sizes overflow"))?;
+            let inflated;
+            let raw = if encoding == Encoding::Gzip {
+                inflated = gunzip(body, pos, needed)?;
+                &inflated[..]
+            } else {
+                body
+            };
+            if needed > raw.len() {
+                let what = if encoding == Encoding::Gzip {
+                    "decompressed data bytes"
                 } else {
-                    f32::from_le_bytes(b)
-                }
-            })
-            .collect()
-    } else {
-        raw.chunks_exact(8)
-            .map(|c| {
-                let mut b = [0u8; 8];
-                b.copy_from_slice(c);
-                (if big_endian {
-                    f64::from_be_bytes(b)
-                } else {
-                    f64::from_le_bytes(b)
-                }) as f32
-            })
-            .collect()
+                    "data bytes follow"
+                };
+                return Err(nrrd_error(
+                    format!("byte {pos}"),
+                    format!(
+                        "the header promises {needed} data bytes but only {} {what}",
+                        raw.len()
+                    ),
+                ));
+            }
+            raw[..needed]
+                .chunks_exact(scalar.size())
+                .map(|word| {
+                    scalar
+                        .decode(word, big_endian)
+                        .map_or(f32::NAN, |v| v as f32)
+                })
+                .collect()
+        }
     };
     Ok(NrrdVolume {
         dims,
@@ -414,6 +430,80 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
         channels,
         data,
     })
+}
+
+/// How the data after the header is encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Encoding {
+    /// Binary values, `endian` byte order.
+    Raw,
+    /// The same, gzip-compressed (pynrrd's default).
+    Gzip,
+    /// Whitespace- (or comma-) separated numbers.
+    Ascii,
+}
+
+/// The storage type named by an NRRD `type` field, in any of the spellings the format
+/// allows (`uchar`, `unsigned char`, `uint8`, `uint8_t`, …). 64-bit integers and `block`
+/// are not read.
+fn scalar_type(name: &str) -> Option<ScalarType> {
+    Some(match name {
+        "signed char" | "int8" | "int8_t" => ScalarType::I8,
+        "uchar" | "unsigned char" | "uint8" | "uint8_t" => ScalarType::U8,
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
+            ScalarType::I16
+        }
+        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
+            ScalarType::U16
+        }
+        "int" | "signed int" | "int32" | "int32_t" => ScalarType::I32,
+        "uint" | "unsigned int" | "uint32" | "uint32_t" => ScalarType::U32,
+        "float" | "float32" => ScalarType::F32,
+        "double" | "float64" => ScalarType::F64,
+        _ => return None,
+    })
+}
+
+/// The gzip stream `body` (which starts at byte `offset` of the file) inflated, reading at
+/// most one byte more than the `needed` ones, so that a stream that would inflate to far
+/// more than the header promises (a decompression bomb) stops there.
+fn gunzip(body: &[u8], offset: usize, needed: usize) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let mut out = Vec::new();
+    flate2::read::MultiGzDecoder::new(body)
+        .take(needed as u64 + 1)
+        .read_to_end(&mut out)
+        .map_err(|e| nrrd_error(format!("byte {offset}"), format!("gzip data: {e}")))?;
+    Ok(out)
+}
+
+/// The first `count` numbers of an ASCII-encoded body (which starts at byte `offset`).
+fn ascii_values(body: &[u8], offset: usize, count: usize) -> Result<Vec<f32>> {
+    let text = std::str::from_utf8(body)
+        .map_err(|_| nrrd_error(format!("byte {offset}"), "ascii data is not text"))?;
+    let values = text
+        .split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|t| !t.is_empty())
+        .take(count)
+        .map(|t| {
+            t.parse::<f64>().map(|v| v as f32).map_err(|_| {
+                nrrd_error(
+                    format!("byte {offset}"),
+                    format!("`{t}` in the data is not a number"),
+                )
+            })
+        })
+        .collect::<Result<Vec<f32>>>()?;
+    if values.len() < count {
+        return Err(nrrd_error(
+            format!("byte {offset}"),
+            format!(
+                "the header promises {count} values but only {} follow",
+                values.len()
+            ),
+        ));
+    }
+    Ok(values)
 }
 
 /// Whether a path names an NRRD file (`.nrrd`, any case).

@@ -560,8 +560,15 @@ fn nrrd_round_trips_and_rejects_short_data() {
     let liar = b"NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\nencoding: raw\nspacings: 1 1 1\n\n1234";
     assert!(matches!(nrrd::read(liar), Err(FieldError::Nrrd { .. })));
     for bad in [
-        &b"NRRD0004\ntype: short\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\n\n"[..],
+        &b"NRRD0004\ntype: int64\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\n\n00000000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: bzip2\nspacings: 1 1 1\n\n0000"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nbyte skip: 4\nspacings: 1 1 1\n\n00000000"[..],
+        // Data short of what the header promises, in each encoding.
+        &b"NRRD0004\ntype: short\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\n\n0"[..],
         &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: gzip\nspacings: 1 1 1\n\n"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 2\nencoding: ascii\nspacings: 1 1 1\n\n1.5"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: ascii\nspacings: 1 1 1\n\nabc"[..],
+        &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: gzip\nspacings: 1 1 1\n\nnot gzip"[..],
         &b"NRRD0004\ntype: float\nsizes: 1 1\nencoding: raw\nspacings: 1 1\n\n"[..],
         &b"not nrrd\n\n"[..],
         &b"NRRD0004\ntype: float"[..],
@@ -581,6 +588,85 @@ fn nrrd_round_trips_and_rejects_short_data() {
             String::from_utf8_lossy(bad)
         );
     }
+}
+
+#[test]
+fn nrrd_reads_every_scalar_type_in_every_encoding() {
+    use flate2::{Compression, write::GzEncoder};
+    use pointset_core::ScalarType;
+    use std::io::Write;
+    // Values every type holds exactly: -3..4 (0..7 for unsigned types), 2 x 2 x 2 nodes.
+    let types = [
+        ("signed char", ScalarType::I8),
+        ("uint8_t", ScalarType::U8),
+        ("short", ScalarType::I16),
+        ("unsigned short", ScalarType::U16),
+        ("int32", ScalarType::I32),
+        ("uint", ScalarType::U32),
+        ("float", ScalarType::F32),
+        ("double", ScalarType::F64),
+    ];
+    for (name, ty) in types {
+        let values: Vec<f64> = (0..8)
+            .map(|i| f64::from(i) - if ty.range().0 < 0.0 { 3.0 } else { 0.0 })
+            .collect();
+        let binary = |big: bool| -> Vec<u8> {
+            let mut out = Vec::new();
+            for &v in &values {
+                let mut le: Vec<u8> = match ty {
+                    ScalarType::I8 => (v as i8).to_le_bytes().to_vec(),
+                    ScalarType::U8 => (v as u8).to_le_bytes().to_vec(),
+                    ScalarType::I16 => (v as i16).to_le_bytes().to_vec(),
+                    ScalarType::U16 => (v as u16).to_le_bytes().to_vec(),
+                    ScalarType::I32 => (v as i32).to_le_bytes().to_vec(),
+                    ScalarType::U32 => (v as u32).to_le_bytes().to_vec(),
+                    ScalarType::F32 => (v as f32).to_le_bytes().to_vec(),
+                    ScalarType::F64 => v.to_le_bytes().to_vec(),
+                };
+                if big {
+                    le.reverse();
+                }
+                out.extend(le);
+            }
+            out
+        };
+        let gzip = |data: &[u8]| {
+            let mut encoder = GzEncoder::new(Vec::new(), Compression::default());
+            encoder.write_all(data).unwrap();
+            encoder.finish().unwrap()
+        };
+        let text: String = values.iter().map(|v| format!("{v}\n")).collect();
+        let bodies = [
+            ("raw", "little", binary(false)),
+            ("raw", "big", binary(true)),
+            ("gzip", "big", gzip(&binary(true))),
+            ("gz", "little", gzip(&binary(false))),
+            ("ascii", "little", text.into_bytes()),
+        ];
+        for (encoding, endian, body) in bodies {
+            let mut file = format!(
+                "NRRD0005\ntype: {name}\ndimension: 3\nsizes: 2 2 2\nendian: {endian}\n\
+                 encoding: {encoding}\nspacings: 0.5 0.5 0.5\n\n"
+            )
+            .into_bytes();
+            file.extend_from_slice(&body);
+            let volume =
+                nrrd::read(&file).unwrap_or_else(|e| panic!("{name}, {encoding}, {endian}: {e}"));
+            let expected: Vec<f32> = values.iter().map(|&v| v as f32).collect();
+            assert_eq!(volume.data, expected, "{name}, {encoding}, {endian}");
+            assert_eq!((volume.dims, volume.spacing), ([2, 2, 2], 0.5));
+        }
+    }
+    // A gzip stream that inflates to far more than the header promises is read only as
+    // far as needed (64 MB of zeros behind a 2 x 2 x 2 float header).
+    let mut encoder = GzEncoder::new(Vec::new(), Compression::best());
+    for _ in 0..64 {
+        encoder.write_all(&vec![0u8; 1 << 20]).unwrap();
+    }
+    let mut bomb =
+        b"NRRD0004\ntype: float\nsizes: 2 2 2\nencoding: gzip\nspacings: 1 1 1\n\n".to_vec();
+    bomb.extend(encoder.finish().unwrap());
+    assert_eq!(nrrd::read(&bomb).unwrap().data, vec![0.0; 8]);
 }
 
 #[test]

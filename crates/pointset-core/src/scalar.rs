@@ -100,6 +100,37 @@ impl ScalarType {
         })
     }
 
+    /// One value decoded from the first [`Self::size`] bytes of `bytes`, stored
+    /// little-endian or big-endian; `None` when `bytes` is shorter.
+    ///
+    /// ```
+    /// use pointset_core::ScalarType;
+    ///
+    /// assert_eq!(ScalarType::I16.decode(&[0xff, 0xfe], true), Some(-2.0));
+    /// assert_eq!(ScalarType::I16.decode(&[0xfe, 0xff], false), Some(-2.0));
+    /// assert_eq!(ScalarType::F64.decode(&[0; 4], false), None);
+    /// ```
+    pub fn decode(self, bytes: &[u8], big_endian: bool) -> Option<f64> {
+        /// The first `N` bytes, in little-endian order.
+        fn word<const N: usize>(bytes: &[u8], big_endian: bool) -> Option<[u8; N]> {
+            let mut out: [u8; N] = bytes.get(..N)?.try_into().ok()?;
+            if big_endian {
+                out.reverse();
+            }
+            Some(out)
+        }
+        Some(match self {
+            ScalarType::I8 => f64::from(i8::from_le_bytes(word(bytes, big_endian)?)),
+            ScalarType::U8 => f64::from(u8::from_le_bytes(word(bytes, big_endian)?)),
+            ScalarType::I16 => f64::from(i16::from_le_bytes(word(bytes, big_endian)?)),
+            ScalarType::U16 => f64::from(u16::from_le_bytes(word(bytes, big_endian)?)),
+            ScalarType::I32 => f64::from(i32::from_le_bytes(word(bytes, big_endian)?)),
+            ScalarType::U32 => f64::from(u32::from_le_bytes(word(bytes, big_endian)?)),
+            ScalarType::F32 => f64::from(f32::from_le_bytes(word(bytes, big_endian)?)),
+            ScalarType::F64 => f64::from_le_bytes(word(bytes, big_endian)?),
+        })
+    }
+
     /// Converts a value for storage: integers are rounded and clamped to the type's range,
     /// `F32` rounds to single precision.
     pub fn quantize(self, value: f64) -> f64 {

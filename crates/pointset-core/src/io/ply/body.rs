@@ -104,39 +104,19 @@ struct BinarySource<'a> {
     big_endian: bool,
 }
 
-impl BinarySource<'_> {
-    fn take<const N: usize>(&mut self, what: &dyn Fn() -> String) -> Result<[u8; N]> {
-        let slice = self
+impl ValueSource for BinarySource<'_> {
+    fn scalar(&mut self, ty: ScalarType, what: &dyn Fn() -> String) -> Result<f64> {
+        let value = self
             .data
-            .get(self.pos..self.pos + N)
+            .get(self.pos..)
+            .and_then(|rest| ty.decode(rest, self.big_endian))
             .ok_or_else(|| Error::UnexpectedEof {
                 format: FileFormat::Ply,
                 location: self.location(),
                 what: what(),
             })?;
-        let mut out = [0u8; N];
-        out.copy_from_slice(slice);
-        if self.big_endian {
-            out.reverse();
-        }
-        self.pos += N;
-        Ok(out)
-    }
-}
-
-impl ValueSource for BinarySource<'_> {
-    fn scalar(&mut self, ty: ScalarType, what: &dyn Fn() -> String) -> Result<f64> {
-        // Bytes are put in little-endian order by `take`.
-        Ok(match ty {
-            ScalarType::I8 => f64::from(i8::from_le_bytes(self.take(what)?)),
-            ScalarType::U8 => f64::from(u8::from_le_bytes(self.take(what)?)),
-            ScalarType::I16 => f64::from(i16::from_le_bytes(self.take(what)?)),
-            ScalarType::U16 => f64::from(u16::from_le_bytes(self.take(what)?)),
-            ScalarType::I32 => f64::from(i32::from_le_bytes(self.take(what)?)),
-            ScalarType::U32 => f64::from(u32::from_le_bytes(self.take(what)?)),
-            ScalarType::F32 => f64::from(f32::from_le_bytes(self.take(what)?)),
-            ScalarType::F64 => f64::from_le_bytes(self.take(what)?),
-        })
+        self.pos += ty.size();
+        Ok(value)
     }
 
     fn location(&self) -> Location {
