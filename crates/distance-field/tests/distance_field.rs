@@ -724,6 +724,7 @@ proptest! {
         edits in proptest::collection::vec((0usize..400, any::<u8>()), 1..6),
         cut in 0usize..600,
         vec4 in any::<bool>(),
+        encoding in 0usize..3,
     ) {
         let grid = analytic_grid(4, 1.0, |p| p.x + p.y * p.z);
         let mut bytes = Vec::new();
@@ -733,6 +734,9 @@ proptest! {
             nrrd::write_vec4(&mut bytes, sdf.grid()).unwrap();
         } else {
             nrrd::write_scalar(&mut bytes, &grid).unwrap();
+        }
+        if encoding > 0 {
+            bytes = reencoded(&bytes, encoding == 1);
         }
         for (at, byte) in edits {
             if let Some(b) = bytes.get_mut(at) {
@@ -747,6 +751,32 @@ proptest! {
             let _ = volume.scalar_grid();
         }
     }
+}
+
+/// A raw little-endian float NRRD file as we write it, re-encoded as `gzip` or, when
+/// `gzip` is false, as `ascii` numbers.
+fn reencoded(raw: &[u8], gzip: bool) -> Vec<u8> {
+    use std::io::Write;
+    let split = raw.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
+    let header = String::from_utf8(raw[..split].to_vec()).unwrap();
+    let values: Vec<f32> = raw[split..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let (name, body) = if gzip {
+        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        encoder.write_all(&raw[split..]).unwrap();
+        ("gzip", encoder.finish().unwrap())
+    } else {
+        let text: String = values.iter().map(|v| format!("{v} ")).collect();
+        ("ascii", text.into_bytes())
+    };
+    let mut out = header
+        .replace("encoding: raw", &format!("encoding: {name}"))
+        .into_bytes();
+    out.extend(body);
+    assert_eq!(nrrd::read(&out).unwrap().data, values);
+    out
 }
 
 // ------------------------------------------------------------ winding numbers
