@@ -1247,26 +1247,97 @@ fn sdf_signs_intersecting_pieces_by_winding_numbers_when_asked() {
     assert!(!said.contains("note"), "{said}");
     assert_eq!(wrong, 0);
     // `voxel` takes the same flag for its exemplar mesh, and says the same.
-    let synthesized = dir.path().join("voxel.ply");
     for (sign, noted) in [("pseudo-normal", true), ("winding", false)] {
-        let said = ok(&[
-            "voxel",
-            mesh.to_str().unwrap(),
-            "-o",
-            synthesized.to_str().unwrap(),
-            "--source-res",
-            "16",
-            "--target-res",
-            "16",
-            "--levels",
-            "1",
-            "--block",
-            "8",
-            "--sign",
-            sign,
-        ]);
+        let said = tiny_voxel(&mesh, &dir.path().join("voxel.ply"), &["--sign", sign]);
         assert_eq!(said.contains("lie inside other parts"), noted, "{said}");
     }
+}
+
+/// Runs `geosynth voxel` on `mesh` at 16³ in one level of 8³ blocks, with `extra`
+/// arguments, and returns what it printed.
+fn tiny_voxel(mesh: &Path, out: &Path, extra: &[&str]) -> String {
+    let mut args = vec![
+        "voxel",
+        mesh.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--source-res",
+        "16",
+        "--target-res",
+        "16",
+        "--levels",
+        "1",
+        "--block",
+        "8",
+    ];
+    args.extend_from_slice(extra);
+    ok(&args)
+}
+
+#[test]
+fn sdf_and_voxel_turn_disagreeing_triangles_around_when_asked() {
+    // An icosphere with every 9th triangle turned over: either sign rule goes wrong near
+    // those triangles, the run says so, and `--orient-faces` gives the clean sphere's field.
+    let dir = tempfile::tempdir().unwrap();
+    let sphere = geosynth::fixtures::icosphere_mesh(3).unwrap();
+    let triangles = sphere
+        .triangles()
+        .iter()
+        .enumerate()
+        .map(|(i, &[a, b, c])| {
+            if i.is_multiple_of(9) {
+                [a, c, b]
+            } else {
+                [a, b, c]
+            }
+        })
+        .collect();
+    let scrambled = geosynth::core::TriMesh::new(sphere.vertices().clone(), triangles).unwrap();
+    let (clean, messy) = (dir.path().join("clean.ply"), dir.path().join("messy.ply"));
+    write_with_defaults(&clean, &geosynth::core::io::Geometry::Mesh(sphere.clone()));
+    write_with_defaults(&messy, &geosynth::core::io::Geometry::Mesh(scrambled));
+    let field = |input: &Path, name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "sdf",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--resolution",
+            "24",
+        ];
+        args.extend_from_slice(extra);
+        let said = ok(&args);
+        (said, geosynth::sdf::nrrd::read_file(&out).unwrap().data)
+    };
+    let (_, reference) = field(&clean, "clean.nrrd", &[]);
+    for sign in ["pseudo-normal", "winding"] {
+        let (said, wrong) = field(&messy, "messy.nrrd", &["--sign", sign]);
+        assert!(said.contains("disagree on which side is out"), "{said}");
+        let differing = |data: &[f32]| {
+            data.iter()
+                .zip(&reference)
+                .filter(|(a, b)| (**a < 0.0) != (**b < 0.0))
+                .count()
+        };
+        assert!(differing(&wrong) > 0, "{sign}");
+        let (said, fixed) = field(&messy, "fixed.nrrd", &["--sign", sign, "--orient-faces"]);
+        let turned = sphere.face_count().div_ceil(9);
+        assert!(
+            said.contains(&format!(
+                "oriented faces: {turned} of {}",
+                sphere.face_count()
+            )),
+            "{said}"
+        );
+        assert!(!said.contains("note"), "{said}");
+        assert_eq!(differing(&fixed), 0, "{sign}");
+    }
+    let said = tiny_voxel(&messy, &dir.path().join("voxel.ply"), &["--orient-faces"]);
+    assert!(
+        said.contains("oriented faces:") && !said.contains("note"),
+        "{said}"
+    );
 }
 
 #[test]

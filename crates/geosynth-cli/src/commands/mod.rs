@@ -35,6 +35,12 @@ pub struct SignArgs {
     /// with parts thinner than the kernel or stray normals, such as the chameleon).
     #[arg(long, value_enum, default_value_t = SignArg::Local)]
     sign: SignArg,
+    /// Turn a mesh's triangles to agree with their neighbours before signing (closed parts
+    /// facing out, open parts the way most of their triangles face): for meshes whose
+    /// triangles disagree on which side is out (`info` counts misoriented edges), which
+    /// either sign rule gets wrong near them. Point sets are left as they are.
+    #[arg(long)]
+    orient_faces: bool,
 }
 
 /// `--sign` values.
@@ -70,16 +76,50 @@ impl SignArgs {
         self.sign == SignArg::Winding
     }
 
-    /// A note when `mesh` is signed by pseudo-normals and they may be wrong somewhere: an
-    /// open, non-manifold or misoriented mesh, or closed parts that intersect (triangles
-    /// inside other parts). `None` otherwise, and with `--sign winding`.
+    /// `mesh` with its triangles made to agree
+    /// ([`TriMesh::consistently_oriented`](geosynth::core::TriMesh::consistently_oriented))
+    /// when `--orient-faces` was given, with a line saying what changed; otherwise `mesh`
+    /// as it is.
+    pub fn oriented(&self, mesh: TriMesh) -> CliResult<(TriMesh, Option<String>)> {
+        if !self.orient_faces {
+            return Ok((mesh, None));
+        }
+        let (oriented, change) = mesh.consistently_oriented()?;
+        let mut line = format!(
+            "oriented faces: {} of {} turned over ({} part(s))",
+            change.flipped_faces,
+            oriented.face_count(),
+            change.parts
+        );
+        if change.conflicting_edges > 0 {
+            line.push_str(&format!(
+                "; {} edges could not be made to agree (a non-orientable part, or edges of \
+                 more than two triangles)",
+                change.conflicting_edges
+            ));
+        }
+        Ok((oriented, Some(line)))
+    }
+
+    /// A note when `mesh`'s signs may be wrong somewhere: triangles that disagree on which
+    /// side is out (either rule; without `--orient-faces`), and, for pseudo-normals, an
+    /// open or non-manifold mesh or closed parts that intersect (triangles inside other
+    /// parts). `None` otherwise.
     pub fn note(&self, mesh: &TriMesh) -> CliResult<Option<String>> {
+        // By position: seams where a file splits its vertices (UVs) are not openings.
+        let topology = mesh.welded()?.topology();
+        if topology.misoriented_edges > 0 && !self.orient_faces {
+            return Ok(Some(format!(
+                "note: {} edges join triangles that disagree on which side is out, so \
+                 signs near them are wrong by either rule; --orient-faces turns the \
+                 triangles to agree first",
+                topology.misoriented_edges
+            )));
+        }
         if self.is_winding() {
             return Ok(None);
         }
         let remedy = "--sign winding signs by the generalized winding number instead";
-        // By position: seams where a file splits its vertices (UVs) are not openings.
-        let topology = mesh.welded()?.topology();
         if !topology.is_closed_manifold() {
             return Ok(Some(format!(
                 "note: the mesh is not closed ({} open, {} non-manifold, {} misoriented \

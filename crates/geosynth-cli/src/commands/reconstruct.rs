@@ -213,11 +213,17 @@ pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
     check_output_paths([], [args.output.as_path()])?;
     let params = args.sign.apply(args.grid.params()?);
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
-    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
-    if let Some(mesh) = loaded.geometry.mesh()
-        && let Some(note) = args.sign.note(mesh)?
-    {
-        status(globals, note);
+    let mut loaded =
+        io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    if let io::Geometry::Mesh(mesh) = loaded.geometry {
+        let (mesh, change) = args.sign.oriented(mesh)?;
+        if let Some(line) = change {
+            status(globals, line);
+        }
+        if let Some(note) = args.sign.note(&mesh)? {
+            status(globals, note);
+        }
+        loaded.geometry = io::Geometry::Mesh(mesh);
     }
     let bar = spinner(globals, "sampling distances");
     let sdf = signed_distance(&loaded.geometry, &params)?;

@@ -280,9 +280,14 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
             .flatten()
             .map(PathBuf::as_path),
     )?;
-    let exemplar = read_exemplar(&args.exemplar)?;
+    let mut exemplar = read_exemplar(&args.exemplar)?;
     if let Some(note) = precision_note(&exemplar, args.source_res) {
         status(globals, note);
+    }
+    let (mesh, change) = args.sign.oriented(exemplar.mesh)?;
+    exemplar.mesh = mesh;
+    if let Some(line) = change {
+        status(globals, line);
     }
     if let Some(note) = args.sign.note(&exemplar.mesh)? {
         status(globals, note);

@@ -367,6 +367,43 @@ fn malformed_files_give_specific_errors() {
 }
 
 #[test]
+fn real_meshes_with_faces_turned_over_are_oriented_back() {
+    // The shared watertight bunny, fertility and Spot (whose OBJ splits vertices along UV
+    // seams), every 7th triangle turned over, and each inside out: consistent orientation
+    // gives back the file's triangles exactly, outward.
+    for rel in [
+        "meshes/bunny_watertight.obj",
+        "meshes/fertility.off",
+        "meshes/spot_triangulated.obj",
+    ] {
+        let Some(loaded) = load("real_meshes_oriented_back", rel) else {
+            return;
+        };
+        let io::Geometry::Mesh(mesh) = loaded.geometry else {
+            panic!("{rel} is a mesh");
+        };
+        assert!(
+            mesh.welded().unwrap().topology().is_closed_manifold(),
+            "{rel}"
+        );
+        for turned in [|i: usize| i.is_multiple_of(7), |_: usize| true] {
+            let triangles = mesh
+                .triangles()
+                .iter()
+                .enumerate()
+                .map(|(i, &[a, b, c])| if turned(i) { [a, c, b] } else { [a, b, c] })
+                .collect();
+            let scrambled = TriMesh::new(mesh.vertices().clone(), triangles).unwrap();
+            let (fixed, change) = scrambled.consistently_oriented().unwrap();
+            assert_eq!(fixed.triangles(), mesh.triangles(), "{rel}");
+            assert_eq!((change.parts, change.conflicting_edges), (1, 0), "{rel}");
+            let expected = (0..mesh.face_count()).filter(|&i| turned(i)).count();
+            assert_eq!(change.flipped_faces, expected, "{rel}");
+        }
+    }
+}
+
+#[test]
 fn truncated_real_file_is_an_error_not_a_panic() {
     let Some(path) = shared_data("truncated_real_file", "pointsets/chameleon4k_normals.ply") else {
         return;
