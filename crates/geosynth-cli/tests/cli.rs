@@ -1310,6 +1310,9 @@ fn sdf_and_voxel_turn_disagreeing_triangles_around_when_asked() {
         let said = ok(&args);
         (said, geosynth::sdf::nrrd::read_file(&out).unwrap().data)
     };
+    // `info` points to the flag.
+    assert!(ok(&["info", messy.to_str().unwrap()]).contains("--orient-faces"));
+    assert!(!ok(&["info", clean.to_str().unwrap()]).contains("orientation:"));
     let (_, reference) = field(&clean, "clean.nrrd", &[]);
     for sign in ["pseudo-normal", "winding"] {
         let (said, wrong) = field(&messy, "messy.nrrd", &["--sign", sign]);

@@ -188,6 +188,19 @@ impl FileInfo {
                 w.topology.text()
             ));
         }
+        // By position, as `sdf` and `voxel` judge it (UV seams are not openings).
+        let misoriented = self
+            .welded_topology
+            .as_ref()
+            .map(|w| &w.topology)
+            .or(self.topology.as_ref())
+            .map_or(0, |t| t.misoriented_edges);
+        if misoriented > 0 {
+            s.push_str(&format!(
+                "orientation: {misoriented} edges join triangles that disagree on which side is \
+                 out (geosynth sdf and voxel --orient-faces turn them to agree)\n"
+            ));
+        }
         s.push_str(&format!(
             "normals:     {}\ncolours:     {}\nuvs:         {}\nattributes:  {}\nbbox min:    {}\nbbox max:    {}",
             match self.normal_disagreement {
