@@ -75,7 +75,7 @@ impl MeshSurface {
     /// Prepares `mesh` (degenerate triangles are skipped). Errors when no triangle remains,
     /// and when the vertices span more than [`pointset_core::MAX_SPAN`].
     pub fn new(mesh: &TriMesh) -> Result<Self> {
-        pointset_core::check_span(mesh.positions(), "mesh vertices")?;
+        let span = pointset_core::check_span(mesh.positions(), "mesh vertices")?;
         let degenerate: std::collections::HashSet<usize> =
             mesh.degenerate_faces().into_iter().collect();
         let tris: Vec<[u32; 3]> = mesh
@@ -89,10 +89,7 @@ impl MeshSurface {
             return Err(FieldError::EmptyMesh);
         }
         let pos = mesh.positions();
-        let scale = pointset_core::power_of_two_scale(
-            mesh.bounding_box()
-                .map_or(0.0, |b| (b.max - b.min).max_element()),
-        );
+        let scale = pointset_core::power_of_two_scale(span);
         let corners: Vec<[Vec3; 3]> = tris
             .iter()
             .map(|t| t.map(|v| pos[v as usize] * scale))

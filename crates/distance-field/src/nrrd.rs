@@ -415,12 +415,9 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
             }
             raw[..needed]
                 .chunks_exact(scalar.size())
-                .map(|word| {
-                    scalar
-                        .decode(word, big_endian)
-                        .map_or(f32::NAN, |v| v as f32)
-                })
-                .collect()
+                .map(|word| scalar.decode(word, big_endian).map(|v| v as f32))
+                .collect::<Option<Vec<f32>>>()
+                .ok_or_else(|| nrrd_error(format!("byte {pos}"), "a value is cut short"))?
         }
     };
     Ok(NrrdVolume {

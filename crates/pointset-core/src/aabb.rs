@@ -12,26 +12,27 @@ use crate::{Error, Result};
 /// origin but close together are fine (and `io` reading can recentre them).
 pub const MAX_SPAN: f32 = 1e18;
 
-/// Errors with [`Error::SpanTooLarge`] when `positions` span more than [`MAX_SPAN`] along
-/// some axis (an infinite span, from coordinates near `f32::MAX` of both signs, included).
-/// `what` names the positions in the message. Empty input passes.
+/// The widest extent of `positions` along an axis (0 for none), or
+/// [`Error::SpanTooLarge`] when it exceeds [`MAX_SPAN`] (an infinite span, from
+/// coordinates near `f32::MAX` of both signs, included). `what` names the positions in the
+/// message.
 ///
 /// ```
 /// use glam::Vec3;
 /// use pointset_core::check_span;
 ///
-/// assert!(check_span(&[Vec3::ZERO, Vec3::splat(1e6)], "points").is_ok());
+/// assert_eq!(check_span(&[Vec3::ZERO, Vec3::new(1e6, 2.0, 0.0)], "points")?, 1e6);
 /// let err = check_span(&[Vec3::ZERO, Vec3::new(1e25, 0.0, 0.0)], "points").unwrap_err();
 /// assert!(err.to_string().contains("rescale"));
+/// # Ok::<(), pointset_core::Error>(())
 /// ```
-pub fn check_span(positions: &[Vec3], what: &str) -> Result<()> {
+pub fn check_span(positions: &[Vec3], what: &str) -> Result<f32> {
     let Some(bounds) = Aabb::from_points(positions) else {
-        return Ok(());
+        return Ok(0.0);
     };
-    let extent = bounds.max - bounds.min;
-    let span = extent.max_element();
+    let span = (bounds.max - bounds.min).max_element();
     if span <= MAX_SPAN {
-        return Ok(());
+        return Ok(span);
     }
     Err(Error::SpanTooLarge {
         what: what.to_string(),

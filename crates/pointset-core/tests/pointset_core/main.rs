@@ -366,6 +366,17 @@ fn malformed_files_give_specific_errors() {
     assert!(read("noext", b"OFF\n1 0 0\n0 0 0\n").is_ok());
 }
 
+/// `mesh` with the triangles whose index `turned` picks turned over.
+fn with_turned(mesh: &TriMesh, turned: impl Fn(usize) -> bool) -> TriMesh {
+    let triangles = mesh
+        .triangles()
+        .iter()
+        .enumerate()
+        .map(|(i, &[a, b, c])| if turned(i) { [a, c, b] } else { [a, b, c] })
+        .collect();
+    TriMesh::new(mesh.vertices().clone(), triangles).unwrap()
+}
+
 #[test]
 fn real_meshes_with_faces_turned_over_are_oriented_back() {
     // The shared watertight bunny, fertility and Spot (whose OBJ splits vertices along UV
@@ -387,14 +398,7 @@ fn real_meshes_with_faces_turned_over_are_oriented_back() {
             "{rel}"
         );
         for turned in [|i: usize| i.is_multiple_of(7), |_: usize| true] {
-            let triangles = mesh
-                .triangles()
-                .iter()
-                .enumerate()
-                .map(|(i, &[a, b, c])| if turned(i) { [a, c, b] } else { [a, b, c] })
-                .collect();
-            let scrambled = TriMesh::new(mesh.vertices().clone(), triangles).unwrap();
-            let (fixed, change) = scrambled.consistently_oriented().unwrap();
+            let (fixed, change) = with_turned(&mesh, turned).consistently_oriented().unwrap();
             assert_eq!(fixed.triangles(), mesh.triangles(), "{rel}");
             assert_eq!((change.parts, change.conflicting_edges), (1, 0), "{rel}");
             let expected = (0..mesh.face_count()).filter(|&i| turned(i)).count();
@@ -429,20 +433,7 @@ fn real_meshes_whose_triangles_agree_come_back_unchanged() {
             (0, 0),
             "{rel}"
         );
-        let turned: Vec<[u32; 3]> = mesh
-            .triangles()
-            .iter()
-            .enumerate()
-            .map(|(i, &[a, b, c])| {
-                if i.is_multiple_of(7) {
-                    [a, c, b]
-                } else {
-                    [a, b, c]
-                }
-            })
-            .collect();
-        let (fixed, change) = TriMesh::new(mesh.vertices().clone(), turned)
-            .unwrap()
+        let (fixed, change) = with_turned(&mesh, |i| i.is_multiple_of(7))
             .consistently_oriented()
             .unwrap();
         let wrong = fixed
