@@ -24,8 +24,12 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Describe a PLY, OBJ or OFF file: format, counts, attributes, bounding box.
+    /// Describe a geometry file (PLY, OBJ, OFF, STL), a picture, a height field or an NRRD
+    /// volume: format, counts, attributes, bounding box, topology.
     Info(commands::info::InfoArgs),
+    /// Convert a point set or mesh between PLY, OBJ, OFF and STL, saying what the target
+    /// format cannot store.
+    Convert(commands::convert::ConvertArgs),
     /// Render point sets and meshes to a PNG, one panel per input file.
     Render(commands::render::RenderArgs),
     /// Estimate a point set's normals by local PCA and orient them by propagation.
@@ -73,6 +77,7 @@ fn main() -> ExitCode {
     let globals = Globals { quiet: cli.quiet };
     let result = match cli.command {
         Command::Info(args) => commands::info::run(&args, globals),
+        Command::Convert(args) => commands::convert::run(&args, globals),
         Command::Render(args) => commands::render::run(&args, globals),
         Command::Normals(args) => commands::normals::run(&args, globals),
         Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(&args, globals),

@@ -5,13 +5,15 @@ use std::path::Path;
 
 use geosynth::core::io::FileFormat;
 use geosynth::{ProgressUpdate, RunContext};
+use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::{CliResult, Globals};
 
 /// Refuses to start work whose results could not be saved: the directory of every output
 /// path must exist, and geometry outputs need an extension the writers know (`.ply`,
-/// `.obj`, `.off`). Checked before a run, so a typo does not cost the run.
+/// `.obj`, `.off`, `.stl`). Checked before a run, so a typo does not cost the run; what
+/// the format can hold is checked by [`check_geometry_output`] once the input is read.
 pub(crate) fn check_output_paths<'a>(
     geometry: impl IntoIterator<Item = &'a Path>,
     other: impl IntoIterator<Item = &'a Path>,
@@ -21,7 +23,7 @@ pub(crate) fn check_output_paths<'a>(
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
         if FileFormat::from_extension(ext).is_none() {
             return Err(format!(
-                "cannot write {}: geometry files must end in .ply, .obj or .off",
+                "cannot write {}: geometry files must end in .ply, .obj, .off or .stl",
                 path.display()
             )
             .into());
@@ -42,6 +44,19 @@ pub(crate) fn check_output_paths<'a>(
         }
     }
     Ok(())
+}
+
+/// Refuses, before the work, a geometry output whose format cannot hold what the command
+/// will write there: a point set (`mesh` false), or data stored relative to a nonzero
+/// `origin` (georeferenced input), as STL.
+pub(crate) fn check_geometry_output(path: &Path, mesh: bool, origin: DVec3) -> CliResult {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    match FileFormat::from_extension(ext) {
+        Some(format) => format
+            .check_can_store(mesh, origin)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()).into()),
+        None => Ok(()),
+    }
 }
 
 /// A progress bar over `total` steps, hidden with `--quiet` or when stderr is not a terminal.

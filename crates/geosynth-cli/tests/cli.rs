@@ -35,6 +35,25 @@ fn write_with_defaults(path: &Path, geometry: &geosynth::core::io::Geometry) {
     .unwrap();
 }
 
+/// A scratch folder for a test's files, removed when dropped.
+struct Scratch(tempfile::TempDir);
+
+impl Scratch {
+    fn new() -> Self {
+        Self(tempfile::tempdir().unwrap())
+    }
+
+    /// The path of `name` in the folder.
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.path().join(name)
+    }
+}
+
+/// A path as a command-line argument.
+fn arg(path: &Path) -> String {
+    path.to_str().unwrap().to_string()
+}
+
 /// `geosynth info --json` of a file.
 fn info_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap()
@@ -239,7 +258,7 @@ fn bad_input_fails_with_a_message_not_a_panic() {
         ),
         (
             vec!["quilt", fixture, "-o", unknown.to_str().unwrap()],
-            ".ply, .obj or .off",
+            ".ply, .obj, .off or .stl",
         ),
         (
             vec!["reconstruct", fixture, "-o", missing],
@@ -1446,4 +1465,215 @@ fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding()
         "--sign",
         "winding",
     ]);
+}
+
+#[test]
+fn stl_meshes_work_where_meshes_do_and_point_sets_are_refused_early() {
+    use geosynth::core::io::{Geometry, WriteOptions, write_geometry};
+    let scratch = Scratch::new();
+    let sphere = geosynth::fixtures::icosphere_mesh(3).unwrap();
+    write_with_defaults(&scratch.path("sphere.ply"), &Geometry::Mesh(sphere.clone()));
+    write_with_defaults(&scratch.path("sphere.stl"), &Geometry::Mesh(sphere.clone()));
+
+    // `info` sees the same closed sphere: STL corners welded back into shared vertices.
+    let json = info_json(&scratch.path("sphere.stl"));
+    assert_eq!(
+        (json["format"].as_str(), json["encoding"].as_str()),
+        (Some("STL"), Some("binary_little_endian"))
+    );
+    assert_eq!(
+        (json["vertices"].as_u64(), json["faces"].as_u64()),
+        (Some(642), Some(1280))
+    );
+    assert_closed(&scratch.path("sphere.stl"), 2, "STL sphere");
+
+    // `sdf` gives the same field from either file.
+    let field = |input: &Path, name: &str| {
+        ok(&[
+            "sdf",
+            &arg(input),
+            "-o",
+            &arg(&scratch.path(name)),
+            "--resolution",
+            "24",
+        ]);
+        geosynth::sdf::nrrd::read_file(&scratch.path(name))
+            .unwrap()
+            .data
+    };
+    assert_eq!(
+        field(&scratch.path("sphere.stl"), "a.nrrd"),
+        field(&scratch.path("sphere.ply"), "b.nrrd")
+    );
+
+    // `voxel` takes an STL exemplar and writes STL meshes: the same run as with PLY.
+    for ext in ["ply", "stl"] {
+        let iso = arg(&scratch.path(&format!("iso.{ext}")));
+        tiny_voxel(
+            &scratch.path(&format!("sphere.{ext}")),
+            &scratch.path(&format!("voxel.{ext}")),
+            &["--isosurface", &iso],
+        );
+    }
+    let [iso_ply, iso_stl] = ["iso.ply", "iso.stl"].map(|n| info_json(&scratch.path(n)));
+    assert_eq!(iso_stl["topology"]["closed_manifold"], true);
+    assert_eq!(iso_stl["topology"], iso_ply["topology"]);
+    assert_eq!(iso_stl["faces"], iso_ply["faces"]);
+    let [copied_ply, copied_stl] = ["voxel.ply", "voxel.stl"].map(|n| info_json(&scratch.path(n)));
+    assert!(copied_stl["faces"].as_u64() > Some(0));
+    assert_eq!(copied_stl["faces"], copied_ply["faces"]);
+
+    // Point sets cannot be STL: refused before any work, naming what to write instead.
+    let fixture =
+        arg(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/quilt_bumpy.ply"));
+    let refused = geosynth(&["quilt", &fixture, "-o", &arg(&scratch.path("quilt.stl"))]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && said.contains("STL cannot store a point set"),
+        "{said}"
+    );
+    assert!(!scratch.path("quilt.stl").exists());
+
+    // Georeferenced input would lose its precision as STL: refused once the input is read.
+    let points = sphere
+        .vertices()
+        .clone()
+        .with_normals(sphere.vertex_normals(geosynth::core::NormalWeighting::Angle))
+        .unwrap();
+    let far = scratch.path("far.ply");
+    write_geometry(
+        &far,
+        &Geometry::Points(points),
+        &WriteOptions::default().origin(glam::DVec3::new(5e5, 4e6, 0.0)),
+    )
+    .unwrap();
+    let refused = geosynth(&[
+        "reconstruct",
+        &arg(&far),
+        "-o",
+        &arg(&scratch.path("far.stl")),
+    ]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && said.contains("write .ply to keep them"),
+        "{said}"
+    );
+    ok(&[
+        "reconstruct",
+        &arg(&far),
+        "-o",
+        &arg(&scratch.path("far_ok.ply")),
+        "--resolution",
+        "24",
+    ]);
+}
+
+#[test]
+fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
+    use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
+    let scratch = Scratch::new();
+    // A sphere with normals (which STL cannot keep), its triangles partly turned over.
+    let sphere = geosynth::fixtures::icosphere_mesh(2).unwrap();
+    let turned: Vec<[u32; 3]> = sphere
+        .triangles()
+        .iter()
+        .enumerate()
+        .map(|(i, &[a, b, c])| if i % 5 == 0 { [a, c, b] } else { [a, b, c] })
+        .collect();
+    let normals = sphere.vertex_normals(geosynth::core::NormalWeighting::Angle);
+    let vertices = sphere.vertices().clone().with_normals(normals).unwrap();
+    let messy = geosynth::core::TriMesh::new(vertices, turned).unwrap();
+    write_with_defaults(&scratch.path("messy.ply"), &Geometry::Mesh(messy));
+
+    let said = ok(&[
+        "convert",
+        &arg(&scratch.path("messy.ply")),
+        "-o",
+        &arg(&scratch.path("s.stl")),
+        "--orient-faces",
+    ]);
+    assert!(said.contains("oriented faces: 64 of 320"), "{said}");
+    assert!(
+        said.contains("STL cannot store the input's vertex normals"),
+        "{said}"
+    );
+    let said = ok(&[
+        "convert",
+        &arg(&scratch.path("s.stl")),
+        "-o",
+        &arg(&scratch.path("s.obj")),
+    ]);
+    assert!(!said.contains("note"), "{said}");
+    assert_closed(&scratch.path("s.obj"), 2, "sphere through STL and OBJ");
+    // The clean sphere's triangles, each as its corners from the lowest one on.
+    let corners = |mesh: &geosynth::core::TriMesh| -> Vec<[[f32; 3]; 3]> {
+        let p = mesh.positions();
+        mesh.triangles()
+            .iter()
+            .map(|t| {
+                let c = t.map(|v| p[v as usize].to_array());
+                let first = (0..3)
+                    .min_by(|&i, &j| c[i].partial_cmp(&c[j]).unwrap())
+                    .unwrap();
+                std::array::from_fn(|k| c[(first + k) % 3])
+            })
+            .collect()
+    };
+    let back = read_geometry(scratch.path("s.obj")).unwrap();
+    assert_eq!(corners(back.geometry.mesh().unwrap()), corners(&sphere));
+
+    // ASCII on request, for PLY and STL.
+    ok(&[
+        "convert",
+        &arg(&scratch.path("s.obj")),
+        "-o",
+        &arg(&scratch.path("a.stl")),
+        "--ascii",
+    ]);
+    ok(&[
+        "convert",
+        &arg(&scratch.path("a.stl")),
+        "-o",
+        &arg(&scratch.path("a.ply")),
+        "--ascii",
+    ]);
+    assert!(
+        std::fs::read_to_string(scratch.path("a.stl"))
+            .unwrap()
+            .starts_with("solid")
+    );
+    assert_eq!(info_json(&scratch.path("a.ply"))["encoding"], "ascii");
+    assert_eq!(info_json(&scratch.path("a.ply"))["faces"], 320);
+
+    // Georeferenced points stay in place through OFF; STL refuses them, and point sets.
+    let points = sphere.vertices().clone();
+    let origin = glam::DVec3::new(5e5, 4e6, 10.0);
+    write_geometry(
+        scratch.path("far.ply"),
+        &Geometry::Points(points.clone()),
+        &WriteOptions::default().origin(origin),
+    )
+    .unwrap();
+    ok(&[
+        "convert",
+        &arg(&scratch.path("far.ply")),
+        "-o",
+        &arg(&scratch.path("far.off")),
+    ]);
+    let recentred = geosynth::core::io::ReadOptions::default().recentre_far(true);
+    let far = geosynth::core::io::read_geometry_with(scratch.path("far.off"), &recentred).unwrap();
+    let first = far.geometry.points().positions()[0].as_dvec3() + far.origin;
+    assert!((first - (points.positions()[0].as_dvec3() + origin)).length() < 1e-6);
+    let refused = geosynth(&[
+        "convert",
+        &arg(&scratch.path("far.ply")),
+        "-o",
+        &arg(&scratch.path("far.stl")),
+    ]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && said.contains("STL cannot store a point set"),
+        "{said}"
+    );
+    assert!(!scratch.path("far.stl").exists());
 }

@@ -216,6 +216,14 @@ pub enum Error {
         /// The accepted range, in words.
         expected: String,
     },
+    /// The chosen file format cannot hold what was to be written (a point set as STL).
+    #[error("{format} cannot store {what}")]
+    FormatCannotStore {
+        /// The format asked for.
+        format: FileFormat,
+        /// What it cannot store, and what to write instead.
+        what: String,
+    },
     /// The run was cancelled through its [`crate::CancelFlag`].
     #[error("cancelled")]
     Cancelled,

@@ -16,7 +16,7 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The file to describe: .ply, .obj, .off, a picture (.png, .jpg), a raw height field
+    /// The file to describe: .ply, .obj, .off, .stl, a picture (.png, .jpg), a raw height field
     /// (`name_WxH.f32le`) or an NRRD volume (.nrrd, as `sdf` and `voxel --field` write).
     file: PathBuf,
     /// Print JSON instead of text.

@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod convert;
 pub mod demo;
 pub mod fixtures;
 pub mod info;
@@ -43,6 +44,27 @@ pub struct SignArgs {
     orient_faces: bool,
 }
 
+/// `mesh` with its triangles made to agree
+/// ([`TriMesh::consistently_oriented`](geosynth::core::TriMesh::consistently_oriented)), and
+/// a line saying what changed (`--orient-faces`).
+pub fn orient_faces(mesh: TriMesh) -> CliResult<(TriMesh, String)> {
+    let (oriented, change) = mesh.consistently_oriented()?;
+    let mut line = format!(
+        "oriented faces: {} of {} turned over ({} part(s))",
+        change.flipped_faces,
+        oriented.face_count(),
+        change.parts
+    );
+    if change.conflicting_edges > 0 {
+        line.push_str(&format!(
+            "; {} edges could not be made to agree (a non-orientable part, or edges of more \
+             than two triangles)",
+            change.conflicting_edges
+        ));
+    }
+    Ok((oriented, line))
+}
+
 /// `--sign` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum SignArg {
@@ -84,20 +106,7 @@ impl SignArgs {
         if !self.orient_faces {
             return Ok((mesh, None));
         }
-        let (oriented, change) = mesh.consistently_oriented()?;
-        let mut line = format!(
-            "oriented faces: {} of {} turned over ({} part(s))",
-            change.flipped_faces,
-            oriented.face_count(),
-            change.parts
-        );
-        if change.conflicting_edges > 0 {
-            line.push_str(&format!(
-                "; {} edges could not be made to agree (a non-orientable part, or edges of \
-                 more than two triangles)",
-                change.conflicting_edges
-            ));
-        }
+        let (oriented, line) = orient_faces(mesh)?;
         Ok((oriented, Some(line)))
     }
 

@@ -7,9 +7,9 @@ use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
 use geosynth::mls::{
     NORMAL_NEIGHBOURS, estimate_normals, orient_normals, orientation_disagreement,
 };
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
-use crate::output::{check_output_paths, spinner, status};
+use crate::output::{check_geometry_output, check_output_paths, spinner, status};
 use crate::{CliResult, Globals};
 
 /// The direction estimated normals are turned toward where nothing else decides.
@@ -53,6 +53,7 @@ pub struct NormalsArgs {
 /// Runs `geosynth normals`.
 pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
+    check_geometry_output(&args.output, false, DVec3::ZERO)?;
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
     let points = match &loaded.geometry {
         Geometry::Points(points) => points,

@@ -18,7 +18,7 @@ use glam::{DMat3, DVec3};
 
 use serde_json::{Value, json};
 
-use crate::output::{check_output_paths, progress_context, spinner, status};
+use crate::output::{check_geometry_output, check_output_paths, progress_context, spinner, status};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -510,6 +510,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             .chain(&args.preview)
             .map(PathBuf::as_path),
     )?;
+    check_geometry_output(&args.output, false, DVec3::ZERO)?;
     let mut file = load(args)?;
     if args.orient_normals {
         file.texture = file.texture.with_oriented_normals()?;

@@ -12,7 +12,7 @@ use geosynth::{RunContext, Stage};
 use glam::Vec3;
 
 use super::SignArgs;
-use crate::output::{check_output_paths, spinner, status};
+use crate::output::{check_geometry_output, check_output_paths, spinner, status};
 use crate::{CliResult, Globals};
 
 /// Grid settings shared by both commands.
@@ -46,7 +46,7 @@ impl GridArgs {
 pub struct ReconstructArgs {
     /// Oriented point set (PLY/OBJ/OFF with normals).
     input: PathBuf,
-    /// Output mesh (.ply, .obj or .off).
+    /// Output mesh (.ply, .obj, .off or .stl).
     #[arg(short, long)]
     output: PathBuf,
     #[command(flatten)]
@@ -72,6 +72,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     let params = args.sign.apply(args.grid.params()?);
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    check_geometry_output(&args.output, true, loaded.origin)?;
     let mut points = loaded.geometry.points().clone();
     if args.orient_normals {
         points = orient_normals(&points, Vec3::Z)?;

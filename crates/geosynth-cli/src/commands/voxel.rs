@@ -15,7 +15,7 @@ use geosynth::voxel::{
 use serde_json::{Value, json};
 
 use super::SignArgs;
-use crate::output::{check_output_paths, progress_context, status};
+use crate::output::{check_geometry_output, check_output_paths, progress_context, status};
 use crate::{CliResult, Globals};
 
 /// Block search.
@@ -45,7 +45,7 @@ impl From<MatcherArg> for MatcherKind {
 /// Arguments of `geosynth voxel`.
 #[derive(Debug, Args)]
 pub struct VoxelArgs {
-    /// Exemplar mesh (.ply, .obj, .off); a `texture_box` comment selects the sampled box
+    /// Exemplar mesh (.ply, .obj, .off, .stl); a `texture_box` comment selects the sampled box
     /// (as `geosynth fixtures` writes it), otherwise the mesh's bounding box. Or an NRRD
     /// volume (as `geosynth sdf` writes one): the solid where it is negative, in its box.
     exemplar: PathBuf,
@@ -53,7 +53,7 @@ pub struct VoxelArgs {
     /// paper's reconstruction).
     #[arg(short, long)]
     output: PathBuf,
-    /// Also write the closed iso-surface of the synthesized field (.ply, .obj, .off).
+    /// Also write the closed iso-surface of the synthesized field (.ply, .obj, .off, .stl).
     #[arg(long)]
     isosurface: Option<PathBuf>,
     #[command(flatten)]
@@ -281,6 +281,9 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
             .map(PathBuf::as_path),
     )?;
     let mut exemplar = read_exemplar(&args.exemplar)?;
+    for path in std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()) {
+        check_geometry_output(path, true, exemplar.origin)?;
+    }
     if let Some(note) = precision_note(&exemplar, args.source_res) {
         status(globals, note);
     }

@@ -8,19 +8,19 @@ use geosynth::core::{PointSet, TriMesh};
 use geosynth::tps::{ThinPlateSpline, TpsParams};
 use glam::{DVec3, Vec3};
 
-use crate::output::{check_output_paths, status};
+use crate::output::{check_geometry_output, check_output_paths, status};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth warp`.
 #[derive(Debug, Args)]
 pub struct WarpArgs {
-    /// Point set or mesh to warp (.ply, .obj, .off); meshes keep their faces.
+    /// Point set or mesh to warp (.ply, .obj, .off, .stl); meshes keep their faces.
     input: PathBuf,
     /// Pairs file: one pair per line, `sx sy sz qx qy qz` (source → target); `#` starts a
     /// comment.
     #[arg(long)]
     pairs: PathBuf,
-    /// Output file (.ply, .obj, .off): warped positions, transported normals when the input
+    /// Output file (.ply, .obj, .off; .stl for a mesh): warped positions, transported normals when the input
     /// has normals, other attributes unchanged.
     #[arg(short, long)]
     output: PathBuf,
@@ -91,6 +91,11 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
         .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
     // Georeferenced inputs are warped relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    check_geometry_output(
+        &args.output,
+        loaded.geometry.mesh().is_some(),
+        loaded.origin,
+    )?;
     let (from, to) = parse_pairs(&text, &args.pairs, loaded.origin)?;
     let spline = ThinPlateSpline::fit(&from, &to, &TpsParams::default().smoothing(args.smoothing))?;
     let geometry = loaded.geometry;

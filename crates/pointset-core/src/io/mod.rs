@@ -1,4 +1,4 @@
-//! Reading and writing point sets and meshes: PLY, OBJ and OFF.
+//! Reading and writing point sets and meshes: PLY, OBJ, OFF and STL (meshes only).
 //!
 //! [`read_geometry`] picks the format from the file extension and checks it against the
 //! content (a `.ply` that does not start with `ply` is an error, not a guess); files without
@@ -16,6 +16,7 @@
 mod obj;
 mod off;
 pub mod ply;
+mod stl;
 
 use std::fmt;
 use std::path::Path;
@@ -24,10 +25,12 @@ pub use obj::{read_obj, write_obj};
 use obj::{read_obj_at, write_obj_at};
 pub use off::{read_off, write_off};
 use off::{read_off_at, write_off_at};
+pub use stl::{read_stl, write_stl, write_stl_ascii};
+use stl::{read_stl_at, write_stl_at};
 
 use glam::{DVec3, Vec3};
 
-use crate::{Aabb, Error, PointSet, Result, TriMesh};
+use crate::{Aabb, COLOR_CHANNELS, Error, PointSet, Result, TriMesh};
 use ply::PlyEncoding;
 
 /// The supported file formats.
@@ -39,6 +42,8 @@ pub enum FileFormat {
     Obj,
     /// Object File Format.
     Off,
+    /// Stereolithography triangles, binary or ASCII (meshes only: see [`read_stl`]).
+    Stl,
 }
 
 impl fmt::Display for FileFormat {
@@ -47,6 +52,7 @@ impl fmt::Display for FileFormat {
             FileFormat::Ply => "PLY",
             FileFormat::Obj => "OBJ",
             FileFormat::Off => "OFF",
+            FileFormat::Stl => "STL",
         })
     }
 }
@@ -58,12 +64,84 @@ impl FileFormat {
             "ply" => Some(FileFormat::Ply),
             "obj" => Some(FileFormat::Obj),
             "off" => Some(FileFormat::Off),
+            "stl" => Some(FileFormat::Stl),
             _ => None,
         }
     }
 
-    /// The format the first bytes of a file look like, if any.
+    /// Refuses, before any work is done, what writing in this format would fail on or
+    /// lose: a point set (`mesh` false) or a nonzero write origin
+    /// ([`WriteOptions::origin`]) as STL. Every other format stores both.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use pointset_core::io::FileFormat;
+    /// assert!(FileFormat::Stl.check_can_store(true, DVec3::ZERO).is_ok());
+    /// assert!(FileFormat::Stl.check_can_store(false, DVec3::ZERO).is_err());
+    /// assert!(FileFormat::Stl.check_can_store(true, DVec3::new(5e5, 0.0, 0.0)).is_err());
+    /// assert!(FileFormat::Off.check_can_store(false, DVec3::new(5e5, 0.0, 0.0)).is_ok());
+    /// ```
+    pub fn check_can_store(self, mesh: bool, origin: DVec3) -> Result<()> {
+        match self {
+            FileFormat::Stl => stl::check_storable(mesh, origin),
+            FileFormat::Ply | FileFormat::Obj | FileFormat::Off => Ok(()),
+        }
+    }
+
+    /// What writing `geometry` in this format would not store, in words (empty when the
+    /// format keeps everything). PLY keeps everything; OBJ drops attributes other than
+    /// colours; OFF drops those and UVs; STL keeps only positions and triangles. Colours are
+    /// the `red`, `green`, `blue` channels when all three exist.
+    ///
+    /// ```
+    /// use pointset_core::io::{FileFormat, Geometry};
+    /// use pointset_core::{Attribute, PointSet, glam::Vec3};
+    /// let mut points = PointSet::new(vec![Vec3::ZERO])?.with_normals(vec![Vec3::Z])?;
+    /// points.set_attribute(Attribute::new("quality", vec![0.5]))?;
+    /// let geometry = Geometry::Points(points);
+    /// assert!(FileFormat::Ply.unstored(&geometry).is_empty());
+    /// assert_eq!(FileFormat::Off.unstored(&geometry), ["attribute `quality`"]);
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn unstored(self, geometry: &Geometry) -> Vec<String> {
+        // (vertex normals, UVs, colours, other attributes) kept.
+        let (normals, uvs, colours, others) = match self {
+            FileFormat::Ply => (true, true, true, true),
+            FileFormat::Obj => (true, true, true, false),
+            FileFormat::Off => (true, false, true, false),
+            FileFormat::Stl => (false, false, false, false),
+        };
+        let points = geometry.points();
+        let has_colours = points.colors().is_some();
+        let mut lost = Vec::new();
+        if !normals && points.normals().is_some() {
+            lost.push("vertex normals".to_string());
+        }
+        if !uvs && geometry.mesh().and_then(TriMesh::uvs).is_some() {
+            lost.push("UVs".to_string());
+        }
+        if !colours && has_colours {
+            lost.push("colours".to_string());
+        }
+        let is_colour = |name: &str| has_colours && COLOR_CHANNELS.contains(&name);
+        if !others {
+            lost.extend(
+                points
+                    .attributes()
+                    .iter()
+                    .filter(|a| !is_colour(a.name()))
+                    .map(|a| format!("attribute `{}`", a.name())),
+            );
+        }
+        lost
+    }
+
+    /// The format a file's content looks like, if any. A binary STL is recognised by its
+    /// size (84 bytes plus 50 per facet its header declares), so pass the whole file.
     pub fn sniff(bytes: &[u8]) -> Option<Self> {
+        if stl::binary_facet_count(bytes).is_some() {
+            return Some(FileFormat::Stl);
+        }
         let head = &bytes[..bytes.len().min(4096)];
         let text = String::from_utf8_lossy(head);
         let first = text
@@ -80,7 +158,11 @@ impl FileFormat {
         const OBJ_KEYWORDS: [&str; 12] = [
             "v", "vt", "vn", "f", "o", "g", "s", "p", "l", "mtllib", "usemtl", "vp",
         ];
-        OBJ_KEYWORDS.contains(&word).then_some(FileFormat::Obj)
+        if OBJ_KEYWORDS.contains(&word) {
+            Some(FileFormat::Obj)
+        } else {
+            stl::starts_like_ascii(bytes).then_some(FileFormat::Stl)
+        }
     }
 }
 
@@ -211,9 +293,10 @@ pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3
 #[derive(Debug, Clone, PartialEq, Default)]
 #[non_exhaustive]
 pub struct WriteOptions {
-    /// PLY encoding (default binary little-endian); ignored by OBJ and OFF, which are text.
+    /// PLY encoding (default binary little-endian); ignored by OBJ and OFF, which are text,
+    /// and by STL, which is written binary.
     pub ply_encoding: PlyEncoding,
-    /// Comment lines to write (default none).
+    /// Comment lines to write (default none; STL has no place for them).
     pub comments: Vec<String>,
     /// Added to every position as it is written, in double precision (default zero): the
     /// [`LoadedGeometry::origin`] of data read with [`ReadOptions::recentre_far`]. PLY
@@ -255,12 +338,12 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
         (None, Some(by_content)) => Ok(by_content),
         (None, None) => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
-            reason: "no .ply/.obj/.off extension and the content matches none of them".into(),
+            reason: "no .ply/.obj/.off/.stl extension and the content matches none of them".into(),
         }),
     }
 }
 
-/// Reads a PLY, OBJ or OFF file.
+/// Reads a PLY, OBJ, OFF or STL file.
 pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
     read_geometry_with(path, &ReadOptions::default())
 }
@@ -340,6 +423,16 @@ pub fn read_geometry_bytes_with(
                 origin,
             })
         }
+        FileFormat::Stl => {
+            let file = read_stl_at(bytes, recentre)?;
+            Ok(LoadedGeometry {
+                geometry: file.geometry,
+                format: FileFormat::Stl,
+                encoding: file.encoding.into(),
+                comments: file.comments,
+                origin: file.origin,
+            })
+        }
     }
 }
 
@@ -362,6 +455,7 @@ pub fn encode_geometry(
         }
         FileFormat::Obj => write_obj_at(geometry, &options.comments, options.origin, &mut out)?,
         FileFormat::Off => write_off_at(geometry, &options.comments, options.origin, &mut out)?,
+        FileFormat::Stl => write_stl_at(geometry, options.origin, &mut out)?,
     }
     Ok(out)
 }
@@ -376,7 +470,7 @@ pub fn write_geometry(
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     let format = FileFormat::from_extension(ext).ok_or_else(|| Error::UnknownFormat {
         path: path.to_path_buf(),
-        reason: "the output extension must be .ply, .obj or .off".into(),
+        reason: "the output extension must be .ply, .obj, .off or .stl".into(),
     })?;
     let bytes = encode_geometry(geometry, format, options)?;
     std::fs::write(path, bytes).map_err(|source| Error::Io {

@@ -5,6 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod ply_codec;
+mod stl_codec;
 
 use std::path::Path;
 
@@ -641,6 +642,19 @@ fn seeded_streams_are_deterministic_across_threads() {
     assert_eq!(sequential, threaded);
 }
 
+/// `faces` triangles over `vertices` random points in the unit cube, corners drawn at
+/// random (degenerate triangles included).
+fn random_mesh(seed: u64, vertices: usize, faces: usize) -> TriMesh {
+    let mut g = rng::rng_from_seed(seed);
+    let positions: Vec<Vec3> = (0..vertices)
+        .map(|_| Vec3::new(g.random(), g.random(), g.random()))
+        .collect();
+    let triangles: Vec<[u32; 3]> = (0..faces)
+        .map(|_| std::array::from_fn(|_| g.random_range(0..vertices as u32)))
+        .collect();
+    TriMesh::new(PointSet::new(positions).unwrap(), triangles).unwrap()
+}
+
 proptest! {
     /// A mesh exploded into one vertex per triangle corner (every edge a border) welds
     /// back to the mesh's own topology.
@@ -650,14 +664,8 @@ proptest! {
         vertices in 3usize..40,
         faces in 1usize..60,
     ) {
-        let mut g = pointset_core::rng::rng_from_seed(seed);
-        let positions: Vec<Vec3> = (0..vertices)
-            .map(|_| Vec3::new(g.random(), g.random(), g.random()))
-            .collect();
-        let triangles: Vec<[u32; 3]> = (0..faces)
-            .map(|_| std::array::from_fn(|_| g.random_range(0..vertices as u32)))
-            .collect();
-        let mesh = TriMesh::new(PointSet::new(positions.clone()).unwrap(), triangles.clone()).unwrap();
+        let mesh = random_mesh(seed, vertices, faces);
+        let (positions, triangles) = (mesh.positions(), mesh.triangles());
         let corners: Vec<Vec3> = triangles.iter().flat_map(|t| t.map(|v| positions[v as usize])).collect();
         let soup = (0..faces as u32).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect();
         let exploded = TriMesh::new(PointSet::new(corners).unwrap(), soup).unwrap();

@@ -1,0 +1,95 @@
+//! `geosynth convert`: a point set or mesh from one file format into another.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use geosynth::core::io::ply::PlyEncoding;
+use geosynth::core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions};
+
+use super::orient_faces;
+use crate::output::{check_geometry_output, check_output_paths, status};
+use crate::{CliResult, Globals};
+
+/// Arguments of `geosynth convert`.
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// Point set or mesh to convert (.ply, .obj, .off, .stl).
+    input: PathBuf,
+    /// Output file; its extension picks the format (.ply, .obj, .off; .stl for a mesh).
+    /// Georeferenced input is written back in place (PLY as `double`, OBJ/OFF with full
+    /// digits); STL, single precision, refuses it.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Write text: ASCII PLY or ASCII STL (default binary; OBJ and OFF are always text).
+    #[arg(long)]
+    ascii: bool,
+    /// Turn a mesh's triangles to agree with their neighbours (closed parts facing out,
+    /// open parts the way most of their triangles face) before writing.
+    #[arg(long)]
+    orient_faces: bool,
+}
+
+/// Runs `geosynth convert`.
+pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
+    check_output_paths([args.output.as_path()], [])?;
+    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let is_mesh = loaded.geometry.mesh().is_some();
+    check_geometry_output(&args.output, is_mesh, loaded.origin)?;
+    let geometry = match loaded.geometry {
+        Geometry::Mesh(mesh) if args.orient_faces => {
+            let (oriented, line) = orient_faces(mesh)?;
+            status(globals, line);
+            Geometry::Mesh(oriented)
+        }
+        other => other,
+    };
+    let ext = args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("");
+    let format = FileFormat::from_extension(ext).ok_or("unknown output format")?;
+    let mut options = WriteOptions::default()
+        .origin(loaded.origin)
+        .ply_encoding(if args.ascii {
+            PlyEncoding::Ascii
+        } else {
+            PlyEncoding::BinaryLittleEndian
+        });
+    for comment in &loaded.comments {
+        options = options.comment(comment.clone());
+    }
+    let options = options.comment(format!(
+        "converted by geosynth from {}",
+        args.input.display()
+    ));
+    if format == FileFormat::Stl && args.ascii {
+        let mut bytes = Vec::new();
+        io::write_stl_ascii(&geometry, &mut bytes)?;
+        std::fs::write(&args.output, bytes)
+            .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+    } else {
+        io::write_geometry(&args.output, &geometry, &options)?;
+    }
+    let faces = geometry.mesh().map_or(0, |m| m.face_count());
+    let counts = match format {
+        // STL has no vertices of its own: the reader welds corners back by position.
+        FileFormat::Stl => format!("{faces} triangles"),
+        _ => format!("{} vertices, {faces} triangles", geometry.points().len()),
+    };
+    status(
+        globals,
+        format!("wrote {} ({format}): {counts}", args.output.display()),
+    );
+    let lost = format.unstored(&geometry);
+    if !lost.is_empty() {
+        status(
+            globals,
+            format!(
+                "note: {format} cannot store the input's {}; write .ply to keep them",
+                lost.join(", ")
+            ),
+        );
+    }
+    Ok(())
+}
