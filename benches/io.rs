@@ -1,4 +1,5 @@
-//! File codecs: PLY encode/decode in each encoding, on a 100k-point oriented set with colours.
+//! File codecs: PLY encode/decode in each encoding, on a 100k-point oriented set with colours;
+//! STL encode/decode (with welding) of a 100k-triangle mesh.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -41,5 +42,33 @@ fn ply(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, ply);
+fn stl(c: &mut Criterion) {
+    // A torus of 224 × 224 quads: 100,352 triangles over 50,176 shared vertices.
+    let mesh = fixtures::torus_mesh(224, 224, 1.0, 0.3).expect("benchmark setup");
+    let geometry = Geometry::Mesh(mesh);
+    let mut group = c.benchmark_group("stl_100k_triangles");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(100_352));
+    let binary =
+        io::encode_geometry(&geometry, FileFormat::Stl, &WriteOptions::default()).expect("setup");
+    let mut ascii = Vec::new();
+    io::write_stl_ascii(&geometry, &mut ascii).expect("benchmark setup");
+    group.bench_function("write/binary", |b| {
+        b.iter(|| {
+            io::encode_geometry(
+                black_box(&geometry),
+                FileFormat::Stl,
+                &WriteOptions::default(),
+            )
+        })
+    });
+    for (name, bytes) in [("binary", &binary), ("ascii", &ascii)] {
+        group.bench_with_input(BenchmarkId::new("read", name), bytes, |b, data| {
+            b.iter(|| io::read_geometry_bytes(Path::new("bench.stl"), black_box(data)))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, ply, stl);
 criterion_main!(benches);
