@@ -1,0 +1,90 @@
+//! Binary STL: an 80-byte header, a `u32` facet count, 50 bytes a facet.
+
+use glam::DVec3;
+
+use super::check_corner;
+use crate::io::FileFormat;
+use crate::{Error, Location, Result};
+
+/// Bytes before the first binary facet: an 80-byte header and the `u32` facet count.
+pub(super) const BINARY_HEADER_BYTES: usize = 84;
+/// Bytes per binary facet: normal and three corners as `f32`, two attribute bytes.
+pub(super) const BINARY_FACET_BYTES: usize = 50;
+/// The facet count a binary STL declares, when `bytes` is exactly as long as a binary file
+/// with that many facets.
+pub(crate) fn binary_facet_count(bytes: &[u8]) -> Option<usize> {
+    let count = declared_facets(bytes)?;
+    let expected = (count as u128) * BINARY_FACET_BYTES as u128 + BINARY_HEADER_BYTES as u128;
+    (expected == bytes.len() as u128).then_some(count)
+}
+
+fn declared_facets(bytes: &[u8]) -> Option<usize> {
+    let count: [u8; 4] = bytes.get(80..84)?.try_into().ok()?;
+    usize::try_from(u32::from_le_bytes(count)).ok()
+}
+/// Why `bytes` are not a binary STL of the size its header declares.
+pub(super) fn binary_size_error(bytes: &[u8]) -> Error {
+    let Some(count) = declared_facets(bytes) else {
+        return Error::UnexpectedEof {
+            format: FileFormat::Stl,
+            location: Location::Byte(bytes.len() as u64),
+            what: "the 84-byte binary header (80 bytes of text and the facet count)".into(),
+        };
+    };
+    let needed = (count as u128) * BINARY_FACET_BYTES as u128;
+    let available = (bytes.len() - BINARY_HEADER_BYTES) as u128;
+    if needed > available {
+        Error::HeaderExceedsFile {
+            format: FileFormat::Stl,
+            element: "facet".into(),
+            declared: count as u64,
+            needed_bytes: needed,
+            available_bytes: available as u64,
+        }
+    } else {
+        Error::Malformed {
+            format: FileFormat::Stl,
+            location: Location::Byte((BINARY_HEADER_BYTES as u128 + needed) as u64),
+            message: format!(
+                "{} bytes follow the {count} facets the header declares; refusing to guess \
+                 whether the count or the data is wrong",
+                available - needed
+            ),
+        }
+    }
+}
+
+/// The corners of a binary STL's `count` facets (its size already checked), three per
+/// facet, and the header when it is printable text.
+pub(super) fn binary_corners(bytes: &[u8], count: usize) -> Result<(Vec<DVec3>, Vec<String>)> {
+    let mut corners = Vec::with_capacity(3 * count);
+    let facets = bytes[BINARY_HEADER_BYTES..].chunks_exact(BINARY_FACET_BYTES);
+    for (facet, record) in facets.enumerate() {
+        // Bytes 0..12 are the stored normal, 12..48 the corners, 48..50 the attributes.
+        for (corner, xyz) in record[12..48].chunks_exact(12).enumerate() {
+            let value = |k: usize| {
+                let le: [u8; 4] = [xyz[4 * k], xyz[4 * k + 1], xyz[4 * k + 2], xyz[4 * k + 3]];
+                f64::from(f32::from_le_bytes(le))
+            };
+            let p = DVec3::new(value(0), value(1), value(2));
+            check_corner(p, facet, corner)?;
+            corners.push(p);
+        }
+    }
+    Ok((corners, header_text(&bytes[..80])))
+}
+
+/// The header as a comment when it is printable text (NULs and spaces trimmed).
+fn header_text(header: &[u8]) -> Vec<String> {
+    let end = header.iter().position(|&b| b == 0).unwrap_or(header.len());
+    let text = &header[..end];
+    if text.iter().all(|b| b.is_ascii_graphic() || *b == b' ') {
+        let trimmed = String::from_utf8_lossy(text).trim().to_string();
+        (!trimmed.is_empty())
+            .then_some(trimmed)
+            .into_iter()
+            .collect()
+    } else {
+        Vec::new()
+    }
+}

@@ -1,0 +1,122 @@
+//! STL (stereolithography) meshes, binary and ASCII.
+//!
+//! An STL file is a soup of triangles: each facet stores its own three corners and a
+//! normal, and nothing says which corners are the same vertex. The reader welds corners
+//! whose stored positions are equal (compared exactly in single precision, `-0` equal to
+//! `0`: [`TriMesh::welded`]) into one vertex, numbered in order of first appearance, so the mesh has the connectivity that
+//! signing by pseudo-normals and [`TriMesh::consistently_oriented`] need. Two things follow:
+//! vertices a mesh kept apart at one position (UV seams) come back as one, and a facet whose
+//! corners coincide comes back as a degenerate triangle ([`TriMesh::degenerate_faces`]).
+//!
+//! The facet normals are read past, not used: the corners' order (counter-clockwise seen
+//! from outside) is what the rest of the library takes as orientation, as most tools do, and
+//! many writers leave the stored normals zero. The two attribute bytes of a binary facet
+//! (used by a few tools for colour) are skipped.
+//!
+//! Binary and ASCII are told apart by size, not by the first word: a binary file is exactly
+//! 84 bytes plus 50 per declared facet, and binary files whose 80-byte header happens to
+//! start with `solid` are common. A file that starts with `solid` and holds no NUL byte is
+//! read as ASCII; anything else as binary, whose declared facet count must match the
+//! file's size exactly (a short file is [`Error::HeaderExceedsFile`], a long one is refused
+//! rather than partly read).
+//!
+//! The writer writes binary STL with each facet's unit normal from its corners (zero for a
+//! degenerate facet). STL holds triangles and nothing else: point sets are refused with
+//! [`Error::FormatCannotStore`], and a mesh's vertex normals, colours, attributes and UVs
+//! are not written. Positions are single precision, so a nonzero write origin (data read
+//! with [`super::ReadOptions::recentre_far`]) is refused too: write PLY to keep it.
+
+mod ascii;
+mod binary;
+#[cfg(test)]
+mod tests;
+mod write;
+
+use glam::DVec3;
+
+use super::{Geometry, relative_positions};
+use crate::{Error, PointSet, Result, TriMesh};
+use ascii::ascii_corners;
+pub(crate) use binary::binary_facet_count;
+use binary::{binary_corners, binary_size_error};
+pub(crate) use write::{check_storable, write_stl_at};
+pub use write::{write_stl, write_stl_ascii};
+
+/// An STL file as read: the welded mesh, its encoding and the text it carries (the ASCII
+/// solids' names, or the binary header when it is printable text).
+pub(crate) struct StlFile {
+    /// The welded mesh.
+    pub(crate) geometry: Geometry,
+    /// `ascii` or `binary_little_endian`.
+    pub(crate) encoding: &'static str,
+    /// Solid names or header text.
+    pub(crate) comments: Vec<String>,
+    /// The origin positions are stored relative to.
+    pub(crate) origin: DVec3,
+}
+/// Whether `bytes` open like an ASCII STL: the word `solid` (any case) after optional
+/// whitespace.
+pub(crate) fn starts_like_ascii(bytes: &[u8]) -> bool {
+    let start = bytes.iter().position(|b| !b.is_ascii_whitespace());
+    start.is_some_and(|s| {
+        bytes[s..]
+            .get(..5)
+            .is_some_and(|word| word.eq_ignore_ascii_case(b"solid"))
+            && bytes.get(s + 5).is_none_or(|&b| b.is_ascii_whitespace())
+    })
+}
+
+/// Reads an STL file held in memory (binary or ASCII, told apart as the module docs say).
+///
+/// ```
+/// use pointset_core::io::read_stl;
+/// let stl = "solid tet\n\
+///   facet normal 0 0 -1\n outer loop\n  vertex 0 0 0\n  vertex 0 1 0\n  vertex 1 0 0\n endloop\n endfacet\n\
+///   facet normal 0 -1 0\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex 0 0 1\n endloop\n endfacet\n\
+/// endsolid tet\n";
+/// let mesh = read_stl(stl.as_bytes())?;
+/// let mesh = mesh.mesh().expect("an STL file is a mesh");
+/// // Six corners, four distinct positions: shared corners become shared vertices.
+/// assert_eq!(mesh.vertices().len(), 4);
+/// assert_eq!(mesh.triangles(), &[[0, 1, 2], [0, 2, 3]]);
+/// # Ok::<(), pointset_core::Error>(())
+/// ```
+pub fn read_stl(bytes: &[u8]) -> Result<Geometry> {
+    read_stl_at(bytes, false).map(|file| file.geometry)
+}
+
+/// [`read_stl`], with positions stored relative to an origin when `recentre_far` is set and
+/// the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]).
+pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
+    let (corners, encoding, comments) = if let Some(count) = binary_facet_count(bytes) {
+        let (corners, header) = binary_corners(bytes, count)?;
+        (corners, "binary_little_endian", header)
+    } else if starts_like_ascii(bytes) && !bytes.contains(&0) {
+        let (corners, names) = ascii_corners(bytes)?;
+        (corners, "ascii", names)
+    } else {
+        return Err(binary_size_error(bytes));
+    };
+    let (corners, origin) = relative_positions(&corners, recentre_far);
+    let facets = (corners.len() / 3) as u32;
+    let soup = (0..facets).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect();
+    let mesh = TriMesh::new(PointSet::new(corners)?, soup)?.welded()?;
+    Ok(StlFile {
+        geometry: Geometry::Mesh(mesh),
+        encoding,
+        comments,
+        origin,
+    })
+}
+
+/// Refuses a corner that is not finite, naming its facet.
+fn check_corner(p: DVec3, facet: usize, corner: usize) -> Result<()> {
+    if p.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::NonFinite {
+            what: format!("corner {corner} of STL facet"),
+            index: facet,
+        })
+    }
+}

@@ -1,0 +1,134 @@
+//! Writing STL, binary and ASCII.
+
+use std::io::Write;
+
+use glam::{DVec3, Vec3};
+
+use super::binary::{BINARY_FACET_BYTES, BINARY_HEADER_BYTES};
+use crate::io::{FileFormat, Geometry};
+use crate::{Error, Result, TriMesh, triangle_normal};
+
+/// Writes a mesh as binary STL (see the module docs for what STL cannot hold).
+///
+/// ```
+/// use pointset_core::io::{Geometry, read_stl, write_stl};
+/// use pointset_core::{PointSet, TriMesh, glam::Vec3};
+/// // Corners numbered in the order the faces first use them, which is the order the
+/// // reader's welding numbers them in.
+/// let corners = vec![Vec3::ZERO, Vec3::Y, Vec3::X, Vec3::Z];
+/// let faces = vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [2, 1, 3]];
+/// let tetrahedron = Geometry::Mesh(TriMesh::new(PointSet::new(corners)?, faces)?);
+/// let mut bytes = Vec::new();
+/// write_stl(&tetrahedron, &mut bytes)?;
+/// assert_eq!(bytes.len(), 84 + 4 * 50);
+/// assert_eq!(read_stl(&bytes)?, tetrahedron);
+/// # Ok::<(), pointset_core::Error>(())
+/// ```
+pub fn write_stl(geometry: &Geometry, out: &mut impl Write) -> Result<()> {
+    write_stl_at(geometry, DVec3::ZERO, out)
+}
+
+/// [`write_stl`], refusing a nonzero `origin` (STL cannot store it at full precision).
+pub(crate) fn write_stl_at(geometry: &Geometry, origin: DVec3, out: &mut impl Write) -> Result<()> {
+    let mesh = storable_mesh(geometry, origin)?;
+    let facets = u32::try_from(mesh.triangles().len()).map_err(|_| Error::FormatCannotStore {
+        format: FileFormat::Stl,
+        what: format!(
+            "{} triangles (a binary STL counts at most {})",
+            mesh.triangles().len(),
+            u32::MAX
+        ),
+    })?;
+    let mut bytes =
+        Vec::with_capacity(BINARY_HEADER_BYTES + BINARY_FACET_BYTES * mesh.triangles().len());
+    let mut header = [b' '; 80];
+    let title = b"binary STL written by geosynth";
+    header[..title.len()].copy_from_slice(title);
+    bytes.extend_from_slice(&header);
+    bytes.extend_from_slice(&facets.to_le_bytes());
+    for facet in facets_with_normals(mesh) {
+        for x in facet.iter().flat_map(|v| v.to_array()) {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+        bytes.extend_from_slice(&[0, 0]);
+    }
+    out.write_all(&bytes)
+        .map_err(|source| Error::Write { source })
+}
+
+/// Writes a mesh as ASCII STL, one solid named `geosynth`, numbers in the shortest form
+/// that reads back to the same `f32` (so a round trip is exact). Four to five times the
+/// size of [`write_stl`]'s binary file; for people and tools that want text.
+///
+/// ```
+/// use pointset_core::io::{Geometry, read_stl, write_stl_ascii};
+/// use pointset_core::{PointSet, TriMesh, glam::Vec3};
+/// let corners = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+/// let triangle = Geometry::Mesh(TriMesh::new(PointSet::new(corners)?, vec![[0, 1, 2]])?);
+/// let mut bytes = Vec::new();
+/// write_stl_ascii(&triangle, &mut bytes)?;
+/// assert!(String::from_utf8_lossy(&bytes).contains("facet normal 0 0 1"));
+/// assert_eq!(read_stl(&bytes)?, triangle);
+/// # Ok::<(), pointset_core::Error>(())
+/// ```
+pub fn write_stl_ascii(geometry: &Geometry, out: &mut impl Write) -> Result<()> {
+    let mesh = storable_mesh(geometry, DVec3::ZERO)?;
+    let mut text = String::from("solid geosynth\n");
+    for [n, a, b, c] in facets_with_normals(mesh) {
+        text.push_str(&format!(
+            "  facet normal {} {} {}\n    outer loop\n",
+            n.x, n.y, n.z
+        ));
+        for p in [a, b, c] {
+            text.push_str(&format!("      vertex {} {} {}\n", p.x, p.y, p.z));
+        }
+        text.push_str("    endloop\n  endfacet\n");
+    }
+    text.push_str("endsolid geosynth\n");
+    out.write_all(text.as_bytes())
+        .map_err(|source| Error::Write { source })
+}
+
+/// The mesh in `geometry`, unless STL cannot store it ([`check_storable`]).
+fn storable_mesh(geometry: &Geometry, origin: DVec3) -> Result<&TriMesh> {
+    check_storable(matches!(geometry, Geometry::Mesh(_)), origin)?;
+    match geometry {
+        Geometry::Mesh(mesh) => Ok(mesh),
+        Geometry::Points(_) => Err(cannot_store_points()),
+    }
+}
+
+/// Refuses what STL cannot store: a point set (`mesh` false), or positions offset by a
+/// nonzero `origin`, which single precision would round away.
+pub(crate) fn check_storable(mesh: bool, origin: DVec3) -> Result<()> {
+    if !mesh {
+        return Err(cannot_store_points());
+    }
+    if origin != DVec3::ZERO {
+        return Err(Error::FormatCannotStore {
+            format: FileFormat::Stl,
+            what: format!(
+                "coordinates offset by ({}, {}, {}) at full precision (STL is single \
+                 precision; write .ply to keep them)",
+                origin.x, origin.y, origin.z
+            ),
+        });
+    }
+    Ok(())
+}
+
+fn cannot_store_points() -> Error {
+    Error::FormatCannotStore {
+        format: FileFormat::Stl,
+        what: "a point set (STL holds triangles only; write .ply, .obj or .off)".into(),
+    }
+}
+
+/// Each triangle's unit normal by the right-hand rule (zero when degenerate) and corners.
+fn facets_with_normals(mesh: &TriMesh) -> impl Iterator<Item = [Vec3; 4]> + '_ {
+    let p = mesh.vertices().positions();
+    mesh.triangles().iter().map(move |t| {
+        let [a, b, c] = t.map(|v| p[v as usize]);
+        [triangle_normal(a, b, c), a, b, c]
+    })
+}
