@@ -59,6 +59,14 @@ pub(crate) fn check_geometry_output(path: &Path, mesh: bool, origin: DVec3) -> C
     }
 }
 
+/// Prints what the reader could not keep of `path`
+/// ([`LoadedGeometry::notes`](geosynth::core::io::LoadedGeometry::notes)), one note a line.
+pub(crate) fn report_not_kept(globals: Globals, path: &Path, notes: &[String]) {
+    for note in notes {
+        status(globals, format!("note: {}: {note}", path.display()));
+    }
+}
+
 /// A progress bar over `total` steps, hidden with `--quiet` or when stderr is not a terminal.
 pub(crate) fn progress_bar(globals: Globals, total: u64, label: &str) -> ProgressBar {
     if globals.quiet {

@@ -1676,4 +1676,25 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
         "{said}"
     );
     assert!(!scratch.path("far.stl").exists());
+
+    // What the reader could not keep is said by `info` and by the commands that read it.
+    let mixed = scratch.path("mixed.obj");
+    std::fs::write(
+        &mixed,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n\
+         o textured\nf 1/1 2/2 3/3\no plain\nf 2 4 3\n",
+    )
+    .unwrap();
+    let dropped = "texture coordinates dropped: 3 of 6 face corners have them";
+    assert!(ok(&["info", &arg(&mixed)]).contains(&format!("not kept:    {dropped}")));
+    let said = ok(&[
+        "convert",
+        &arg(&mixed),
+        "-o",
+        &arg(&scratch.path("mixed.ply")),
+    ]);
+    assert!(
+        said.contains(&format!("note: {}: {dropped}", mixed.display())),
+        "{said}"
+    );
 }

@@ -7,7 +7,7 @@ use geosynth::core::io::ply::PlyEncoding;
 use geosynth::core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions};
 
 use super::orient_faces;
-use crate::output::{check_geometry_output, check_output_paths, status};
+use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth convert`.
@@ -33,6 +33,7 @@ pub struct ConvertArgs {
 pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    report_not_kept(globals, &args.input, &loaded.notes);
     let is_mesh = loaded.geometry.mesh().is_some();
     check_geometry_output(&args.output, is_mesh, loaded.origin)?;
     let geometry = match loaded.geometry {

@@ -51,6 +51,9 @@ pub struct FileInfo {
     bbox_min: Option<[f64; 3]>,
     bbox_max: Option<[f64; 3]>,
     comments: Vec<String>,
+    /// What the file had that the reader could not keep
+    /// ([`LoadedGeometry::notes`](geosynth::core::io::LoadedGeometry::notes)).
+    not_kept: Vec<String>,
 }
 
 /// Edge topology of a mesh.
@@ -154,6 +157,7 @@ impl FileInfo {
             bbox_min: bbox.map(|b| (b.min.as_dvec3() + loaded.origin).to_array()),
             bbox_max: bbox.map(|b| (b.max.as_dvec3() + loaded.origin).to_array()),
             comments: loaded.comments.clone(),
+            not_kept: loaded.notes.clone(),
         }
     }
 
@@ -223,6 +227,9 @@ impl FileInfo {
         ));
         for c in &self.comments {
             s.push_str(&format!("\ncomment:     {c}"));
+        }
+        for n in &self.not_kept {
+            s.push_str(&format!("\nnot kept:    {n}"));
         }
         s
     }

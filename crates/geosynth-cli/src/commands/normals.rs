@@ -9,7 +9,7 @@ use geosynth::mls::{
 };
 use glam::{DVec3, Vec3};
 
-use crate::output::{check_geometry_output, check_output_paths, spinner, status};
+use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
 use crate::{CliResult, Globals};
 
 /// The direction estimated normals are turned toward where nothing else decides.
@@ -55,6 +55,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    report_not_kept(globals, &args.input, &loaded.notes);
     let points = match &loaded.geometry {
         Geometry::Points(points) => points,
         Geometry::Mesh(_) => {

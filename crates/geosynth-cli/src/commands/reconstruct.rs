@@ -12,7 +12,7 @@ use geosynth::{RunContext, Stage};
 use glam::Vec3;
 
 use super::SignArgs;
-use crate::output::{check_geometry_output, check_output_paths, spinner, status};
+use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
 use crate::{CliResult, Globals};
 
 /// Grid settings shared by both commands.
@@ -72,6 +72,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     let params = args.sign.apply(args.grid.params()?);
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
     let mut points = loaded.geometry.points().clone();
     if args.orient_normals {
@@ -216,6 +217,7 @@ pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
     let mut loaded =
         io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    report_not_kept(globals, &args.input, &loaded.notes);
     if let io::Geometry::Mesh(mesh) = loaded.geometry {
         let (mesh, change) = args.sign.oriented(mesh)?;
         if let Some(line) = change {

@@ -8,7 +8,7 @@ use geosynth::core::{PointSet, TriMesh};
 use geosynth::tps::{ThinPlateSpline, TpsParams};
 use glam::{DVec3, Vec3};
 
-use crate::output::{check_geometry_output, check_output_paths, status};
+use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth warp`.
@@ -91,6 +91,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
         .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
     // Georeferenced inputs are warped relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(
         &args.output,
         loaded.geometry.mesh().is_some(),

@@ -212,6 +212,12 @@ pub struct LoadedGeometry {
     /// The file's coordinates are the stored positions plus this (zero unless read with
     /// [`ReadOptions::recentre_far`] from a file far from the origin).
     pub origin: DVec3,
+    /// What the file had that the geometry could not keep, in words (empty when nothing
+    /// was lost): a PLY file's other elements, vertex lists and face properties
+    /// ([`ply::skipped_parts`]); an OBJ file's texture coordinates or normals when its faces
+    /// give them at some corners and not at others, or colours on some `v` lines only, since
+    /// a mesh carries each at every vertex or not at all.
+    pub notes: Vec<String>,
 }
 
 /// A position as text, `x y z`, as the text formats write it: the `f32` values as they
@@ -399,18 +405,20 @@ pub fn read_geometry_bytes_with(
                 geometry,
                 format: FileFormat::Ply,
                 encoding: doc.encoding.keyword().to_string(),
+                notes: ply::skipped_parts(&doc),
                 comments: doc.comments,
                 origin,
             })
         }
         FileFormat::Obj => {
-            let (geometry, origin) = read_obj_at(path, bytes, recentre)?;
+            let (geometry, origin, notes) = read_obj_at(path, bytes, recentre)?;
             Ok(LoadedGeometry {
                 geometry,
                 format: FileFormat::Obj,
                 encoding: "ascii".into(),
                 comments: Vec::new(),
                 origin,
+                notes,
             })
         }
         FileFormat::Off => {
@@ -421,6 +429,7 @@ pub fn read_geometry_bytes_with(
                 encoding: "ascii".into(),
                 comments,
                 origin,
+                notes: Vec::new(),
             })
         }
         FileFormat::Stl => {
@@ -431,6 +440,7 @@ pub fn read_geometry_bytes_with(
                 encoding: file.encoding.into(),
                 comments: file.comments,
                 origin: file.origin,
+                notes: Vec::new(),
             })
         }
     }

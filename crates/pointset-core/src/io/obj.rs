@@ -70,12 +70,25 @@ fn numbers<'a>(
     Ok(values)
 }
 
+/// How many face corners and `v` lines the file has, and how many of them carry a texture
+/// coordinate, a normal or a colour: what tells a mixed file, whose UVs, normals or colours
+/// the reader must drop, from one that has none.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+struct Forms {
+    corners: usize,
+    corners_with_uv: usize,
+    corners_with_normal: usize,
+    vertices: usize,
+    coloured_vertices: usize,
+}
+
 /// Checks one `f` line's corners (`v`, `v/vt`, `v//vn`, `v/vt/vn`, 1-based or negative
-/// relative indices) against the `v`, `vt` and `vn` counts so far.
+/// relative indices) against the `v`, `vt` and `vn` counts so far, and counts their forms.
 fn check_face<'a>(
     corners: impl Iterator<Item = &'a str>,
     line: usize,
     counts: [usize; 3],
+    forms: &mut Forms,
 ) -> Result<()> {
     const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
     let mut n = 0;
@@ -90,6 +103,11 @@ fn check_face<'a>(
         for (k, part) in corner.split('/').enumerate().take(3) {
             if part.is_empty() && k > 0 {
                 continue;
+            }
+            match k {
+                1 => forms.corners_with_uv += 1,
+                2 => forms.corners_with_normal += 1,
+                _ => forms.corners += 1,
             }
             let index: i64 = part
                 .parse()
@@ -118,18 +136,22 @@ fn check_face<'a>(
 
 /// Checks the lines `tobj` reads (`v`, `vn`, `vt`, `f`), so that a malformed file is refused
 /// with its line number, and a face with fewer than three corners is refused instead of
-/// dropped. From the first `\` line continuation on, the lines are left to `tobj`.
-fn check_lines(text: &str) -> Result<()> {
+/// dropped; returns the forms counted. From the first `\` line continuation on, the lines
+/// are left to `tobj` and nothing is counted (`None`).
+fn check_lines(text: &str) -> Result<Option<Forms>> {
     let mut counts = [0usize; 3];
+    let mut forms = Forms::default();
     for (i, line) in text.lines().enumerate() {
         if line.trim_end().ends_with('\\') {
-            return Ok(());
+            return Ok(None);
         }
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {
-                numbers(words, i + 1, 3)?;
+                let values = numbers(words, i + 1, 3)?;
                 counts[0] += 1;
+                forms.vertices += 1;
+                forms.coloured_vertices += usize::from(values.len() >= 6);
             }
             Some("vt") => {
                 numbers(words, i + 1, 2)?;
@@ -139,26 +161,71 @@ fn check_lines(text: &str) -> Result<()> {
                 numbers(words, i + 1, 3)?;
                 counts[2] += 1;
             }
-            Some("f") => check_face(words, i + 1, counts)?,
+            Some("f") => check_face(words, i + 1, counts, &mut forms)?,
             _ => {}
         }
     }
-    Ok(())
+    Ok(Some(forms))
+}
+
+/// `text` with every `v` line cut to its keyword and position (line numbers kept).
+fn without_vertex_colours(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        if words.next() == Some("v") {
+            out.push('v');
+            for word in words.take(3) {
+                out.push(' ');
+                out.push_str(word);
+            }
+        } else {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// What a mesh read from a file of `forms` lost: UVs, normals or colours that only some
+/// corners (or `v` lines) had, which a mesh must have at every vertex or not at all.
+fn dropped_notes(forms: &Forms, mesh: &TriMesh) -> Vec<String> {
+    let mut notes = Vec::new();
+    let partial = |what: &str, some: usize, all: usize, of: &str| {
+        format!(
+            "{what} dropped: {some} of {all} {of} have them; a mesh carries them at every \
+             vertex or not at all"
+        )
+    };
+    if forms.corners_with_uv > 0 && mesh.uvs().is_none() {
+        let (some, all) = (forms.corners_with_uv, forms.corners);
+        notes.push(partial("texture coordinates", some, all, "face corners"));
+    }
+    if forms.corners_with_normal > 0 && mesh.vertices().normals().is_none() {
+        let (some, all) = (forms.corners_with_normal, forms.corners);
+        notes.push(partial("normals", some, all, "face corners"));
+    }
+    if forms.coloured_vertices > 0 && mesh.vertices().colors().is_none() {
+        let (some, all) = (forms.coloured_vertices, forms.vertices);
+        notes.push(partial("colours", some, all, "`v` lines"));
+    }
+    notes
 }
 
 /// Reads an OBJ file held in memory; `path` is used in error messages only.
 pub fn read_obj(path: &Path, bytes: &[u8]) -> Result<Geometry> {
-    read_obj_at(path, bytes, false).map(|(geometry, _)| geometry)
+    read_obj_at(path, bytes, false).map(|(geometry, _, _)| geometry)
 }
 
 /// [`read_obj`], with positions stored relative to an origin when `recentre_far` is set
 /// and the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]);
-/// returns the origin too.
+/// returns the origin too, and notes on what the file had that the mesh could not keep
+/// ([`super::LoadedGeometry::notes`]).
 pub(crate) fn read_obj_at(
     path: &Path,
     bytes: &[u8],
     recentre_far: bool,
-) -> Result<(Geometry, DVec3)> {
+) -> Result<(Geometry, DVec3, Vec<String>)> {
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -166,8 +233,18 @@ pub(crate) fn read_obj_at(
         ignore_lines: true,
     };
     let text = obj_text(bytes)?;
-    check_lines(text)?;
-    let mut reader = std::io::BufReader::new(bytes);
+    let forms = check_lines(text)?;
+    // Colours on some `v` lines only would shift `tobj`'s colour indices (wrong colours or
+    // an error): such a file is read without colours, and the notes say so.
+    let uncoloured;
+    let source = match forms {
+        Some(f) if f.coloured_vertices > 0 && f.coloured_vertices < f.vertices => {
+            uncoloured = without_vertex_colours(text);
+            uncoloured.as_bytes()
+        }
+        _ => bytes,
+    };
+    let mut reader = std::io::BufReader::new(source);
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         Ok((Vec::new(), Default::default()))
     })
@@ -208,7 +285,7 @@ pub(crate) fn read_obj_at(
     }
     if positions.is_empty() {
         return read_point_cloud(text, recentre_far)
-            .map(|(points, origin)| (Geometry::Points(points), origin));
+            .map(|(points, origin, notes)| (Geometry::Points(points), origin, notes));
     }
     let (positions, origin) = relative_positions(&positions, recentre_far);
     let mut points = PointSet::new(positions)?;
@@ -222,11 +299,13 @@ pub(crate) fn read_obj_at(
     if all_uvs && !uvs.is_empty() {
         mesh = mesh.with_uvs(uvs)?;
     }
-    Ok((Geometry::Mesh(mesh), origin))
+    let notes = forms.map_or_else(Vec::new, |forms| dropped_notes(&forms, &mesh));
+    Ok((Geometry::Mesh(mesh), origin, notes))
 }
 
-/// Reads a face-less OBJ: `v x y z [r g b]` lines and optional `vn` lines.
-fn read_point_cloud(text: &str, recentre_far: bool) -> Result<(PointSet, DVec3)> {
+/// Reads a face-less OBJ: `v x y z [r g b]` lines and optional `vn` lines (the normals when
+/// there is one per `v` line); notes say what was dropped.
+fn read_point_cloud(text: &str, recentre_far: bool) -> Result<(PointSet, DVec3, Vec<String>)> {
     let (mut positions, mut normals, mut colors) = (Vec::new(), Vec::new(), Vec::new());
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
@@ -249,15 +328,27 @@ fn read_point_cloud(text: &str, recentre_far: bool) -> Result<(PointSet, DVec3)>
         return Err(malformed(1, "no vertices (`v` lines) found"));
     }
     let count = positions.len();
+    let mut notes = Vec::new();
     let (positions, origin) = relative_positions(&positions, recentre_far);
     let mut points = PointSet::new(positions)?;
     if normals.len() == count {
         points = points.with_normals(normals)?;
+    } else if !normals.is_empty() {
+        notes.push(format!(
+            "normals dropped: {} `vn` lines for {count} points (one per point is needed)",
+            normals.len()
+        ));
     }
     if colors.len() == count {
         points.set_colors(&colors)?;
+    } else if !colors.is_empty() {
+        notes.push(format!(
+            "colours dropped: {} of {count} `v` lines have them; a point set carries them at \
+             every point or not at all",
+            colors.len()
+        ));
     }
-    Ok((points, origin))
+    Ok((points, origin, notes))
 }
 
 /// Writes OBJ: `v` lines (with `r g b` in `0..=1` when colours exist), `vt`, `vn`, then

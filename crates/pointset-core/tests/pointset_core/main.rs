@@ -281,6 +281,78 @@ fn read(name: &str, bytes: &[u8]) -> Result<io::LoadedGeometry, Error> {
 }
 
 #[test]
+fn readers_say_what_they_could_not_keep() {
+    let obj = |faces: &str| {
+        format!(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0 0.5 0.5 0.5\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\n{faces}"
+        )
+    };
+    let notes = |name: &str, text: &str| read(name, text.as_bytes()).unwrap().notes;
+    // Every corner alike: nothing lost, UVs and normals kept.
+    let whole = read(
+        "a.obj",
+        obj("f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/1/1 3/3/1\n").as_bytes(),
+    )
+    .unwrap();
+    let mesh = whole.geometry.mesh().unwrap();
+    assert!(mesh.uvs().is_some() && mesh.vertices().normals().is_some());
+    assert_eq!(
+        whole.notes,
+        [
+            "colours dropped: 1 of 4 `v` lines have them; a mesh carries them at every vertex or not at all"
+        ]
+    );
+    // Corners without UVs or normals, in one object or in another object.
+    for faces in [
+        "f 1/1/1 2/2/1 3/3/1\nf 2 4 3\n",
+        "o a\nf 1/1/1 2/2/1 3/3/1\no b\nf 2//1 4//1 3//1\n",
+    ] {
+        let said = notes("m.obj", &obj(faces)).join("\n");
+        assert!(
+            said.contains("texture coordinates dropped: 3 of 6 face corners"),
+            "{said}"
+        );
+        assert_eq!(
+            said.contains("normals dropped"),
+            faces.contains("f 2 4 3"),
+            "{said}"
+        );
+    }
+    // A face-less OBJ is a point cloud: normals need one `vn` per `v`.
+    let cloud = "v 0 0 0 1 0 0\nv 1 0 0\nvn 0 0 1\n";
+    assert_eq!(
+        notes("c.obj", cloud),
+        [
+            "normals dropped: 1 `vn` lines for 2 points (one per point is needed)",
+            "colours dropped: 1 of 2 `v` lines have them; a point set carries them at every \
+             point or not at all",
+        ]
+    );
+    // PLY: other elements, vertex lists and per-face values are skipped, and said so.
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nproperty list uchar float weights\nelement face 1\n\
+               property list uchar int vertex_indices\nproperty uchar red\nelement camera 2\n\
+               property float f\nelement empty 0\nproperty float g\nend_header\n\
+               0 0 0 1 0.5\n1 0 0 0\n0 1 0 0\n3 0 1 2 255\n35\n50\n";
+    assert_eq!(
+        notes("p.ply", ply),
+        [
+            "vertex list property `weights` skipped",
+            "face property `red` skipped (a mesh keeps values per vertex, not per face)",
+            "element `camera` (2 records) skipped",
+        ]
+    );
+    // Formats that keep what they read say nothing.
+    let clean = io::encode_geometry(
+        &Geometry::Mesh(random_mesh(3, 5, 4)),
+        FileFormat::Ply,
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    assert!(read("c.ply", &clean).unwrap().notes.is_empty());
+}
+
+#[test]
 fn malformed_files_give_specific_errors() {
     assert!(matches!(read("e.ply", b""), Err(Error::EmptyFile { .. })));
     let nan = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 nan 0\n";

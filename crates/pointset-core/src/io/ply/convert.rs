@@ -39,6 +39,59 @@ fn vec3s(e: &PlyElement, names: [&str; 3]) -> Option<Vec<Vec3>> {
     )
 }
 
+/// What [`geometry_from_document`] leaves out of the geometry, in words: elements other
+/// than `vertex` and `face` that hold records, list properties on vertices, and face
+/// properties besides the index list (a mesh keeps values per vertex, not per face).
+///
+/// ```
+/// use pointset_core::io::ply::{read_ply, skipped_parts};
+/// let ply = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+///            property float z\nelement camera 1\nproperty float f\nend_header\n0 0 0\n35\n";
+/// let doc = read_ply(ply.as_bytes())?;
+/// assert_eq!(skipped_parts(&doc), ["element `camera` (1 record) skipped"]);
+/// # Ok::<(), pointset_core::Error>(())
+/// ```
+pub fn skipped_parts(doc: &PlyDocument) -> Vec<String> {
+    let mut notes = Vec::new();
+    for element in doc.elements.iter().filter(|e| e.count > 0) {
+        match element.name.as_str() {
+            "vertex" => notes.extend(
+                element
+                    .properties
+                    .iter()
+                    .filter(|p| matches!(p.kind, PropertyKind::List { .. }))
+                    .map(|p| format!("vertex list property `{}` skipped", p.name)),
+            ),
+            "face" => {
+                let indices = if element.column("vertex_indices").is_some() {
+                    "vertex_indices"
+                } else {
+                    "vertex_index"
+                };
+                notes.extend(
+                    element
+                        .properties
+                        .iter()
+                        .filter(|p| p.name != indices)
+                        .map(|p| {
+                            format!(
+                                "face property `{}` skipped (a mesh keeps values per vertex, \
+                                 not per face)",
+                                p.name
+                            )
+                        }),
+                );
+            }
+            name => notes.push(format!(
+                "element `{name}` ({} record{}) skipped",
+                element.count,
+                if element.count == 1 { "" } else { "s" }
+            )),
+        }
+    }
+    notes
+}
+
 /// Turns a parsed document into a point set (no faces) or a mesh.
 pub fn geometry_from_document(doc: &PlyDocument) -> Result<Geometry> {
     geometry_from_document_at(doc, false).map(|(geometry, _)| geometry)

@@ -14,7 +14,7 @@ mod write;
 
 pub use convert::{
     document_from_geometry, document_from_geometry_at, geometry_from_document,
-    geometry_from_document_at,
+    geometry_from_document_at, skipped_parts,
 };
 pub use write::write_ply;
 
