@@ -173,6 +173,9 @@ pub struct TextureFile {
     /// it (none when the file keeps finer coordinates than a single-precision grid would).
     /// Recentring cannot restore what the file lost.
     pub single_precision_step: Option<f64>,
+    /// What the file had that the reader could not keep
+    /// ([`pointset_core::io::LoadedGeometry::notes`]); empty for generated textures.
+    pub notes: Vec<String>,
 }
 
 /// A texture that lies where its coordinates say (a height field, a generated exemplar):
@@ -184,6 +187,7 @@ impl From<GeometryTexture> for TextureFile {
             origin: DVec3::ZERO,
             frame: DMat3::IDENTITY,
             single_precision_step: None,
+            notes: Vec::new(),
         }
     }
 }
@@ -271,6 +275,7 @@ fn read_texture_from(
             origin,
             frame: DMat3::IDENTITY,
             single_precision_step: single_precision_step(&points, origin),
+            notes: loaded.notes,
         }),
     }
 }
@@ -360,6 +365,26 @@ mod tests {
             .field_resolution(20);
         let out = quilt(&texture, &params, &mut RunContext::new(1)).unwrap();
         assert!(out.points.len() > points.len() / 2);
+    }
+
+    #[test]
+    fn what_the_reader_could_not_keep_travels_with_the_texture() {
+        let dir = tempfile::tempdir().unwrap();
+        let plain = grid_ply(dir.path(), "grid.ply", |_| 0.0);
+        let text = std::fs::read_to_string(&plain).unwrap();
+        let with_camera = text.replace(
+            "end_header\n",
+            "element camera 1\nproperty float f\nend_header\n",
+        ) + "35\n";
+        let path = dir.path().join("camera.ply");
+        std::fs::write(&path, with_camera).unwrap();
+        let expected = ["element `camera` (1 record) skipped"];
+        assert_eq!(read_texture_file(&path, None).unwrap().notes, expected);
+        assert_eq!(
+            super::super::read_texture_file_fitted(&path).unwrap().notes,
+            expected
+        );
+        assert!(read_texture_file(&plain, None).unwrap().notes.is_empty());
     }
 
     /// An ASCII PLY of a 30 × 30 grid at spacing 0.1 with heights `z(x)` and +Z normals,

@@ -122,6 +122,7 @@ pub fn read_texture_file_fitted(path: &Path) -> Result<TextureFile> {
         origin: loaded.origin + centre,
         frame,
         single_precision_step: single_precision_step(&points, loaded.origin),
+        notes: loaded.notes,
     })
 }
 

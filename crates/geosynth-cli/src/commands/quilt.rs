@@ -18,7 +18,9 @@ use glam::{DMat3, DVec3};
 
 use serde_json::{Value, json};
 
-use crate::output::{check_geometry_output, check_output_paths, progress_context, spinner, status};
+use crate::output::{
+    check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
+};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -512,6 +514,9 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
     )?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
     let mut file = load(args)?;
+    if let Some(path) = &args.exemplar {
+        report_not_kept(globals, path, &file.notes);
+    }
     if args.orient_normals {
         file.texture = file.texture.with_oriented_normals()?;
     }
