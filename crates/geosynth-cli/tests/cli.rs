@@ -1677,6 +1677,20 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
     );
     assert!(!scratch.path("far.stl").exists());
 
+    // `info` counts triangles that repeat another's corners (here, one facing the other way).
+    let twin = scratch.path("twin.off");
+    std::fs::write(
+        &twin,
+        "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 2 1\n3 0 1 3\n",
+    )
+    .unwrap();
+    let said = ok(&["info", &arg(&twin)]);
+    assert!(
+        said.contains("duplicates:  1 triangles on the same corners as another"),
+        "{said}"
+    );
+    assert_eq!(info_json(&twin)["duplicate_faces"], 1);
+
     // What the reader could not keep is said by `info` and by the commands that read it.
     let mixed = scratch.path("mixed.obj");
     std::fs::write(

@@ -304,6 +304,35 @@ impl TriMesh {
         }
     }
 
+    /// Triangles on the same three vertices as an earlier triangle (either way round), by
+    /// index: scans and mesh repairs leave such twins, often facing opposite ways (a fin of
+    /// no volume), which make their edges non-manifold and give their corners no single
+    /// outside. Compare by position after [`Self::welded`] when the mesh splits vertices
+    /// along UV seams.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::{PointSet, TriMesh};
+    /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+    /// let faces = vec![[0, 1, 2], [0, 1, 3], [2, 1, 0], [1, 2, 0]];
+    /// let mesh = TriMesh::new(PointSet::new(p)?, faces)?;
+    /// assert_eq!(mesh.duplicate_faces(), vec![2, 3]);
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn duplicate_faces(&self) -> Vec<usize> {
+        let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
+        self.triangles
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| {
+                let mut corners = **t;
+                corners.sort_unstable();
+                !seen.insert(corners)
+            })
+            .map(|(i, _)| i)
+            .collect()
+    }
+
     /// How many vertices no triangle uses. Some tools warn about them (MeshLab) or drop
     /// them on load and report a different vertex count; bounding boxes that count them
     /// disagree with those that do not.

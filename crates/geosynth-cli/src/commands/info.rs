@@ -34,6 +34,9 @@ pub struct FileInfo {
     vertices: usize,
     faces: usize,
     degenerate_faces: usize,
+    /// Triangles on the same three corners (by position) as an earlier one
+    /// ([`TriMesh::duplicate_faces`](geosynth::core::TriMesh::duplicate_faces) after welding).
+    duplicate_faces: usize,
     /// Vertices no face uses (meshes only): some tools drop them or warn.
     unreferenced_vertices: usize,
     topology: Option<TopologyInfo>,
@@ -131,6 +134,10 @@ impl FileInfo {
             vertices: points.len(),
             faces: g.mesh().map_or(0, |m| m.face_count()),
             degenerate_faces: g.mesh().map_or(0, |m| m.degenerate_faces().len()),
+            duplicate_faces: g
+                .mesh()
+                .and_then(|m| m.welded().ok())
+                .map_or(0, |m| m.duplicate_faces().len()),
             unreferenced_vertices: g.mesh().map_or(0, |m| m.unreferenced_vertices()),
             topology: g.mesh().map(|m| TopologyInfo::from(&m.topology())),
             welded_topology: g.mesh().and_then(|m| {
@@ -175,6 +182,12 @@ impl FileInfo {
         );
         if self.faces > 0 {
             s.push_str(&format!("degenerate:  {}\n", self.degenerate_faces));
+            if self.duplicate_faces > 0 {
+                s.push_str(&format!(
+                    "duplicates:  {} triangles on the same corners as another\n",
+                    self.duplicate_faces
+                ));
+            }
             if self.unreferenced_vertices > 0 {
                 s.push_str(&format!(
                     "unused:      {} vertices no face uses\n",
