@@ -10,6 +10,7 @@ use crate::{Error, Location, Result};
 pub(super) const BINARY_HEADER_BYTES: usize = 84;
 /// Bytes per binary facet: normal and three corners as `f32`, two attribute bytes.
 pub(super) const BINARY_FACET_BYTES: usize = 50;
+
 /// The facet count a binary STL declares, when `bytes` is exactly as long as a binary file
 /// with that many facets.
 pub(crate) fn binary_facet_count(bytes: &[u8]) -> Option<usize> {
@@ -22,6 +23,7 @@ fn declared_facets(bytes: &[u8]) -> Option<usize> {
     let count: [u8; 4] = bytes.get(80..84)?.try_into().ok()?;
     usize::try_from(u32::from_le_bytes(count)).ok()
 }
+
 /// Why `bytes` are not a binary STL of the size its header declares.
 pub(super) fn binary_size_error(bytes: &[u8]) -> Error {
     let Some(count) = declared_facets(bytes) else {

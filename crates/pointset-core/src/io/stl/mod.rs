@@ -3,10 +3,13 @@
 //! An STL file is a soup of triangles: each facet stores its own three corners and a
 //! normal, and nothing says which corners are the same vertex. The reader welds corners
 //! whose stored positions are equal (compared exactly in single precision, `-0` equal to
-//! `0`: [`TriMesh::welded`]) into one vertex, numbered in order of first appearance, so the mesh has the connectivity that
-//! signing by pseudo-normals and [`TriMesh::consistently_oriented`] need. Two things follow:
-//! vertices a mesh kept apart at one position (UV seams) come back as one, and a facet whose
-//! corners coincide comes back as a degenerate triangle ([`TriMesh::degenerate_faces`]).
+//! `0`: [`TriMesh::welded`]) into one vertex, numbered in order of first appearance, so
+//! the mesh has the connectivity that signing by pseudo-normals and
+//! [`TriMesh::consistently_oriented`] need. Two things follow: vertices a mesh kept apart
+//! at one position (UV seams) come back as one, and a facet whose corners coincide comes
+//! back as a degenerate triangle ([`TriMesh::degenerate_faces`]).
+//!
+//! Text files may use `\r\n` line ends and start with a UTF-8 byte-order mark.
 //!
 //! The facet normals are read past, not used: the corners' order (counter-clockwise seen
 //! from outside) is what the rest of the library takes as orientation, as most tools do, and
@@ -54,9 +57,14 @@ pub(crate) struct StlFile {
     /// The origin positions are stored relative to.
     pub(crate) origin: DVec3,
 }
+
+/// UTF-8's byte-order mark, which some Windows tools put before text.
+const BYTE_ORDER_MARK: &[u8] = b"\xEF\xBB\xBF";
+
 /// Whether `bytes` open like an ASCII STL: the word `solid` (any case) after optional
 /// whitespace.
 pub(crate) fn starts_like_ascii(bytes: &[u8]) -> bool {
+    let bytes = bytes.strip_prefix(BYTE_ORDER_MARK).unwrap_or(bytes);
     let start = bytes.iter().position(|b| !b.is_ascii_whitespace());
     start.is_some_and(|s| {
         bytes[s..]
@@ -92,13 +100,24 @@ pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
         let (corners, header) = binary_corners(bytes, count)?;
         (corners, "binary_little_endian", header)
     } else if starts_like_ascii(bytes) && !bytes.contains(&0) {
-        let (corners, names) = ascii_corners(bytes)?;
+        let text = bytes.strip_prefix(BYTE_ORDER_MARK).unwrap_or(bytes);
+        let (corners, names) = ascii_corners(text)?;
         (corners, "ascii", names)
     } else {
         return Err(binary_size_error(bytes));
     };
     let (corners, origin) = relative_positions(&corners, recentre_far);
-    let facets = (corners.len() / 3) as u32;
+    // Vertex indices are `u32`: the corners must be numbered by one before welding.
+    let facets = u32::try_from(corners.len())
+        .map(|n| n / 3)
+        .map_err(|_| Error::Malformed {
+            format: super::FileFormat::Stl,
+            location: crate::Location::Byte(0),
+            message: format!(
+                "{} facets: more corners than 32-bit vertex indices can number",
+                corners.len() / 3
+            ),
+        })?;
     let soup = (0..facets).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect();
     let mesh = TriMesh::new(PointSet::new(corners)?, soup)?.welded()?;
     Ok(StlFile {
