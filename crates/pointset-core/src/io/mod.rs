@@ -214,7 +214,7 @@ pub struct LoadedGeometry {
     pub origin: DVec3,
     /// What the file had that the geometry could not keep, in words (empty when nothing
     /// was lost): a PLY file's other elements, vertex lists and face properties
-    /// ([`ply::skipped_parts`]); an OBJ file's texture coordinates or normals when its faces
+    /// ([`ply::skipped_parts`]); an OFF file's per-face colours; an OBJ file's texture coordinates or normals when its faces
     /// give them at some corners and not at others, or colours on some `v` lines only, since
     /// a mesh carries each at every vertex or not at all.
     pub notes: Vec<String>,
@@ -422,14 +422,14 @@ pub fn read_geometry_bytes_with(
             })
         }
         FileFormat::Off => {
-            let (geometry, comments, origin) = read_off_at(bytes, recentre)?;
+            let file = read_off_at(bytes, recentre)?;
             Ok(LoadedGeometry {
-                geometry,
+                geometry: file.geometry,
                 format: FileFormat::Off,
                 encoding: "ascii".into(),
-                comments,
-                origin,
-                notes: Vec::new(),
+                comments: file.comments,
+                origin: file.origin,
+                notes: file.notes,
             })
         }
         FileFormat::Stl => {

@@ -1,5 +1,6 @@
 //! Object File Format (OFF, with the `N` normal and `C` colour prefixes: `NOFF`, `COFF`,
-//! `CNOFF`). Polygons are split into triangle fans; per-face colours are skipped. Vertex
+//! `CNOFF`). Polygons are split into triangle fans; per-face colours are skipped, and the
+//! reader's notes say so ([`super::LoadedGeometry::notes`]). Vertex
 //! colours may be integers in `0..=255` or floats in `0..=1` (decided per file: any value
 //! above 1 means the integer range).
 
@@ -49,16 +50,25 @@ fn numbers(line: usize, words: &[&str]) -> Result<Vec<f64>> {
 
 /// Reads an OFF file held in memory; returns the geometry and the file's `#` comments.
 pub fn read_off(bytes: &[u8]) -> Result<(Geometry, Vec<String>)> {
-    read_off_at(bytes, false).map(|(geometry, comments, _)| (geometry, comments))
+    read_off_at(bytes, false).map(|file| (file.geometry, file.comments))
+}
+
+/// An OFF file as read.
+pub(crate) struct OffFile {
+    /// The points or mesh.
+    pub(crate) geometry: Geometry,
+    /// The file's `#` comments.
+    pub(crate) comments: Vec<String>,
+    /// The origin positions are stored relative to.
+    pub(crate) origin: DVec3,
+    /// What was skipped (per-face values).
+    pub(crate) notes: Vec<String>,
 }
 
 /// [`read_off`], with positions stored relative to an origin when `recentre_far` is set
 /// and the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]);
-/// returns the origin too.
-pub(crate) fn read_off_at(
-    bytes: &[u8],
-    recentre_far: bool,
-) -> Result<(Geometry, Vec<String>, DVec3)> {
+/// returns the origin too, and notes on what was skipped.
+pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
     let text = std::str::from_utf8(bytes).map_err(|e| Error::Malformed {
         format: FileFormat::Off,
         location: Location::Byte(e.valid_up_to() as u64),
@@ -166,6 +176,7 @@ pub(crate) fn read_off_at(
         points.set_colors(&colors)?;
     }
     let mut triangles = Vec::with_capacity(nf);
+    let mut faces_with_values = 0;
     for face in 0..nf {
         let (line, words) = lines.next().ok_or_else(|| Error::UnexpectedEof {
             format: FileFormat::Off,
@@ -206,13 +217,27 @@ pub(crate) fn read_off_at(
         for k in 1..n - 1 {
             triangles.push([idx[0], idx[k], idx[k + 1]]);
         }
+        faces_with_values += usize::from(words.len() > n + 1);
     }
+    let notes = if faces_with_values > 0 {
+        vec![format!(
+            "per-face values (colours) on {faces_with_values} of {nf} faces skipped (a mesh \
+             keeps values per vertex, not per face)"
+        )]
+    } else {
+        Vec::new()
+    };
     let geometry = if nf == 0 {
         Geometry::Points(points)
     } else {
         Geometry::Mesh(TriMesh::new(points, triangles)?)
     };
-    Ok((geometry, comments, origin))
+    Ok(OffFile {
+        geometry,
+        comments,
+        origin,
+        notes,
+    })
 }
 
 /// Writes ASCII OFF (`NOFF`/`COFF`/`CNOFF` when normals or colours exist; colours as

@@ -342,6 +342,18 @@ fn readers_say_what_they_could_not_keep() {
             "element `camera` (2 records) skipped",
         ]
     );
+    // OFF: per-face colours are skipped, and said so.
+    let off =
+        "COFF\n3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n3 0 1 2 9 9 9\n";
+    let loaded = read("f.off", off.as_bytes()).unwrap();
+    assert!(loaded.geometry.points().colors().is_some());
+    assert_eq!(
+        loaded.notes,
+        [
+            "per-face values (colours) on 1 of 1 faces skipped (a mesh keeps values per vertex, \
+          not per face)"
+        ]
+    );
     // Formats that keep what they read say nothing.
     let clean = io::encode_geometry(
         &Geometry::Mesh(random_mesh(3, 5, 4)),
