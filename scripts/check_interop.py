@@ -7,7 +7,7 @@
    coordinates; three list-count/index type pairs; colours, a double and a short
    attribute; an extra element), OBJ/OFF/STL (binary and ASCII) files with trimesh and
    NRRD fields with pynrrd
-   (raw, gzip, ascii; float, double, short, uchar) into DIR/foreign, and checks that
+   (raw, gzip, ascii; float, double, int64, short, uchar) into DIR/foreign, and checks that
    `geosynth info --json` reads the same counts, box, attributes and value range.
 
 A manual interoperability check, not part of CI (the readers are not project
@@ -19,7 +19,7 @@ dependencies). Usage:
 
 Prints one line per file and the number of mismatches; exits 1 when there are any.
 Measured 2026-12-03 (plyfile 1.1.5, trimesh 5.2.0, pynrrd 1.1.3): 0 mismatches over 71 of
-our files (42 of them STL) and 34 of theirs (2 STL).
+our files (42 of them STL) and 37 of theirs (2 STL, 3 int64 NRRD).
 """
 import json, subprocess, sys, pathlib
 import numpy as np, plyfile, trimesh, nrrd
@@ -119,7 +119,7 @@ for name, file_type in [('obj', 'obj'), ('off', 'off'), ('stl', 'stl'), ('ascii.
 volume = rng.normal(size=(7, 5, 6))
 fields = []
 for encoding in ['raw', 'gzip', 'ascii']:
-    for dtype in ['float32', 'float64', 'int16', 'uint8']:
+    for dtype in ['float32', 'float64', 'int64', 'int16', 'uint8']:
         values = (volume * 10).astype(dtype) if 'int' in dtype else volume.astype(dtype)
         path = foreign / f'pynrrd_{encoding}_{dtype}.nrrd'
         nrrd.write(str(path), values, {'encoding': encoding, 'spacings': [0.5] * 3}, index_order='F')

@@ -4,10 +4,11 @@
 //! Written: `NRRD0004`, `type: float`, `encoding: raw`, `endian: little`, `space dimension:
 //! 3`, `space directions` and `space origin`; 4-channel grids add a leading axis of size 4
 //! with `kinds: vector domain domain domain` (and `none` as its space direction). Read: the
-//! same, plus `spacings`/`axis mins` instead of space fields; `double` and 8-, 16- and 32-bit
-//! integer data (converted to `f32` as they are: no value scaling is applied); big-endian
-//! data; and `gzip` (pynrrd's default) and `ascii` encodings. 64-bit integers, `bzip2`,
-//! detached data files and byte or line skips are not supported and are reported as such.
+//! same, plus `spacings`/`axis mins` instead of space fields; `double` and 8-, 16-, 32- and
+//! 64-bit integer data (converted to `f32` as they are: no value scaling is applied;
+//! 64-bit integers are numpy's default, so pynrrd's for integer arrays); big-endian data;
+//! and `gzip` (pynrrd's default) and `ascii` encodings. `bzip2`, detached data files and
+//! byte or line skips are not supported and are reported as such.
 
 use std::io::Write;
 use std::path::Path;
@@ -257,11 +258,12 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
     };
 
     let (line, ty) = require("type")?;
-    let scalar = scalar_type(ty).ok_or_else(|| {
+    let scalar = data_type(ty).ok_or_else(|| {
         nrrd_error(
             format!("line {line}"),
             format!(
-                "unsupported type `{ty}` (8-, 16- and 32-bit integers, float and double are read)"
+                "unsupported type `{ty}` (8-, 16-, 32- and 64-bit integers, float and double \
+                 are read)"
             ),
         )
     })?;
@@ -440,11 +442,63 @@ enum Encoding {
     Ascii,
 }
 
+/// The storage type of NRRD data: the PLY scalar types, or a 64-bit integer (which PLY
+/// has not).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum DataType {
+    /// One of the PLY scalar types.
+    Scalar(ScalarType),
+    /// Signed 64-bit integer.
+    I64,
+    /// Unsigned 64-bit integer.
+    U64,
+}
+
+impl DataType {
+    /// Bytes per value.
+    fn size(self) -> usize {
+        match self {
+            DataType::Scalar(scalar) => scalar.size(),
+            DataType::I64 | DataType::U64 => 8,
+        }
+    }
+
+    /// The value in `word` (exactly [`Self::size`] bytes), `None` when it is cut short.
+    fn decode(self, word: &[u8], big_endian: bool) -> Option<f64> {
+        let bits = |word: &[u8]| {
+            let bytes: [u8; 8] = word.try_into().ok()?;
+            Some(if big_endian {
+                u64::from_be_bytes(bytes)
+            } else {
+                u64::from_le_bytes(bytes)
+            })
+        };
+        match self {
+            DataType::Scalar(scalar) => scalar.decode(word, big_endian),
+            DataType::I64 => bits(word).map(|b| b as i64 as f64),
+            DataType::U64 => bits(word).map(|b| b as f64),
+        }
+    }
+}
+
 /// The storage type named by an NRRD `type` field, in any of the spellings the format
-/// allows (`uchar`, `unsigned char`, `uint8`, `uint8_t`, …). 64-bit integers and `block`
-/// are not read.
-fn scalar_type(name: &str) -> Option<ScalarType> {
-    Some(match name {
+/// allows (`uchar`, `unsigned char`, `uint8`, `uint8_t`, `long long`, …). `block` is not
+/// read.
+fn data_type(name: &str) -> Option<DataType> {
+    let scalar = match name {
+        "longlong"
+        | "long long"
+        | "long long int"
+        | "signed long long"
+        | "signed long long int"
+        | "int64"
+        | "int64_t" => return Some(DataType::I64),
+        "ulonglong" | "unsigned long long" | "unsigned long long int" | "uint64" | "uint64_t" => {
+            return Some(DataType::U64);
+        }
+        other => other,
+    };
+    Some(DataType::Scalar(match scalar {
         "signed char" | "int8" | "int8_t" => ScalarType::I8,
         "uchar" | "unsigned char" | "uint8" | "uint8_t" => ScalarType::U8,
         "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
@@ -458,7 +512,7 @@ fn scalar_type(name: &str) -> Option<ScalarType> {
         "float" | "float32" => ScalarType::F32,
         "double" | "float64" => ScalarType::F64,
         _ => return None,
-    })
+    }))
 }
 
 /// The gzip stream `body` (which starts at byte `offset` of the file) inflated, reading at

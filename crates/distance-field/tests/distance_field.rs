@@ -560,7 +560,7 @@ fn nrrd_round_trips_and_rejects_short_data() {
     let liar = b"NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\nencoding: raw\nspacings: 1 1 1\n\n1234";
     assert!(matches!(nrrd::read(liar), Err(FieldError::Nrrd { .. })));
     for bad in [
-        &b"NRRD0004\ntype: int64\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\n\n00000000"[..],
+        &b"NRRD0004\ntype: block\nsizes: 1 1 1\nencoding: raw\nspacings: 1 1 1\n\n00000000"[..],
         &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: bzip2\nspacings: 1 1 1\n\n0000"[..],
         &b"NRRD0004\ntype: float\nsizes: 1 1 1\nencoding: raw\nbyte skip: 4\nspacings: 1 1 1\n\n00000000"[..],
         // Data short of what the header promises, in each encoding.
@@ -593,36 +593,34 @@ fn nrrd_round_trips_and_rejects_short_data() {
 #[test]
 fn nrrd_reads_every_scalar_type_in_every_encoding() {
     use flate2::{Compression, write::GzEncoder};
-    use pointset_core::ScalarType;
     use std::io::Write;
     // Values every type holds exactly: -3..4 (0..7 for unsigned types), 2 x 2 x 2 nodes.
-    let types = [
-        ("signed char", ScalarType::I8),
-        ("uint8_t", ScalarType::U8),
-        ("short", ScalarType::I16),
-        ("unsigned short", ScalarType::U16),
-        ("int32", ScalarType::I32),
-        ("uint", ScalarType::U32),
-        ("float", ScalarType::F32),
-        ("double", ScalarType::F64),
+    // Each type: an NRRD spelling, whether it is signed, and its little-endian encoding.
+    type Encode = fn(f64) -> Vec<u8>;
+    let types: [(&str, bool, Encode); 10] = [
+        ("signed char", true, |v| (v as i8).to_le_bytes().to_vec()),
+        ("uint8_t", false, |v| (v as u8).to_le_bytes().to_vec()),
+        ("short", true, |v| (v as i16).to_le_bytes().to_vec()),
+        ("unsigned short", false, |v| {
+            (v as u16).to_le_bytes().to_vec()
+        }),
+        ("int32", true, |v| (v as i32).to_le_bytes().to_vec()),
+        ("uint", false, |v| (v as u32).to_le_bytes().to_vec()),
+        ("int64", true, |v| (v as i64).to_le_bytes().to_vec()),
+        ("unsigned long long", false, |v| {
+            (v as u64).to_le_bytes().to_vec()
+        }),
+        ("float", true, |v| (v as f32).to_le_bytes().to_vec()),
+        ("double", true, |v| v.to_le_bytes().to_vec()),
     ];
-    for (name, ty) in types {
+    for (name, signed, encode) in types {
         let values: Vec<f64> = (0..8)
-            .map(|i| f64::from(i) - if ty.range().0 < 0.0 { 3.0 } else { 0.0 })
+            .map(|i| f64::from(i) - if signed { 3.0 } else { 0.0 })
             .collect();
         let binary = |big: bool| -> Vec<u8> {
             let mut out = Vec::new();
             for &v in &values {
-                let mut le: Vec<u8> = match ty {
-                    ScalarType::I8 => (v as i8).to_le_bytes().to_vec(),
-                    ScalarType::U8 => (v as u8).to_le_bytes().to_vec(),
-                    ScalarType::I16 => (v as i16).to_le_bytes().to_vec(),
-                    ScalarType::U16 => (v as u16).to_le_bytes().to_vec(),
-                    ScalarType::I32 => (v as i32).to_le_bytes().to_vec(),
-                    ScalarType::U32 => (v as u32).to_le_bytes().to_vec(),
-                    ScalarType::F32 => (v as f32).to_le_bytes().to_vec(),
-                    ScalarType::F64 => v.to_le_bytes().to_vec(),
-                };
+                let mut le = encode(v);
                 if big {
                     le.reverse();
                 }
