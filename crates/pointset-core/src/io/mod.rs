@@ -396,6 +396,7 @@ pub fn read_geometry_bytes_with(
             path: path.to_path_buf(),
         });
     }
+    let bytes = without_byte_order_mark(bytes);
     let recentre = options.recentre_far;
     match detect_format(path, bytes)? {
         FileFormat::Ply => {
@@ -443,6 +444,19 @@ pub fn read_geometry_bytes_with(
                 notes: Vec::new(),
             })
         }
+    }
+}
+
+/// UTF-8's byte-order mark, which some Windows tools put before text.
+const BYTE_ORDER_MARK: &[u8] = b"\xEF\xBB\xBF";
+
+/// `bytes` without a leading UTF-8 byte-order mark, unless they are a binary STL of the
+/// right size (whose 80-byte header may hold anything). Byte offsets in errors then count
+/// from after the mark; line numbers are unchanged.
+fn without_byte_order_mark(bytes: &[u8]) -> &[u8] {
+    match bytes.strip_prefix(BYTE_ORDER_MARK) {
+        Some(text) if stl::binary_facet_count(bytes).is_none() => text,
+        _ => bytes,
     }
 }
 

@@ -281,6 +281,47 @@ fn read(name: &str, bytes: &[u8]) -> Result<io::LoadedGeometry, Error> {
 }
 
 #[test]
+fn text_files_may_start_with_a_byte_order_mark() {
+    let mesh = Geometry::Mesh(random_mesh(5, 8, 6));
+    let ascii_ply = WriteOptions::default().ply_encoding(PlyEncoding::Ascii);
+    let mut stl = Vec::new();
+    io::write_stl_ascii(&mesh, &mut stl).unwrap();
+    let files = [
+        (
+            "m.ply",
+            io::encode_geometry(&mesh, FileFormat::Ply, &ascii_ply).unwrap(),
+        ),
+        (
+            "m.obj",
+            io::encode_geometry(&mesh, FileFormat::Obj, &WriteOptions::default()).unwrap(),
+        ),
+        (
+            "m.off",
+            io::encode_geometry(&mesh, FileFormat::Off, &WriteOptions::default()).unwrap(),
+        ),
+        ("m.stl", stl),
+    ];
+    for (name, bytes) in files {
+        let plain = read(name, &bytes).unwrap();
+        let marked = [&b"\xEF\xBB\xBF"[..], &bytes].concat();
+        assert_eq!(read(name, &marked).unwrap(), plain, "{name}");
+        // Without the extension, the content still says what the file is.
+        assert_eq!(read("m", &marked).unwrap().format, plain.format, "{name}");
+    }
+    // A binary STL whose header happens to start with those bytes stays binary.
+    let mut binary = io::encode_geometry(&mesh, FileFormat::Stl, &WriteOptions::default()).unwrap();
+    binary[..3].copy_from_slice(b"\xEF\xBB\xBF");
+    let loaded = read("b.stl", &binary).unwrap();
+    assert_eq!(
+        (
+            loaded.encoding.as_str(),
+            loaded.geometry.mesh().unwrap().face_count()
+        ),
+        ("binary_little_endian", 6)
+    );
+}
+
+#[test]
 fn readers_say_what_they_could_not_keep() {
     let obj = |faces: &str| {
         format!(

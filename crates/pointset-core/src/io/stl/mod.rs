@@ -9,7 +9,8 @@
 //! at one position (UV seams) come back as one, and a facet whose corners coincide comes
 //! back as a degenerate triangle ([`TriMesh::degenerate_faces`]).
 //!
-//! Text files may use `\r\n` line ends and start with a UTF-8 byte-order mark.
+//! Text files may use `\r\n` line ends (and, through [`super::read_geometry`], start with
+//! a UTF-8 byte-order mark).
 //!
 //! The facet normals are read past, not used: the corners' order (counter-clockwise seen
 //! from outside) is what the rest of the library takes as orientation, as most tools do, and
@@ -58,13 +59,9 @@ pub(crate) struct StlFile {
     pub(crate) origin: DVec3,
 }
 
-/// UTF-8's byte-order mark, which some Windows tools put before text.
-const BYTE_ORDER_MARK: &[u8] = b"\xEF\xBB\xBF";
-
 /// Whether `bytes` open like an ASCII STL: the word `solid` (any case) after optional
 /// whitespace.
 pub(crate) fn starts_like_ascii(bytes: &[u8]) -> bool {
-    let bytes = bytes.strip_prefix(BYTE_ORDER_MARK).unwrap_or(bytes);
     let start = bytes.iter().position(|b| !b.is_ascii_whitespace());
     start.is_some_and(|s| {
         bytes[s..]
@@ -100,8 +97,7 @@ pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
         let (corners, header) = binary_corners(bytes, count)?;
         (corners, "binary_little_endian", header)
     } else if starts_like_ascii(bytes) && !bytes.contains(&0) {
-        let text = bytes.strip_prefix(BYTE_ORDER_MARK).unwrap_or(bytes);
-        let (corners, names) = ascii_corners(text)?;
+        let (corners, names) = ascii_corners(bytes)?;
         (corners, "ascii", names)
     } else {
         return Err(binary_size_error(bytes));
