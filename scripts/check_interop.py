@@ -6,9 +6,9 @@
 2. writes PLY files with plyfile (ascii, binary little and big endian; float and double
    coordinates; three list-count/index type pairs; colours, a double and a short
    attribute; an extra element), OBJ/OFF/STL (binary and ASCII) files with trimesh and
-   NRRD fields with pynrrd
-   (raw, gzip, ascii; float, double, int64, short, uchar) into DIR/foreign, and checks that
-   `geosynth info --json` reads the same counts, box, attributes and value range.
+   NRRD fields with pynrrd (raw, gzip, ascii; float, double, int64, short, uchar; attached
+   and detached headers) into DIR/foreign, and checks that `geosynth info --json` reads
+   the same counts, box, attributes and value range.
 
 A manual interoperability check, not part of CI (the readers are not project
 dependencies). Usage:
@@ -19,7 +19,7 @@ dependencies). Usage:
 
 Prints one line per file and the number of mismatches; exits 1 when there are any.
 Measured 2026-12-03 (plyfile 1.1.5, trimesh 5.2.0, pynrrd 1.1.3): 0 mismatches over 71 of
-our files (42 of them STL) and 37 of theirs (2 STL, 3 int64 NRRD).
+our files (42 of them STL) and 40 of theirs (2 STL, 3 int64 NRRD, 3 detached NRRD).
 """
 import json, subprocess, sys, pathlib
 import numpy as np, plyfile, trimesh, nrrd
@@ -124,6 +124,11 @@ for encoding in ['raw', 'gzip', 'ascii']:
         path = foreign / f'pynrrd_{encoding}_{dtype}.nrrd'
         nrrd.write(str(path), values, {'encoding': encoding, 'spacings': [0.5] * 3}, index_order='F')
         fields.append((path, values))
+    # A detached header (.nhdr) beside its data file.
+    path = foreign / f'pynrrd_detached_{encoding}.nhdr'
+    nrrd.write(str(path), volume.astype('float32'), {'encoding': encoding, 'spacings': [0.5] * 3},
+               detached_header=True, index_order='F')
+    fields.append((path, volume.astype('float32')))
 for path, values in fields:
     result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
     if result.returncode != 0:

@@ -7,11 +7,13 @@
 //! same, plus `spacings`/`axis mins` instead of space fields; `double` and 8-, 16-, 32- and
 //! 64-bit integer data (converted to `f32` as they are: no value scaling is applied;
 //! 64-bit integers are numpy's default, so pynrrd's for integer arrays); big-endian data;
-//! and `gzip` (pynrrd's default) and `ascii` encodings. `bzip2`, detached data files and
-//! byte or line skips are not supported and are reported as such.
+//! and `gzip` (pynrrd's default) and `ascii` encodings; and, through [`read_file`], detached
+//! headers (`.nhdr`) whose `data file` names one file beside them. `bzip2`, data split over
+//! several files (`LIST` or a `%` pattern) and byte or line skips are not supported and are
+//! reported as such.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3, Vec4};
 use pointset_core::{Grid3, ScalarType};
@@ -206,12 +208,22 @@ fn spatial_numbers(line: usize, text: &str, what: &str) -> Result<[f64; 3]> {
     }
 }
 
-/// Parses an NRRD file held in memory.
+/// Parses an NRRD file held in memory. A detached header (`data file: …`) is refused here,
+/// since there is no folder to find its data in: [`read_file`] reads those.
 pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
+    read_with_data_folder(bytes, None)
+}
+
+/// [`read`], with `folder` the one a detached header's data file is named relative to.
+fn read_with_data_folder(bytes: &[u8], folder: Option<&Path>) -> Result<NrrdVolume> {
     let mut pos = 0usize;
     let mut line_no = 0usize;
     let mut fields: Vec<(usize, String, String)> = Vec::new();
     loop {
+        // A detached header may end with the file instead of a blank line.
+        if pos == bytes.len() && line_no > 0 {
+            break;
+        }
         let end = bytes[pos..]
             .iter()
             .position(|&b| b == b'\n')
@@ -286,12 +298,6 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
                 format!("`{key}: {skip}` is not supported (data must follow the header)"),
             ));
         }
-    }
-    if get("data file").or_else(|| get("datafile")).is_some() {
-        return Err(nrrd_error(
-            "header",
-            "detached data files are not supported",
-        ));
     }
     let big_endian = get("endian").is_some_and(|(_, e)| e == "big");
     let (line, sizes) = require("sizes")?;
@@ -387,8 +393,74 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
         .iter()
         .try_fold(channels, |acc, &d| acc.checked_mul(d))
         .ok_or_else(|| nrrd_error("header", "sizes overflow"))?;
-    let body = &bytes[pos..];
-    let data = match encoding {
+    let detached = match get("data file").or_else(|| get("datafile")) {
+        Some((line, name)) => Some(data_file_path(line, name, folder)?),
+        None => None,
+    };
+    let data_bytes;
+    let (body, pos) = match &detached {
+        Some(path) => {
+            data_bytes = std::fs::read(path).map_err(|source| FieldError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            (&data_bytes[..], 0)
+        }
+        None => (&bytes[pos..], pos),
+    };
+    let data = decode_data(body, pos, encoding, scalar, big_endian, count).map_err(|e| {
+        match (&detached, e) {
+            (Some(path), FieldError::Nrrd { location, message }) => FieldError::Nrrd {
+                location: format!("{location} of data file {}", path.display()),
+                message,
+            },
+            (_, e) => e,
+        }
+    })?;
+    Ok(NrrdVolume {
+        dims,
+        origin: DVec3::new(origin[0], origin[1], origin[2]),
+        spacing,
+        channels,
+        data,
+    })
+}
+
+/// The file a detached header's `data file: name` (on header line `line`) points to,
+/// relative to `folder` unless absolute. Data split over several files is refused.
+fn data_file_path(line: usize, name: &str, folder: Option<&Path>) -> Result<PathBuf> {
+    if name == "LIST" || name.contains('%') {
+        return Err(nrrd_error(
+            format!("line {line}"),
+            format!("`data file: {name}`: data split over several files is not supported"),
+        ));
+    }
+    let path = Path::new(name);
+    if path.is_absolute() {
+        return Ok(path.to_path_buf());
+    }
+    let folder = folder.ok_or_else(|| {
+        nrrd_error(
+            format!("line {line}"),
+            format!(
+                "the data is in the file `{name}` beside the header: read the header as a \
+                 file (nrrd::read_file), not from memory"
+            ),
+        )
+    })?;
+    Ok(folder.join(path))
+}
+
+/// The `count` values of the data `body` (which starts at byte `pos` of its file).
+fn decode_data(
+    body: &[u8],
+    pos: usize,
+    encoding: Encoding,
+    scalar: DataType,
+    big_endian: bool,
+    count: usize,
+) -> Result<Vec<f32>> {
+    Ok(match encoding {
         Encoding::Ascii => ascii_values(body, pos, count)?,
         Encoding::Raw | Encoding::Gzip => {
             let needed = count
@@ -421,13 +493,6 @@ pub fn read(bytes: &[u8]) -> Result<NrrdVolume> {
                 .collect::<Option<Vec<f32>>>()
                 .ok_or_else(|| nrrd_error(format!("byte {pos}"), "a value is cut short"))?
         }
-    };
-    Ok(NrrdVolume {
-        dims,
-        origin: DVec3::new(origin[0], origin[1], origin[2]),
-        spacing,
-        channels,
-        data,
     })
 }
 
@@ -557,18 +622,19 @@ fn ascii_values(body: &[u8], offset: usize, count: usize) -> Result<Vec<f32>> {
     Ok(values)
 }
 
-/// Whether a path names an NRRD file (`.nrrd`, any case).
+/// Whether a path names an NRRD file: `.nrrd`, or `.nhdr` for a detached header (any case).
 pub fn is_nrrd_path(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("nrrd"))
+        .is_some_and(|e| e.eq_ignore_ascii_case("nrrd") || e.eq_ignore_ascii_case("nhdr"))
 }
 
-/// Reads an NRRD file.
+/// Reads an NRRD file (`.nrrd`), or a detached header (`.nhdr`) and the data file it names
+/// (relative to the header's folder unless absolute).
 pub fn read_file(path: &Path) -> Result<NrrdVolume> {
     let bytes = std::fs::read(path).map_err(|source| FieldError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    read(&bytes)
+    read_with_data_folder(&bytes, Some(path.parent().unwrap_or(Path::new(""))))
 }

@@ -777,6 +777,67 @@ fn reencoded(raw: &[u8], gzip: bool) -> Vec<u8> {
     out
 }
 
+#[test]
+fn detached_headers_read_the_data_file_beside_them() {
+    let grid = analytic_grid(5, 1.0, |p| p.x - 0.5 * p.y + p.z * p.z);
+    let mut attached = Vec::new();
+    nrrd::write_scalar(&mut attached, &grid).unwrap();
+    let expected = nrrd::read(&attached).unwrap();
+    let split = attached.windows(2).position(|w| w == b"\n\n").unwrap() + 1;
+    let header = String::from_utf8(attached[..split].to_vec()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let gzipped = {
+        use std::io::Write;
+        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        encoder.write_all(&attached[split + 1..]).unwrap();
+        encoder.finish().unwrap()
+    };
+    // Raw and gzip data, named relative to the header and by an absolute path; the header
+    // ends with the file, not a blank line.
+    let raw_path = dir.path().join("field.raw");
+    std::fs::write(&raw_path, &attached[split + 1..]).unwrap();
+    std::fs::write(dir.path().join("field.raw.gz"), &gzipped).unwrap();
+    let cases = [
+        ("relative.nhdr", "raw", "field.raw".to_string()),
+        ("gzip.nhdr", "gzip", "field.raw.gz".to_string()),
+        ("absolute.NHDR", "raw", raw_path.display().to_string()),
+    ];
+    for (name, encoding, data_file) in cases {
+        let text = header.replace("encoding: raw", &format!("encoding: {encoding}"))
+            + &format!("data file: {data_file}\n");
+        let path = dir.path().join(name);
+        std::fs::write(&path, &text).unwrap();
+        assert!(nrrd::is_nrrd_path(&path));
+        assert_eq!(nrrd::read_file(&path).unwrap(), expected, "{name}");
+        // From memory there is no folder to look in: a relative name is refused, naming the
+        // way that works; an absolute one needs no folder.
+        let from_memory = nrrd::read(text.as_bytes());
+        if data_file.starts_with("field") {
+            let err = from_memory.unwrap_err().to_string();
+            assert!(err.contains("nrrd::read_file"), "{err}");
+        } else {
+            assert_eq!(from_memory.unwrap(), expected);
+        }
+    }
+    // A missing or short data file, and data split over several files, are errors.
+    let with_data = |data_file: &str| header.clone() + &format!("data file: {data_file}\n");
+    let path = dir.path().join("bad.nhdr");
+    std::fs::write(&path, with_data("missing.raw")).unwrap();
+    assert!(matches!(nrrd::read_file(&path), Err(FieldError::Io { .. })));
+    std::fs::write(dir.path().join("short.raw"), [0u8; 10]).unwrap();
+    std::fs::write(&path, with_data("short.raw")).unwrap();
+    let err = nrrd::read_file(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("of data file") && err.contains("short.raw"),
+        "{err}"
+    );
+    for split_data in ["LIST", "slice%03d.raw 0 4 1"] {
+        std::fs::write(&path, with_data(split_data)).unwrap();
+        let err = nrrd::read_file(&path).unwrap_err().to_string();
+        assert!(err.contains("several files"), "{err}");
+    }
+}
+
 // ------------------------------------------------------------ winding numbers
 
 proptest! {

@@ -16,8 +16,9 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The file to describe: .ply, .obj, .off, .stl, a picture (.png, .jpg), a raw height field
-    /// (`name_WxH.f32le`) or an NRRD volume (.nrrd, as `sdf` and `voxel --field` write).
+    /// The file to describe: .ply, .obj, .off, .stl, a picture (.png, .jpg), a raw height
+    /// field (`name_WxH.f32le`) or an NRRD volume (.nrrd as `sdf` and `voxel --field`
+    /// write, or a detached .nhdr header).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
