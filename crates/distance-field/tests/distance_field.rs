@@ -628,17 +628,12 @@ fn nrrd_reads_every_scalar_type_in_every_encoding() {
             }
             out
         };
-        let gzip = |data: &[u8]| {
-            let mut encoder = GzEncoder::new(Vec::new(), Compression::default());
-            encoder.write_all(data).unwrap();
-            encoder.finish().unwrap()
-        };
         let text: String = values.iter().map(|v| format!("{v}\n")).collect();
         let bodies = [
             ("raw", "little", binary(false)),
             ("raw", "big", binary(true)),
-            ("gzip", "big", gzip(&binary(true))),
-            ("gz", "little", gzip(&binary(false))),
+            ("gzip", "big", gzipped(&binary(true))),
+            ("gz", "little", gzipped(&binary(false))),
             ("ascii", "little", text.into_bytes()),
         ];
         for (encoding, endian, body) in bodies {
@@ -751,10 +746,17 @@ proptest! {
     }
 }
 
+/// `data` gzip-compressed.
+fn gzipped(data: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    encoder.write_all(data).unwrap();
+    encoder.finish().unwrap()
+}
+
 /// A raw little-endian float NRRD file as we write it, re-encoded as `gzip` or, when
 /// `gzip` is false, as `ascii` numbers.
 fn reencoded(raw: &[u8], gzip: bool) -> Vec<u8> {
-    use std::io::Write;
     let split = raw.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
     let header = String::from_utf8(raw[..split].to_vec()).unwrap();
     let values: Vec<f32> = raw[split..]
@@ -762,9 +764,7 @@ fn reencoded(raw: &[u8], gzip: bool) -> Vec<u8> {
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
     let (name, body) = if gzip {
-        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
-        encoder.write_all(&raw[split..]).unwrap();
-        ("gzip", encoder.finish().unwrap())
+        ("gzip", gzipped(&raw[split..]))
     } else {
         let text: String = values.iter().map(|v| format!("{v} ")).collect();
         ("ascii", text.into_bytes())
@@ -786,17 +786,12 @@ fn detached_headers_read_the_data_file_beside_them() {
     let split = attached.windows(2).position(|w| w == b"\n\n").unwrap() + 1;
     let header = String::from_utf8(attached[..split].to_vec()).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let gzipped = {
-        use std::io::Write;
-        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
-        encoder.write_all(&attached[split + 1..]).unwrap();
-        encoder.finish().unwrap()
-    };
+    let gzip_data = gzipped(&attached[split + 1..]);
     // Raw and gzip data, named relative to the header and by an absolute path; the header
     // ends with the file, not a blank line.
     let raw_path = dir.path().join("field.raw");
     std::fs::write(&raw_path, &attached[split + 1..]).unwrap();
-    std::fs::write(dir.path().join("field.raw.gz"), &gzipped).unwrap();
+    std::fs::write(dir.path().join("field.raw.gz"), &gzip_data).unwrap();
     let cases = [
         ("relative.nhdr", "raw", "field.raw".to_string()),
         ("gzip.nhdr", "gzip", "field.raw.gz".to_string()),
