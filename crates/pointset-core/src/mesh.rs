@@ -41,6 +41,12 @@ impl MeshTopology {
     }
 }
 
+/// A position's identity for welding: its coordinates' bits, with `-0` taken as `0`.
+pub(crate) fn position_key(p: Vec3) -> [u32; 3] {
+    p.to_array()
+        .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
+}
+
 /// An indexed triangle mesh. Vertices are a [`PointSet`], so they carry optional normals and
 /// any named attributes (vertex colours are the `red`, `green`, `blue` channels).
 ///
@@ -228,10 +234,7 @@ impl TriMesh {
     /// # Ok::<(), pointset_core::Error>(())
     /// ```
     pub fn welded(&self) -> Result<TriMesh> {
-        let key = |p: Vec3| {
-            p.to_array()
-                .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
-        };
+        let key = position_key;
         let mut first: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
         let mut positions = Vec::new();
         let remap: Vec<u32> = self

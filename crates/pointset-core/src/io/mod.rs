@@ -281,16 +281,26 @@ pub fn far_origin(lo: DVec3, hi: DVec3) -> DVec3 {
     }
 }
 
-/// The origin positions are stored relative to (see [`ReadOptions::recentre_far`]), and
-/// the positions relative to it in single precision.
-pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3>, DVec3) {
-    let origin = if recentre_far && !raw.is_empty() {
-        let lo = raw.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
-        let hi = raw.iter().fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+/// The origin the positions `raw` are stored relative to under
+/// [`ReadOptions::recentre_far`] (zero when `recentre_far` is off or there are none).
+pub(crate) fn origin_for(raw: impl Iterator<Item = DVec3>, recentre_far: bool) -> DVec3 {
+    if !recentre_far {
+        return DVec3::ZERO;
+    }
+    let (lo, hi) = raw.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p), hi.max(p))
+    });
+    if lo.cmple(hi).all() {
         far_origin(lo, hi)
     } else {
         DVec3::ZERO
-    };
+    }
+}
+
+/// The origin positions are stored relative to (see [`ReadOptions::recentre_far`]), and
+/// the positions relative to it in single precision.
+pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3>, DVec3) {
+    let origin = origin_for(raw.iter().copied(), recentre_far);
     let relative = raw.iter().map(|&p| (p - origin).as_vec3()).collect();
     (relative, origin)
 }

@@ -2,9 +2,8 @@
 
 use glam::DVec3;
 
-use super::check_corner;
 use crate::io::FileFormat;
-use crate::{Error, Location, Result};
+use crate::{Error, Location};
 
 /// Bytes before the first binary facet: an 80-byte header and the `u32` facet count.
 pub(super) const BINARY_HEADER_BYTES: usize = 84;
@@ -56,28 +55,27 @@ pub(super) fn binary_size_error(bytes: &[u8]) -> Error {
     }
 }
 
-/// The corners of a binary STL's `count` facets (its size already checked), three per
-/// facet, and the header when it is printable text.
-pub(super) fn binary_corners(bytes: &[u8], count: usize) -> Result<(Vec<DVec3>, Vec<String>)> {
-    let mut corners = Vec::with_capacity(3 * count);
-    let facets = bytes[BINARY_HEADER_BYTES..].chunks_exact(BINARY_FACET_BYTES);
-    for (facet, record) in facets.enumerate() {
+/// The three corners of each facet of a binary STL whose size is already checked
+/// ([`binary_facet_count`]), decoded where they lie in `bytes` (a file read twice this way
+/// costs no copy of its corners).
+pub(super) fn binary_facets(bytes: &[u8]) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+    let records = bytes.get(BINARY_HEADER_BYTES..).unwrap_or(&[]);
+    records.chunks_exact(BINARY_FACET_BYTES).map(|record| {
         // Bytes 0..12 are the stored normal, 12..48 the corners, 48..50 the attributes.
-        for (corner, xyz) in record[12..48].chunks_exact(12).enumerate() {
-            let value = |k: usize| {
-                let le: [u8; 4] = [xyz[4 * k], xyz[4 * k + 1], xyz[4 * k + 2], xyz[4 * k + 3]];
-                f64::from(f32::from_le_bytes(le))
-            };
-            let p = DVec3::new(value(0), value(1), value(2));
-            check_corner(p, facet, corner)?;
-            corners.push(p);
-        }
-    }
-    Ok((corners, header_text(&bytes[..80])))
+        let value = |at: usize| {
+            let le: [u8; 4] = [record[at], record[at + 1], record[at + 2], record[at + 3]];
+            f64::from(f32::from_le_bytes(le))
+        };
+        let corner = |k: usize| {
+            let at = 12 + 12 * k;
+            DVec3::new(value(at), value(at + 4), value(at + 8))
+        };
+        [corner(0), corner(1), corner(2)]
+    })
 }
 
 /// The header as a comment when it is printable text (NULs and spaces trimmed).
-fn header_text(header: &[u8]) -> Vec<String> {
+pub(super) fn header_text(header: &[u8]) -> Vec<String> {
     let end = header.iter().position(|&b| b == 0).unwrap_or(header.len());
     let text = &header[..end];
     if text.iter().all(|b| b.is_ascii_graphic() || *b == b' ') {

@@ -253,3 +253,39 @@ fn written_normals_follow_the_right_hand_rule() {
         assert!((Vec3::from_slice(&n).length() - 1.0).abs() < 1e-6);
     }
 }
+
+/// Welding while reading gives what welding the whole triangle soup would: the same
+/// vertices in the same order, near the origin and recentred far from it.
+#[test]
+fn welding_while_reading_equals_welding_the_soup() {
+    for offset in [Vec3::ZERO, Vec3::new(5e5, 4e6, -3.0)] {
+        let mut mesh = cube();
+        let moved: Vec<Vec3> = mesh.positions().iter().map(|&p| p + offset).collect();
+        mesh = TriMesh::new(PointSet::new(moved).unwrap(), mesh.triangles().to_vec()).unwrap();
+        for (bytes, recentre) in [
+            (binary(&mesh), false),
+            (binary(&mesh), true),
+            (ascii(&mesh).into_bytes(), true),
+        ] {
+            let corners: Vec<DVec3> = mesh
+                .triangles()
+                .iter()
+                .flat_map(|t| t.map(|v| mesh.positions()[v as usize].as_dvec3()))
+                .collect();
+            let (relative, origin) = crate::io::relative_positions(&corners, recentre);
+            let soup = (0..12).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect();
+            let expected = TriMesh::new(PointSet::new(relative).unwrap(), soup)
+                .unwrap()
+                .welded()
+                .unwrap();
+            let file = read_stl_at(&bytes, recentre).unwrap();
+            assert_eq!(file.origin, origin);
+            assert_eq!(
+                file.geometry,
+                Geometry::Mesh(expected),
+                "{offset} {recentre}"
+            );
+            assert_eq!(file.geometry.mesh().unwrap().vertex_count(), 8);
+        }
+    }
+}
