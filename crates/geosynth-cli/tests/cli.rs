@@ -1644,6 +1644,14 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
     );
     assert_eq!(info_json(&scratch.path("a.ply"))["encoding"], "ascii");
     assert_eq!(info_json(&scratch.path("a.ply"))["faces"], 320);
+    let said = ok(&[
+        "convert",
+        &arg(&scratch.path("a.stl")),
+        "-o",
+        &arg(&scratch.path("a.off")),
+        "--ascii",
+    ]);
+    assert!(said.contains("OFF is always text"), "{said}");
 
     // Georeferenced points stay in place through OFF; STL refuses them, and point sets.
     let points = sphere.vertices().clone();

@@ -50,6 +50,12 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         .and_then(|e| e.to_str())
         .unwrap_or("");
     let format = FileFormat::from_extension(ext).ok_or("unknown output format")?;
+    if args.ascii && matches!(format, FileFormat::Obj | FileFormat::Off) {
+        status(
+            globals,
+            format!("note: {format} is always text; --ascii changes nothing"),
+        );
+    }
     let mut options = WriteOptions::default()
         .origin(loaded.origin)
         .ply_encoding(if args.ascii {
