@@ -1694,10 +1694,14 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
     .unwrap();
     let said = ok(&["info", &arg(&twin)]);
     assert!(
-        said.contains("duplicates:  1 triangles on the same corners as another"),
+        said.contains(
+            "duplicates:  1 triangles on the same corners as another, 1 of them facing the \
+             other way"
+        ),
         "{said}"
     );
     assert_eq!(info_json(&twin)["duplicate_faces"], 1);
+    assert_eq!(info_json(&twin)["reversed_duplicates"], 1);
 
     // What the reader could not keep is said by `info` and by the commands that read it.
     let mixed = scratch.path("mixed.obj");
@@ -1709,14 +1713,9 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
     .unwrap();
     let dropped = "texture coordinates dropped: 3 of 6 face corners have them";
     assert!(ok(&["info", &arg(&mixed)]).contains(&format!("not kept:    {dropped}")));
-    let said = ok(&[
-        "convert",
-        &arg(&mixed),
-        "-o",
-        &arg(&scratch.path("mixed.ply")),
-    ]);
-    assert!(
-        said.contains(&format!("note: {}: {dropped}", mixed.display())),
-        "{said}"
-    );
+    let note = format!("note: {}: {dropped}", mixed.display());
+    for (command, out) in [("convert", "mixed.ply"), ("render", "mixed.png")] {
+        let said = ok(&[command, &arg(&mixed), "-o", &arg(&scratch.path(out))]);
+        assert!(said.contains(&note), "{command}: {said}");
+    }
 }

@@ -71,7 +71,7 @@ pub use disjoint::DisjointSets;
 pub use error::{Error, Location, Result};
 pub use grid::Grid3;
 pub use heightfield::{HeightField, dims_from_name};
-pub use mesh::{MeshTopology, NormalWeighting, TriMesh};
+pub use mesh::{DuplicateFace, MeshTopology, NormalWeighting, TriMesh};
 pub use mesh_orientation::Reorientation;
 pub use pointset::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES};
 pub use scalar::ScalarType;

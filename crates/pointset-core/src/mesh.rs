@@ -47,6 +47,17 @@ pub(crate) fn position_key(p: Vec3) -> [u32; 3] {
         .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
 }
 
+/// A triangle on the same three vertices as an earlier one ([`TriMesh::duplicate_faces`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DuplicateFace {
+    /// The repeating triangle's index.
+    pub face: usize,
+    /// The first triangle on the same vertices.
+    pub first: usize,
+    /// Whether it faces the other way from the first (its corners in the opposite order).
+    pub reversed: bool,
+}
+
 /// An indexed triangle mesh. Vertices are a [`PointSet`], so they carry optional normals and
 /// any named attributes (vertex colours are the `red`, `green`, `blue` channels).
 ///
@@ -305,33 +316,46 @@ impl TriMesh {
         }
     }
 
-    /// Triangles on the same three vertices as an earlier triangle (either way round), by
-    /// index: scans and mesh repairs leave such twins, often facing opposite ways (a fin of
-    /// no volume), which make their edges non-manifold and give their corners no single
-    /// outside. Compare by position after [`Self::welded`] when the mesh splits vertices
-    /// along UV seams.
+    /// Triangles on the same three vertices as an earlier triangle, in face order, each
+    /// with the first triangle on those vertices and whether it faces the other way: scans
+    /// and mesh repairs leave such twins, often facing opposite ways (a fin of no volume),
+    /// which make their edges non-manifold and give their corners no single outside.
+    /// Compare by position after [`Self::welded`] when the mesh splits vertices along UV
+    /// seams.
     ///
     /// ```
     /// use glam::Vec3;
-    /// use pointset_core::{PointSet, TriMesh};
+    /// use pointset_core::{DuplicateFace, PointSet, TriMesh};
     /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
     /// let faces = vec![[0, 1, 2], [0, 1, 3], [2, 1, 0], [1, 2, 0]];
     /// let mesh = TriMesh::new(PointSet::new(p)?, faces)?;
-    /// assert_eq!(mesh.duplicate_faces(), vec![2, 3]);
+    /// let twin = |face, reversed| DuplicateFace { face, first: 0, reversed };
+    /// assert_eq!(mesh.duplicate_faces(), vec![twin(2, true), twin(3, false)]);
     /// # Ok::<(), pointset_core::Error>(())
     /// ```
-    pub fn duplicate_faces(&self) -> Vec<usize> {
-        let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
-        self.triangles
-            .iter()
-            .enumerate()
-            .filter(|(_, t)| {
-                let mut corners = **t;
-                corners.sort_unstable();
-                !seen.insert(corners)
-            })
-            .map(|(i, _)| i)
-            .collect()
+    pub fn duplicate_faces(&self) -> Vec<DuplicateFace> {
+        let mut first = std::collections::HashMap::with_capacity(self.triangles.len());
+        let mut duplicates = Vec::new();
+        for (face, t) in self.triangles.iter().enumerate() {
+            let mut corners = *t;
+            corners.sort_unstable();
+            match first.entry(corners) {
+                std::collections::hash_map::Entry::Vacant(slot) => {
+                    slot.insert(face);
+                }
+                std::collections::hash_map::Entry::Occupied(slot) => {
+                    let original = self.triangles[*slot.get()];
+                    let same_way =
+                        (0..3).any(|k| [t[k], t[(k + 1) % 3], t[(k + 2) % 3]] == original);
+                    duplicates.push(DuplicateFace {
+                        face,
+                        first: *slot.get(),
+                        reversed: !same_way,
+                    });
+                }
+            }
+        }
+        duplicates
     }
 
     /// How many vertices no triangle uses. Some tools warn about them (MeshLab) or drop

@@ -38,6 +38,8 @@ pub struct FileInfo {
     /// Triangles on the same three corners (by position) as an earlier one
     /// ([`TriMesh::duplicate_faces`](geosynth::core::TriMesh::duplicate_faces) after welding).
     duplicate_faces: usize,
+    /// How many of those face the other way from the first triangle on their corners.
+    reversed_duplicates: usize,
     /// Vertices no face uses (meshes only): some tools drop them or warn.
     unreferenced_vertices: usize,
     topology: Option<TopologyInfo>,
@@ -125,6 +127,9 @@ impl FileInfo {
         let points = g.points();
         let bbox = g.bounding_box();
         let welded = g.mesh().and_then(|m| m.welded().ok());
+        let duplicates = welded
+            .as_ref()
+            .map_or_else(Vec::new, |w| w.duplicate_faces());
         Self {
             path: path.display().to_string(),
             format: loaded.format.to_string(),
@@ -136,7 +141,8 @@ impl FileInfo {
             vertices: points.len(),
             faces: g.mesh().map_or(0, |m| m.face_count()),
             degenerate_faces: g.mesh().map_or(0, |m| m.degenerate_faces().len()),
-            duplicate_faces: welded.as_ref().map_or(0, |w| w.duplicate_faces().len()),
+            duplicate_faces: duplicates.len(),
+            reversed_duplicates: duplicates.iter().filter(|d| d.reversed).count(),
             unreferenced_vertices: g.mesh().map_or(0, |m| m.unreferenced_vertices()),
             topology: g.mesh().map(|m| TopologyInfo::from(&m.topology())),
             welded_topology: g.mesh().zip(welded.as_ref()).and_then(|(m, welded)| {
@@ -182,8 +188,9 @@ impl FileInfo {
             s.push_str(&format!("degenerate:  {}\n", self.degenerate_faces));
             if self.duplicate_faces > 0 {
                 s.push_str(&format!(
-                    "duplicates:  {} triangles on the same corners as another\n",
-                    self.duplicate_faces
+                    "duplicates:  {} triangles on the same corners as another, {} of them \
+                     facing the other way\n",
+                    self.duplicate_faces, self.reversed_duplicates
                 ));
             }
             if self.unreferenced_vertices > 0 {

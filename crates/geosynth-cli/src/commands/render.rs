@@ -9,7 +9,7 @@ use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::{isosurface, nrrd};
 
-use crate::output::{check_output_paths, status};
+use crate::output::{check_output_paths, report_not_kept, status};
 use crate::{CliResult, Globals};
 
 /// The up axis, as a command-line value.
@@ -115,7 +115,7 @@ enum Input {
     Picture(preview::RgbImage),
 }
 
-fn load(path: &Path, args: &RenderArgs) -> CliResult<Input> {
+fn load(path: &Path, args: &RenderArgs, globals: Globals) -> CliResult<Input> {
     let as_heightfield = imagery::is_raw_heightfield_path(path)
         || (args.heightfield && imagery::is_image_path(path));
     if as_heightfield {
@@ -135,10 +135,9 @@ fn load(path: &Path, args: &RenderArgs) -> CliResult<Input> {
     // A picture does not depend on where the data lies, so georeferenced files are read
     // relative to an origin, at full precision.
     let recentred = ReadOptions::default().recentre_far(true);
-    Ok(Input::Geometry(
-        io::read_geometry_with(path, &recentred)?.geometry,
-        args.view.up.into(),
-    ))
+    let loaded = io::read_geometry_with(path, &recentred)?;
+    report_not_kept(globals, path, &loaded.notes);
+    Ok(Input::Geometry(loaded.geometry, args.view.up.into()))
 }
 
 /// The zero level set of an NRRD volume's first channel (the surface of a signed distance
@@ -176,7 +175,7 @@ pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
     let inputs = args
         .files
         .iter()
-        .map(|p| load(p, args))
+        .map(|p| load(p, args, globals))
         .collect::<CliResult<Vec<_>>>()?;
     let panels: Vec<Panel<'_>> = inputs
         .iter()
