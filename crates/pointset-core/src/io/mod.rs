@@ -214,7 +214,8 @@ pub struct LoadedGeometry {
     pub origin: DVec3,
     /// What the file had that the geometry could not keep, in words (empty when nothing
     /// was lost): a PLY file's other elements, vertex lists and face properties
-    /// ([`ply::skipped_parts`]); an OFF file's per-face colours; an OBJ file's texture coordinates or normals when its faces
+    /// ([`ply::skipped_parts`]); an OFF file's per-face colours; a binary STL's nonzero
+    /// facet attribute bytes; an OBJ file's texture coordinates or normals when its faces
     /// give them at some corners and not at others, or colours on some `v` lines only, since
     /// a mesh carries each at every vertex or not at all.
     pub notes: Vec<String>,
@@ -451,7 +452,7 @@ pub fn read_geometry_bytes_with(
                 encoding: file.encoding.into(),
                 comments: file.comments,
                 origin: file.origin,
-                notes: Vec::new(),
+                notes: file.notes,
             })
         }
     }

@@ -74,6 +74,16 @@ pub(super) fn binary_facets(bytes: &[u8]) -> impl Iterator<Item = [DVec3; 3]> + 
     })
 }
 
+/// How many facets of a binary STL (its size already checked) have nonzero attribute
+/// bytes, which some tools use for colours in encodings of their own.
+pub(super) fn facets_with_attributes(bytes: &[u8]) -> usize {
+    let records = bytes.get(BINARY_HEADER_BYTES..).unwrap_or(&[]);
+    records
+        .chunks_exact(BINARY_FACET_BYTES)
+        .filter(|record| record[48..50] != [0, 0])
+        .count()
+}
+
 /// The header as a comment when it is printable text (NULs and spaces trimmed).
 pub(super) fn header_text(header: &[u8]) -> Vec<String> {
     let end = header.iter().position(|&b| b == 0).unwrap_or(header.len());

@@ -15,7 +15,8 @@
 //! The facet normals are read past, not used: the corners' order (counter-clockwise seen
 //! from outside) is what the rest of the library takes as orientation, as most tools do, and
 //! many writers leave the stored normals zero. The two attribute bytes of a binary facet
-//! (used by a few tools for colour) are skipped.
+//! (used by a few tools for colour, in encodings of their own) are skipped, and the notes
+//! say so when any is not zero ([`super::LoadedGeometry::notes`]).
 //!
 //! Binary and ASCII are told apart by size, not by the first word: a binary file is exactly
 //! 84 bytes plus 50 per declared facet, and binary files whose 80-byte header happens to
@@ -47,7 +48,7 @@ use crate::mesh::position_key;
 use crate::{Error, PointSet, Result, TriMesh};
 use ascii::ascii_corners;
 pub(crate) use binary::binary_facet_count;
-use binary::{binary_facets, binary_size_error, header_text};
+use binary::{binary_facets, binary_size_error, facets_with_attributes, header_text};
 pub(crate) use write::{check_storable, write_stl_at};
 pub use write::{write_stl, write_stl_ascii};
 
@@ -62,6 +63,8 @@ pub(crate) struct StlFile {
     pub(crate) comments: Vec<String>,
     /// The origin positions are stored relative to.
     pub(crate) origin: DVec3,
+    /// What was skipped (nonzero facet attribute bytes).
+    pub(crate) notes: Vec<String>,
 }
 
 /// Whether `bytes` open like an ASCII STL: the word `solid` (any case) after optional
@@ -103,11 +106,21 @@ pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
         // origin, then the welding), instead of copied: a scan of millions of facets welds
         // in well under half the memory.
         let origin = origin_for(binary_facets(bytes).flatten(), recentre_far);
+        let attributed = facets_with_attributes(bytes);
+        let notes = if attributed > 0 {
+            vec![format!(
+                "facet attribute bytes on {attributed} of {count} facets skipped (some tools \
+                 keep colours there, in no agreed encoding)"
+            )]
+        } else {
+            Vec::new()
+        };
         Ok(StlFile {
             geometry: Geometry::Mesh(weld(binary_facets(bytes), count, origin)?),
             encoding: "binary_little_endian",
             comments: header_text(&bytes[..80]),
             origin,
+            notes,
         })
     } else if starts_like_ascii(bytes) && !bytes.contains(&0) {
         let (corners, names) = ascii_corners(bytes)?;
@@ -118,6 +131,7 @@ pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
             encoding: "ascii",
             comments: names,
             origin,
+            notes: Vec::new(),
         })
     } else {
         Err(binary_size_error(bytes))

@@ -100,6 +100,15 @@ fn facet_normals_and_attribute_bytes_do_not_change_the_mesh() {
         read_stl(&plain).unwrap(),
         "stored normals and attributes must be read past"
     );
+    // Skipped attribute bytes are said; a plain file says nothing.
+    assert!(read_stl_at(&plain, false).unwrap().notes.is_empty());
+    assert_eq!(
+        read_stl_at(&noisy, false).unwrap().notes,
+        [
+            "facet attribute bytes on 12 of 12 facets skipped (some tools keep colours there, \
+          in no agreed encoding)"
+        ]
+    );
 }
 
 #[test]
