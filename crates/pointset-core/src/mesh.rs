@@ -41,10 +41,46 @@ impl MeshTopology {
     }
 }
 
-/// A position's identity for welding: its coordinates' bits, with `-0` taken as `0`.
-pub(crate) fn position_key(p: Vec3) -> [u32; 3] {
-    p.to_array()
-        .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
+/// Numbers positions into vertices, equal positions (exact bits, `-0` taken as `0`) into
+/// one, in order of first appearance: the welding rule of [`TriMesh::welded`] and of the
+/// STL reader.
+#[derive(Debug, Default)]
+pub(crate) struct PositionWelder {
+    index: std::collections::HashMap<[u32; 3], u32>,
+    positions: Vec<Vec3>,
+}
+
+impl PositionWelder {
+    /// A welder expecting about `vertices` distinct positions.
+    pub(crate) fn with_capacity(vertices: usize) -> Self {
+        Self {
+            index: std::collections::HashMap::with_capacity(vertices),
+            positions: Vec::with_capacity(vertices),
+        }
+    }
+
+    /// The vertex at `p`, new if no earlier position equals it; an error once there are
+    /// more distinct positions than `u32` indices can number.
+    pub(crate) fn vertex(&mut self, p: Vec3) -> Result<u32> {
+        let key = p
+            .to_array()
+            .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() });
+        let next = u32::try_from(self.positions.len()).map_err(|_| Error::InvalidParameter {
+            name: "vertex count",
+            value: self.positions.len().to_string(),
+            expected: "distinct positions that 32-bit vertex indices can number".into(),
+        })?;
+        let positions = &mut self.positions;
+        Ok(*self.index.entry(key).or_insert_with(|| {
+            positions.push(p);
+            next
+        }))
+    }
+
+    /// The distinct positions, in order of first appearance.
+    pub(crate) fn into_positions(self) -> Vec<Vec3> {
+        self.positions
+    }
 }
 
 /// A triangle on the same three vertices as an earlier one ([`TriMesh::duplicate_faces`]).
@@ -245,25 +281,18 @@ impl TriMesh {
     /// # Ok::<(), pointset_core::Error>(())
     /// ```
     pub fn welded(&self) -> Result<TriMesh> {
-        let key = position_key;
-        let mut first: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
-        let mut positions = Vec::new();
+        let mut welder = PositionWelder::default();
         let remap: Vec<u32> = self
             .positions()
             .iter()
-            .map(|&p| {
-                *first.entry(key(p)).or_insert_with(|| {
-                    positions.push(p);
-                    (positions.len() - 1) as u32
-                })
-            })
-            .collect();
+            .map(|&p| welder.vertex(p))
+            .collect::<Result<_>>()?;
         let triangles = self
             .triangles
             .iter()
             .map(|t| t.map(|v| remap[v as usize]))
             .collect();
-        TriMesh::new(PointSet::new(positions)?, triangles)
+        TriMesh::new(PointSet::new(welder.into_positions())?, triangles)
     }
 
     /// Edge and component counts: what `geosynth info` reports and what tests check for

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use geosynth::core::io::ply::PlyEncoding;
-use geosynth::core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions};
+use geosynth::core::io::{self, FileFormat, Geometry, ReadOptions, StlEncoding, WriteOptions};
 
 use super::orient_faces;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
@@ -56,13 +56,15 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
             format!("note: {format} is always text; --ascii changes nothing"),
         );
     }
+    let (ply, stl) = if args.ascii {
+        (PlyEncoding::Ascii, StlEncoding::Ascii)
+    } else {
+        (PlyEncoding::BinaryLittleEndian, StlEncoding::Binary)
+    };
     let mut options = WriteOptions::default()
         .origin(loaded.origin)
-        .ply_encoding(if args.ascii {
-            PlyEncoding::Ascii
-        } else {
-            PlyEncoding::BinaryLittleEndian
-        });
+        .ply_encoding(ply)
+        .stl_encoding(stl);
     for comment in &loaded.comments {
         options = options.comment(comment.clone());
     }
@@ -70,14 +72,7 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         "converted by geosynth from {}",
         args.input.display()
     ));
-    if format == FileFormat::Stl && args.ascii {
-        let mut bytes = Vec::new();
-        io::write_stl_ascii(&geometry, &mut bytes)?;
-        std::fs::write(&args.output, bytes)
-            .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
-    } else {
-        io::write_geometry(&args.output, &geometry, &options)?;
-    }
+    io::write_geometry(&args.output, &geometry, &options)?;
     let faces = geometry.mesh().map_or(0, |m| m.face_count());
     let counts = match format {
         // STL has no vertices of its own: the reader welds corners back by position.

@@ -25,7 +25,7 @@ pub use obj::{read_obj, write_obj};
 use obj::{read_obj_at, write_obj_at};
 pub use off::{read_off, write_off};
 use off::{read_off_at, write_off_at};
-pub use stl::{read_stl, write_stl, write_stl_ascii};
+pub use stl::{StlEncoding, read_stl, write_stl, write_stl_ascii};
 use stl::{read_stl_at, write_stl_at};
 
 use glam::{DVec3, Vec3};
@@ -310,9 +310,10 @@ pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3
 #[derive(Debug, Clone, PartialEq, Default)]
 #[non_exhaustive]
 pub struct WriteOptions {
-    /// PLY encoding (default binary little-endian); ignored by OBJ and OFF, which are text,
-    /// and by STL, which is written binary.
+    /// PLY encoding (default binary little-endian); ignored by the other formats.
     pub ply_encoding: PlyEncoding,
+    /// STL encoding (default binary); ignored by the other formats (OBJ and OFF are text).
+    pub stl_encoding: StlEncoding,
     /// Comment lines to write (default none; STL has no place for them).
     pub comments: Vec<String>,
     /// Added to every position as it is written, in double precision (default zero): the
@@ -325,6 +326,12 @@ impl WriteOptions {
     /// Sets the PLY encoding (default [`PlyEncoding::BinaryLittleEndian`]).
     pub fn ply_encoding(mut self, encoding: PlyEncoding) -> Self {
         self.ply_encoding = encoding;
+        self
+    }
+
+    /// Sets the STL encoding (default [`StlEncoding::Binary`]).
+    pub fn stl_encoding(mut self, encoding: StlEncoding) -> Self {
+        self.stl_encoding = encoding;
         self
     }
 
@@ -490,7 +497,7 @@ pub fn encode_geometry(
         }
         FileFormat::Obj => write_obj_at(geometry, &options.comments, options.origin, &mut out)?,
         FileFormat::Off => write_off_at(geometry, &options.comments, options.origin, &mut out)?,
-        FileFormat::Stl => write_stl_at(geometry, options.origin, &mut out)?,
+        FileFormat::Stl => write_stl_at(geometry, options.stl_encoding, options.origin, &mut out)?,
     }
     Ok(out)
 }

@@ -40,7 +40,7 @@ impl<'a> Words<'a> {
     }
 
     /// The next word, which must be `keyword` (ASCII case ignored).
-    fn expect(&mut self, keyword: &str, inside: &str) -> Result<usize> {
+    fn require(&mut self, keyword: &str, inside: &str) -> Result<usize> {
         match self.next_word() {
             Some((line, word)) if word.eq_ignore_ascii_case(keyword) => Ok(line),
             Some((line, word)) => Err(ascii_error(
@@ -124,12 +124,12 @@ fn read_solid_facets(words: &mut Words<'_>, corners: &mut Vec<DVec3>) -> Result<
             ));
         }
         let facet = corners.len() / 3;
-        words.expect("normal", "after `facet`")?;
+        words.require("normal", "after `facet`")?;
         words.vector("the facet normal")?;
-        words.expect("outer", "before the facet's corners")?;
-        words.expect("loop", "after `outer`")?;
+        words.require("outer", "before the facet's corners")?;
+        words.require("loop", "after `outer`")?;
         for corner in 0..3 {
-            let line = words.expect("vertex", "(an STL facet has three corners)")?;
+            let line = words.require("vertex", "(an STL facet has three corners)")?;
             let p = words.vector("a vertex")?;
             check_corner(p, facet, corner).map_err(|_| {
                 ascii_error(
@@ -139,10 +139,10 @@ fn read_solid_facets(words: &mut Words<'_>, corners: &mut Vec<DVec3>) -> Result<
             })?;
             corners.push(p);
         }
-        words.expect(
+        words.require(
             "endloop",
             "after three corners (an STL facet is a triangle)",
         )?;
-        words.expect("endfacet", "after `endloop`")?;
+        words.require("endfacet", "after `endloop`")?;
     }
 }

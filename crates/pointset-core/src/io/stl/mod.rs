@@ -39,18 +39,14 @@ mod write;
 
 use glam::DVec3;
 
-use std::collections::HashMap;
-
-use glam::Vec3;
-
 use super::{Geometry, origin_for};
-use crate::mesh::position_key;
+use crate::mesh::PositionWelder;
 use crate::{Error, PointSet, Result, TriMesh};
 use ascii::ascii_corners;
 pub(crate) use binary::binary_facet_count;
 use binary::{binary_facets, binary_size_error, facets_with_attributes, header_text};
+pub use write::{StlEncoding, write_stl, write_stl_ascii};
 pub(crate) use write::{check_storable, write_stl_at};
-pub use write::{write_stl, write_stl_ascii};
 
 /// An STL file as read: the welded mesh, its encoding and the text it carries (the ASCII
 /// solids' names, or the binary header when it is printable text).
@@ -143,27 +139,18 @@ pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
 /// first appearance: [`TriMesh::welded`] of the triangle soup, without building the soup.
 /// A corner that is not finite is refused, naming its facet.
 fn weld(facets: impl Iterator<Item = [DVec3; 3]>, count: usize, origin: DVec3) -> Result<TriMesh> {
-    let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(count / 2);
-    let mut positions: Vec<Vec3> = Vec::with_capacity(count / 2);
+    // A closed mesh has about half as many vertices as facets.
+    let mut welder = PositionWelder::with_capacity(count / 2);
     let mut triangles = Vec::with_capacity(count);
     for (facet, corners) in facets.enumerate() {
         let mut triangle = [0u32; 3];
         for (k, (slot, corner)) in triangle.iter_mut().zip(corners).enumerate() {
             check_corner(corner, facet, k)?;
-            let p = (corner - origin).as_vec3();
-            let next = u32::try_from(positions.len()).map_err(|_| Error::Malformed {
-                format: super::FileFormat::Stl,
-                location: crate::Location::Byte(0),
-                message: "more distinct corners than 32-bit vertex indices can number".into(),
-            })?;
-            *slot = *index.entry(position_key(p)).or_insert_with(|| {
-                positions.push(p);
-                next
-            });
+            *slot = welder.vertex((corner - origin).as_vec3())?;
         }
         triangles.push(triangle);
     }
-    TriMesh::new(PointSet::new(positions)?, triangles)
+    TriMesh::new(PointSet::new(welder.into_positions())?, triangles)
 }
 
 /// Refuses a corner that is not finite, naming its facet.

@@ -1,5 +1,8 @@
 //! The STL codec's own cases: detection, welding, broken files, the writer.
 
+// Unit tests only (compiled under `cfg(test)`): failing by panicking is their job.
+#![cfg(test)]
+
 use glam::Vec3;
 
 use super::*;
@@ -242,7 +245,13 @@ fn the_writer_refuses_what_stl_cannot_hold() {
     let err = write_stl(&points, &mut Vec::new()).unwrap_err();
     assert!(matches!(err, Error::FormatCannotStore { .. }), "{err}");
     let mesh = Geometry::Mesh(cube());
-    let err = write_stl_at(&mesh, DVec3::new(5e5, 4e6, 0.0), &mut Vec::new()).unwrap_err();
+    let err = write_stl_at(
+        &mesh,
+        StlEncoding::Binary,
+        DVec3::new(5e5, 4e6, 0.0),
+        &mut Vec::new(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("write .ply"), "{err}");
 }
 

@@ -25,12 +25,36 @@ use crate::{Error, Result, TriMesh, triangle_normal};
 /// # Ok::<(), pointset_core::Error>(())
 /// ```
 pub fn write_stl(geometry: &Geometry, out: &mut impl Write) -> Result<()> {
-    write_stl_at(geometry, DVec3::ZERO, out)
+    write_stl_at(geometry, StlEncoding::Binary, DVec3::ZERO, out)
 }
 
-/// [`write_stl`], refusing a nonzero `origin` (STL cannot store it at full precision).
-pub(crate) fn write_stl_at(geometry: &Geometry, origin: DVec3, out: &mut impl Write) -> Result<()> {
+/// The two STL encodings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum StlEncoding {
+    /// 50 bytes a facet ([`write_stl`]); the default.
+    #[default]
+    Binary,
+    /// Text ([`write_stl_ascii`]).
+    Ascii,
+}
+
+/// [`write_stl`] or [`write_stl_ascii`] by `encoding`, refusing a nonzero `origin` (STL
+/// cannot store it at full precision).
+pub(crate) fn write_stl_at(
+    geometry: &Geometry,
+    encoding: StlEncoding,
+    origin: DVec3,
+    out: &mut impl Write,
+) -> Result<()> {
     let mesh = storable_mesh(geometry, origin)?;
+    match encoding {
+        StlEncoding::Binary => write_binary(mesh, out),
+        StlEncoding::Ascii => write_ascii(mesh, out),
+    }
+}
+
+/// A mesh as binary STL.
+fn write_binary(mesh: &TriMesh, out: &mut impl Write) -> Result<()> {
     let facets = u32::try_from(mesh.triangles().len()).map_err(|_| Error::FormatCannotStore {
         format: FileFormat::Stl,
         what: format!(
@@ -72,7 +96,11 @@ pub(crate) fn write_stl_at(geometry: &Geometry, origin: DVec3, out: &mut impl Wr
 /// # Ok::<(), pointset_core::Error>(())
 /// ```
 pub fn write_stl_ascii(geometry: &Geometry, out: &mut impl Write) -> Result<()> {
-    let mesh = storable_mesh(geometry, DVec3::ZERO)?;
+    write_stl_at(geometry, StlEncoding::Ascii, DVec3::ZERO, out)
+}
+
+/// A mesh as ASCII STL.
+fn write_ascii(mesh: &TriMesh, out: &mut impl Write) -> Result<()> {
     let mut text = String::from("solid geosynth\n");
     for [n, a, b, c] in facets_with_normals(mesh) {
         text.push_str(&format!(
