@@ -90,6 +90,14 @@
 //! assert!(cap.positions().iter().all(|p| p.y > 0.5));
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! ## Features
+//!
+//! - `serde`: `Serialize`/`Deserialize` for every crate's parameter types (it turns on each
+//!   crate's own `serde` feature), and [`reconstruct::FieldParams`]. Structs read with
+//!   missing fields taken from their `Default`, unknown fields refused by name, and enums
+//!   spelt in `snake_case` (`"search_only"`). Read parameters are checked like built ones:
+//!   call `validate()` (or let the run do it).
 
 #![deny(missing_docs)]
 

@@ -20,6 +20,8 @@ use crate::{Error, Result};
 /// Parameters of [`Reconstruct`] and [`SignedDistance`].
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct FieldParams {
     /// Grid nodes along the longest side of the box; default 96.
     pub resolution: usize,

@@ -14,7 +14,7 @@
 //! let exemplar = VoxelExemplar::from(&fixtures::volumes::grid(1)?);
 //! let stage = VoxelSynth {
 //!     source_resolution: 16,
-//!     params: VoxelParams { target_dims: [24; 3], levels: 2, block: 8, ..Default::default() },
+//!     params: VoxelParams::default().target_dims([24; 3]).levels(2).block(8),
 //!     ..Default::default()
 //! };
 //! let out = stage.run(exemplar, &mut RunContext::new(0))?;

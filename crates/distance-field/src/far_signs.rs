@@ -27,6 +27,8 @@ pub(crate) const UNKNOWN: f32 = f32::INFINITY;
 /// How [`SdfGrid`](crate::SdfGrid) signs the nodes farther than the band from the surface
 /// (module docs: [`crate::far_signs`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum FarSigns {
     /// Each far node takes the majority sign of its 26 neighbours that are nearer to the
     /// answered nodes (a breadth-first search from all answered nodes in waves of

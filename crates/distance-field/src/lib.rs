@@ -61,6 +61,13 @@
 //!
 //! [`FieldError`]: invalid parameters, meshes without triangles, unreadable NRRD headers
 //! (with the line) or data shorter than the header promises (checked before allocating).
+//!
+//! ## Features
+//!
+//! - `serde`: `Serialize`/`Deserialize` for [`GridSpec`], [`MeshSign`], [`PointSign`] and
+//!   [`FarSigns`]. Structs read with missing fields taken from their `Default`, unknown
+//!   fields refused by name, and enums spelt in `snake_case` (`"search_only"`). Read
+//!   parameters are checked like built ones: call `validate()` (or let the run do it).
 
 #![deny(missing_docs)]
 

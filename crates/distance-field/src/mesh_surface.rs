@@ -41,6 +41,8 @@ pub struct MeshHit {
 
 /// Which rule signs a mesh's distances.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum MeshSign {
     /// The side of the closest feature's pseudo-normal (the module docs): exact on closed,
     /// consistently oriented meshes, and on open sheets the side of the nearest piece.

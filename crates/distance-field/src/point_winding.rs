@@ -65,6 +65,8 @@ pub const AREA_NEIGHBOURS: usize = 8;
 
 /// How the distances of a surface sampled by an oriented point cloud are signed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum PointSign {
     /// The surface's own sign: for an MLS surface, its implicit function where the kernel
     /// reaches and the planes of the nearest samples beyond. Follows the local surface, so

@@ -9,6 +9,8 @@ use crate::far_signs::{FarSigns, UNKNOWN, fill_far_signs};
 
 /// Where the nodes of a grid lie: `dims` nodes from `origin`, `spacing` apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct GridSpec {
     /// Nodes along x, y, z.
     pub dims: [usize; 3],

@@ -9,6 +9,8 @@ use crate::pca::Covariance;
 /// Limits of [`adaptive_clusters`].
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct ClusterParams {
     /// A cluster may hold at most this many points (`n_max`); default 20.
     pub max_points: usize,

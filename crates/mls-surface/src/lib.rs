@@ -73,6 +73,13 @@
 //! Every function is deterministic and parallel work (rayon) is per point. Errors are
 //! [`MlsError`]: missing normals, empty input, zero normals, out-of-range parameters.
 //! Queries where the surface is undefined return `None`, never panic.
+//!
+//! ## Features
+//!
+//! - `serde`: `Serialize`/`Deserialize` for [`MlsParams`], [`ClusterParams`] and
+//!   [`RelaxParams`]. Structs read with missing fields taken from their `Default`, unknown
+//!   fields refused by name, and enums spelt in `snake_case` (`"search_only"`). Read
+//!   parameters are checked like built ones: call `validate()` (or let the run do it).
 
 #![deny(missing_docs)]
 

@@ -8,6 +8,8 @@ use crate::error::{MlsError, Result, positive};
 /// by-value setters; validated when the surface is built.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct MlsParams {
     /// Gaussian kernel size `h` in `θ(d) = exp(−d²/h²)`. `None` (the default) estimates it as
     /// [`MlsParams::kernel_spacing_factor`] × the median nearest-neighbour spacing.

@@ -11,6 +11,8 @@ use crate::surface::MlsSurface;
 /// Parameters of [`relax`].
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct RelaxParams {
     /// Number of repel-and-project rounds; default 10.
     pub iterations: usize,

@@ -115,6 +115,14 @@
 //! fields whose fine sampling would exceed [`MAX_MEASURE_NODES`]. An exemplar without
 //! relief quilts, but its window errors mean nothing
 //! ([`QualityReport::featureless_exemplar`]).
+//!
+//! ## Features
+//!
+//! - `serde`: `Serialize`/`Deserialize` for [`QuiltParams`], [`Method`], [`WarpTargets`]
+//!   and [`OutputSize`] (and, through the building blocks' own `serde` features, the
+//!   parameters they hold). Structs read with missing fields taken from their `Default`,
+//!   unknown fields refused by name, and enums spelt in `snake_case` (`"search_only"`).
+//!   Read parameters are checked like built ones: call `validate()` (or let the run do it).
 
 #![deny(missing_docs)]
 

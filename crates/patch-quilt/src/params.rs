@@ -9,6 +9,8 @@ use crate::quilt::QuiltOutput;
 /// Which parts of the algorithm run. [`Method::Full`] is the paper; the others are the
 /// baselines the quality report compares against, computed by the same code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum Method {
     /// Search, warp and blend (paper 000 §4–§5).
     #[default]
@@ -21,6 +23,8 @@ pub enum Method {
 
 /// Where the warp sends each paired source point `s` with target `q`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum WarpTargets {
     /// Onto `q` exactly: the literal reading of paper 000 §5.2; the default.
     #[default]
@@ -46,6 +50,8 @@ pub enum WarpTargets {
 
 /// The output's extent on the reference plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum OutputSize {
     /// Width and depth in world units.
     Absolute(f32, f32),
@@ -57,6 +63,8 @@ pub enum OutputSize {
 /// size; the patch size is relative to the exemplar box.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct QuiltParams {
     /// Patch side as a fraction of the box's smaller in-plane side; default 0.4.
     pub patch_size: f32,

@@ -59,11 +59,22 @@
 //! Fitting is `O(n³)` (LU of `n + 4`), evaluation `O(n)` per point (parallel over points).
 //! Pairing is `O(n m)` per round without a distance threshold, less with one. Everything is
 //! deterministic. Errors are [`TpsError`].
+//!
+//! ## Features
+//!
+//! - `serde`: `Serialize`/`Deserialize` for [`TpsParams`], [`AffineRegularization`],
+//!   [`PairingParams`] and [`Table1Preset`]; an unlimited pairing threshold is written as
+//!   none (`null` in JSON, which has no infinity) and read back unlimited. Structs read
+//!   with missing fields taken from their `Default`, unknown fields refused by name, and
+//!   enums spelt in `snake_case` (`"search_only"`). Read parameters are checked like built
+//!   ones: call `validate()` (or let the run do it).
 
 #![deny(missing_docs)]
 
 mod error;
 mod pairing;
+#[cfg(feature = "serde")]
+mod serde_threshold;
 mod spline;
 
 pub use error::{Result, TpsError};

@@ -20,6 +20,8 @@ pub struct PairingPoint {
 
 /// The paper's Table 1 weight sets (all with `w_p = 1`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum Table1Preset {
     /// Height field: `w_n 3, w_v 30, w_l 9, w_d 7`.
     HeightField,
@@ -44,6 +46,8 @@ pub enum Table1Preset {
 /// (`patch-quilt` uses its exemplar box's longer side / 4).
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct PairingParams {
     /// Position weight `w_p`; default 1.
     pub w_p: f32,
@@ -56,11 +60,14 @@ pub struct PairingParams {
     /// Direction-coherence weight `w_d`; default 7.
     pub w_d: f32,
     /// Largest pair length; default unlimited.
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_threshold"))]
     pub max_distance: f32,
     /// Largest `(1 − n_s·n_q)/2`; default 0.5 (normals at most 90° apart, so opposite
     /// normals never pair).
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_threshold"))]
     pub max_normal_difference: f32,
     /// Largest `(v_s − v_q)²`; default unlimited.
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_threshold"))]
     pub max_variation_difference: f32,
     /// Width `σ` of the Gaussian `θ(d) = exp(−d²/σ²)` weighting neighbouring pairs in `g`;
     /// default: twice the median distance from a target to its nearest distinct target.

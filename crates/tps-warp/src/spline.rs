@@ -9,6 +9,8 @@ use crate::error::{Result, TpsError};
 /// What to do when the control points do not span 3D (all coplanar, collinear, or a single
 /// point) and the affine part of the spline is therefore undetermined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum AffineRegularization {
     /// Return [`TpsError::DegenerateControlPoints`].
     Reject,
@@ -25,6 +27,8 @@ pub enum AffineRegularization {
 /// Parameters of [`ThinPlateSpline::fit`].
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct TpsParams {
     /// Smoothing `λ ≥ 0` (regularized TPS; 0 = interpolation, the default): the spline
     /// minimizes `Σ |W(sᵢ) − qᵢ|² + λ E(W)` with `E` =

@@ -22,5 +22,18 @@ pub enum VoxelError {
     },
 }
 
+/// An [`VoxelError::InvalidParameter`] naming the parameter, its value and the range.
+pub(crate) fn invalid(
+    name: &'static str,
+    value: impl ToString,
+    expected: &'static str,
+) -> VoxelError {
+    VoxelError::InvalidParameter {
+        name,
+        value: value.to_string(),
+        expected,
+    }
+}
+
 /// Shorthand for results of this crate.
 pub type Result<T, E = VoxelError> = std::result::Result<T, E>;

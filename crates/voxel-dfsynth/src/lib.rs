@@ -47,6 +47,14 @@
 //!   cell plus rounding), with an optional tolerance (§5.2).
 //!
 //! More in `docs/voxel-dfsynth.md`.
+//!
+//! ## Features
+//!
+//! - `serde`: `Serialize`/`Deserialize` for [`VoxelParams`], [`MatcherKind`],
+//!   [`QualityParams`] and [`RelaxParams`]. Structs read with missing fields taken from
+//!   their `Default`, unknown fields refused by name, and enums spelt in `snake_case`
+//!   (`"search_only"`). Read parameters are checked like built ones: call `validate()` (or
+//!   let the run do it).
 
 #![deny(missing_docs)]
 

@@ -21,19 +21,22 @@ use pointset_core::rng::stream;
 use rand::RngExt;
 use rayon::prelude::*;
 
-use crate::error::{Result, VoxelError};
+use crate::error::{Result, invalid};
 use crate::field::{QuantizedField, block_ssd};
 use crate::synth::Synthesis;
 use crate::tree::SearchTree;
 
 /// Parameters of [`evaluate`].
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+#[non_exhaustive]
 pub struct QualityParams {
-    /// Window size (a power of two ≥ 2 that fits in source and target).
+    /// Window size (a power of two ≥ 2 that fits in source and target); default 8.
     pub window: usize,
-    /// Windows sampled from the target.
+    /// Windows sampled from the target; default 64.
     pub windows: usize,
-    /// Seed of the window positions and of the normalizing pairs.
+    /// Seed of the window positions and of the normalizing pairs; default 0.
     pub seed: u64,
 }
 
@@ -44,6 +47,38 @@ impl Default for QualityParams {
             windows: 64,
             seed: 0,
         }
+    }
+}
+
+impl QualityParams {
+    /// Sets the window size (default 8).
+    pub fn window(mut self, window: usize) -> Self {
+        self.window = window;
+        self
+    }
+
+    /// Sets the number of windows sampled from the target (default 64).
+    pub fn windows(mut self, windows: usize) -> Self {
+        self.windows = windows;
+        self
+    }
+
+    /// Sets the seed (default 0).
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Checks the ranges that do not depend on the fields: a window that is a power of two
+    /// ≥ 2 and at least one of them. Whether the window fits is checked by [`evaluate`].
+    pub fn validate(&self) -> Result<()> {
+        if !self.window.is_power_of_two() || self.window < 2 {
+            return Err(invalid("window", self.window, "a power of two ≥ 2"));
+        }
+        if self.windows == 0 {
+            return Err(invalid("windows", 0, "at least one window"));
+        }
+        Ok(())
     }
 }
 
@@ -76,16 +111,10 @@ pub fn evaluate(
     synthesis: &Synthesis,
     params: &QualityParams,
 ) -> Result<VoxelQuality> {
+    params.validate()?;
     let w = params.window;
     let target = &synthesis.field;
     let (src_pos, tgt_pos) = (source.fitting_positions(w)?, target.fitting_positions(w)?);
-    if params.windows == 0 {
-        return Err(VoxelError::InvalidParameter {
-            name: "windows",
-            value: "0".into(),
-            expected: "at least one window",
-        });
-    }
     let tree = SearchTree::build(source, w)?;
     let random_corner =
         |rng: &mut pointset_core::rng::SeededRng, p: [usize; 3]| p.map(|n| rng.random_range(0..n));

@@ -36,14 +36,17 @@ pub fn isosurface_mesh(synthesis: &Synthesis, closed: bool) -> Result<TriMesh> {
 
 /// Parameters of the seam relaxation in [`copied_mesh`].
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+#[non_exhaustive]
 pub struct RelaxParams {
-    /// Largest distance, in sample spacings, between boundary vertices that are welded.
+    /// Largest distance, in sample spacings, between boundary vertices that are welded; default 1.
     pub weld_radius: f32,
-    /// Smoothing + projection rounds.
+    /// Smoothing + projection rounds; default 8.
     pub iterations: usize,
-    /// Vertices within this many edges of a weld are relaxed.
+    /// Vertices within this many edges of a weld are relaxed; default 2.
     pub rings: usize,
-    /// Umbrella step in `(0, 1]`.
+    /// Umbrella step in `(0, 1]`; default 0.5.
     pub step: f32,
 }
 
@@ -59,7 +62,32 @@ impl Default for RelaxParams {
 }
 
 impl RelaxParams {
-    fn validate(&self) -> Result<()> {
+    /// Sets the weld radius in sample spacings (default 1).
+    pub fn weld_radius(mut self, spacings: f32) -> Self {
+        self.weld_radius = spacings;
+        self
+    }
+
+    /// Sets the smoothing + projection rounds (default 8).
+    pub fn iterations(mut self, n: usize) -> Self {
+        self.iterations = n;
+        self
+    }
+
+    /// Sets how many edges around a weld are relaxed (default 2).
+    pub fn rings(mut self, rings: usize) -> Self {
+        self.rings = rings;
+        self
+    }
+
+    /// Sets the umbrella step (default 0.5).
+    pub fn step(mut self, step: f32) -> Self {
+        self.step = step;
+        self
+    }
+
+    /// Checks the weld radius (finite, ≥ 0) and the step (in `(0, 1]`).
+    pub fn validate(&self) -> Result<()> {
         let bad = |name: &'static str, value: f32, expected: &'static str| {
             Err(VoxelError::InvalidParameter {
                 name,

@@ -30,7 +30,7 @@ use pointset_core::{Grid3, RunContext};
 use rand::RngExt;
 use rayon::prelude::*;
 
-use crate::error::{Result, VoxelError};
+use crate::error::{Result, VoxelError, invalid};
 use crate::field::{QuantizedField, SubsampledSource, block_ssd};
 use crate::matcher::{BlockMatcher, BruteForce, FftMatcher};
 use crate::tree::{Match, SearchTree, TreeStats};
@@ -39,6 +39,8 @@ use crate::tree::{Match, SearchTree, TreeStats};
 /// matches; for synthesis queries the pruned linear search is the fastest (see the crate
 /// docs), so it is the default.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum MatcherKind {
     /// The paper's search tree (exact best match).
     Tree,
@@ -85,20 +87,23 @@ impl FromStr for MatcherKind {
 /// Parameters of [`synthesize`]; defaults are the paper's setting (§6: 3 iterations, target
 /// 128³, final block 16), with the fastest exact matcher.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+#[non_exhaustive]
 pub struct VoxelParams {
     /// Target samples along x, y, z at the finest iteration. Each must be at least `block`
-    /// and a multiple of `block / 2`.
+    /// and a multiple of `block / 2`; default 128³ (the paper's).
     pub target_dims: [usize; 3],
-    /// Iterations (resolution levels), ≥ 1, with `block / 2^(levels − 1) ≥ 2`.
+    /// Iterations (resolution levels), ≥ 1, with `block / 2^(levels − 1) ≥ 2`; default 3 (the paper's).
     pub levels: usize,
-    /// Block size of the last iteration (a power of two ≥ 2).
+    /// Block size of the last iteration (a power of two ≥ 2); default 16 (the paper's).
     pub block: usize,
-    /// Block search.
+    /// Block search; default [`MatcherKind::Brute`] (exact, the fastest here).
     pub matcher: MatcherKind,
     /// Half-range of the 256-level quantization in world units; `None` uses the source's
-    /// largest |distance| (distances beyond the range saturate).
+    /// largest |distance| (distances beyond the range saturate); default `None`.
     pub range: Option<f32>,
-    /// Seed of the random target initialisation (and of the random baseline's picks).
+    /// Seed of the random target initialisation (and of the random baseline's picks); default 0.
     pub seed: u64,
 }
 
@@ -115,19 +120,48 @@ impl Default for VoxelParams {
     }
 }
 
-fn invalid(name: &'static str, value: impl ToString, expected: &'static str) -> VoxelError {
-    VoxelError::InvalidParameter {
-        name,
-        value: value.to_string(),
-        expected,
-    }
-}
-
 /// Largest target, in samples (512³): each target grid of `f32` then takes 512 MiB, and a run
 /// holds a few of them. The paper's targets were 128³.
 pub const MAX_TARGET_SAMPLES: usize = 1 << 27;
 
 impl VoxelParams {
+    /// Sets the target samples along x, y, z at the finest iteration (default 128³).
+    pub fn target_dims(mut self, dims: [usize; 3]) -> Self {
+        self.target_dims = dims;
+        self
+    }
+
+    /// Sets the iterations (resolution levels; default 3).
+    pub fn levels(mut self, levels: usize) -> Self {
+        self.levels = levels;
+        self
+    }
+
+    /// Sets the block size of the last iteration (default 16).
+    pub fn block(mut self, block: usize) -> Self {
+        self.block = block;
+        self
+    }
+
+    /// Sets the block search (default [`MatcherKind::Brute`]).
+    pub fn matcher(mut self, matcher: MatcherKind) -> Self {
+        self.matcher = matcher;
+        self
+    }
+
+    /// Sets the quantization half-range in world units (default: the source's largest
+    /// |distance|).
+    pub fn range(mut self, range: f32) -> Self {
+        self.range = Some(range);
+        self
+    }
+
+    /// Sets the seed (default 0).
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<()> {
         if !self.block.is_power_of_two() || self.block < 2 {
@@ -397,7 +431,7 @@ fn phased<M: Send>(
 ///         glam::Vec4::new(d, 0.0, 0.0, 0.0)
 ///     }).collect())?;
 /// let source = SdfGrid::from_grid(grid, 4.0)?;
-/// let params = VoxelParams { target_dims: [32; 3], levels: 2, block: 8, ..Default::default() };
+/// let params = VoxelParams::default().target_dims([32; 3]).levels(2).block(8);
 /// let out = synthesize(&source, &params, &mut RunContext::new(1))?;
 /// assert_eq!(out.field.dims(), [32, 32, 32]);
 /// assert!(out.levels.iter().all(|l| l.min_writes == 1 && l.max_writes == 1));

@@ -51,14 +51,13 @@ fn random_balls(dims: [usize; 3], seed: u64) -> SdfGrid {
 }
 
 fn params(target: usize, levels: usize, block: usize, matcher: MatcherKind) -> VoxelParams {
-    VoxelParams {
-        target_dims: [target; 3],
-        levels,
-        block,
-        matcher,
-        range: Some(4.0),
-        seed: 7,
-    }
+    VoxelParams::default()
+        .target_dims([target; 3])
+        .levels(levels)
+        .block(block)
+        .matcher(matcher)
+        .range(4.0)
+        .seed(7)
 }
 
 #[test]
@@ -67,10 +66,7 @@ fn every_target_sample_is_written_exactly_once_per_level() {
     for p in [
         params(32, 3, 8, MatcherKind::Tree),
         params(24, 1, 8, MatcherKind::Tree),
-        VoxelParams {
-            target_dims: [16, 24, 32],
-            ..params(0, 2, 8, MatcherKind::Random)
-        },
+        params(0, 2, 8, MatcherKind::Random).target_dims([16, 24, 32]),
     ] {
         let out = synthesize(&source, &p, &mut RunContext::new(0)).unwrap();
         assert_eq!(out.levels.len(), p.levels);
@@ -105,19 +101,11 @@ fn synthesis_is_deterministic_for_a_seed_with_one_or_two_threads() {
     assert_eq!(a.copies, b.copies);
     // The default matcher splits each search over threads too (and over phases at the
     // coarser iteration): still the same result.
-    let brute = VoxelParams {
-        matcher: MatcherKind::Brute,
-        ..p.clone()
-    };
+    let brute = p.clone().matcher(MatcherKind::Brute);
     let (x, y) = (run(1, &brute), run(2, &brute));
     assert_eq!(x.field, y.field);
     assert_eq!(x.copies, y.copies);
-    let c = synthesize(
-        &source,
-        &VoxelParams { seed: 8, ..p },
-        &mut RunContext::new(0),
-    )
-    .unwrap();
+    let c = synthesize(&source, &p.seed(8), &mut RunContext::new(0)).unwrap();
     assert_ne!(a.field, c.field, "another seed gives another target");
 }
 
@@ -229,18 +217,12 @@ fn invalid_parameters_are_range_errors() {
         params(32, 4, 8, MatcherKind::Tree),
         params(30, 2, 8, MatcherKind::Tree),
         params(4, 1, 8, MatcherKind::Tree),
-        VoxelParams {
-            range: Some(f32::NAN),
-            ..params(32, 2, 8, MatcherKind::Tree)
-        },
+        params(32, 2, 8, MatcherKind::Tree).range(f32::NAN),
         // Block larger than the source.
         params(64, 1, 32, MatcherKind::Tree),
         // Too many samples to allocate (2048³), and a product that overflows usize.
         params(2048, 2, 8, MatcherKind::Tree),
-        VoxelParams {
-            target_dims: [16, 16, usize::MAX / 8 * 4],
-            ..params(32, 2, 8, MatcherKind::Tree)
-        },
+        params(32, 2, 8, MatcherKind::Tree).target_dims([16, 16, usize::MAX / 8 * 4]),
     ];
     for p in bad {
         assert!(
@@ -258,21 +240,12 @@ fn synthesis_beats_random_blocks_on_every_quality_measure() {
     let p = params(32, 2, 8, MatcherKind::Tree);
     let quantizer = voxel_dfsynth::source_quantizer(&source, &p).unwrap();
     let q_source = voxel_dfsynth::quantize_source(&source, &quantizer).unwrap();
-    let qp = voxel_dfsynth::QualityParams {
-        window: 8,
-        windows: 24,
-        seed: 3,
-    };
+    let qp = voxel_dfsynth::QualityParams::default()
+        .window(8)
+        .windows(24)
+        .seed(3);
     let measure = |m| {
-        let out = synthesize(
-            &source,
-            &VoxelParams {
-                matcher: m,
-                ..p.clone()
-            },
-            &mut RunContext::new(0),
-        )
-        .unwrap();
+        let out = synthesize(&source, &p.clone().matcher(m), &mut RunContext::new(0)).unwrap();
         voxel_dfsynth::evaluate(&q_source, &quantizer, &out, &qp).unwrap()
     };
     let (tree, random) = (measure(MatcherKind::Tree), measure(MatcherKind::Random));
@@ -346,9 +319,6 @@ fn copied_triangles_are_welded_and_relaxed_onto_the_target() {
             "{p}"
         );
     }
-    let bad = voxel_dfsynth::RelaxParams {
-        step: 0.0,
-        ..Default::default()
-    };
+    let bad = voxel_dfsynth::RelaxParams::default().step(0.0);
     assert!(voxel_dfsynth::copied_mesh(&source_mesh, &out, &bad).is_err());
 }

@@ -617,14 +617,12 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
         };
         let stage = VoxelSynth {
             source_resolution,
-            params: VoxelParams {
-                target_dims: [target, target, z],
-                levels,
-                block,
-                matcher: MatcherKind::Brute,
-                range: None,
-                seed: args.seed,
-            },
+            params: VoxelParams::default()
+                .target_dims([target, target, z])
+                .levels(levels)
+                .block(block)
+                .matcher(MatcherKind::Brute)
+                .seed(args.seed),
             ..VoxelSynth::default()
         };
         let run = crate::commands::voxel::measured_run(exemplar.clone(), &stage, true, globals)?;

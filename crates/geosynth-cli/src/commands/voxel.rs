@@ -135,17 +135,12 @@ pub fn measured_run(
     bar.finish_and_clear();
     let quantizer = source_quantizer(&output.source, &stage.params)?;
     let source = quantize_source(&output.source, &quantizer)?;
-    let qp = QualityParams {
-        window: 8.min(stage.params.block),
-        seed: stage.params.seed,
-        ..QualityParams::default()
-    };
+    let qp = QualityParams::default()
+        .window(8.min(stage.params.block))
+        .seed(stage.params.seed);
     let quality = evaluate(&source, &quantizer, &output.synthesis, &qp)?;
     let baseline = if baseline {
-        let params = VoxelParams {
-            matcher: MatcherKind::Random,
-            ..stage.params.clone()
-        };
+        let params = stage.params.clone().matcher(MatcherKind::Random);
         let (mut ctx, bar) = progress_context(globals, params.seed, "baseline", true);
         let random = synthesize(&output.source, &params, &mut ctx)?;
         bar.finish_and_clear();
@@ -298,14 +293,12 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     let stage = VoxelSynth {
         source_resolution: args.source_res,
         mesh_sign: args.sign.mesh_rule(),
-        params: VoxelParams {
-            target_dims: args.target_dims.unwrap_or([args.target_res; 3]),
-            levels: args.levels,
-            block: args.block,
-            matcher: args.matcher.into(),
-            range: None,
-            seed: args.seed,
-        },
+        params: VoxelParams::default()
+            .target_dims(args.target_dims.unwrap_or([args.target_res; 3]))
+            .levels(args.levels)
+            .block(args.block)
+            .matcher(args.matcher.into())
+            .seed(args.seed),
         ..VoxelSynth::default()
     };
     stage.params.validate()?;
