@@ -3,7 +3,6 @@
 //! are refused by name, and unlimited thresholds (which JSON cannot write as numbers) come
 //! back unlimited.
 
-#![cfg(feature = "serde")]
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
