@@ -192,7 +192,9 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
 }
 
 /// Stage: geometry → signed distance grid.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct SignedDistance {
     /// The parameters used.
     pub params: FieldParams,
@@ -232,7 +234,9 @@ impl Stage for SignedDistance {
 /// assert!((r - 1.0).abs() < 0.02);
 /// Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct Reconstruct {
     /// The parameters used.
     pub params: FieldParams,

@@ -176,7 +176,9 @@ pub fn source_dims(exemplar: &VoxelExemplar, resolution: usize) -> Result<[usize
 }
 
 /// Stage: exemplar → synthesized field and both reconstructions.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct VoxelSynth {
     /// Source samples along the exemplar box's longest side (paper: 64).
     pub source_resolution: usize,

@@ -133,7 +133,9 @@ pub fn exemplar_geometry(exemplar: &TextureExemplar) -> (Geometry, Vec<String>) 
 }
 
 /// Stage: geometry texture → synthesized texture ([`patch_quilt::quilt`]).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
 pub struct Quilt {
     /// The parameters used.
     pub params: QuiltParams,

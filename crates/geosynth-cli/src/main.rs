@@ -2,11 +2,14 @@
 
 mod commands;
 mod output;
+mod params_file;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+
+use params_file::GivenFlags;
 
 /// Example-based geometry and texture synthesis.
 #[derive(Debug, Parser)]
@@ -60,7 +63,11 @@ pub(crate) struct Globals {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     if let Some(n) = cli.threads {
         if n == 0 {
             eprintln!("error: --threads must be at least 1");
@@ -83,8 +90,12 @@ fn main() -> ExitCode {
         Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(&args, globals),
         Command::Sdf(args) => commands::reconstruct::run_sdf(&args, globals),
         Command::Warp(args) => commands::warp::run(&args, globals),
-        Command::Quilt(args) => commands::quilt::run(&args, globals),
-        Command::Voxel(args) => commands::voxel::run(&args, globals),
+        Command::Quilt(args) => {
+            commands::quilt::run(&args, GivenFlags::of(&matches, "quilt"), globals)
+        }
+        Command::Voxel(args) => {
+            commands::voxel::run(&args, GivenFlags::of(&matches, "voxel"), globals)
+        }
         Command::Fixtures(args) => commands::fixtures::run(&args, globals),
         Command::Demo(args) => commands::demo::run(&args, globals),
     };

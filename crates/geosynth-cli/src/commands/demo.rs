@@ -18,7 +18,7 @@ use geosynth::tps::{PairingParams, Table1Preset};
 use geosynth::{RunContext, Stage};
 use serde::Serialize;
 
-use crate::commands::quilt::{measure_for, measured_run, params_json, run_json, texture_preview};
+use crate::commands::quilt::{measure_for, measured_run, run_json, texture_preview};
 use crate::output::{progress_bar, status};
 use crate::{CliResult, Globals, create_dir};
 
@@ -80,7 +80,7 @@ struct QuiltEntry {
     geometry: String,
     preview: String,
     /// The full run's parameters (the baselines change only the method or the layout).
-    params: serde_json::Value,
+    params: QuiltParams,
     full: serde_json::Value,
     search_only: serde_json::Value,
     random_placement: serde_json::Value,
@@ -583,7 +583,7 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
             scale,
             geometry: relative(&geometry_path, &args.out),
             preview: relative(&preview_path, &args.out),
-            params: params_json(&params),
+            params: params.clone(),
             full: run_json(&full),
             search_only: run_json(&search),
             random_placement: run_json(&random),

@@ -110,11 +110,11 @@ impl SignArgs {
         Ok((oriented, Some(line)))
     }
 
-    /// A note when `mesh`'s signs may be wrong somewhere: triangles that disagree on which
-    /// side is out (either rule; without `--orient-faces`), and, for pseudo-normals, an
-    /// open or non-manifold mesh or closed parts that intersect (triangles inside other
-    /// parts). `None` otherwise.
-    pub fn note(&self, mesh: &TriMesh) -> CliResult<Option<String>> {
+    /// A note when `mesh`'s signs by `rule` may be wrong somewhere: triangles that disagree
+    /// on which side is out (either rule; without `--orient-faces`), and, for
+    /// pseudo-normals, an open or non-manifold mesh or closed parts that intersect
+    /// (triangles inside other parts). `None` otherwise.
+    pub fn note(&self, mesh: &TriMesh, rule: MeshSign) -> CliResult<Option<String>> {
         // By position: seams where a file splits its vertices (UVs) are not openings.
         let topology = mesh.welded()?.topology();
         if topology.misoriented_edges > 0 && !self.orient_faces {
@@ -125,7 +125,7 @@ impl SignArgs {
                 topology.misoriented_edges
             )));
         }
-        if self.is_winding() {
+        if rule == MeshSign::WindingNumber {
             return Ok(None);
         }
         let remedy = "--sign winding signs by the generalized winding number instead";

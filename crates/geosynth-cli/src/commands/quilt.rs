@@ -21,6 +21,7 @@ use serde_json::{Value, json};
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
 };
+use crate::params_file::{GivenFlags, read_params};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -131,6 +132,12 @@ pub struct QuiltArgs {
     /// Output point set (.ply, .obj, .off).
     #[arg(short, long)]
     output: PathBuf,
+    /// Read the parameters from JSON: any of the library's `QuiltParams` fields (as the
+    /// report's `params` spells them: `{"epsilon": 0.3, "clusters": {"max_points": 4}}`),
+    /// or a report written by `--report`, to run it again. Fields it leaves out keep their
+    /// defaults; the flags given here override it.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
     /// Output width and depth in world units, `W,H`.
     #[arg(long, value_parser = parse_size, conflicts_with = "scale")]
     size: Option<(f32, f32)>,
@@ -272,6 +279,56 @@ fn precision_note(file: &TextureFile) -> Option<String> {
     super::single_precision_note(file.origin, step, spacing, "its sample spacing")
 }
 
+/// The run's parameters: `--params`' file over the defaults (with the pairing weights
+/// written out, so the report shows them), then every flag given on the command line;
+/// validated.
+fn run_params(args: &QuiltArgs, given: GivenFlags) -> CliResult<QuiltParams> {
+    let defaults = QuiltParams::default().pairing(PairingParams::default());
+    let mut p = match &args.params {
+        Some(path) => read_params(path, "params", &defaults)?,
+        None => defaults,
+    };
+    match (args.size, args.scale) {
+        (Some((w, h)), _) => p.output = OutputSize::Absolute(w, h),
+        (None, Some(s)) => p.output = OutputSize::Scale(s),
+        (None, None) => {}
+    }
+    given.apply("seed", &mut p.seed, args.seed);
+    given.apply("method", &mut p.method, args.method.into());
+    given.apply("resolution", &mut p.field_resolution, args.resolution);
+    given.apply("patch", &mut p.patch_size, args.patch);
+    given.apply("epsilon", &mut p.epsilon, args.epsilon);
+    given.apply("pair_distance", &mut p.pair_distance, args.pair_distance);
+    given.apply(
+        "warp_targets",
+        &mut p.warp_targets,
+        args.warp_targets.into(),
+    );
+    given.apply("smoothing", &mut p.smoothing, args.smoothing);
+    given.apply("blend_reach", &mut p.blend_reach, args.blend_reach);
+    given.apply(
+        "normal_agreement",
+        &mut p.normal_agreement,
+        args.normal_agreement,
+    );
+    given.apply(
+        "cluster_points",
+        &mut p.clusters.max_points,
+        args.cluster_points,
+    );
+    given.apply("relax", &mut p.relaxation_rounds, args.relax);
+    if let Some(preset) = args.preset {
+        p.pairing = Some(PairingParams::table1(match preset {
+            PresetArg::Heightfield => Table1Preset::HeightField,
+            PresetArg::ChainMail => Table1Preset::ChainMail,
+            PresetArg::Weave => Table1Preset::Weave,
+            PresetArg::Flowers => Table1Preset::Flowers,
+        }));
+    }
+    p.validate()?;
+    Ok(p)
+}
+
 /// Loads the texture named by the arguments (a height field is at the origin).
 fn load(args: &QuiltArgs) -> CliResult<TextureFile> {
     if let Some(path) = &args.heightfield {
@@ -387,51 +444,6 @@ fn blend_json(b: BlendCounts) -> Value {
     })
 }
 
-/// Every parameter of a run as JSON, so a report says how to reproduce it. A fixed layout
-/// is given by its length (the sources are in the output's own report of the run it came
-/// from).
-pub fn params_json(p: &QuiltParams) -> Value {
-    let pairing = p.pairing.clone().unwrap_or_default();
-    json!({
-        "method": format!("{:?}", p.method),
-        "seed": p.seed,
-        "output": match p.output {
-            OutputSize::Absolute(w, h) => json!({ "width": w, "depth": h }),
-            OutputSize::Scale(s) => json!({ "scale": s }),
-        },
-        "patch_size": p.patch_size,
-        "extra_width": p.extra_width,
-        "overlap": p.overlap,
-        "field_resolution": p.field_resolution,
-        "epsilon": p.epsilon,
-        "band": p.band,
-        "pairing": {
-            "w_p": pairing.w_p,
-            "w_n": pairing.w_n,
-            "w_v": pairing.w_v,
-            "w_l": pairing.w_l,
-            "w_d": pairing.w_d,
-            // JSON has no infinity: serde_json writes an unlimited threshold as null.
-            "max_distance": pairing.max_distance,
-            "max_normal_difference": pairing.max_normal_difference,
-            "max_variation_difference": pairing.max_variation_difference,
-            "coherence_radius": pairing.coherence_radius,
-            "rounds": pairing.rounds,
-            "remove_crossings": pairing.remove_crossings,
-        },
-        "pair_distance": p.pair_distance,
-        "warp_targets": format!("{:?}", p.warp_targets),
-        "smoothing": p.smoothing,
-        "blend_reach": p.blend_reach,
-        "normal_agreement": p.normal_agreement,
-        "clusters": { "max_points": p.clusters.max_points, "max_variation": p.clusters.max_variation },
-        "anchors_per_corner": p.anchors_per_corner,
-        "relaxation_rounds": p.relaxation_rounds,
-        "seed_patch": p.seed_patch,
-        "layout_patches": p.layout.as_ref().map(Vec::len),
-    })
-}
-
 /// A run as JSON.
 pub fn run_json(run: &MeasuredRun) -> Value {
     let s = &run.output.stats;
@@ -504,7 +516,7 @@ pub fn texture_preview(
 }
 
 /// Runs `geosynth quilt`.
-pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
+pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     check_output_paths(
         [args.output.as_path()],
         args.report
@@ -513,6 +525,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
             .map(PathBuf::as_path),
     )?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
+    let params = run_params(args, given)?;
     let mut file = load(args)?;
     if let Some(path) = &args.exemplar {
         report_not_kept(globals, path, &file.notes);
@@ -532,42 +545,13 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
     {
         status(globals, note);
     }
-    let output = match (args.size, args.scale) {
-        (Some((w, h)), _) => OutputSize::Absolute(w, h),
-        (None, Some(s)) => OutputSize::Scale(s),
-        (None, None) => OutputSize::Scale(2.0),
-    };
-    let mut params = QuiltParams::default()
-        .output(output)
-        .seed(args.seed)
-        .method(args.method.into())
-        .field_resolution(args.resolution)
-        .patch_size(args.patch)
-        .epsilon(args.epsilon)
-        .relaxation_rounds(args.relax)
-        .pair_distance(args.pair_distance)
-        .smoothing(args.smoothing)
-        .blend_reach(args.blend_reach)
-        .normal_agreement(args.normal_agreement)
-        .cluster_points(args.cluster_points)
-        .warp_targets(args.warp_targets.into());
-    if let Some(p) = args.preset {
-        let preset = match p {
-            PresetArg::Heightfield => Table1Preset::HeightField,
-            PresetArg::ChainMail => Table1Preset::ChainMail,
-            PresetArg::Weave => Table1Preset::Weave,
-            PresetArg::Flowers => Table1Preset::Flowers,
-        };
-        params = params.pairing(PairingParams::table1(preset));
-    }
-    params.validate()?;
     // The output (and its preview) are written before it is measured: on large exemplars
     // the measure can take longer than the synthesis, and an interrupted measure must not
     // cost the result.
     let main = unmeasured_run(texture, &params, globals, "quilt")?;
     let mut comments = vec![format!(
         "quilted by geosynth (seed {}, {:?})",
-        args.seed, params.method
+        params.seed, params.method
     )];
     comments.extend(file.comments(&main.output.bounds));
     let mut options = WriteOptions::default().origin(file.origin);
@@ -590,9 +574,7 @@ pub fn run(args: &QuiltArgs, globals: Globals) -> CliResult {
     let main = main.measured(&measure, globals, "quilt");
     if let Some(path) = &args.report {
         let mut report = json!({
-            "method": format!("{:?}", params.method),
-            "seed": args.seed,
-            "params": params_json(&params),
+            "params": params,
             "run": run_json(&main),
         });
         if args.baselines {

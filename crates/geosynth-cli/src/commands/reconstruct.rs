@@ -223,7 +223,7 @@ pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
         if let Some(line) = change {
             status(globals, line);
         }
-        if let Some(note) = args.sign.note(&mesh)? {
+        if let Some(note) = args.sign.note(&mesh, args.sign.mesh_rule())? {
             status(globals, note);
         }
         loaded.geometry = io::Geometry::Mesh(mesh);

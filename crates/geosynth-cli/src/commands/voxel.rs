@@ -16,6 +16,7 @@ use serde_json::{Value, json};
 
 use super::SignArgs;
 use crate::output::{check_geometry_output, check_output_paths, progress_context, status};
+use crate::params_file::{GivenFlags, read_params};
 use crate::{CliResult, Globals};
 
 /// Block search.
@@ -58,28 +59,35 @@ pub struct VoxelArgs {
     isosurface: Option<PathBuf>,
     #[command(flatten)]
     sign: SignArgs,
+    /// Read the settings from JSON: any of the fields of the library's `VoxelSynth` stage
+    /// (`source_resolution`, `mesh_sign`, `params` — `VoxelParams` — and `relax`, as the
+    /// report's `stage` spells them: `{"params": {"levels": 2, "block": 8}}`), or a report
+    /// written by `--report`, to run it again. Fields it leaves out keep their defaults; the
+    /// flags given here override it.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
     /// Source samples along the exemplar box's longest side.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = VoxelSynth::default().source_resolution)]
     source_res: usize,
     /// Target samples along each axis at the last iteration.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = VoxelParams::default().target_dims[0])]
     target_res: usize,
     /// Target samples along x, y, z (`X,Y,Z`), instead of a cube of `--target-res`; e.g.
     /// keep a terrain's height with `128,128,64` from a 64³ source.
     #[arg(long, value_parser = parse_dims)]
     target_dims: Option<[usize; 3]>,
     /// Iterations (resolution levels).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = VoxelParams::default().levels)]
     levels: usize,
     /// Block size of the last iteration (a power of two).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = VoxelParams::default().block)]
     block: usize,
     /// Block search (tree, brute and fft are exact and give the same result; brute — a
     /// linear search with partial distances and pyramid filters — is the fastest here).
     #[arg(long, value_enum, default_value_t = MatcherArg::Brute)]
     matcher: MatcherArg,
     /// Seed of the random initialisation.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = VoxelParams::default().seed)]
     seed: u64,
     /// Write the synthesized distance field as NRRD.
     #[arg(long)]
@@ -266,8 +274,32 @@ fn empty_copy_note(
     })
 }
 
+/// The stage's settings: `--params`' file over the defaults, then every flag given on the
+/// command line; validated.
+fn run_stage(args: &VoxelArgs, given: GivenFlags) -> CliResult<VoxelSynth> {
+    let mut stage = match &args.params {
+        Some(path) => read_params(path, "stage", &VoxelSynth::default())?,
+        None => VoxelSynth::default(),
+    };
+    given.apply("source_res", &mut stage.source_resolution, args.source_res);
+    given.apply("sign", &mut stage.mesh_sign, args.sign.mesh_rule());
+    let p = &mut stage.params;
+    if let Some(dims) = args.target_dims {
+        p.target_dims = dims;
+    } else if given.has("target_res") {
+        p.target_dims = [args.target_res; 3];
+    }
+    given.apply("levels", &mut p.levels, args.levels);
+    given.apply("block", &mut p.block, args.block);
+    given.apply("matcher", &mut p.matcher, args.matcher.into());
+    given.apply("seed", &mut p.seed, args.seed);
+    p.validate()?;
+    stage.relax.validate()?;
+    Ok(stage)
+}
+
 /// Runs `geosynth voxel`.
-pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
+pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     check_output_paths(
         std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()),
         [&args.field, &args.report, &args.preview]
@@ -275,11 +307,12 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
             .flatten()
             .map(PathBuf::as_path),
     )?;
+    let stage = run_stage(args, given)?;
     let mut exemplar = read_exemplar(&args.exemplar)?;
     for path in std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()) {
         check_geometry_output(path, true, exemplar.origin)?;
     }
-    if let Some(note) = precision_note(&exemplar, args.source_res) {
+    if let Some(note) = precision_note(&exemplar, stage.source_resolution) {
         status(globals, note);
     }
     let (mesh, change) = args.sign.oriented(exemplar.mesh)?;
@@ -287,26 +320,14 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
     if let Some(line) = change {
         status(globals, line);
     }
-    if let Some(note) = args.sign.note(&exemplar.mesh)? {
+    if let Some(note) = args.sign.note(&exemplar.mesh, stage.mesh_sign)? {
         status(globals, note);
     }
-    let stage = VoxelSynth {
-        source_resolution: args.source_res,
-        mesh_sign: args.sign.mesh_rule(),
-        params: VoxelParams::default()
-            .target_dims(args.target_dims.unwrap_or([args.target_res; 3]))
-            .levels(args.levels)
-            .block(args.block)
-            .matcher(args.matcher.into())
-            .seed(args.seed),
-        ..VoxelSynth::default()
-    };
-    stage.params.validate()?;
     let run = measured_run(exemplar.clone(), &stage, args.baseline, globals)?;
     let options = WriteOptions::default()
         .comment(format!(
             "synthesized by geosynth voxel (seed {}, matcher {})",
-            args.seed,
+            stage.params.seed,
             stage.params.matcher.name()
         ))
         .origin(exemplar.origin);
@@ -330,7 +351,9 @@ pub fn run(args: &VoxelArgs, globals: Globals) -> CliResult {
         voxel_preview(&exemplar, &run, path, 400)?;
     }
     if let Some(path) = &args.report {
-        std::fs::write(path, serde_json::to_string_pretty(&run_json(&run, &stage))?)
+        let mut report = run_json(&run, &stage);
+        report["stage"] = serde_json::to_value(&stage)?;
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     if let Some(note) = empty_copy_note(&exemplar, &run, args.isosurface.is_some()) {

@@ -8,6 +8,8 @@ use std::process::{Command, Output};
 
 use geosynth::core::testdata::shared_data;
 
+mod params;
+
 fn geosynth(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_geosynth"))
         .args(args)
@@ -321,7 +323,7 @@ fn demo_quick_writes_report_geometry_and_previews() {
         for key in ["preview", "geometry"] {
             assert!(out.join(q[key].as_str().unwrap()).is_file(), "{key}");
         }
-        assert_eq!(q["params"]["method"], "Full", "{q}");
+        assert_eq!(q["params"]["method"], "full", "{q}");
         assert!(q["params"]["pairing"]["w_d"].as_f64().unwrap() > 0.0, "{q}");
         assert!(
             q["full"]["quality"]["neighbourhood_error"]
@@ -861,7 +863,7 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         "{params}"
     );
     assert!((params["output"]["scale"].as_f64().unwrap() - 1.3).abs() < 1e-6);
-    assert_eq!(params["method"], "Full");
+    assert_eq!(params["method"], "full");
     assert_eq!(params["pairing"]["w_p"], 1.0);
     assert!(params["pairing"]["w_v"].as_f64().unwrap() > 0.0);
     for run in [

@@ -1,0 +1,220 @@
+//! `--params FILE`: parameters read from JSON or from an earlier run's report, flags given on
+//! the command line taking precedence, and bad files refused by name before anything runs.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::{Scratch, arg, geosynth, ok};
+
+fn read_json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// Runs `geosynth quilt` on the bumpy fixture with `extra` arguments, writing `out` and a
+/// report `report`, and returns the report.
+fn quilt_bumpy(out: &Path, report: &Path, extra: &[&str]) -> Value {
+    let exemplar = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
+    let (exemplar, out, report) = (arg(&exemplar), arg(out), arg(report));
+    let mut args = vec![
+        "quilt",
+        &exemplar,
+        "-o",
+        &out,
+        "--report",
+        &report,
+        "--no-quality",
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    ok(&args);
+    read_json(Path::new(&report))
+}
+
+#[test]
+fn a_quilt_report_runs_again_through_params_and_flags_override_it() {
+    let dir = Scratch::new();
+    let first = quilt_bumpy(
+        &dir.path("a.ply"),
+        &dir.path("a.json"),
+        &[
+            "--scale",
+            "1.3",
+            "--resolution",
+            "24",
+            "--seed",
+            "3",
+            "--epsilon",
+            "0.2",
+            "--cluster-points",
+            "6",
+        ],
+    );
+    let params = &first["params"];
+    assert_eq!(params["seed"], 3);
+    assert_eq!(params["clusters"]["max_points"], 6);
+    // The pairing weights are written out (Table 1's height-field row by default).
+    assert_eq!(params["pairing"]["w_v"], 30.0);
+    assert!(params["pairing"]["max_distance"].is_null(), "{params}");
+
+    // The report alone reproduces the run, point for point.
+    let again = quilt_bumpy(
+        &dir.path("b.ply"),
+        &dir.path("b.json"),
+        &["--params", &arg(&dir.path("a.json"))],
+    );
+    assert_eq!(again["params"], first["params"]);
+    assert_eq!(
+        std::fs::read(dir.path("a.ply")).unwrap(),
+        std::fs::read(dir.path("b.ply")).unwrap()
+    );
+
+    // Flags given on the command line win; the rest comes from the file.
+    let changed = quilt_bumpy(
+        &dir.path("c.ply"),
+        &dir.path("c.json"),
+        &["--params", &arg(&dir.path("a.json")), "--seed", "4"],
+    );
+    assert_eq!(changed["params"]["seed"], 4);
+    for key in ["field_resolution", "epsilon", "output", "clusters"] {
+        assert_eq!(changed["params"][key], first["params"][key], "{key}");
+    }
+    assert_ne!(
+        std::fs::read(dir.path("a.ply")).unwrap(),
+        std::fs::read(dir.path("c.ply")).unwrap()
+    );
+}
+
+#[test]
+fn a_partial_params_file_keeps_the_commands_defaults_inside_nested_objects() {
+    let dir = Scratch::new();
+    let file = dir.path("p.json");
+    std::fs::write(
+        &file,
+        r#"{ "clusters": { "max_points": 4 }, "output": { "absolute": [3.0, 2.5] },
+             "field_resolution": 24, "method": "search_only" }"#,
+    )
+    .unwrap();
+    let report = quilt_bumpy(
+        &dir.path("p.ply"),
+        &dir.path("p_report.json"),
+        &["--params", &arg(&file)],
+    );
+    let params = &report["params"];
+    assert_eq!(params["clusters"]["max_points"], 4);
+    // The quilt's own default (0.1), not `ClusterParams::default()`'s 0.05.
+    let variation = params["clusters"]["max_variation"].as_f64().unwrap();
+    assert!((variation - 0.1).abs() < 1e-6, "{params}");
+    assert_eq!(
+        params["output"],
+        serde_json::json!({ "absolute": [3.0, 2.5] })
+    );
+    assert_eq!(params["method"], "search_only");
+    assert_eq!(params["pairing"]["w_n"], 3.0);
+    assert_eq!(params["seed"], 0);
+    let out = geosynth::core::io::read_geometry(dir.path("p.ply")).unwrap();
+    let bounds = out.geometry.bounding_box().unwrap();
+    assert!(bounds.extent().x <= 3.0 + 1e-4 && bounds.extent().y <= 2.5 + 1e-4);
+}
+
+#[test]
+fn bad_params_files_are_refused_by_name_before_anything_is_written() {
+    let dir = Scratch::new();
+    let exemplar = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
+    let out = dir.path("never.ply");
+    let file = dir.path("bad.json");
+    for (content, said) in [
+        ("{ \"patch_sise\": 0.3 }", "patch_sise"),
+        ("{ \"clusters\": { \"max_pts\": 4 } }", "max_pts"),
+        ("{ \"method\": \"fast\" }", "fast"),
+        ("{ \"seed\": \"three\" }", "three"),
+        ("{ \"epsilon\": -1 }", "epsilon"),
+        ("[0.3]", "object"),
+        ("{ \"epsilon\": 0.3", "not a JSON parameter file"),
+    ] {
+        std::fs::write(&file, content).unwrap();
+        let run = geosynth(&[
+            "quilt",
+            &exemplar,
+            "-o",
+            &arg(&out),
+            "--params",
+            &arg(&file),
+        ]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{content}");
+        assert!(err.contains(said), "{content}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists(), "{content}");
+    }
+    let missing = dir.path("missing.json");
+    let run = geosynth(&[
+        "quilt",
+        &exemplar,
+        "-o",
+        &arg(&out),
+        "--params",
+        &arg(&missing),
+    ]);
+    assert!(String::from_utf8_lossy(&run.stderr).contains("missing.json"));
+    assert!(!run.status.success() && !out.exists());
+}
+
+#[test]
+fn a_voxel_report_runs_again_through_params() {
+    let dir = Scratch::new();
+    ok(&["fixtures", "--quiet", "--out", &arg(&dir.path(""))]);
+    let exemplar = arg(&dir.path("voxel_grid.ply"));
+    let run = |out: &str, report: &str, extra: &[&str]| {
+        let (out, report) = (arg(&dir.path(out)), arg(&dir.path(report)));
+        let mut args = vec!["voxel", &exemplar, "-o", &out, "--report", &report, "-q"];
+        args.extend_from_slice(extra);
+        ok(&args);
+        read_json(Path::new(&report))
+    };
+    let first = run(
+        "a.ply",
+        "a.json",
+        &[
+            "--source-res",
+            "16",
+            "--target-dims",
+            "16,24,16",
+            "--levels",
+            "1",
+            "--block",
+            "8",
+            "--seed",
+            "5",
+            "--sign",
+            "winding",
+        ],
+    );
+    let stage = &first["stage"];
+    assert_eq!(stage["source_resolution"], 16);
+    assert_eq!(stage["mesh_sign"], "winding_number");
+    assert_eq!(
+        stage["params"]["target_dims"],
+        serde_json::json!([16, 24, 16])
+    );
+    assert_eq!(stage["params"]["seed"], 5);
+    let again = run("b.ply", "b.json", &["--params", &arg(&dir.path("a.json"))]);
+    assert_eq!(again["stage"], first["stage"]);
+    assert_eq!(
+        std::fs::read(dir.path("a.ply")).unwrap(),
+        std::fs::read(dir.path("b.ply")).unwrap()
+    );
+    // A range error from the file names the parameter.
+    std::fs::write(dir.path("bad.json"), r#"{ "params": { "block": 6 } }"#).unwrap();
+    let bad = geosynth(&[
+        "voxel",
+        &exemplar,
+        "-o",
+        &arg(&dir.path("x.ply")),
+        "--params",
+        &arg(&dir.path("bad.json")),
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("block"));
+    assert!(!dir.path("x.ply").exists());
+}
