@@ -65,6 +65,18 @@ impl FieldParams {
         self
     }
 
+    /// Sets the margin around the geometry's box, in grid spacings (default 3).
+    pub fn margin(mut self, spacings: f32) -> Self {
+        self.margin = spacings;
+        self
+    }
+
+    /// Sets the clamp of the distances, in grid spacings (default 4).
+    pub fn band(mut self, spacings: f32) -> Self {
+        self.band = spacings;
+        self
+    }
+
     /// Sets how a mesh's distances are signed (default [`MeshSign::PseudoNormal`]).
     pub fn mesh_sign(mut self, sign: MeshSign) -> Self {
         self.mesh_sign = sign;

@@ -43,16 +43,14 @@ fn pairing() -> impl Strategy<Value = PairingParams> {
         any::<bool>(),
     )
         .prop_map(|(w, t, coherence, rounds, crossings)| {
-            let mut p = PairingParams::default();
-            [p.w_p, p.w_n, p.w_v, p.w_l, p.w_d] = w;
-            [
-                p.max_distance,
-                p.max_normal_difference,
-                p.max_variation_difference,
-            ] = t;
+            let mut p = PairingParams::default()
+                .weights(w)
+                .max_distance(t[0])
+                .max_normal_difference(t[1])
+                .max_variation_difference(t[2])
+                .rounds(rounds)
+                .remove_crossings(crossings);
             p.coherence_radius = coherence;
-            p.rounds = rounds;
-            p.remove_crossings = crossings;
             p
         })
 }
@@ -88,22 +86,21 @@ fn quilt_params() -> impl Strategy<Value = QuiltParams> {
             (method, targets, pairing, output),
             ([res, cluster, anchors, relax], seed, seed_patch, layout),
         )| {
-            let mut p = QuiltParams::default();
-            [
-                p.patch_size,
-                p.extra_width,
-                p.overlap,
-                p.epsilon,
-                p.band,
-                p.pair_distance,
-                p.smoothing,
-                p.blend_reach,
-            ] = l;
+            let mut p = QuiltParams::default()
+                .patch_size(l[0])
+                .extra_width(l[1])
+                .overlap(l[2])
+                .epsilon(l[3])
+                .band(l[4])
+                .pair_distance(l[5])
+                .smoothing(l[6])
+                .blend_reach(l[7])
+                .anchors_per_corner(anchors);
             p.normal_agreement = l[0] / 1e6;
             p.clusters.max_variation = l[1].abs();
             (p.method, p.warp_targets, p.pairing, p.output) = (method, targets, pairing, output);
             (p.field_resolution, p.clusters.max_points) = (res, cluster);
-            (p.anchors_per_corner, p.relaxation_rounds) = (anchors, relax);
+            p.relaxation_rounds = relax;
             (p.seed, p.seed_patch, p.layout) = (seed, seed_patch, layout);
             p
         },
@@ -151,11 +148,13 @@ proptest! {
         mesh_sign in prop::sample::select(vec![MeshSign::PseudoNormal, MeshSign::WindingNumber]),
         point_sign in prop::sample::select(vec![PointSign::Implicit, PointSign::WindingNumber]),
     ) {
-        let mut field = FieldParams::default()
+        let field = FieldParams::default()
             .resolution(resolution)
             .kernel(kernel)
-            .mesh_sign(mesh_sign);
-        (field.margin, field.band, field.point_sign) = (lengths[0], lengths[1], point_sign);
+            .mesh_sign(mesh_sign)
+            .point_sign(point_sign)
+            .margin(lengths[0])
+            .band(lengths[1]);
         prop_assert_eq!(round_trip(&field), field);
 
         let mut mls = MlsParams::default()
@@ -188,11 +187,15 @@ fn every_parameter_type_reads_an_empty_document_as_its_default() {
 fn the_remaining_types_survive_json() {
     let tps = TpsParams::default()
         .smoothing(0.25)
-        .affine_regularization(AffineRegularization::TowardIdentity);
+        .affine_regularization(AffineRegularization::TowardIdentity)
+        .duplicate_tolerance(1e-6);
     assert_eq!(round_trip(&tps), tps);
     let clusters = ClusterParams::default().max_points(4).max_variation(0.2);
     assert_eq!(round_trip(&clusters), clusters);
-    let relax = MlsRelaxParams::default().iterations(3);
+    let relax = MlsRelaxParams::default()
+        .iterations(3)
+        .radius_factor(1.5)
+        .step(0.125);
     assert_eq!(round_trip(&relax), relax);
     let quality = QualityParams::default().window(4).windows(9).seed(2);
     assert_eq!(round_trip(&quality), quality);

@@ -39,6 +39,19 @@ impl RelaxParams {
         self.iterations = n;
         self
     }
+
+    /// Sets the repulsion radius, a multiple of the median spacing (default 2).
+    pub fn radius_factor(mut self, factor: f32) -> Self {
+        self.radius_factor = factor;
+        self
+    }
+
+    /// Sets the step length, a fraction of the median spacing per unit of force (default
+    /// 0.25).
+    pub fn step(mut self, step: f32) -> Self {
+        self.step = step;
+        self
+    }
 }
 
 /// The outcome of [`relax`].

@@ -176,6 +176,42 @@ impl QuiltParams {
         self
     }
 
+    /// Sets the width `w_E` of the extra region (fraction of the patch; default 0.3).
+    pub fn extra_width(mut self, fraction: f32) -> Self {
+        self.extra_width = fraction;
+        self
+    }
+
+    /// Sets the overlap width (fraction of the patch; default 1/6).
+    pub fn overlap(mut self, fraction: f32) -> Self {
+        self.overlap = fraction;
+        self
+    }
+
+    /// Sets the distance clamp in field spacings (default 4).
+    pub fn band(mut self, spacings: f32) -> Self {
+        self.band = spacings;
+        self
+    }
+
+    /// Sets the clustering limits of the target set `Q` (default `n_max` 12, `σ_max` 0.1).
+    pub fn clusters(mut self, clusters: ClusterParams) -> Self {
+        self.clusters = clusters;
+        self
+    }
+
+    /// Sets the anchors per free corner of `F_k` (default 4).
+    pub fn anchors_per_corner(mut self, n: usize) -> Self {
+        self.anchors_per_corner = n;
+        self
+    }
+
+    /// Fixes the seed patch (node offsets in `D(T_in)`; default random).
+    pub fn seed_patch(mut self, offset: (usize, usize)) -> Self {
+        self.seed_patch = Some(offset);
+        self
+    }
+
     /// Sets the output extent (default twice the exemplar).
     pub fn output(mut self, size: OutputSize) -> Self {
         self.output = size;

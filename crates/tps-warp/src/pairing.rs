@@ -126,6 +126,31 @@ impl PairingParams {
         self
     }
 
+    /// Sets the weights `w_p, w_n, w_v, w_l, w_d` of Eq. 2–3 (default Table 1's
+    /// height-field row, `1, 3, 30, 9, 7`).
+    pub fn weights(mut self, [w_p, w_n, w_v, w_l, w_d]: [f32; 5]) -> Self {
+        (self.w_p, self.w_n, self.w_v, self.w_l, self.w_d) = (w_p, w_n, w_v, w_l, w_d);
+        self
+    }
+
+    /// Sets the largest `(1 − n_s·n_q)/2` (default 0.5).
+    pub fn max_normal_difference(mut self, difference: f32) -> Self {
+        self.max_normal_difference = difference;
+        self
+    }
+
+    /// Sets the largest `(v_s − v_q)²` (default unlimited).
+    pub fn max_variation_difference(mut self, difference: f32) -> Self {
+        self.max_variation_difference = difference;
+        self
+    }
+
+    /// Sets whether pairs crossing their neighbours are removed (default true).
+    pub fn remove_crossings(mut self, remove: bool) -> Self {
+        self.remove_crossings = remove;
+        self
+    }
+
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
         let fields = [

@@ -65,6 +65,13 @@ impl TpsParams {
         self.affine_regularization = policy;
         self
     }
+
+    /// Sets the coincidence tolerance, a fraction of the bounding-box diagonal (default
+    /// 1e-9).
+    pub fn duplicate_tolerance(mut self, fraction: f64) -> Self {
+        self.duplicate_tolerance = fraction;
+        self
+    }
 }
 
 /// Most control points (pairs) [`ThinPlateSpline::fit`] accepts: its dense system needs
