@@ -293,6 +293,12 @@ fn read_parameters_are_validated_like_built_ones() {
     assert!(bad.validate().is_err());
     let bad: VoxelRelaxParams = serde_json::from_str(r#"{ "step": 2 }"#).unwrap();
     assert!(bad.validate().is_err());
+    let bad: TpsParams = serde_json::from_str(r#"{ "duplicate_tolerance": -1 }"#).unwrap();
+    assert!(bad.validate().is_err());
+    let bad: MlsRelaxParams = serde_json::from_str(r#"{ "step": 0 }"#).unwrap();
+    assert!(bad.validate().is_err());
+    let bad: ClusterParams = serde_json::from_str(r#"{ "max_points": 0 }"#).unwrap();
+    assert!(bad.validate().is_err());
     let good: QuiltParams =
         serde_json::from_str(r#"{ "epsilon": 0.3, "pairing": { "w_n": 1 } }"#).unwrap();
     assert!(good.validate().is_ok());

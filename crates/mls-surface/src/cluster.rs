@@ -39,6 +39,25 @@ impl ClusterParams {
         self.max_variation = sigma;
         self
     }
+
+    /// Checks that `n_max` is at least 1 and `σ_max` finite and ≥ 0.
+    pub fn validate(&self) -> Result<()> {
+        if self.max_points == 0 {
+            return Err(MlsError::InvalidParameter {
+                name: "max_points",
+                value: "0".into(),
+                expected: "at least 1",
+            });
+        }
+        if !(self.max_variation.is_finite() && self.max_variation >= 0.0) {
+            return Err(MlsError::InvalidParameter {
+                name: "max_variation",
+                value: self.max_variation.to_string(),
+                expected: "a finite number ≥ 0",
+            });
+        }
+        Ok(())
+    }
 }
 
 /// One cluster: its members, a representative and its surface variation.
@@ -57,20 +76,7 @@ pub struct Cluster {
 /// `max_variation`. A set that cannot be split further (all points identical along the
 /// principal direction) is kept as one cluster even if it is larger. Deterministic.
 pub fn adaptive_clusters(points: &[Vec3], params: &ClusterParams) -> Result<Vec<Cluster>> {
-    if params.max_points == 0 {
-        return Err(MlsError::InvalidParameter {
-            name: "max_points",
-            value: "0".into(),
-            expected: "at least 1",
-        });
-    }
-    if !(params.max_variation.is_finite() && params.max_variation >= 0.0) {
-        return Err(MlsError::InvalidParameter {
-            name: "max_variation",
-            value: params.max_variation.to_string(),
-            expected: "a finite number ≥ 0",
-        });
-    }
+    params.validate()?;
     let mut out = Vec::new();
     let mut stack: Vec<Vec<usize>> = vec![(0..points.len()).collect()];
     while let Some(set) = stack.pop() {

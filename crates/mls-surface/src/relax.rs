@@ -40,6 +40,20 @@ impl RelaxParams {
         self
     }
 
+    /// Checks that the radius factor and the step are positive and finite.
+    pub fn validate(&self) -> Result<()> {
+        for (name, value) in [("radius_factor", self.radius_factor), ("step", self.step)] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(MlsError::InvalidParameter {
+                    name,
+                    value: value.to_string(),
+                    expected: "a positive finite number",
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Sets the repulsion radius, a multiple of the median spacing (default 2).
     pub fn radius_factor(mut self, factor: f32) -> Self {
         self.radius_factor = factor;
@@ -108,17 +122,7 @@ fn separation(i: usize, j: usize) -> Vec3 {
 /// plane, away from neighbours within the repulsion radius with weight `(1 − d/r)²`, then
 /// projects it back. Deterministic for any thread count.
 pub fn relax(surface: &MlsSurface, positions: &[Vec3], params: &RelaxParams) -> Result<Relaxed> {
-    if !(params.radius_factor.is_finite()
-        && params.radius_factor > 0.0
-        && params.step.is_finite()
-        && params.step > 0.0)
-    {
-        return Err(MlsError::InvalidParameter {
-            name: "radius_factor/step",
-            value: format!("{}/{}", params.radius_factor, params.step),
-            expected: "positive finite numbers",
-        });
-    }
+    params.validate()?;
     let spread_before = nearest_neighbour_spread(positions)?;
     let initial: Vec<(Vec3, Vec3)> = positions
         .par_iter()

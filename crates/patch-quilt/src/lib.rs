@@ -26,6 +26,30 @@
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## Parameters ([`QuiltParams`])
+//!
+//! | field | default | source |
+//! |---|---|---|
+//! | `patch_size` | 0.4 × the box's smaller side | "a texture element plus neighbourhood" |
+//! | `extra_width` (`w_E`) | 0.3 × patch | paper: 1/4–1/3 |
+//! | `overlap` | 1/6 × patch | |
+//! | `field_resolution` (`D(T_in)`) | 48 nodes along the longer side | paper: 51–84 |
+//! | `epsilon` (`ε`) | 0.1 | |
+//! | `band` | 4 field spacings | |
+//! | `pairing` | Table 1's height-field row ([`tps_warp::Table1Preset`] for the others) | Table 1 |
+//! | `pair_distance` | 0.5 field spacings | "user-defined threshold"; measured |
+//! | `warp_targets` | [`WarpTargets::Exact`] (the paper's) | [`WarpTargets::SurfaceGap`] is ours |
+//! | `smoothing` | 0 (interpolation) | |
+//! | `blend_reach` | 0.25 × the MLS support | §5.3 "gaps should be small"; measured |
+//! | `normal_agreement` | cosine 0.8 | ours; measured |
+//! | `clusters` | `n_max` 12, `σ_max` 0.1 | paper silent |
+//! | `anchors_per_corner` | 4 | "a few extra pairs … in corner regions" |
+//! | `output` | twice the exemplar | |
+//! | `relaxation_rounds` | 0 | §6 post-process |
+//! | `seed`, `method`, `seed_patch`, `layout` | 0, full, random, searched | |
+//!
+//! The measurements behind the choices are in `docs/patch-quilt.md`.
+//!
 //! ## The algorithm (paper 000 §4 steps 1–8, §5), as implemented
 //!
 //! Work happens in a canonical frame where the reference plane is XY. `D(T_in)` is the

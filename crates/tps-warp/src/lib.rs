@@ -44,6 +44,24 @@
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## Parameters
+//!
+//! | [`TpsParams`] | default | meaning |
+//! |---|---|---|
+//! | `smoothing` | 0 | `λ` of the regularized spline (0 interpolates; units of length) |
+//! | `affine_regularization` | toward identity | control sets that do not span 3D |
+//! | `duplicate_tolerance` | 1e-9 | sources closer than this fraction of the box diagonal coincide |
+//!
+//! | [`PairingParams`] | default | meaning |
+//! |---|---|---|
+//! | `w_p, w_n, w_v, w_l, w_d` | 1, 3, 30, 9, 7 | Eq. 2–3 weights (Table 1, height field; [`Table1Preset`] has the other rows) |
+//! | `max_distance` | unlimited | largest pair length |
+//! | `max_normal_difference` | 0.5 | largest `(1 − n_s·n_q)/2` (normals at most 90° apart) |
+//! | `max_variation_difference` | unlimited | largest `(v_s − v_q)²` |
+//! | `coherence_radius` | twice the targets' median spacing | `σ` of `θ` in `g` |
+//! | `rounds` | 3 | rounds of the greedy steps 3–5 |
+//! | `remove_crossings` | true | drop pairs that cross their neighbours |
+//!
 //! ## Choices where the paper leaves room
 //!
 //! - Thresholds apply to the raw terms (distance, `(1 − n·n)/2`, squared variation

@@ -72,6 +72,23 @@ impl TpsParams {
         self.duplicate_tolerance = fraction;
         self
     }
+
+    /// Checks that the smoothing and the coincidence tolerance are finite and ≥ 0.
+    pub fn validate(&self) -> Result<()> {
+        for (name, value) in [
+            ("smoothing", self.smoothing),
+            ("duplicate_tolerance", self.duplicate_tolerance),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(TpsError::InvalidParameter {
+                    name,
+                    value: value.to_string(),
+                    expected: "a finite number ≥ 0",
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Most control points (pairs) [`ThinPlateSpline::fit`] accepts: its dense system needs
@@ -148,13 +165,7 @@ impl ThinPlateSpline {
         }
         check_finite(sources, "source point")?;
         check_finite(targets, "target point")?;
-        if !(params.smoothing.is_finite() && params.smoothing >= 0.0) {
-            return Err(TpsError::InvalidParameter {
-                name: "smoothing",
-                value: params.smoothing.to_string(),
-                expected: "a finite number ≥ 0",
-            });
-        }
+        params.validate()?;
         let (s, q) = Self::merge_duplicates(sources, targets, params.duplicate_tolerance)?;
         let n = s.len();
         let rank = affine_rank(&s);

@@ -29,6 +29,79 @@
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## Quick start
+//!
+//! Synthesize a larger field from a source distance field, measure it, and extract its
+//! surface (the facade's `geosynth::voxel::VoxelSynth` stage does all of this from a mesh):
+//!
+//! ```
+//! use distance_field::{GridSpec, SdfGrid};
+//! use pointset_core::{Grid3, RunContext};
+//! use voxel_dfsynth::{MatcherKind, QualityParams, VoxelParams, evaluate, isosurface_mesh,
+//!     quantize_source, source_quantizer, synthesize};
+//!
+//! // Slabs two samples thick, every eight samples along x: a 24³ source.
+//! let spec = GridSpec { dims: [24; 3], origin: glam::Vec3::ZERO, spacing: 1.0 };
+//! let slabs = (0..24 * 24 * 24).map(|i| {
+//!     let d = (((i % 24) as f32 % 8.0) - 4.0).abs() - 2.0;
+//!     glam::Vec4::new(d, 0.0, 0.0, 0.0)
+//! });
+//! let source = SdfGrid::from_grid(Grid3::from_vec(spec.dims, spec.origin, 1.0, slabs.collect())?, 4.0)?;
+//!
+//! let params = VoxelParams::default().target_dims([32, 32, 16]).levels(2).block(8).seed(3);
+//! let synthesis = synthesize(&source, &params, &mut RunContext::new(3))?;
+//! assert_eq!(synthesis.field.dims(), [32, 32, 16]);
+//!
+//! let quantizer = source_quantizer(&source, &params)?;
+//! let quantized = quantize_source(&source, &quantizer)?;
+//! let found = evaluate(&quantized, &quantizer, &synthesis, &QualityParams::default())?;
+//! let random = synthesize(&source, &params.clone().matcher(MatcherKind::Random), &mut RunContext::new(3))?;
+//! let baseline = evaluate(&quantized, &quantizer, &random, &QualityParams::default())?;
+//! assert!(found.neighbourhood_error < baseline.neighbourhood_error);
+//!
+//! let surface = isosurface_mesh(&synthesis, true)?;
+//! assert!(surface.face_count() > 0);
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! ## Parameters ([`VoxelParams`])
+//!
+//! | field | default | meaning |
+//! |---|---|---|
+//! | `target_dims` | 128³ (the paper's) | target samples along x, y, z at the finest iteration; each ≥ `block` and a multiple of `block / 2`; at most 512³ in all |
+//! | `levels` | 3 (the paper's) | iterations (resolution levels), with `block / 2^(levels − 1) ≥ 2` |
+//! | `block` | 16 (the paper's) | block size of the last iteration, a power of two ≥ 2 |
+//! | `matcher` | [`MatcherKind::Brute`] | the block search: `Tree` (the paper's), `Brute` (linear, pruned), `Fft` (masked SSD) — all exact and equal — or `Random` (the baseline) |
+//! | `range` | the source's largest \|distance\| | half-range of the 256-level quantization |
+//! | `seed` | 0 | the random seeding of the first iteration (and the baseline's picks) |
+//!
+//! [`QualityParams`] (window 8, 64 windows, seed 0) sets the measure and [`RelaxParams`]
+//! (weld radius 1 spacing, 8 rounds, 2 rings, step ½) the seam relaxation of
+//! [`copied_mesh`].
+//!
+//! ## Complexity
+//!
+//! An iteration with `B` target blocks of `b³` samples makes `B` best-match queries against
+//! the `P` block positions of the (subsampled) source: the linear search is `O(P · b³)` per
+//! query at worst, cut short by partial distances and the Eq. 2 filters; the tree search is
+//! best-first over at most as many nodes as the tree has (built once, `O(P · b³)`; 717 MB
+//! for the bunny at 256³ with blocks of 32); the FFT matcher is `O(S log S)` per query for
+//! a source of `S` samples. Measured numbers (the paper's Table 1 and its synthesis
+//! setting) are in `docs/performance.md`.
+//!
+//! ## Determinism
+//!
+//! Randomness comes from `pointset_core::rng::stream(seed, index)`. Blocks that do not
+//! overlap are searched in parallel waves and applied in scan-line order ([`synthesize`]),
+//! so a seed gives the same field, copies and meshes for any number of threads (tested
+//! with 1 and 2).
+//!
+//! ## Errors
+//!
+//! [`VoxelError`]: parameters out of range ([`VoxelParams::validate`], blocks or windows
+//! that do not fit the source), and the building blocks' errors (`pointset-core`,
+//! `distance-field`). Nothing panics on user input.
+//!
 //! ## Choices where the paper leaves room
 //!
 //! - Quantization: distances map to 256 levels over `[−range, range]`, by default the
