@@ -10,8 +10,8 @@
    and detached headers) into DIR/foreign, and checks that `geosynth info --json` reads
    the same counts, box, attributes and value range.
 
-A manual interoperability check, not part of CI (the readers are not project
-dependencies). Usage:
+`.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
+environment (they are not project dependencies). By hand:
 
     pip install --user plyfile trimesh pynrrd
     geosynth demo --quick --out /tmp/demo
