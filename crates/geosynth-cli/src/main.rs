@@ -1,6 +1,7 @@
 //! `geosynth`: run geosynth's synthesis algorithms on real files and look at the results.
 
 mod commands;
+mod json_report;
 mod output;
 mod params_file;
 

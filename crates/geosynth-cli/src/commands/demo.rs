@@ -19,6 +19,7 @@ use geosynth::{RunContext, Stage};
 use serde::Serialize;
 
 use crate::commands::quilt::{measure_for, measured_run, run_json, texture_preview};
+use crate::json_report::write_json_report;
 use crate::output::{progress_bar, status};
 use crate::{CliResult, Globals, create_dir};
 
@@ -316,9 +317,7 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
 }
 
 fn write_reports(report: &Report, out: &Path) -> CliResult {
-    let json = serde_json::to_string_pretty(report)?;
-    let path = out.join("report.json");
-    std::fs::write(&path, json).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    write_json_report(&out.join("report.json"), report)?;
     let mut md = String::from("# geosynth demo report\n\n");
     md.push_str(&format!(
         "geosynth {} · seed {} · {} threads · {}\n\nFixtures from: {}\n\n",

@@ -18,6 +18,7 @@ use glam::{DMat3, DVec3};
 
 use serde_json::{Value, json};
 
+use crate::json_report::write_json_report;
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
 };
@@ -599,8 +600,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
                 report["same_layout_pasted"] = run_json(&control);
             }
         }
-        std::fs::write(path, serde_json::to_string_pretty(&report)?)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        write_json_report(path, &report)?;
     }
     let quality = match &main.quality {
         Ok(q) if q.featureless_exemplar => "the exemplar has no relief, so its window \

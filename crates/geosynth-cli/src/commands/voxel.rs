@@ -15,6 +15,7 @@ use geosynth::voxel::{
 use serde_json::{Value, json};
 
 use super::SignArgs;
+use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, progress_context, status};
 use crate::params_file::{GivenFlags, read_params};
 use crate::{CliResult, Globals};
@@ -353,8 +354,7 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(path) = &args.report {
         let mut report = run_json(&run, &stage);
         report["stage"] = serde_json::to_value(&stage)?;
-        std::fs::write(path, serde_json::to_string_pretty(&report)?)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        write_json_report(path, &report)?;
     }
     if let Some(note) = empty_copy_note(&exemplar, &run, args.isosurface.is_some()) {
         status(globals, note);
