@@ -65,9 +65,8 @@
 //! ## Features
 //!
 //! - `serde`: `Serialize`/`Deserialize` for [`GridSpec`], [`MeshSign`], [`PointSign`] and
-//!   [`FarSigns`]. Structs read with missing fields taken from their `Default`, unknown
-//!   fields refused by name, and enums spelt in `snake_case` (`"search_only"`). Read
-//!   parameters are checked like built ones: call `validate()` (or let the run do it).
+//!   [`FarSigns`]. Unknown fields are refused by name and enums are spelt in `snake_case`
+//!   (`"winding_number"`); read values are checked where they are used, like built ones.
 
 #![deny(missing_docs)]
 

@@ -77,9 +77,9 @@
 //! ## Features
 //!
 //! - `serde`: `Serialize`/`Deserialize` for [`MlsParams`], [`ClusterParams`] and
-//!   [`RelaxParams`]. Structs read with missing fields taken from their `Default`, unknown
-//!   fields refused by name, and enums spelt in `snake_case` (`"search_only"`). Read
-//!   parameters are checked like built ones: call `validate()` (or let the run do it).
+//!   [`RelaxParams`]. Structs read with missing fields taken from their `Default` and
+//!   unknown fields refused by name. Read parameters are checked like built ones: call
+//!   `validate()` (or let the function that takes them do it).
 
 #![deny(missing_docs)]
 

@@ -84,8 +84,8 @@
 //!   [`PairingParams`] and [`Table1Preset`]; an unlimited pairing threshold is written as
 //!   none (`null` in JSON, which has no infinity) and read back unlimited. Structs read
 //!   with missing fields taken from their `Default`, unknown fields refused by name, and
-//!   enums spelt in `snake_case` (`"search_only"`). Read parameters are checked like built
-//!   ones: call `validate()` (or let the run do it).
+//!   enums spelt in `snake_case` (`"toward_identity"`). Read parameters are checked like
+//!   built ones: call `validate()` (or let the fit do it).
 
 #![deny(missing_docs)]
 

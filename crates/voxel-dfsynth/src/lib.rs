@@ -126,8 +126,8 @@
 //! - `serde`: `Serialize`/`Deserialize` for [`VoxelParams`], [`MatcherKind`],
 //!   [`QualityParams`] and [`RelaxParams`]. Structs read with missing fields taken from
 //!   their `Default`, unknown fields refused by name, and enums spelt in `snake_case`
-//!   (`"search_only"`). Read parameters are checked like built ones: call `validate()` (or
-//!   let the run do it).
+//!   (`"brute"`). Read parameters are checked like built ones: call `validate()` (or let
+//!   the run do it).
 
 #![deny(missing_docs)]
 
