@@ -148,5 +148,23 @@ fn winding_numbers(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, mls_projection, sdf_grids, winding_numbers);
+/// Preparing a mesh for distance queries: normals, pseudo-normals, the bounding-volume
+/// hierarchy and its winding-number dipoles, on a torus of 500,000 triangles.
+fn mesh_surface_build(c: &mut Criterion) {
+    let torus = fixtures::torus_mesh(500, 500, 1.0, 0.35).expect("benchmark setup");
+    let mut group = c.benchmark_group("mesh_surface");
+    group.sample_size(10);
+    group.bench_function("build_torus_500k_triangles", |b| {
+        b.iter(|| MeshSurface::new(black_box(&torus)))
+    });
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    mls_projection,
+    sdf_grids,
+    winding_numbers,
+    mesh_surface_build
+);
 criterion_main!(benches);

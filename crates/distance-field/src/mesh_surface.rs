@@ -12,8 +12,6 @@
 //! pieces are signed right by generalized winding numbers instead ([`MeshSign`],
 //! [`crate::winding`]).
 
-use std::collections::HashMap;
-
 use glam::Vec3;
 use pointset_core::{Aabb, BandAnswer, Surface, SurfacePoint, TriMesh};
 use rayon::prelude::*;
@@ -52,6 +50,35 @@ pub enum MeshSign {
     /// on solids built from intersecting or overlapping pieces and on nearly closed meshes
     /// with small gaps; an open sheet has no inside by it (everything is outside).
     WindingNumber,
+}
+
+/// Edge pseudo-normals: for each triangle's edges `(v0, v1)`, `(v1, v2)`, `(v2, v0)`, the
+/// sum of the normals of every triangle using that edge, normalized (the triangle's own
+/// normal where the sum vanishes). Edge uses are sorted by edge and then by triangle, so
+/// each sum runs in triangle order whatever the threads; sorting takes a fraction of the
+/// time a hash map of edges took on large meshes (2 million triangles: docs/performance.md).
+fn edge_pseudo_normals(tris: &[[u32; 3]], face_normals: &[Vec3]) -> Vec<[Vec3; 3]> {
+    let mut uses: Vec<(u64, usize)> = tris
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(t, tri)| {
+            (0..3).map(move |k| {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), 3 * t + k)
+            })
+        })
+        .collect();
+    uses.par_sort_unstable();
+    let mut normals = vec![[Vec3::ZERO; 3]; tris.len()];
+    for edge in uses.chunk_by(|x, y| x.0 == y.0) {
+        let sum = edge
+            .iter()
+            .fold(Vec3::ZERO, |sum, &(_, u)| sum + face_normals[u / 3]);
+        for &(_, u) in edge {
+            normals[u / 3][u % 3] = sum.try_normalize().unwrap_or(face_normals[u / 3]);
+        }
+    }
+    normals
 }
 
 /// A triangle mesh prepared for closest-point and signed-distance queries.
@@ -102,27 +129,7 @@ impl MeshSurface {
             .collect();
         // Vertex pseudo-normals: incident face normals weighted by the incident angle.
         let vertex_acc = mesh.vertex_normals(pointset_core::NormalWeighting::Angle);
-        // Edge pseudo-normals: sum of the normals of the faces sharing the edge.
-        let mut edge_acc: HashMap<(u32, u32), Vec3> = HashMap::new();
-        for (t, n) in tris.iter().zip(&face_normals) {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *edge_acc.entry((a.min(b), a.max(b))).or_insert(Vec3::ZERO) += *n;
-            }
-        }
-        let edge_normals = tris
-            .iter()
-            .zip(&face_normals)
-            .map(|(t, n)| {
-                [0, 1, 2].map(|k| {
-                    let (a, b) = (t[k], t[(k + 1) % 3]);
-                    edge_acc
-                        .get(&(a.min(b), a.max(b)))
-                        .and_then(|e| e.try_normalize())
-                        .unwrap_or(*n)
-                })
-            })
-            .collect();
+        let edge_normals = edge_pseudo_normals(&tris, &face_normals);
         let vertex_normals = tris
             .iter()
             .zip(&face_normals)
@@ -381,5 +388,73 @@ impl Surface for MeshSurface {
         BandAnswer::from_bounded_search(max_distance, likely, |bound| {
             self.signed_distance_bounded_search(query, bound)
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sum, in triangle order, of the normals of every triangle with the edge `{a, b}`.
+    fn brute_force_sum(tris: &[[u32; 3]], normals: &[Vec3], a: u32, b: u32) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        for (tri, n) in tris.iter().zip(normals) {
+            let has_edge = (0..3).any(|k| {
+                let (x, y) = (tri[k], tri[(k + 1) % 3]);
+                (x, y) == (a, b) || (x, y) == (b, a)
+            });
+            if has_edge {
+                sum += *n;
+            }
+        }
+        sum
+    }
+
+    #[test]
+    fn edge_pseudo_normals_sum_every_triangle_on_the_edge() {
+        // An octahedron, a fin on one of its edges (three triangles there), a flap with
+        // an open edge, and a triangle with its reverse (their normals cancel).
+        let p = [
+            Vec3::X,
+            Vec3::Y,
+            Vec3::NEG_X,
+            Vec3::NEG_Y,
+            Vec3::Z,
+            Vec3::NEG_Z,
+            Vec3::new(2.0, 2.0, 0.3),
+            Vec3::new(3.0, 0.0, 1.0),
+            Vec3::new(5.0, 5.0, 5.0),
+        ];
+        let mut tris = vec![
+            [0, 1, 4],
+            [1, 2, 4],
+            [2, 3, 4],
+            [3, 0, 4],
+            [1, 0, 5],
+            [2, 1, 5],
+            [3, 2, 5],
+            [0, 3, 5],
+            [0, 1, 6],
+            [0, 6, 7],
+        ];
+        tris.extend([[6, 7, 8], [6, 8, 7]]);
+        let normals: Vec<Vec3> = tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|v| p[v as usize]);
+                (b - a).cross(c - a).normalize()
+            })
+            .collect();
+        let edges = edge_pseudo_normals(&tris, &normals);
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let sum = brute_force_sum(&tris, &normals, tri[k], tri[(k + 1) % 3]);
+                let expected = sum.try_normalize().unwrap_or(normals[t]);
+                assert_eq!(edges[t][k], expected, "triangle {t}, edge {k}");
+            }
+        }
+        // The cancelling pair keeps its own normals on the edge they share alone.
+        assert_eq!(edges[10][1], normals[10]);
+        assert_eq!(edges[11][1], normals[11]);
     }
 }
