@@ -118,6 +118,11 @@ impl FieldParams {
         if !(4..=1024).contains(&self.resolution) {
             return bad("resolution", self.resolution.to_string(), "4 to 1024 nodes");
         }
+        if let Some(h) = self.kernel
+            && !(h.is_finite() && h > 0.0)
+        {
+            return bad("kernel", h.to_string(), "a positive length");
+        }
         if !(self.margin.is_finite() && self.margin >= 0.0) {
             return bad(
                 "margin",

@@ -88,8 +88,14 @@ fn main() -> ExitCode {
         Command::Convert(args) => commands::convert::run(&args, globals),
         Command::Render(args) => commands::render::run(&args, globals),
         Command::Normals(args) => commands::normals::run(&args, globals),
-        Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(&args, globals),
-        Command::Sdf(args) => commands::reconstruct::run_sdf(&args, globals),
+        Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(
+            &args,
+            GivenFlags::of(&matches, "reconstruct"),
+            globals,
+        ),
+        Command::Sdf(args) => {
+            commands::reconstruct::run_sdf(&args, GivenFlags::of(&matches, "sdf"), globals)
+        }
         Command::Warp(args) => commands::warp::run(&args, globals),
         Command::Quilt(args) => {
             commands::quilt::run(&args, GivenFlags::of(&matches, "quilt"), globals)

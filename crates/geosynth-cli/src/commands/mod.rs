@@ -93,11 +93,6 @@ impl SignArgs {
         params.mesh_sign(self.mesh_rule()).point_sign(points)
     }
 
-    /// Whether `--sign winding` was asked for.
-    pub fn is_winding(&self) -> bool {
-        self.sign == SignArg::Winding
-    }
-
     /// `mesh` with its triangles made to agree
     /// ([`TriMesh::consistently_oriented`](geosynth::core::TriMesh::consistently_oriented))
     /// when `--orient-faces` was given, with a line saying what changed; otherwise `mesh`

@@ -1,44 +1,85 @@
 //! `geosynth reconstruct` and `geosynth sdf`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
 use geosynth::mls::{MlsParams, orient_normals};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance, trim_to_samples};
-use geosynth::sdf::{PointWinding, nrrd};
+use geosynth::sdf::{PointSign, PointWinding, nrrd};
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
+use serde_json::{Value, json};
 
 use super::SignArgs;
+use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
+use crate::params_file::{GivenFlags, read_params};
 use crate::{CliResult, Globals};
 
 /// Grid settings shared by both commands.
 #[derive(Debug, Args)]
 pub struct GridArgs {
     /// Grid nodes along the longest side of the input's box.
-    #[arg(long, default_value_t = 96)]
+    #[arg(long, default_value_t = FieldParams::default().resolution)]
     resolution: usize,
     /// MLS kernel size h for point sets (default: 1.25 × the median point spacing).
     #[arg(long)]
     kernel: Option<f32>,
+    /// Read the grid's settings from JSON: any of the library's `FieldParams` fields
+    /// (`resolution`, `kernel`, `margin`, `band`, `mesh_sign`, `point_sign`, as the
+    /// report's `params` spells them: `{"margin": 6, "band": 8}`), or a report written by
+    /// `--report`. Fields it leaves out keep their defaults; the flags given here override
+    /// it.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// Write a JSON report: the parameters, what was read and written, the timings.
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
 }
 
 impl GridArgs {
-    fn params(&self) -> CliResult<FieldParams> {
-        if let Some(h) = self.kernel
-            && !(h.is_finite() && h > 0.0)
-        {
-            return Err(format!("--kernel must be a positive length, not {h}").into());
+    /// The run's parameters: `--params`' file over the defaults, then the flags given on
+    /// the command line (`--sign` sets both sign rules); validated.
+    fn params(&self, sign: &SignArgs, given: GivenFlags) -> CliResult<FieldParams> {
+        let mut params = match &self.params {
+            Some(path) => read_params(path, "params", &FieldParams::default())?,
+            None => FieldParams::default(),
+        };
+        given.apply("resolution", &mut params.resolution, self.resolution);
+        if self.kernel.is_some() {
+            params.kernel = self.kernel;
         }
-        let params = FieldParams::default()
-            .resolution(self.resolution)
-            .kernel(self.kernel);
+        if given.has("sign") {
+            params = sign.apply(params);
+        }
         params.validate()?;
         Ok(params)
     }
+
+    /// The paths this command writes besides its main output.
+    fn other_outputs(&self) -> impl Iterator<Item = &Path> {
+        self.report.iter().map(PathBuf::as_path)
+    }
+}
+
+/// Writes `report` with the run's parameters under `params`, where `--report` asks.
+fn write_report(grid: &GridArgs, params: &FieldParams, mut report: Value) -> CliResult {
+    let Some(path) = &grid.report else {
+        return Ok(());
+    };
+    report["params"] = serde_json::to_value(params)?;
+    write_json_report(path, &report)
+}
+
+/// Stage timings as report entries.
+fn timings_json(ctx: &RunContext) -> Value {
+    ctx.timings()
+        .iter()
+        .map(|(stage, d)| json!({ "stage": stage, "seconds": d.as_secs_f64() }))
+        .collect()
 }
 
 /// Arguments of `geosynth reconstruct`.
@@ -67,9 +108,10 @@ pub struct ReconstructArgs {
 }
 
 /// Runs `geosynth reconstruct`.
-pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
-    check_output_paths([args.output.as_path()], [])?;
-    let params = args.sign.apply(args.grid.params()?);
+pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globals) -> CliResult {
+    check_output_paths([args.output.as_path()], args.grid.other_outputs())?;
+    let params = args.grid.params(&args.sign, given)?;
+    let winding = params.point_sign == PointSign::WindingNumber;
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
     report_not_kept(globals, &args.input, &loaded.notes);
@@ -86,7 +128,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     {
         return Err(format!("--trim must be a positive number of spacings, not {t}").into());
     }
-    if args.trim.is_some() && args.sign.is_winding() {
+    if args.trim.is_some() && winding {
         status(
             globals,
             "note: --trim is for open scans, and an open scan has no inside for --sign \
@@ -96,7 +138,10 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
     }
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
-    let mut mesh = Reconstruct { params }.run(points.clone(), &mut ctx)?;
+    let mut mesh = Reconstruct {
+        params: params.clone(),
+    }
+    .run(points.clone(), &mut ctx)?;
     if let Some(spacings) = args.trim {
         let spacing = KdIndex::new(points.positions())?.median_spacing()?;
         mesh = ctx.timed("trim", |_| {
@@ -133,11 +178,28 @@ pub fn run_reconstruct(args: &ReconstructArgs, globals: Globals) -> CliResult {
             timings.join(", ")
         ),
     );
+    write_report(
+        &args.grid,
+        &params,
+        json!({
+            "input": args.input.display().to_string(),
+            "points": points.len(),
+            "orient_normals": args.orient_normals,
+            "trim_spacings": args.trim,
+            "output": args.output.display().to_string(),
+            "vertices": mesh.vertex_count(),
+            "faces": mesh.face_count(),
+            "components": topology.components,
+            "boundary_edges": topology.boundary_edges,
+            "closed_manifold": topology.is_closed_manifold(),
+            "timings": timings_json(&ctx),
+        }),
+    )?;
     if args.trim.is_none() && topology.boundary_edges > 0 {
-        let note = grid_side_note(topology.boundary_edges, &points, args.grid.kernel)?;
+        let note = grid_side_note(topology.boundary_edges, &points, params.kernel)?;
         status(globals, note);
     }
-    if args.trim.is_none() && !args.sign.is_winding() && topology.components > 1 {
+    if args.trim.is_none() && !winding && topology.components > 1 {
         let open_flux = PointWinding::new(&points)?.open_flux();
         if open_flux < CLOSED_FLUX {
             status(
@@ -211,9 +273,12 @@ pub struct SdfArgs {
 }
 
 /// Runs `geosynth sdf`.
-pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
-    check_output_paths([], [args.output.as_path()])?;
-    let params = args.sign.apply(args.grid.params()?);
+pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult {
+    check_output_paths(
+        [],
+        std::iter::once(args.output.as_path()).chain(args.grid.other_outputs()),
+    )?;
+    let params = args.grid.params(&args.sign, given)?;
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
     let mut loaded =
         io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
@@ -223,13 +288,15 @@ pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
         if let Some(line) = change {
             status(globals, line);
         }
-        if let Some(note) = args.sign.note(&mesh, args.sign.mesh_rule())? {
+        if let Some(note) = args.sign.note(&mesh, params.mesh_sign)? {
             status(globals, note);
         }
         loaded.geometry = io::Geometry::Mesh(mesh);
     }
     let bar = spinner(globals, "sampling distances");
+    let start = Instant::now();
     let sdf = signed_distance(&loaded.geometry, &params)?;
+    let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let offset = loaded.origin;
     if args.gradient {
@@ -241,6 +308,19 @@ pub fn run_sdf(args: &SdfArgs, globals: Globals) -> CliResult {
         })?;
     }
     let [x, y, z] = sdf.dims();
+    write_report(
+        &args.grid,
+        &params,
+        json!({
+            "input": args.input.display().to_string(),
+            "output": args.output.display().to_string(),
+            "gradient": args.gradient,
+            "dims": sdf.dims(),
+            "spacing": sdf.grid().spacing(),
+            "band": sdf.band(),
+            "seconds": seconds,
+        }),
+    )?;
     status(
         globals,
         format!(

@@ -1,5 +1,6 @@
-//! `--params FILE`: parameters read from JSON or from an earlier run's report, flags given on
-//! the command line taking precedence, and bad files refused by name before anything runs.
+//! `--params FILE` with `--report FILE`: parameters read from JSON or from an earlier run's
+//! report, flags given on the command line taking precedence, and bad files refused by name
+//! before anything runs.
 
 use std::path::Path;
 
@@ -216,5 +217,101 @@ fn a_voxel_report_runs_again_through_params() {
     ]);
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("block"));
+    assert!(!dir.path("x.ply").exists());
+}
+
+#[test]
+fn sdf_and_reconstruct_reports_run_again_through_params() {
+    let dir = Scratch::new();
+    ok(&["fixtures", "--quiet", "--out", &arg(&dir.path(""))]);
+    let sphere = arg(&dir.path("sphere_points.ply"));
+    let (field, report) = (dir.path("a.nrrd"), dir.path("a.json"));
+    // A margin and band no flag sets, from a file; the resolution from a flag.
+    std::fs::write(dir.path("p.json"), r#"{ "margin": 5, "band": 6 }"#).unwrap();
+    ok(&[
+        "sdf",
+        &sphere,
+        "-o",
+        &arg(&field),
+        "--params",
+        &arg(&dir.path("p.json")),
+        "--resolution",
+        "24",
+        "--sign",
+        "winding",
+        "--report",
+        &arg(&report),
+        "-q",
+    ]);
+    let first = read_json(&report);
+    assert_eq!(first["params"]["margin"], 5.0);
+    assert_eq!(first["params"]["band"], 6.0);
+    assert_eq!(first["params"]["resolution"], 24);
+    assert_eq!(first["params"]["point_sign"], "winding_number");
+    assert_eq!(first["params"]["mesh_sign"], "winding_number");
+    let dims: Vec<u64> = first["dims"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d.as_u64().unwrap())
+        .collect();
+    assert_eq!(dims.iter().max(), Some(&24));
+    // The report repeats the field exactly.
+    ok(&[
+        "sdf",
+        &sphere,
+        "-o",
+        &arg(&dir.path("b.nrrd")),
+        "--params",
+        &arg(&report),
+        "-q",
+    ]);
+    assert_eq!(
+        std::fs::read(&field).unwrap(),
+        std::fs::read(dir.path("b.nrrd")).unwrap()
+    );
+
+    // reconstruct: its report holds the mesh's counts, and repeats the mesh.
+    let mesh = dir.path("r.ply");
+    ok(&[
+        "reconstruct",
+        &sphere,
+        "-o",
+        &arg(&mesh),
+        "--resolution",
+        "20",
+        "--report",
+        &arg(&dir.path("r.json")),
+        "-q",
+    ]);
+    let r = read_json(&dir.path("r.json"));
+    assert_eq!(r["params"]["resolution"], 20);
+    assert_eq!(r["closed_manifold"], true);
+    assert!(r["faces"].as_u64().unwrap() > 100);
+    ok(&[
+        "reconstruct",
+        &sphere,
+        "-o",
+        &arg(&dir.path("r2.ply")),
+        "--params",
+        &arg(&dir.path("r.json")),
+        "-q",
+    ]);
+    assert_eq!(
+        std::fs::read(&mesh).unwrap(),
+        std::fs::read(dir.path("r2.ply")).unwrap()
+    );
+    // A kernel from a file is checked like the flag.
+    std::fs::write(dir.path("bad.json"), r#"{ "kernel": -1 }"#).unwrap();
+    let bad = geosynth(&[
+        "reconstruct",
+        &sphere,
+        "-o",
+        &arg(&dir.path("x.ply")),
+        "--params",
+        &arg(&dir.path("bad.json")),
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("kernel"));
     assert!(!dir.path("x.ply").exists());
 }
