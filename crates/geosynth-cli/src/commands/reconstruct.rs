@@ -19,7 +19,7 @@ use crate::output::{check_geometry_output, check_output_paths, report_not_kept, 
 use crate::params_file::{GivenFlags, read_params};
 use crate::{CliResult, Globals};
 
-/// Grid settings shared by both commands.
+/// Grid settings, the parameter file and the report, shared by both commands.
 #[derive(Debug, Args)]
 pub struct GridArgs {
     /// Grid nodes along the longest side of the input's box.
