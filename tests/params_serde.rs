@@ -285,20 +285,22 @@ fn unlimited_thresholds_are_written_as_null_and_read_back_unlimited() {
 
 #[test]
 fn read_parameters_are_validated_like_built_ones() {
-    let bad: QuiltParams = serde_json::from_str(r#"{ "epsilon": -1 }"#).unwrap();
-    assert!(bad.validate().is_err());
-    let bad: VoxelParams = serde_json::from_str(r#"{ "block": 12 }"#).unwrap();
-    assert!(bad.validate().is_err());
-    let bad: QualityParams = serde_json::from_str(r#"{ "window": 6 }"#).unwrap();
-    assert!(bad.validate().is_err());
-    let bad: VoxelRelaxParams = serde_json::from_str(r#"{ "step": 2 }"#).unwrap();
-    assert!(bad.validate().is_err());
-    let bad: TpsParams = serde_json::from_str(r#"{ "duplicate_tolerance": -1 }"#).unwrap();
-    assert!(bad.validate().is_err());
-    let bad: MlsRelaxParams = serde_json::from_str(r#"{ "step": 0 }"#).unwrap();
-    assert!(bad.validate().is_err());
-    let bad: ClusterParams = serde_json::from_str(r#"{ "max_points": 0 }"#).unwrap();
-    assert!(bad.validate().is_err());
+    /// Reads `$json` as `$type` (which must succeed: serde checks kinds, not ranges) and
+    /// asserts that its `validate()` refuses it.
+    macro_rules! refused {
+        ($type:ty, $json:expr) => {
+            let read: $type = serde_json::from_str($json).unwrap();
+            assert!(read.validate().is_err(), "{}", $json);
+        };
+    }
+    refused!(QuiltParams, r#"{ "epsilon": -1 }"#);
+    refused!(VoxelParams, r#"{ "block": 12 }"#);
+    refused!(QualityParams, r#"{ "window": 6 }"#);
+    refused!(VoxelRelaxParams, r#"{ "step": 2 }"#);
+    refused!(TpsParams, r#"{ "duplicate_tolerance": -1 }"#);
+    refused!(MlsRelaxParams, r#"{ "step": 0 }"#);
+    refused!(ClusterParams, r#"{ "max_points": 0 }"#);
+    refused!(FieldParams, r#"{ "kernel": 0 }"#);
     let good: QuiltParams =
         serde_json::from_str(r#"{ "epsilon": 0.3, "pairing": { "w_n": 1 } }"#).unwrap();
     assert!(good.validate().is_ok());

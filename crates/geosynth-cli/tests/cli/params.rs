@@ -12,6 +12,40 @@ fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// Asserts that two files hold the same bytes.
+fn assert_same_bytes(a: &Path, b: &Path) {
+    assert!(
+        std::fs::read(a).unwrap() == std::fs::read(b).unwrap(),
+        "{} and {} differ",
+        a.display(),
+        b.display()
+    );
+}
+
+/// Runs `geosynth COMMAND INPUT -o never.ply --params FILE` with `content` in the file
+/// (none: no file), and asserts that it fails, saying `said`, with nothing written.
+fn assert_params_refused(
+    dir: &Scratch,
+    command: &str,
+    input: &str,
+    content: Option<&str>,
+    said: &str,
+) {
+    let (out, file) = (dir.path("never.ply"), dir.path("refused.json"));
+    match content {
+        Some(text) => std::fs::write(&file, text).unwrap(),
+        None => {
+            let _ = std::fs::remove_file(&file);
+        }
+    }
+    let run = geosynth(&[command, input, "-o", &arg(&out), "--params", &arg(&file)]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{content:?}");
+    assert!(err.contains(said), "{content:?}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.exists(), "{content:?}");
+}
+
 /// Runs `geosynth quilt` on the bumpy fixture with `extra` arguments, writing `out` and a
 /// report `report`, and returns the report.
 fn quilt_bumpy(out: &Path, report: &Path, extra: &[&str]) -> Value {
@@ -65,10 +99,7 @@ fn a_quilt_report_runs_again_through_params_and_flags_override_it() {
         &["--params", &arg(&dir.path("a.json"))],
     );
     assert_eq!(again["params"], first["params"]);
-    assert_eq!(
-        std::fs::read(dir.path("a.ply")).unwrap(),
-        std::fs::read(dir.path("b.ply")).unwrap()
-    );
+    assert_same_bytes(&dir.path("a.ply"), &dir.path("b.ply"));
 
     // Flags given on the command line win; the rest comes from the file.
     let changed = quilt_bumpy(
@@ -122,43 +153,18 @@ fn a_partial_params_file_keeps_the_commands_defaults_inside_nested_objects() {
 fn bad_params_files_are_refused_by_name_before_anything_is_written() {
     let dir = Scratch::new();
     let exemplar = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
-    let out = dir.path("never.ply");
-    let file = dir.path("bad.json");
     for (content, said) in [
-        ("{ \"patch_sise\": 0.3 }", "patch_sise"),
-        ("{ \"clusters\": { \"max_pts\": 4 } }", "max_pts"),
-        ("{ \"method\": \"fast\" }", "fast"),
-        ("{ \"seed\": \"three\" }", "three"),
-        ("{ \"epsilon\": -1 }", "epsilon"),
-        ("[0.3]", "object"),
-        ("{ \"epsilon\": 0.3", "not a JSON parameter file"),
+        (Some("{ \"patch_sise\": 0.3 }"), "patch_sise"),
+        (Some("{ \"clusters\": { \"max_pts\": 4 } }"), "max_pts"),
+        (Some("{ \"method\": \"fast\" }"), "fast"),
+        (Some("{ \"seed\": \"three\" }"), "three"),
+        (Some("{ \"epsilon\": -1 }"), "epsilon"),
+        (Some("[0.3]"), "object"),
+        (Some("{ \"epsilon\": 0.3"), "not a JSON parameter file"),
+        (None, "refused.json"),
     ] {
-        std::fs::write(&file, content).unwrap();
-        let run = geosynth(&[
-            "quilt",
-            &exemplar,
-            "-o",
-            &arg(&out),
-            "--params",
-            &arg(&file),
-        ]);
-        let err = String::from_utf8_lossy(&run.stderr);
-        assert!(!run.status.success(), "{content}");
-        assert!(err.contains(said), "{content}: {err}");
-        assert!(!err.contains("panicked"), "{err}");
-        assert!(!out.exists(), "{content}");
+        assert_params_refused(&dir, "quilt", &exemplar, content, said);
     }
-    let missing = dir.path("missing.json");
-    let run = geosynth(&[
-        "quilt",
-        &exemplar,
-        "-o",
-        &arg(&out),
-        "--params",
-        &arg(&missing),
-    ]);
-    assert!(String::from_utf8_lossy(&run.stderr).contains("missing.json"));
-    assert!(!run.status.success() && !out.exists());
 }
 
 #[test]
@@ -201,23 +207,10 @@ fn a_voxel_report_runs_again_through_params() {
     assert_eq!(stage["params"]["seed"], 5);
     let again = run("b.ply", "b.json", &["--params", &arg(&dir.path("a.json"))]);
     assert_eq!(again["stage"], first["stage"]);
-    assert_eq!(
-        std::fs::read(dir.path("a.ply")).unwrap(),
-        std::fs::read(dir.path("b.ply")).unwrap()
-    );
+    assert_same_bytes(&dir.path("a.ply"), &dir.path("b.ply"));
     // A range error from the file names the parameter.
-    std::fs::write(dir.path("bad.json"), r#"{ "params": { "block": 6 } }"#).unwrap();
-    let bad = geosynth(&[
-        "voxel",
-        &exemplar,
-        "-o",
-        &arg(&dir.path("x.ply")),
-        "--params",
-        &arg(&dir.path("bad.json")),
-    ]);
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("block"));
-    assert!(!dir.path("x.ply").exists());
+    let bad = r#"{ "params": { "block": 6 } }"#;
+    assert_params_refused(&dir, "voxel", &exemplar, Some(bad), "block");
 }
 
 #[test]
@@ -266,10 +259,7 @@ fn sdf_and_reconstruct_reports_run_again_through_params() {
         &arg(&report),
         "-q",
     ]);
-    assert_eq!(
-        std::fs::read(&field).unwrap(),
-        std::fs::read(dir.path("b.nrrd")).unwrap()
-    );
+    assert_same_bytes(&field, &dir.path("b.nrrd"));
 
     // reconstruct: its report holds the mesh's counts, and repeats the mesh.
     let mesh = dir.path("r.ply");
@@ -297,21 +287,8 @@ fn sdf_and_reconstruct_reports_run_again_through_params() {
         &arg(&dir.path("r.json")),
         "-q",
     ]);
-    assert_eq!(
-        std::fs::read(&mesh).unwrap(),
-        std::fs::read(dir.path("r2.ply")).unwrap()
-    );
+    assert_same_bytes(&mesh, &dir.path("r2.ply"));
     // A kernel from a file is checked like the flag.
-    std::fs::write(dir.path("bad.json"), r#"{ "kernel": -1 }"#).unwrap();
-    let bad = geosynth(&[
-        "reconstruct",
-        &sphere,
-        "-o",
-        &arg(&dir.path("x.ply")),
-        "--params",
-        &arg(&dir.path("bad.json")),
-    ]);
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("kernel"));
-    assert!(!dir.path("x.ply").exists());
+    let bad = r#"{ "kernel": -1 }"#;
+    assert_params_refused(&dir, "reconstruct", &sphere, Some(bad), "kernel");
 }
