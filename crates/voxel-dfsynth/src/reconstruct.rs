@@ -21,7 +21,7 @@ use std::collections::{HashMap, HashSet, VecDeque};
 use glam::Vec3;
 use pointset_core::{DisjointSets, KdIndex, PointSet, TriMesh};
 
-use crate::error::{Result, VoxelError};
+use crate::error::{Result, invalid};
 use crate::synth::Synthesis;
 
 /// The zero set of the synthesized field as a mesh (reconstruction (a)).
@@ -88,18 +88,15 @@ impl RelaxParams {
 
     /// Checks the weld radius (finite, ≥ 0) and the step (in `(0, 1]`).
     pub fn validate(&self) -> Result<()> {
-        let bad = |name: &'static str, value: f32, expected: &'static str| {
-            Err(VoxelError::InvalidParameter {
-                name,
-                value: value.to_string(),
-                expected,
-            })
-        };
         if !(self.weld_radius.is_finite() && self.weld_radius >= 0.0) {
-            return bad("weld_radius", self.weld_radius, "a finite length ≥ 0");
+            return Err(invalid(
+                "weld_radius",
+                self.weld_radius,
+                "a finite length ≥ 0",
+            ));
         }
         if !(self.step > 0.0 && self.step <= 1.0) {
-            return bad("step", self.step, "a step in (0, 1]");
+            return Err(invalid("step", self.step, "a step in (0, 1]"));
         }
         Ok(())
     }

@@ -33,8 +33,6 @@
 
 mod ascii;
 mod binary;
-#[cfg(test)]
-mod tests;
 mod write;
 
 use glam::DVec3;
