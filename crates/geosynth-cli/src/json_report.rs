@@ -6,13 +6,19 @@ use serde::Serialize;
 use serde_json::{Number, Value};
 
 use crate::CliResult;
+use crate::params_file::COMMAND_KEY;
 
-/// Writes `report` to `path` as indented JSON. Numbers that are exactly a single-precision
-/// value are written as that value's shortest decimal: `json!` and `serde_json::to_value`
-/// widen an `f32` to the `f64` it equals, which prints `0.1f32` as `0.10000000149011612`.
-/// Read back as `f32` (as `--params` does), the short form gives the same bits.
-pub fn write_json_report(path: &Path, report: &impl Serialize) -> CliResult {
+/// Writes the report of `geosynth COMMAND` to `path` as indented JSON, naming the command
+/// under [`COMMAND_KEY`] (so `--params` can tell one command's report from another's).
+/// Numbers that are exactly a single-precision value are written as that value's shortest
+/// decimal: `json!` and `serde_json::to_value` widen an `f32` to the `f64` it equals, which
+/// prints `0.1f32` as `0.10000000149011612`. Read back as `f32` (as `--params` does), the
+/// short form gives the same bits.
+pub fn write_json_report(path: &Path, command: &str, report: &impl Serialize) -> CliResult {
     let mut value = serde_json::to_value(report)?;
+    if let Value::Object(fields) = &mut value {
+        fields.insert(COMMAND_KEY.to_string(), Value::from(command));
+    }
     shorten_single_precision(&mut value);
     std::fs::write(path, serde_json::to_string_pretty(&value)?)
         .map_err(|e| format!("cannot write {}: {e}", path.display()).into())

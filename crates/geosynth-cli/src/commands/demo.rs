@@ -317,7 +317,7 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
 }
 
 fn write_reports(report: &Report, out: &Path) -> CliResult {
-    write_json_report(&out.join("report.json"), report)?;
+    write_json_report(&out.join("report.json"), "demo", report)?;
     let mut md = String::from("# geosynth demo report\n\n");
     md.push_str(&format!(
         "geosynth {} · seed {} · {} threads · {}\n\nFixtures from: {}\n\n",

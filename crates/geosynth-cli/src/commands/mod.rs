@@ -17,8 +17,10 @@ use geosynth::mls::{LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disag
 use geosynth::reconstruct::FieldParams;
 use geosynth::sdf::{MeshSign, MeshSurface, PointSign};
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
 
 use crate::CliResult;
+use crate::params_file::ParamsFile;
 
 /// Triangles probed for intersecting parts before a mesh is signed by pseudo-normals
 /// (about 0.1 s on 2 cores).
@@ -26,7 +28,7 @@ const PROBED_TRIANGLES: usize = 4096;
 
 /// `--sign`, for the commands that sample a signed distance (`sdf`, `reconstruct`,
 /// `voxel`).
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Copy, Args)]
 pub struct SignArgs {
     /// How distances are signed: `local`, by the nearest piece of surface (a mesh's
     /// pseudo-normals, exact on one closed mesh; a point set's MLS surface; open sheets
@@ -75,7 +77,31 @@ enum SignArg {
     Winding,
 }
 
+/// How `sdf` and `voxel` read a mesh: the option their reports record under
+/// [`INPUT_OPTIONS_KEY`](crate::params_file::INPUT_OPTIONS_KEY), so that `--params REPORT`
+/// reads it as the reported run did.
+#[derive(Debug, Default, Clone, Copy, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MeshInputOptions {
+    /// `--orient-faces`.
+    pub orient_faces: bool,
+}
+
 impl SignArgs {
+    /// These settings with `--orient-faces` on also when `file` records it, and the input
+    /// options to record in the report.
+    pub fn with_recorded(&self, file: &ParamsFile) -> CliResult<(Self, MeshInputOptions)> {
+        let recorded: MeshInputOptions = file.input_options()?;
+        let orient_faces = self.orient_faces || recorded.orient_faces;
+        Ok((
+            Self {
+                orient_faces,
+                ..*self
+            },
+            MeshInputOptions { orient_faces },
+        ))
+    }
+
     /// The rule asked for, for meshes.
     pub fn mesh_rule(&self) -> MeshSign {
         match self.sign {

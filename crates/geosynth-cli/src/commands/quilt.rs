@@ -16,13 +16,14 @@ use geosynth::quilt::{
 use geosynth::tps::{PairingParams, Table1Preset};
 use glam::{DMat3, DVec3};
 
+use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use crate::json_report::write_json_report;
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
 };
-use crate::params_file::{GivenFlags, read_params};
+use crate::params_file::{GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, QUILT_REPORTS};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -47,7 +48,8 @@ impl From<MethodArg> for Method {
 }
 
 /// The up axis of an exemplar file, as a command-line value.
-#[derive(Debug, Clone, Copy, ValueEnum)]
+#[derive(Debug, Clone, Copy, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum TextureUpArg {
     /// +X is up: the reference plane is YZ.
     X,
@@ -135,8 +137,9 @@ pub struct QuiltArgs {
     output: PathBuf,
     /// Read the parameters from JSON: any of the library's `QuiltParams` fields (as the
     /// report's `params` spells them: `{"epsilon": 0.3, "clusters": {"max_points": 4}}`),
-    /// or a report written by `--report`, to run it again. Fields it leaves out keep their
-    /// defaults; the flags given here override it.
+    /// or a report written by `--report`, to run it again (its `input_options` read the
+    /// exemplar the same way: `--up`, `--relief`, `--orient-normals`). Fields it leaves out
+    /// keep their defaults; the flags given here override it.
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
     /// Output width and depth in world units, `W,H`.
@@ -280,15 +283,39 @@ fn precision_note(file: &TextureFile) -> Option<String> {
     super::single_precision_note(file.origin, step, spacing, "its sample spacing")
 }
 
+/// How the exemplar is read: the options a report records under
+/// [`INPUT_OPTIONS_KEY`], so that `--params REPORT` reads it as the reported run did.
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct InputOptions {
+    /// `--up` (unset: the file's `texture_up` comment, or z).
+    up: Option<TextureUpArg>,
+    /// `--relief`, for height fields (unset: [`DEFAULT_RELIEF`]).
+    relief: Option<f32>,
+    /// `--orient-normals`.
+    orient_normals: bool,
+}
+
+impl InputOptions {
+    /// The options given on the command line over those of `--params`' file; the relief
+    /// written out for a height field and dropped otherwise, like the axis for one.
+    fn of(args: &QuiltArgs, file: &ParamsFile) -> CliResult<Self> {
+        let recorded: Self = file.input_options()?;
+        let heightfield = args.heightfield.is_some();
+        Ok(Self {
+            up: args.up.or(recorded.up).filter(|_| !heightfield),
+            relief: heightfield.then(|| args.relief.or(recorded.relief).unwrap_or(DEFAULT_RELIEF)),
+            orient_normals: args.orient_normals || recorded.orient_normals,
+        })
+    }
+}
+
 /// The run's parameters: `--params`' file over the defaults (with the pairing weights
 /// written out, so the report shows them), then every flag given on the command line;
 /// validated.
-fn run_params(args: &QuiltArgs, given: GivenFlags) -> CliResult<QuiltParams> {
+fn run_params(args: &QuiltArgs, file: &ParamsFile, given: GivenFlags) -> CliResult<QuiltParams> {
     let defaults = QuiltParams::default().pairing(PairingParams::default());
-    let mut p = match &args.params {
-        Some(path) => read_params(path, "params", &defaults)?,
-        None => defaults,
-    };
+    let mut p = file.params(defaults, QuiltParams::validate)?;
     match (args.size, args.scale) {
         (Some((w, h)), _) => p.output = OutputSize::Absolute(w, h),
         (None, Some(s)) => p.output = OutputSize::Scale(s),
@@ -330,17 +357,27 @@ fn run_params(args: &QuiltArgs, given: GivenFlags) -> CliResult<QuiltParams> {
     Ok(p)
 }
 
-/// Loads the texture named by the arguments (a height field is at the origin).
-fn load(args: &QuiltArgs) -> CliResult<TextureFile> {
+/// Loads the texture named by the arguments as `options` say (a height field is at the
+/// origin), its normals oriented if asked.
+fn load(args: &QuiltArgs, options: &InputOptions) -> CliResult<TextureFile> {
+    let mut file = read_texture(args, options)?;
+    if options.orient_normals {
+        file.texture = file.texture.with_oriented_normals()?;
+    }
+    Ok(file)
+}
+
+/// Reads the texture named by the arguments with the axis or relief of `options`.
+fn read_texture(args: &QuiltArgs, options: &InputOptions) -> CliResult<TextureFile> {
     if let Some(path) = &args.heightfield {
-        let relief = args.relief.unwrap_or(DEFAULT_RELIEF);
+        let relief = options.relief.unwrap_or(DEFAULT_RELIEF);
         return Ok(read_heightfield_texture_with_relief(path, relief)?.into());
     }
     let path = args
         .exemplar
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
-    match args.up {
+    match options.up {
         Some(TextureUpArg::Auto) => Ok(read_texture_file_fitted(path)?),
         up => Ok(read_texture_file(path, up.and_then(TextureUpArg::axis))?),
     }
@@ -526,13 +563,12 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             .map(PathBuf::as_path),
     )?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
-    let params = run_params(args, given)?;
-    let mut file = load(args)?;
+    let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
+    let params = run_params(args, &params_file, given)?;
+    let input_options = InputOptions::of(args, &params_file)?;
+    let file = load(args, &input_options)?;
     if let Some(path) = &args.exemplar {
         report_not_kept(globals, path, &file.notes);
-    }
-    if args.orient_normals {
-        file.texture = file.texture.with_oriented_normals()?;
     }
     let texture = &file.texture;
     for note in [
@@ -575,6 +611,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let main = main.measured(&measure, globals, "quilt");
     if let Some(path) = &args.report {
         let mut report = json!({
+            "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref()),
+            INPUT_OPTIONS_KEY: input_options,
             "params": params,
             "run": run_json(&main),
         });
@@ -600,7 +638,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
                 report["same_layout_pasted"] = run_json(&control);
             }
         }
-        write_json_report(path, &report)?;
+        write_json_report(path, "quilt", &report)?;
     }
     let quality = match &main.quality {
         Ok(q) if q.featureless_exemplar => "the exemplar has no relief, so its window \

@@ -11,12 +11,15 @@ use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance, trim_to_s
 use geosynth::sdf::{PointSign, PointWinding, nrrd};
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::SignArgs;
 use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
-use crate::params_file::{GivenFlags, read_params};
+use crate::params_file::{
+    GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, RECONSTRUCT_REPORTS, ReportKind, SDF_REPORTS,
+};
 use crate::{CliResult, Globals};
 
 /// Grid settings, the parameter file and the report, shared by both commands.
@@ -31,8 +34,9 @@ pub struct GridArgs {
     /// Read the grid's settings from JSON: any of the library's `FieldParams` fields
     /// (`resolution`, `kernel`, `margin`, `band`, `mesh_sign`, `point_sign`, as the
     /// report's `params` spells them: `{"margin": 6, "band": 8}`), or a report written by
-    /// `--report`. Fields it leaves out keep their defaults; the flags given here override
-    /// it.
+    /// `--report` (`sdf`'s or `reconstruct`'s; one of the same command also sets its
+    /// `--orient-faces`, `--orient-normals` and `--trim`). Fields it leaves out keep their
+    /// defaults; the flags given here override it.
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
     /// Write a JSON report: the parameters, what was read and written, the timings.
@@ -43,11 +47,13 @@ pub struct GridArgs {
 impl GridArgs {
     /// The run's parameters: `--params`' file over the defaults, then the flags given on
     /// the command line (`--sign` sets both sign rules); validated.
-    fn params(&self, sign: &SignArgs, given: GivenFlags) -> CliResult<FieldParams> {
-        let mut params = match &self.params {
-            Some(path) => read_params(path, "params", &FieldParams::default())?,
-            None => FieldParams::default(),
-        };
+    fn params(
+        &self,
+        file: &ParamsFile,
+        sign: &SignArgs,
+        given: GivenFlags,
+    ) -> CliResult<FieldParams> {
+        let mut params = file.params(FieldParams::default(), FieldParams::validate)?;
         given.apply("resolution", &mut params.resolution, self.resolution);
         if self.kernel.is_some() {
             params.kernel = self.kernel;
@@ -63,15 +69,28 @@ impl GridArgs {
     fn other_outputs(&self) -> impl Iterator<Item = &Path> {
         self.report.iter().map(PathBuf::as_path)
     }
+
+    /// The document of `--params`, if given, read as `kind` says.
+    fn params_file(&self, kind: ReportKind) -> CliResult<ParamsFile> {
+        ParamsFile::read(self.params.as_deref(), kind)
+    }
 }
 
-/// Writes `report` with the run's parameters under `params`, where `--report` asks.
-fn write_report(grid: &GridArgs, params: &FieldParams, mut report: Value) -> CliResult {
+/// Writes the report of `geosynth COMMAND`, `report` with the run's parameters under
+/// `params` and how its input was read under [`INPUT_OPTIONS_KEY`], where `--report` asks.
+fn write_report(
+    grid: &GridArgs,
+    command: &str,
+    params: &FieldParams,
+    input_options: impl Serialize,
+    mut report: Value,
+) -> CliResult {
     let Some(path) = &grid.report else {
         return Ok(());
     };
     report["params"] = serde_json::to_value(params)?;
-    write_json_report(path, &report)
+    report[INPUT_OPTIONS_KEY] = serde_json::to_value(input_options)?;
+    write_json_report(path, command, &report)
 }
 
 /// Stage timings as report entries.
@@ -107,28 +126,53 @@ pub struct ReconstructArgs {
     sign: SignArgs,
 }
 
+/// How `reconstruct` reads its points: the options its report records under
+/// [`INPUT_OPTIONS_KEY`], so that `--params REPORT` reads them as the reported run did.
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct ReconstructInputOptions {
+    /// `--orient-normals`.
+    orient_normals: bool,
+    /// `--trim`, in median sample spacings (unset: no trim).
+    trim: Option<f32>,
+}
+
+impl ReconstructInputOptions {
+    /// The options given on the command line over those of `--params`' file.
+    fn of(args: &ReconstructArgs, file: &ParamsFile) -> CliResult<Self> {
+        let recorded: Self = file.input_options()?;
+        let trim = args.trim.or(recorded.trim);
+        if let Some(t) = trim
+            && !(t.is_finite() && t > 0.0)
+        {
+            return Err(format!("--trim must be a positive number of spacings, not {t}").into());
+        }
+        Ok(Self {
+            orient_normals: args.orient_normals || recorded.orient_normals,
+            trim,
+        })
+    }
+}
+
 /// Runs `geosynth reconstruct`.
 pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], args.grid.other_outputs())?;
-    let params = args.grid.params(&args.sign, given)?;
+    let file = args.grid.params_file(RECONSTRUCT_REPORTS)?;
+    let params = args.grid.params(&file, &args.sign, given)?;
+    let options = ReconstructInputOptions::of(args, &file)?;
     let winding = params.point_sign == PointSign::WindingNumber;
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
     let mut points = loaded.geometry.points().clone();
-    if args.orient_normals {
+    if options.orient_normals {
         points = orient_normals(&points, Vec3::Z)?;
     }
     if let Some(note) = super::unoriented_normals_note(&points) {
         status(globals, note);
     }
-    if let Some(t) = args.trim
-        && !(t.is_finite() && t > 0.0)
-    {
-        return Err(format!("--trim must be a positive number of spacings, not {t}").into());
-    }
-    if args.trim.is_some() && winding {
+    if options.trim.is_some() && winding {
         status(
             globals,
             "note: --trim is for open scans, and an open scan has no inside for --sign \
@@ -142,20 +186,20 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
         params: params.clone(),
     }
     .run(points.clone(), &mut ctx)?;
-    if let Some(spacings) = args.trim {
+    if let Some(spacings) = options.trim {
         let spacing = KdIndex::new(points.positions())?.median_spacing()?;
         mesh = ctx.timed("trim", |_| {
             trim_to_samples(&mesh, points.positions(), spacings * spacing)
         })?;
     }
     bar.finish_and_clear();
-    let options = WriteOptions::default()
+    let write_options = WriteOptions::default()
         .comment(format!(
             "reconstructed from {} by geosynth",
             args.input.display()
         ))
         .origin(loaded.origin);
-    io::write_geometry(&args.output, &Geometry::Mesh(mesh.clone()), &options)?;
+    io::write_geometry(&args.output, &Geometry::Mesh(mesh.clone()), &write_options)?;
     let timings: Vec<String> = ctx
         .timings()
         .iter()
@@ -180,12 +224,12 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     );
     write_report(
         &args.grid,
+        "reconstruct",
         &params,
+        &options,
         json!({
             "input": args.input.display().to_string(),
             "points": points.len(),
-            "orient_normals": args.orient_normals,
-            "trim_spacings": args.trim,
             "output": args.output.display().to_string(),
             "vertices": mesh.vertex_count(),
             "faces": mesh.face_count(),
@@ -195,11 +239,11 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             "timings": timings_json(&ctx),
         }),
     )?;
-    if args.trim.is_none() && topology.boundary_edges > 0 {
+    if options.trim.is_none() && topology.boundary_edges > 0 {
         let note = grid_side_note(topology.boundary_edges, &points, params.kernel)?;
         status(globals, note);
     }
-    if args.trim.is_none() && !winding && topology.components > 1 {
+    if options.trim.is_none() && !winding && topology.components > 1 {
         let open_flux = PointWinding::new(&points)?.open_flux();
         if open_flux < CLOSED_FLUX {
             status(
@@ -278,17 +322,19 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
         [],
         std::iter::once(args.output.as_path()).chain(args.grid.other_outputs()),
     )?;
-    let params = args.grid.params(&args.sign, given)?;
+    let file = args.grid.params_file(SDF_REPORTS)?;
+    let params = args.grid.params(&file, &args.sign, given)?;
+    let (sign, options) = args.sign.with_recorded(&file)?;
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
     let mut loaded =
         io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
     report_not_kept(globals, &args.input, &loaded.notes);
     if let io::Geometry::Mesh(mesh) = loaded.geometry {
-        let (mesh, change) = args.sign.oriented(mesh)?;
+        let (mesh, change) = sign.oriented(mesh)?;
         if let Some(line) = change {
             status(globals, line);
         }
-        if let Some(note) = args.sign.note(&mesh, params.mesh_sign)? {
+        if let Some(note) = sign.note(&mesh, params.mesh_sign)? {
             status(globals, note);
         }
         loaded.geometry = io::Geometry::Mesh(mesh);
@@ -310,7 +356,9 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     let [x, y, z] = sdf.dims();
     write_report(
         &args.grid,
+        "sdf",
         &params,
+        options,
         json!({
             "input": args.input.display().to_string(),
             "output": args.output.display().to_string(),

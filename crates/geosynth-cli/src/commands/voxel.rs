@@ -17,7 +17,7 @@ use serde_json::{Value, json};
 use super::SignArgs;
 use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, progress_context, status};
-use crate::params_file::{GivenFlags, read_params};
+use crate::params_file::{GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, VOXEL_REPORTS};
 use crate::{CliResult, Globals};
 
 /// Block search.
@@ -63,8 +63,8 @@ pub struct VoxelArgs {
     /// Read the settings from JSON: any of the fields of the library's `VoxelSynth` stage
     /// (`source_resolution`, `mesh_sign`, `params` — `VoxelParams` — and `relax`, as the
     /// report's `stage` spells them: `{"params": {"levels": 2, "block": 8}}`), or a report
-    /// written by `--report`, to run it again. Fields it leaves out keep their defaults; the
-    /// flags given here override it.
+    /// written by `--report`, to run it again (with its `--orient-faces`). Fields it leaves
+    /// out keep their defaults; the flags given here override it.
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
     /// Source samples along the exemplar box's longest side.
@@ -277,11 +277,10 @@ fn empty_copy_note(
 
 /// The stage's settings: `--params`' file over the defaults, then every flag given on the
 /// command line; validated.
-fn run_stage(args: &VoxelArgs, given: GivenFlags) -> CliResult<VoxelSynth> {
-    let mut stage = match &args.params {
-        Some(path) => read_params(path, "stage", &VoxelSynth::default())?,
-        None => VoxelSynth::default(),
-    };
+fn run_stage(args: &VoxelArgs, file: &ParamsFile, given: GivenFlags) -> CliResult<VoxelSynth> {
+    let mut stage = file.params(VoxelSynth::default(), |s: &VoxelSynth| {
+        s.params.validate().and_then(|()| s.relax.validate())
+    })?;
     given.apply("source_res", &mut stage.source_resolution, args.source_res);
     given.apply("sign", &mut stage.mesh_sign, args.sign.mesh_rule());
     let p = &mut stage.params;
@@ -308,7 +307,9 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
             .flatten()
             .map(PathBuf::as_path),
     )?;
-    let stage = run_stage(args, given)?;
+    let file = ParamsFile::read(args.params.as_deref(), VOXEL_REPORTS)?;
+    let stage = run_stage(args, &file, given)?;
+    let (sign, input_options) = args.sign.with_recorded(&file)?;
     let mut exemplar = read_exemplar(&args.exemplar)?;
     for path in std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()) {
         check_geometry_output(path, true, exemplar.origin)?;
@@ -316,12 +317,12 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(note) = precision_note(&exemplar, stage.source_resolution) {
         status(globals, note);
     }
-    let (mesh, change) = args.sign.oriented(exemplar.mesh)?;
+    let (mesh, change) = sign.oriented(exemplar.mesh)?;
     exemplar.mesh = mesh;
     if let Some(line) = change {
         status(globals, line);
     }
-    if let Some(note) = args.sign.note(&exemplar.mesh, stage.mesh_sign)? {
+    if let Some(note) = sign.note(&exemplar.mesh, stage.mesh_sign)? {
         status(globals, note);
     }
     let run = measured_run(exemplar.clone(), &stage, args.baseline, globals)?;
@@ -353,8 +354,10 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     }
     if let Some(path) = &args.report {
         let mut report = run_json(&run, &stage);
+        report["exemplar"] = json!(args.exemplar);
+        report[INPUT_OPTIONS_KEY] = serde_json::to_value(input_options)?;
         report["stage"] = serde_json::to_value(&stage)?;
-        write_json_report(path, &report)?;
+        write_json_report(path, "voxel", &report)?;
     }
     if let Some(note) = empty_copy_note(&exemplar, &run, args.isosurface.is_some()) {
         status(globals, note);

@@ -1295,11 +1295,8 @@ fn tiny_voxel(mesh: &Path, out: &Path, extra: &[&str]) -> String {
     ok(&args)
 }
 
-#[test]
-fn sdf_and_voxel_turn_disagreeing_triangles_around_when_asked() {
-    // An icosphere with every 9th triangle turned over: either sign rule goes wrong near
-    // those triangles, the run says so, and `--orient-faces` gives the clean sphere's field.
-    let dir = tempfile::tempdir().unwrap();
+/// An icosphere, and the same with every 9th triangle turned over.
+fn icosphere_with_turned_faces() -> (geosynth::core::TriMesh, geosynth::core::TriMesh) {
     let sphere = geosynth::fixtures::icosphere_mesh(3).unwrap();
     let triangles = sphere
         .triangles()
@@ -1314,6 +1311,15 @@ fn sdf_and_voxel_turn_disagreeing_triangles_around_when_asked() {
         })
         .collect();
     let scrambled = geosynth::core::TriMesh::new(sphere.vertices().clone(), triangles).unwrap();
+    (sphere, scrambled)
+}
+
+#[test]
+fn sdf_and_voxel_turn_disagreeing_triangles_around_when_asked() {
+    // An icosphere with every 9th triangle turned over: either sign rule goes wrong near
+    // those triangles, the run says so, and `--orient-faces` gives the clean sphere's field.
+    let dir = tempfile::tempdir().unwrap();
+    let (sphere, scrambled) = icosphere_with_turned_faces();
     let (clean, messy) = (dir.path().join("clean.ply"), dir.path().join("messy.ply"));
     write_with_defaults(&clean, &geosynth::core::io::Geometry::Mesh(sphere.clone()));
     write_with_defaults(&messy, &geosynth::core::io::Geometry::Mesh(scrambled));

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use crate::{Scratch, arg, geosynth, ok};
+use crate::{Scratch, arg, geosynth, icosphere_with_turned_faces, ok, write_with_defaults};
 
 fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
@@ -17,6 +17,16 @@ fn assert_same_bytes(a: &Path, b: &Path) {
     assert!(
         std::fs::read(a).unwrap() == std::fs::read(b).unwrap(),
         "{} and {} differ",
+        a.display(),
+        b.display()
+    );
+}
+
+/// Asserts that two files hold different bytes (so an equality test elsewhere can fail).
+fn assert_bytes_differ(a: &Path, b: &Path) {
+    assert!(
+        std::fs::read(a).unwrap() != std::fs::read(b).unwrap(),
+        "{} and {} are the same",
         a.display(),
         b.display()
     );
@@ -111,10 +121,7 @@ fn a_quilt_report_runs_again_through_params_and_flags_override_it() {
     for key in ["field_resolution", "epsilon", "output", "clusters"] {
         assert_eq!(changed["params"][key], first["params"][key], "{key}");
     }
-    assert_ne!(
-        std::fs::read(dir.path("a.ply")).unwrap(),
-        std::fs::read(dir.path("c.ply")).unwrap()
-    );
+    assert_bytes_differ(&dir.path("a.ply"), &dir.path("c.ply"));
 }
 
 #[test]
@@ -158,7 +165,10 @@ fn bad_params_files_are_refused_by_name_before_anything_is_written() {
         (Some("{ \"clusters\": { \"max_pts\": 4 } }"), "max_pts"),
         (Some("{ \"method\": \"fast\" }"), "fast"),
         (Some("{ \"seed\": \"three\" }"), "three"),
-        (Some("{ \"epsilon\": -1 }"), "epsilon"),
+        (
+            Some("{ \"epsilon\": -1 }"),
+            "refused.json: parameter `epsilon`",
+        ),
         (Some("[0.3]"), "object"),
         (Some("{ \"epsilon\": 0.3"), "not a JSON parameter file"),
         (None, "refused.json"),
@@ -291,4 +301,147 @@ fn sdf_and_reconstruct_reports_run_again_through_params() {
     // A kernel from a file is checked like the flag.
     let bad = r#"{ "kernel": -1 }"#;
     assert_params_refused(&dir, "reconstruct", &sphere, Some(bad), "kernel");
+}
+
+/// Runs `geosynth ARGS… -o OUT --report REPORT -q` in `dir` and returns the report.
+fn run_with_report(dir: &Scratch, args: &[&str], out: &str, report: &str) -> Value {
+    let (out, report) = (arg(&dir.path(out)), arg(&dir.path(report)));
+    let mut all = args.to_vec();
+    all.extend_from_slice(&["-o", &out, "--report", &report, "-q"]);
+    ok(&all);
+    read_json(Path::new(&report))
+}
+
+#[test]
+fn reports_record_how_the_input_was_read_and_params_reads_it_back() {
+    let dir = Scratch::new();
+    ok(&["fixtures", "--quiet", "--out", &arg(&dir.path(""))]);
+    let again = |args: &[&str], report: &str, out: &str| {
+        let mut all = args.to_vec();
+        let file = arg(&dir.path(report));
+        all.extend_from_slice(&["--params", &file]);
+        run_with_report(&dir, &all, out, "again.json")
+    };
+
+    // quilt: a height field's relief, which changes every height.
+    let hf = dir.path("waves_40x40.f32le");
+    let heights: Vec<u8> = (0..40 * 40)
+        .flat_map(|i| (((i % 40) as f32 * 0.5).sin() * ((i / 40) as f32 * 0.4).cos()).to_le_bytes())
+        .collect();
+    std::fs::write(&hf, heights).unwrap();
+    let hf = arg(&hf);
+    let quilt = [
+        "quilt",
+        "--heightfield",
+        &hf,
+        "--resolution",
+        "20",
+        "--no-quality",
+    ];
+    let mut steep = quilt.to_vec();
+    steep.extend_from_slice(&["--relief", "0.3"]);
+    let first = run_with_report(&dir, &steep, "q1.ply", "q1.json");
+    assert_eq!(first["command"], "quilt");
+    assert_eq!(first["input_options"]["relief"].as_f64(), Some(0.3));
+    assert!(
+        first["input_options"]["up"].is_null(),
+        "{}",
+        first["input_options"]
+    );
+    let repeated = again(&quilt, "q1.json", "q2.ply");
+    assert_eq!(repeated["input_options"], first["input_options"]);
+    assert_same_bytes(&dir.path("q1.ply"), &dir.path("q2.ply"));
+    // Without the report, the default relief gives other heights.
+    run_with_report(&dir, &quilt, "q3.ply", "q3.json");
+    assert_bytes_differ(&dir.path("q1.ply"), &dir.path("q3.ply"));
+
+    // reconstruct: `--trim` cuts an open sheet back; the report's trim does it again.
+    let sheet = arg(&dir.path("heightfield_points.ply"));
+    let reconstruct = ["reconstruct", &sheet, "--resolution", "24"];
+    let mut trimmed = reconstruct.to_vec();
+    trimmed.extend_from_slice(&["--trim", "2.5"]);
+    let first = run_with_report(&dir, &trimmed, "r1.ply", "r1.json");
+    assert_eq!(first["input_options"]["trim"].as_f64(), Some(2.5));
+    again(&reconstruct, "r1.json", "r2.ply");
+    assert_same_bytes(&dir.path("r1.ply"), &dir.path("r2.ply"));
+    let untrimmed = run_with_report(&dir, &reconstruct, "r3.ply", "r3.json");
+    assert!(untrimmed["input_options"]["trim"].is_null());
+    assert!(untrimmed["faces"].as_u64() > first["faces"].as_u64());
+
+    // sdf: `--orient-faces` on a mesh with triangles turned over.
+    let (_, scrambled) = icosphere_with_turned_faces();
+    let messy = dir.path("messy.ply");
+    write_with_defaults(&messy, &geosynth::core::io::Geometry::Mesh(scrambled));
+    let messy = arg(&messy);
+    let sdf = ["sdf", &messy, "--resolution", "20"];
+    let mut oriented = sdf.to_vec();
+    oriented.push("--orient-faces");
+    let first = run_with_report(&dir, &oriented, "s1.nrrd", "s1.json");
+    assert_eq!(first["input_options"]["orient_faces"], true);
+    // The report alone turns the triangles again.
+    again(&sdf, "s1.json", "s2.nrrd");
+    assert_same_bytes(&dir.path("s1.nrrd"), &dir.path("s2.nrrd"));
+    run_with_report(&dir, &sdf, "s3.nrrd", "s3.json");
+    assert_bytes_differ(&dir.path("s1.nrrd"), &dir.path("s3.nrrd"));
+}
+
+#[test]
+fn a_report_of_another_command_is_refused_as_such() {
+    let dir = Scratch::new();
+    ok(&["fixtures", "--quiet", "--out", &arg(&dir.path(""))]);
+    let sphere = arg(&dir.path("sphere_points.ply"));
+    let quilt = quilt_bumpy(&dir.path("q.ply"), &dir.path("q.json"), &["--scale", "1"]);
+    let text = serde_json::to_string(&quilt).unwrap();
+    assert_params_refused(
+        &dir,
+        "voxel",
+        &sphere,
+        Some(&text),
+        "a report of `geosynth quilt`",
+    );
+    assert_params_refused(
+        &dir,
+        "sdf",
+        &sphere,
+        Some(&text),
+        "give a report of `geosynth sdf` or",
+    );
+    // sdf and reconstruct share their parameters, so each reads the other's reports.
+    let sdf = run_with_report(
+        &dir,
+        &["sdf", &sphere, "--resolution", "18"],
+        "s.nrrd",
+        "s.json",
+    );
+    assert_eq!(sdf["command"], "sdf");
+    let mesh = run_with_report(
+        &dir,
+        &[
+            "reconstruct",
+            &sphere,
+            "--params",
+            &arg(&dir.path("s.json")),
+        ],
+        "m.ply",
+        "m.json",
+    );
+    assert_eq!(mesh["params"], sdf["params"]);
+    // A command that is not a name is refused too.
+    let unnamed = r#"{ "command": 3, "params": {} }"#;
+    assert_params_refused(
+        &dir,
+        "quilt",
+        &sphere,
+        Some(unnamed),
+        "must name the command",
+    );
+    // Input options are checked like parameters.
+    let typo = r#"{ "input_options": { "orient_normal": true } }"#;
+    assert_params_refused(
+        &dir,
+        "quilt",
+        &sphere,
+        Some(typo),
+        "input_options: unknown field",
+    );
 }
