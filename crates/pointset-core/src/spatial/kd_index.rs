@@ -231,11 +231,11 @@ impl KdIndex {
                 distance_squared,
             })
             .collect();
-        out.sort_by(|a, b| {
-            a.distance_squared
-                .total_cmp(&b.distance_squared)
-                .then(a.index.cmp(&b.index))
-        });
+        // Nearest first, ties to the lower index. Squared distances are never negative, so
+        // their bits order as their values do (as `f32::total_cmp` orders them), and an
+        // integer key sorts faster than comparing floats; every key is distinct (indices
+        // are), so an unstable sort gives the one order there is.
+        out.sort_unstable_by_key(|n| (n.distance_squared.to_bits(), n.index));
         out
     }
 }
