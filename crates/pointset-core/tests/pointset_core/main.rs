@@ -668,7 +668,8 @@ proptest! {
             prop_assert!((g - w).abs() <= 1e-4 * w.max(1.0));
         }
         let found = index.within(q, r).unwrap();
-        prop_assert!(found.windows(2).all(|p| p[0].distance_squared <= p[1].distance_squared));
+        // Nearest first, ties to the lower index.
+        prop_assert!(found.windows(2).all(|p| (p[0].distance_squared, p[0].index) < (p[1].distance_squared, p[1].index)));
         let mut within: Vec<usize> = found.iter().map(|n| n.index).collect();
         within.sort_unstable();
         let expected: Vec<usize> = (0..points.len()).filter(|&i| points[i].distance_squared(q) <= r * r).collect();
@@ -763,6 +764,14 @@ fn kd_index_handles_voxel_centres_and_rejects_nan() {
             .len(),
         7
     );
+    // The 501 coincident points come first, in index order, then the corner's three
+    // neighbours at distance 1.
+    let found = index.within(Vec3::splat(0.5), 1.0).unwrap();
+    let first: Vec<usize> = found.iter().take(501).map(|n| n.index).collect();
+    let mut coincident: Vec<usize> = (32 * 32 * 32..pts.len()).collect();
+    coincident.insert(0, 0);
+    assert_eq!(first, coincident);
+    assert_eq!(found.len(), 504);
     assert!(matches!(
         KdIndex::new(&[Vec3::NAN]),
         Err(Error::NonFinite { .. })
