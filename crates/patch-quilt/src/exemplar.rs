@@ -144,6 +144,13 @@ impl Exemplar {
     }
 }
 
+/// Fewest field spacings a patch may span. The overlap is at most half a patch, so from 3
+/// on every placement advances by at least 2 spacings. At 2 the advance is 1 spacing,
+/// equal to the overlap: each patch keeps only the corner of its box that no later patch
+/// covers, one spacing square, and the output thins out (measured on the bumpy fixture:
+/// 3,015 points instead of about 21,600, holes 34 times the exemplar's largest).
+pub const MIN_PATCH_SPACINGS: usize = 3;
+
 /// Most nodes `D(T_in)` may have (2 GiB of distance + gradient samples): a bound on boxes
 /// far taller than wide, which would otherwise ask for absurd grids.
 pub const MAX_FIELD_NODES: usize = 1 << 27;
@@ -188,9 +195,22 @@ impl ExemplarFrame {
             spacing,
         };
         let length_unit = ext.x.max(ext.y) / BASE_SIDE;
-        let patch_nodes = ((params.patch_size * ext.x.min(ext.y)) / spacing)
-            .round()
-            .max(2.0) as usize;
+        let patch_spacings = params.patch_size * ext.x.min(ext.y) / spacing;
+        let patch_nodes = patch_spacings.round() as usize;
+        if patch_nodes < MIN_PATCH_SPACINGS {
+            // The smallest fraction that rounds to the minimum.
+            let smallest = (MIN_PATCH_SPACINGS as f32 - 0.5) * spacing / ext.x.min(ext.y);
+            return Err(QuiltError::InvalidParameter {
+                name: "patch_size",
+                value: params.patch_size.to_string(),
+                expected: format!(
+                    "a patch at least {MIN_PATCH_SPACINGS} field spacings wide (this one is \
+                     {patch_spacings:.1}): patch_size ≥ {smallest:.3} at field_resolution {}, or \
+                     a finer field",
+                    params.field_resolution
+                ),
+            });
+        }
         let overlap_nodes =
             ((params.overlap * patch_nodes as f32).round() as usize).clamp(1, patch_nodes / 2);
         let extra_nodes = ((params.extra_width * patch_nodes as f32).round() as usize).max(1);

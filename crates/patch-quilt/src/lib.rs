@@ -134,8 +134,9 @@
 //!
 //! [`QuiltError`]: invalid parameters, exemplars without normals, boxes without volume
 //! (the message says whether across the plane or along the up axis), boxes so much taller
-//! than wide that `D(T_in)` would exceed [`MAX_FIELD_NODES`], padding too narrow for the
-//! extra region, and errors of the building blocks. The quality measure refuses exemplar
+//! than wide that `D(T_in)` would exceed [`MAX_FIELD_NODES`], patches narrower than
+//! [`MIN_PATCH_SPACINGS`] field spacings (the message gives the smallest `patch_size` that
+//! works), padding too narrow for the extra region, and errors of the building blocks. The quality measure refuses exemplar
 //! fields whose fine sampling would exceed [`MAX_MEASURE_NODES`]. An exemplar without
 //! relief quilts, but its window errors mean nothing
 //! ([`QualityReport::featureless_exemplar`]).
@@ -164,8 +165,8 @@ mod warp;
 
 pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
-pub use exemplar::{BASE_SIDE, MAX_FIELD_NODES, PatchGeometry};
-pub use params::{Method, OutputSize, QuiltParams, WarpTargets};
+pub use exemplar::{BASE_SIDE, MAX_FIELD_NODES, MIN_PATCH_SPACINGS, PatchGeometry};
+pub use params::{MAX_RELAXATION_ROUNDS, Method, OutputSize, QuiltParams, WarpTargets};
 pub use quality::windows::MAX_MEASURE_NODES;
 pub use quality::{FEATURELESS_VARIATION, QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};

@@ -6,6 +6,11 @@ use tps_warp::PairingParams;
 use crate::error::{Result, invalid};
 use crate::quilt::QuiltOutput;
 
+/// Most relaxation rounds [`QuiltParams::validate`] accepts. The paper's post-process is a
+/// few rounds; each costs about as much as projecting every output point (measured in
+/// docs/patch-quilt.md), so the bound catches a mistyped count that would run for hours.
+pub const MAX_RELAXATION_ROUNDS: usize = 100;
+
 /// Which parts of the algorithm run. [`Method::Full`] is the paper; the others are the
 /// baselines the quality report compares against, computed by the same code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -124,7 +129,8 @@ pub struct QuiltParams {
     /// Seed of every random choice; default 0.
     pub seed: u64,
     /// Relaxation rounds (paper §6 post-process), run on the whole synthesized texture just
-    /// before it is trimmed to the output box; default 0 (off).
+    /// before it is trimmed to the output box; default 0 (off), at most
+    /// [`MAX_RELAXATION_ROUNDS`].
     pub relaxation_rounds: usize,
     /// Which parts run; default the full algorithm.
     pub method: Method,
@@ -236,7 +242,7 @@ impl QuiltParams {
         self
     }
 
-    /// Sets the relaxation rounds (default 0).
+    /// Sets the relaxation rounds (default 0, at most [`MAX_RELAXATION_ROUNDS`]).
     pub fn relaxation_rounds(mut self, n: usize) -> Self {
         self.relaxation_rounds = n;
         self
@@ -365,6 +371,13 @@ impl QuiltParams {
                 return Err(invalid("output", s, "a scale in (0, 64]"));
             }
             _ => {}
+        }
+        if self.relaxation_rounds > MAX_RELAXATION_ROUNDS {
+            return Err(invalid(
+                "relaxation_rounds",
+                self.relaxation_rounds,
+                format!("at most {MAX_RELAXATION_ROUNDS} rounds"),
+            ));
         }
         if let Some(p) = &self.pairing {
             p.validate()?;

@@ -20,6 +20,15 @@ fn texture(f: impl Fn(f32, f32) -> f32, n: usize, spacing: f32) -> GeometryTextu
         .unwrap()
 }
 
+/// A 48 × 48 height field of skewed waves, 0.05 apart.
+fn wavy_texture() -> GeometryTexture {
+    texture(
+        |x, y| 0.1 * (3.0 * x).sin() * (2.0 * y + 0.5 * x).cos(),
+        48,
+        0.05,
+    )
+}
+
 fn small_params() -> QuiltParams {
     QuiltParams::default()
         .field_resolution(24)
@@ -28,11 +37,7 @@ fn small_params() -> QuiltParams {
 
 #[test]
 fn output_is_identical_with_one_and_two_threads() {
-    let t = texture(
-        |x, y| 0.1 * (3.0 * x).sin() * (2.0 * y + 0.5 * x).cos(),
-        48,
-        0.05,
-    );
+    let t = wavy_texture();
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -53,11 +58,7 @@ fn the_result_does_not_depend_on_the_unit_of_length() {
     // represents exactly, so every length of the run scales exactly too. The search and
     // the pairing mix lengths with unitless terms; measured in units of the box they keep
     // their balance, and the output is the same texture, scaled.
-    let t = texture(
-        |x, y| 0.1 * (3.0 * x).sin() * (2.0 * y + 0.5 * x).cos(),
-        48,
-        0.05,
-    );
+    let t = wavy_texture();
     let params = small_params().seed(5);
     let reference = quilt(&t, &params, &mut RunContext::new(5)).unwrap();
     for factor in [4.0f32, 0.5] {
@@ -327,6 +328,34 @@ fn a_given_layout_is_followed_and_isolates_warp_and_blend() {
 }
 
 #[test]
+fn patches_under_three_field_spacings_are_refused_naming_the_smallest_that_works() {
+    let t = wavy_texture();
+    let run = |patch: f32| {
+        quilt(
+            &t,
+            &small_params().patch_size(patch),
+            &mut RunContext::new(0),
+        )
+    };
+    // Two spacings: each placement advanced by one, and the output kept a seventh of its
+    // points. Now refused, with the smallest patch_size of at least three.
+    let refused = run(0.1).unwrap_err().to_string();
+    assert!(refused.contains("at least 3 field spacings"), "{refused}");
+    let smallest: f32 = refused
+        .split("patch_size ≥ ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|number| number.parse().ok())
+        .unwrap_or_else(|| panic!("no smallest patch_size in: {refused}"));
+    let small = run(smallest + 1e-3).unwrap();
+    assert!(small.placements[0].cell == (0, 0) && small.stats.patches > 50);
+    // As dense as with the default patch: no placement leaves a thinned-out corner.
+    let default = run(QuiltParams::default().patch_size).unwrap();
+    let ratio = small.points.len() as f32 / default.points.len() as f32;
+    assert!((0.85..1.15).contains(&ratio), "{ratio}");
+}
+
+#[test]
 fn invalid_input_is_an_error() {
     let t = texture(|_, _| 0.0, 40, 0.05);
     for bad in [
@@ -346,6 +375,7 @@ fn invalid_input_is_an_error() {
         QuiltParams::default().normal_agreement(f32::NAN),
         // Used to pass validation and then skip every warp silently.
         QuiltParams::default().cluster_points(0),
+        QuiltParams::default().relaxation_rounds(patch_quilt::MAX_RELAXATION_ROUNDS + 1),
         {
             let mut p = QuiltParams::default();
             p.clusters = p.clusters.max_variation(f32::NAN);

@@ -97,7 +97,7 @@ mod spline;
 
 pub use error::{Result, TpsError};
 pub use pairing::{
-    Pair, PairedWarp, Pairing, PairingParams, PairingPoint, Table1Preset, anchors_in_regions,
-    pair_and_fit, pair_points,
+    MAX_PAIRING_ROUNDS, Pair, PairedWarp, Pairing, PairingParams, PairingPoint, Table1Preset,
+    anchors_in_regions, pair_and_fit, pair_points,
 };
 pub use spline::{AffineRegularization, MAX_CONTROL_POINTS, ThinPlateSpline, TpsParams};

@@ -72,7 +72,8 @@ pub struct PairingParams {
     /// Width `σ` of the Gaussian `θ(d) = exp(−d²/σ²)` weighting neighbouring pairs in `g`;
     /// default: twice the median distance from a target to its nearest distinct target.
     pub coherence_radius: Option<f32>,
-    /// Rounds of steps 3–5; default 3.
+    /// Rounds of steps 3–5; default 3, at most [`MAX_PAIRING_ROUNDS`]. A round that
+    /// changes no pair ends them: every later round would repeat it.
     pub rounds: usize,
     /// Remove pairs that cross their neighbours; default true.
     pub remove_crossings: bool,
@@ -114,7 +115,7 @@ impl PairingParams {
         self
     }
 
-    /// Sets the number of greedy rounds (default 3).
+    /// Sets the number of greedy rounds (default 3, at most [`MAX_PAIRING_ROUNDS`]).
     pub fn rounds(mut self, rounds: usize) -> Self {
         self.rounds = rounds;
         self
@@ -192,9 +193,22 @@ impl PairingParams {
                 expected: "a positive length",
             });
         }
+        if self.rounds > MAX_PAIRING_ROUNDS {
+            return Err(TpsError::InvalidParameter {
+                name: "rounds",
+                value: self.rounds.to_string(),
+                expected: "at most 100 rounds",
+            });
+        }
         Ok(())
     }
 }
+
+/// Most rounds of steps 3–5 [`PairingParams::validate`] accepts. The paper runs "a few";
+/// the rounds stop early anyway once a round changes no pair (every later round would
+/// repeat it), so the bound only catches a mistyped count that would otherwise run for
+/// hours where the pairing cycles.
+pub const MAX_PAIRING_ROUNDS: usize = 100;
 
 /// One pair: indices into the source and target slices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -285,7 +299,9 @@ fn check(points: &[PairingPoint], what: &'static str) -> Result<()> {
 ///
 /// 1–2. Greedy: each target in order takes the unused source of least `c(s, q)`.
 /// 3–6. `rounds` times: with the previous pairing `Φ` fixed, each pair's target in order
-///      takes the unused source of least `c(s, q) + g(s, q, Φ)`.
+///      takes the unused source of least `c(s, q) + g(s, q, Φ)`. A round is a function of
+///      `Φ` alone, so once one returns `Φ` unchanged the rest would too, and they are
+///      skipped.
 ///
 /// Then, if enabled, pairs that cross a neighbour — targets within `3σ` whose relative order
 /// the pairs reverse, `(s_i − s_j)·(q_i − q_j) ≤ 0`, which folds the warp — are removed, the
@@ -377,6 +393,9 @@ pub fn pair_points(
                 used[s] = true;
                 next[q] = Some(s);
             }
+        }
+        if next == previous {
+            break;
         }
         source_of = next;
     }

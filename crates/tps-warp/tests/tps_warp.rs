@@ -8,9 +8,20 @@ use pointset_core::{Aabb, rng};
 use proptest::prelude::*;
 use rand::RngExt;
 use tps_warp::{
-    AffineRegularization, PairingParams, PairingPoint, ThinPlateSpline, TpsError, TpsParams,
-    anchors_in_regions, pair_and_fit, pair_points,
+    AffineRegularization, MAX_PAIRING_ROUNDS, PairingParams, PairingPoint, ThinPlateSpline,
+    TpsError, TpsParams, anchors_in_regions, pair_and_fit, pair_points,
 };
+
+/// `points` moved up by `dz`.
+fn lifted(points: &[PairingPoint], dz: f32) -> Vec<PairingPoint> {
+    points
+        .iter()
+        .map(|p| PairingPoint {
+            position: p.position + Vec3::Z * dz,
+            ..*p
+        })
+        .collect()
+}
 
 fn random_points(g: &mut rng::SeededRng, n: usize, scale: f32) -> Vec<Vec3> {
     (0..n)
@@ -475,19 +486,31 @@ fn pairing_is_deterministic_and_validates_input() {
     let mut params = PairingParams::default();
     params.w_v = -1.0;
     assert!(pair_points(&s, &q, &params).is_err());
+    // A round is a function of the previous pairing alone: once one changes nothing, any
+    // number of further rounds (which stop there) gives the same pairing. Sources just
+    // above their targets settle at once. (On `s` and `q` above, rounds still change
+    // pairs after 100 of them, so there every round runs.)
+    let lifted = lifted(&q, 0.01);
+    let rounds = |r: usize| pair_points(&lifted, &q, &PairingParams::default().rounds(r)).unwrap();
+    let settled = rounds(1);
+    assert_eq!(settled.pairs.len(), q.len());
+    assert_eq!(settled, rounds(2));
+    assert_eq!(settled, rounds(MAX_PAIRING_ROUNDS));
+    assert!(matches!(
+        pair_points(
+            &s,
+            &q,
+            &PairingParams::default().rounds(MAX_PAIRING_ROUNDS + 1)
+        ),
+        Err(TpsError::InvalidParameter { name: "rounds", .. })
+    ));
 }
 
 #[test]
 fn anchored_warp_stays_local() {
     let mut g = rng::rng_from_seed(10);
     let q = sheet(&mut g, 150);
-    let s: Vec<PairingPoint> = q
-        .iter()
-        .map(|p| PairingPoint {
-            position: p.position + Vec3::Z * 0.02,
-            ..*p
-        })
-        .collect();
+    let s = lifted(&q, 0.02);
     // Anchor the four corners of a larger box, far from the pairs.
     let grid: Vec<Vec3> = (0..400)
         .map(|i| {

@@ -160,7 +160,8 @@ pub struct QuiltArgs {
     /// Nodes of the exemplar's distance field along its longer side.
     #[arg(long, default_value_t = QuiltParams::default().field_resolution)]
     resolution: usize,
-    /// Patch size as a fraction of the exemplar box's smaller side.
+    /// Patch size as a fraction of the exemplar box's smaller side; at least 3 spacings of
+    /// the distance field (`--resolution`).
     #[arg(long, default_value_t = QuiltParams::default().patch_size)]
     patch: f32,
     /// Relative tolerance `ε` of the search: every patch within `(1 + ε)` of the best match
@@ -192,7 +193,7 @@ pub struct QuiltArgs {
     /// that follows the seam's misfit more finely; 4 measured better on height fields).
     #[arg(long, default_value_t = QuiltParams::default().clusters.max_points)]
     cluster_points: usize,
-    /// Relaxation rounds after synthesis.
+    /// Relaxation rounds after synthesis (at most 100).
     #[arg(long, default_value_t = QuiltParams::default().relaxation_rounds)]
     relax: usize,
     /// Write a JSON report (timings, counts, quality).
