@@ -42,13 +42,18 @@ pub fn isosurface_mesh(synthesis: &Synthesis, closed: bool) -> Result<TriMesh> {
 pub struct RelaxParams {
     /// Largest distance, in sample spacings, between boundary vertices that are welded; default 1.
     pub weld_radius: f32,
-    /// Smoothing + projection rounds; default 8.
+    /// Smoothing + projection rounds; default 8, at most [`MAX_RELAX_ITERATIONS`].
     pub iterations: usize,
     /// Vertices within this many edges of a weld are relaxed; default 2.
     pub rings: usize,
     /// Umbrella step in `(0, 1]`; default 0.5.
     pub step: f32,
 }
+
+/// Most relaxation rounds [`RelaxParams::validate`] accepts: the seams settle within the
+/// default 8, and the bound catches a mistyped count (`1000000000` ran without end from
+/// `geosynth voxel --params`).
+pub const MAX_RELAX_ITERATIONS: usize = 100;
 
 impl Default for RelaxParams {
     fn default() -> Self {
@@ -68,7 +73,8 @@ impl RelaxParams {
         self
     }
 
-    /// Sets the smoothing + projection rounds (default 8).
+    /// Sets the smoothing + projection rounds (default 8, at most
+    /// [`MAX_RELAX_ITERATIONS`]).
     pub fn iterations(mut self, n: usize) -> Self {
         self.iterations = n;
         self
@@ -86,8 +92,16 @@ impl RelaxParams {
         self
     }
 
-    /// Checks the weld radius (finite, ≥ 0) and the step (in `(0, 1]`).
+    /// Checks the weld radius (finite, ≥ 0), the step (in `(0, 1]`) and the rounds (at
+    /// most [`MAX_RELAX_ITERATIONS`]).
     pub fn validate(&self) -> Result<()> {
+        if self.iterations > MAX_RELAX_ITERATIONS {
+            return Err(invalid(
+                "iterations",
+                self.iterations,
+                "at most 100 rounds (MAX_RELAX_ITERATIONS)",
+            ));
+        }
         if !(self.weld_radius.is_finite() && self.weld_radius >= 0.0) {
             return Err(invalid(
                 "weld_radius",

@@ -319,6 +319,17 @@ fn copied_triangles_are_welded_and_relaxed_onto_the_target() {
             "{p}"
         );
     }
-    let bad = voxel_dfsynth::RelaxParams::default().step(0.0);
-    assert!(voxel_dfsynth::copied_mesh(&source_mesh, &out, &bad).is_err());
+    let too_many = voxel_dfsynth::MAX_RELAX_ITERATIONS + 1;
+    for (bad, name) in [
+        (voxel_dfsynth::RelaxParams::default().step(0.0), "step"),
+        (
+            voxel_dfsynth::RelaxParams::default().iterations(too_many),
+            "iterations",
+        ),
+    ] {
+        assert!(matches!(
+            voxel_dfsynth::copied_mesh(&source_mesh, &out, &bad),
+            Err(voxel_dfsynth::VoxelError::InvalidParameter { name: n, .. }) if n == name
+        ));
+    }
 }
