@@ -77,8 +77,7 @@
 //!
 //! [`QualityParams`] (window 8, 64 windows, seed 0) sets the measure and [`RelaxParams`]
 //! (weld radius 1 spacing, 8 rounds of at most [`MAX_RELAX_ITERATIONS`], 2 rings, step ½)
-//! the seam relaxation of
-//! [`copied_mesh`].
+//! the seam relaxation of [`copied_mesh`].
 //!
 //! ## Complexity
 //!
