@@ -12,6 +12,10 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 use params_file::GivenFlags;
 
+/// Most worker threads `--threads` starts: more than almost any machine has cores, fewer than would
+/// take a minute to start (100,000 had not started after one).
+const MAX_THREADS: usize = 1024;
+
 /// Example-based geometry and texture synthesis.
 #[derive(Debug, Parser)]
 #[command(name = "geosynth", version, about, long_about = None)]
@@ -70,8 +74,12 @@ fn main() -> ExitCode {
         Err(e) => e.exit(),
     };
     if let Some(n) = cli.threads {
-        if n == 0 {
-            eprintln!("error: --threads must be at least 1");
+        if !(1..=MAX_THREADS).contains(&n) {
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            eprintln!(
+                "error: --threads must be 1 to {MAX_THREADS}, not {n} (this machine has {cores} \
+                 cores; leave it out to use them all)"
+            );
             return ExitCode::from(2);
         }
         if let Err(e) = rayon::ThreadPoolBuilder::new()

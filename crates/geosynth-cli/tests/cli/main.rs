@@ -274,17 +274,16 @@ fn bad_input_fails_with_a_message_not_a_panic() {
     }
     // The quilt whose report had nowhere to go never ran: its output was not written either.
     assert!(!dir.path().join("q.ply").exists());
-    assert!(
-        !geosynth(&[
-            "--threads",
-            "0",
-            "fixtures",
-            "--out",
-            dir.path().to_str().unwrap()
-        ])
-        .status
-        .success()
-    );
+    // Thread counts out of range are refused before anything starts (100,000 threads had
+    // not started after a minute).
+    for threads in ["0", "100000"] {
+        let out = geosynth(&["--threads", threads, "fixtures", "--out", &arg(dir.path())]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains("--threads must be 1 to"),
+            "{err}"
+        );
+    }
 }
 
 #[test]
