@@ -12,8 +12,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 use params_file::GivenFlags;
 
-/// Most worker threads `--threads` starts: more than almost any machine has cores, fewer than would
-/// take a minute to start (100,000 had not started after one).
+/// Most worker threads `--threads` starts: more than almost any machine has cores, fewer
+/// than would take a minute to start (100,000 had not started after one).
 const MAX_THREADS: usize = 1024;
 
 /// Example-based geometry and texture synthesis.
