@@ -612,7 +612,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let main = main.measured(&measure, globals, "quilt");
     if let Some(path) = &args.report {
         let mut report = json!({
-            "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref()),
+            "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref())
+                .map(|path| path.display().to_string()),
             INPUT_OPTIONS_KEY: input_options,
             "params": params,
             "run": run_json(&main),

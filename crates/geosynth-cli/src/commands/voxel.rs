@@ -354,7 +354,7 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     }
     if let Some(path) = &args.report {
         let mut report = run_json(&run, &stage);
-        report["exemplar"] = json!(args.exemplar);
+        report["exemplar"] = Value::from(args.exemplar.display().to_string());
         report[INPUT_OPTIONS_KEY] = serde_json::to_value(input_options)?;
         report["stage"] = serde_json::to_value(&stage)?;
         write_json_report(path, "voxel", &report)?;

@@ -445,3 +445,51 @@ fn a_report_of_another_command_is_refused_as_such() {
         "input_options: unknown field",
     );
 }
+
+#[cfg(unix)]
+#[test]
+fn reports_of_inputs_whose_names_are_not_utf8_are_written() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = Scratch::new();
+    ok(&["fixtures", "--quiet", "--out", &arg(&dir.path(""))]);
+    for (fixture, command) in [("quilt_bumpy.ply", "quilt"), ("voxel_grid.ply", "voxel")] {
+        // Latin-1 bytes, as an old archive might name its files.
+        let name = dir
+            .path("")
+            .join(std::ffi::OsStr::from_bytes(b"caf\xe9.ply"));
+        std::fs::copy(dir.path(fixture), &name).unwrap();
+        let report = dir.path(&format!("{command}.json"));
+        let mut args: Vec<std::ffi::OsString> = vec![command.into(), name.into()];
+        for a in [
+            "-o",
+            &arg(&dir.path("out.ply")),
+            "--report",
+            &arg(&report),
+            "-q",
+        ] {
+            args.push(a.into());
+        }
+        let small: &[&str] = match command {
+            "quilt" => &["--scale", "1", "--no-quality"],
+            _ => &[
+                "--source-res",
+                "16",
+                "--target-res",
+                "16",
+                "--levels",
+                "1",
+                "--block",
+                "8",
+            ],
+        };
+        args.extend(small.iter().map(Into::into));
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_geosynth"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(run.status.success(), "{command}: {err}");
+        let exemplar = read_json(&report)["exemplar"].as_str().unwrap().to_string();
+        assert!(exemplar.ends_with("caf\u{fffd}.ply"), "{exemplar}");
+    }
+}
