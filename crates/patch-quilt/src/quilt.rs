@@ -5,7 +5,7 @@ use std::time::Instant;
 use distance_field::{GridSpec, SdfGrid};
 use glam::{Vec2, Vec3};
 use mls_surface::{MlsSurface, RelaxParams, nearest_neighbour_spread, relax};
-use pointset_core::{Aabb, Attribute, BucketGrid, PointSet, RunContext, ScalarType, rng};
+use pointset_core::{Aabb, Attribute, BucketGrid, KdIndex, PointSet, RunContext, ScalarType, rng};
 use rand::RngExt;
 
 use crate::blend::{BlendCounts, GapLimits, KeptFootprint, Overlap, blend};
@@ -511,9 +511,18 @@ pub fn quilt(
     let inside: Vec<bool> = pts.iter().map(|&p| in_box(p)).collect();
     let (pts, nrm, patch) = (kept(pts, &inside), kept(nrm, &inside), kept(patch, &inside));
     if pts.is_empty() {
-        return Err(QuiltError::InvalidTexture {
-            reason: "the synthesis produced no points inside the output box".into(),
-        });
+        // The texture holds points inside its box (checked when it was made), and every
+        // placement copies a patch of it: an empty output is a box between the samples.
+        let size = layout.out_hi - layout.out_lo;
+        let spacing = KdIndex::new(texture.canonical_points().positions())?.median_spacing()?;
+        return Err(invalid(
+            "output",
+            format!("{} x {}", size.x, size.y),
+            format!(
+                "a box that holds samples: this one caught none (the exemplar's samples are \
+                 about {spacing} apart)"
+            ),
+        ));
     }
     let up = texture.up();
     let world_p: Vec<Vec3> = pts.iter().map(|&p| up.to_world(p)).collect();

@@ -368,6 +368,9 @@ fn invalid_input_is_an_error() {
         // Larger than 64 exemplar boxes per side (the box here is about 1.3 wide).
         QuiltParams::default().output(OutputSize::Absolute(1e30, 2.0)),
         QuiltParams::default().output(OutputSize::Absolute(2.0, 100.0)),
+        // Between the samples: valid sizes, but no point falls inside (it used to be
+        // called an invalid texture).
+        QuiltParams::default().output(OutputSize::Absolute(0.001, 0.001)),
         QuiltParams::default().pair_distance(0.0),
         QuiltParams::default().blend_reach(f32::NAN),
         QuiltParams::default().blend_reach(0.0),
