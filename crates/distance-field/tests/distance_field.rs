@@ -715,7 +715,7 @@ proptest! {
     #[test]
     fn nrrd_edits_are_read_or_refused(
         edits in proptest::collection::vec((0usize..400, any::<u8>()), 1..6),
-        cut in 0usize..600,
+        cut in proptest::option::of(0usize..600),
         vec4 in any::<bool>(),
         encoding in 0usize..3,
     ) {
@@ -736,7 +736,10 @@ proptest! {
                 *b = byte;
             }
         }
-        bytes.truncate(bytes.len().saturating_sub(cut % bytes.len().max(1)));
+        // Some files are only edited: a cut of `cut % len` would almost always shorten them.
+        if let Some(cut) = cut {
+            bytes.truncate(bytes.len().saturating_sub(cut % bytes.len().max(1)));
+        }
         if let Ok(volume) = nrrd::read(&bytes) {
             let nodes: usize = volume.dims.iter().product();
             prop_assert_eq!(volume.data.len(), nodes * volume.channels);

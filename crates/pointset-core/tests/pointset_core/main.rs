@@ -4,6 +4,7 @@
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod edited_files;
 mod ply_codec;
 mod stl_codec;
 

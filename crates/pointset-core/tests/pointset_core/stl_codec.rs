@@ -56,7 +56,7 @@ proptest! {
     fn stl_edits_are_read_or_refused(
         seed in any::<u64>(),
         edits in proptest::collection::vec((0usize..2000, any::<u8>()), 1..6),
-        cut in 0usize..3000,
+        cut in proptest::option::of(0usize..3000),
         ascii in any::<bool>(),
     ) {
         let mesh = random_mesh(seed, 6, 8);
@@ -65,7 +65,10 @@ proptest! {
         for (at, byte) in edits {
             bytes[at % len] = byte;
         }
-        bytes.truncate(bytes.len().saturating_sub(cut % bytes.len()));
+        // Some files are only edited: a cut of `cut % len` would almost always shorten them.
+        if let Some(cut) = cut {
+            bytes.truncate(len - cut % len);
+        }
         if let Ok(loaded) = read("e.stl", &bytes) {
             let mesh = loaded.geometry.mesh().unwrap();
             let n = mesh.vertex_count() as u32;
