@@ -136,8 +136,9 @@
 //! (the message says whether across the plane or along the up axis), boxes so much taller
 //! than wide that `D(T_in)` would exceed [`MAX_FIELD_NODES`], patches narrower than
 //! [`MIN_PATCH_SPACINGS`] field spacings (the message gives the smallest `patch_size` that
-//! works), padding too narrow for the extra region, and errors of the building blocks. The quality measure refuses exemplar
-//! fields whose fine sampling would exceed [`MAX_MEASURE_NODES`]. An exemplar without
+//! works), padding too narrow for the extra region, and errors of the building blocks.
+//! The quality measure refuses exemplar fields whose fine sampling would exceed
+//! [`MAX_MEASURE_NODES`]. An exemplar without
 //! relief quilts, but its window errors mean nothing
 //! ([`QualityReport::featureless_exemplar`]).
 //!

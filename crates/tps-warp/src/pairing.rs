@@ -204,10 +204,10 @@ impl PairingParams {
     }
 }
 
-/// Most rounds of steps 3–5 [`PairingParams::validate`] accepts. The paper runs "a few";
-/// the rounds stop early anyway once a round changes no pair (every later round would
-/// repeat it), so the bound only catches a mistyped count that would otherwise run for
-/// hours where the pairing cycles.
+/// Most rounds of steps 3–5 [`PairingParams::validate`] accepts. The paper runs "a few",
+/// and the rounds stop early once one changes no pair (every later round would repeat
+/// it); but rounds can keep changing pairs past 100 rounds (on this crate's test sheets),
+/// so a mistyped count (`1000000000` was still running after a minute) needs this bound.
 pub const MAX_PAIRING_ROUNDS: usize = 100;
 
 /// One pair: indices into the source and target slices.

@@ -50,9 +50,9 @@ pub struct RelaxParams {
     pub step: f32,
 }
 
-/// Most relaxation rounds [`RelaxParams::validate`] accepts: the seams settle within the
-/// default 8, and the bound catches a mistyped count (`1000000000` ran without end from
-/// `geosynth voxel --params`).
+/// Most relaxation rounds [`RelaxParams::validate`] accepts (the default is 8): the bound
+/// catches a mistyped count (`1000000000` from `geosynth voxel --params` was still running
+/// after a minute).
 pub const MAX_RELAX_ITERATIONS: usize = 100;
 
 impl Default for RelaxParams {
