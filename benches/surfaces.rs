@@ -24,18 +24,26 @@ fn mls_projection(c: &mut Criterion) {
     let surface = MlsSurface::new(&points, &MlsParams::default()).expect("benchmark setup");
     let mut g = rng::rng_from_seed(2);
     // Queries within one kernel of the surface, as in distance-field sampling near it.
-    let queries: Vec<Vec3> = points
+    let (queries, normals): (Vec<Vec3>, Vec<Vec3>) = points
         .positions()
         .iter()
         .zip(points.normals().expect("normals"))
         .step_by(10)
-        .map(|(p, n)| *p + *n * g.random_range(-1.0..1.0) * surface.kernel())
-        .collect();
+        .map(|(p, n)| (*p + *n * g.random_range(-1.0..1.0) * surface.kernel(), *n))
+        .unzip();
     let mut group = c.benchmark_group("mls_projection_100k_points");
     group.sample_size(10);
     group.throughput(Throughput::Elements(queries.len() as u64));
     group.bench_function("project_all_10k_queries", |b| {
         b.iter(|| surface.project_all(black_box(&queries)))
+    });
+    // Paper 000's two-ray snap along each query's normal, as the quilt's blend runs it.
+    group.bench_function("snap_10k_queries", |b| {
+        b.iter(|| {
+            for (&q, &n) in queries.iter().zip(&normals) {
+                black_box(surface.snap(q, n));
+            }
+        })
     });
     group.finish();
 }

@@ -41,6 +41,13 @@ pub struct Snap {
     pub method: SnapMethod,
 }
 
+/// The input points near one ray's segment, gathered once for every fit along it, and
+/// scratch space for ordering them.
+struct NearSegment {
+    gathered: Vec<usize>,
+    order: Vec<(u32, usize)>,
+}
+
 impl MlsSurface {
     /// The first intersection of the ray `origin + t·direction`, `0 ≤ t ≤ max_t`, with the
     /// surface. `direction` need not be unit length (it is normalized); `None` when there is
@@ -66,26 +73,40 @@ impl MlsSurface {
         }
         let step = 0.25 * self.kernel();
         let steps = (max_t / step).ceil() as usize;
-        let at = |t: f32| self.fit(origin + t * dir).map(|f| f.value);
-        let mut prev: Option<(f32, f32)> = at(0.0).map(|f| (0.0, f));
+        // Every fit lies on the ray up to `max_t`, or (stopping) up to a step past `stop`:
+        // the points near that segment, gathered once, serve them all.
+        let end = max_t.min(stop + step);
+        let mut near = NearSegment {
+            gathered: self.gather_along(origin, origin + end * dir),
+            order: Vec::new(),
+        };
+        let mut prev: Option<(f32, f32)> = self
+            .value_along(origin, dir, 0.0, &mut near)
+            .map(|f| (0.0, f));
         for k in 1..=steps.max(1) {
             if ((k - 1) as f32 * step).min(max_t) >= stop {
                 return None;
             }
             let t = (k as f32 * step).min(max_t);
-            let current = at(t).map(|f| (t, f));
+            let current = self.value_along(origin, dir, t, &mut near).map(|f| (t, f));
             if let (Some((t0, f0)), Some((t1, f1))) = (prev, current) {
                 if f0 == 0.0 {
-                    return self.hit(origin, dir, t0);
+                    return self.hit(origin, dir, t0, &mut near);
                 }
                 let crossing = (f0 < 0.0) != (f1 < 0.0);
                 if crossing && f0.abs().min(f1.abs()) <= step {
-                    return self.refine(origin, dir, (t0, f0), (t1, f1));
+                    return self.refine(origin, dir, (t0, f0), (t1, f1), &mut near);
                 }
             }
             prev = current;
         }
         None
+    }
+
+    /// `f` at `origin + t·dir`, from the points gathered along the ray.
+    fn value_along(&self, origin: Vec3, dir: Vec3, t: f32, near: &mut NearSegment) -> Option<f32> {
+        self.fit_among(origin + t * dir, &near.gathered, &mut near.order)
+            .map(|f| f.value)
     }
 
     fn refine(
@@ -94,13 +115,14 @@ impl MlsSurface {
         dir: Vec3,
         mut lo: (f32, f32),
         mut hi: (f32, f32),
+        near: &mut NearSegment,
     ) -> Option<RayHit> {
         let tolerance = self.params().tolerance * self.kernel();
         for _ in 0..40 {
             let t = 0.5 * (lo.0 + hi.0);
-            let f = self.fit(origin + t * dir)?.value;
+            let f = self.value_along(origin, dir, t, near)?;
             if f.abs() < tolerance || (hi.0 - lo.0) < 1e-7 * self.kernel() {
-                return self.hit(origin, dir, t);
+                return self.hit(origin, dir, t, near);
             }
             if (f < 0.0) == (lo.1 < 0.0) {
                 lo = (t, f);
@@ -108,15 +130,17 @@ impl MlsSurface {
                 hi = (t, f);
             }
         }
-        self.hit(origin, dir, 0.5 * (lo.0 + hi.0))
+        self.hit(origin, dir, 0.5 * (lo.0 + hi.0), near)
     }
 
-    fn hit(&self, origin: Vec3, dir: Vec3, t: f32) -> Option<RayHit> {
+    fn hit(&self, origin: Vec3, dir: Vec3, t: f32, near: &mut NearSegment) -> Option<RayHit> {
         let point = origin + t * dir;
         Some(RayHit {
             t,
             point,
-            normal: self.normal(point)?,
+            normal: self
+                .fit_among(point, &near.gathered, &mut near.order)?
+                .normal,
         })
     }
 

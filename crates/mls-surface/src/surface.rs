@@ -144,6 +144,40 @@ impl MlsSurface {
             .unwrap_or_default()
     }
 
+    /// The input points near the segment `from`–`to`: every point within the support of
+    /// some point of it, and more (those within the support of the ball around the
+    /// segment). [`Self::fit_among`] fits at points of the segment from them.
+    pub(crate) fn gather_along(&self, from: Vec3, to: Vec3) -> Vec<usize> {
+        let reach = 0.5 * from.distance(to) + self.support_radius();
+        // A little slack for the rounding of points computed along the segment.
+        self.candidates(0.5 * (from + to), reach * (1.0 + 1e-5) + 1e-6 * self.h)
+    }
+
+    /// [`Self::fit`] at `x` from `gathered` ([`Self::gather_along`] a segment through
+    /// `x`) instead of the spatial index: the points within the support taken in the order
+    /// the index returns them (nearest first, ties to the lower index), so the sums, and
+    /// the fit, are the same. `order` is scratch space.
+    pub(crate) fn fit_among(
+        &self,
+        x: Vec3,
+        gathered: &[usize],
+        order: &mut Vec<(u32, usize)>,
+    ) -> Option<LocalFit> {
+        if !x.is_finite() {
+            return None;
+        }
+        let radius = self.support_radius();
+        let r2 = radius * radius;
+        order.clear();
+        order.extend(gathered.iter().filter_map(|&i| {
+            let d2 = (self.points[i] - x).length_squared();
+            (d2 <= r2).then_some((d2.to_bits(), i))
+        }));
+        order.sort_unstable();
+        let inside: Vec<usize> = order.iter().map(|&(_, i)| i).collect();
+        self.fit_with(x, &inside)
+    }
+
     /// Evaluates `a`, `n` and `f` at `x` from the candidate points inside the support.
     fn fit_with(&self, x: Vec3, candidates: &[usize]) -> Option<LocalFit> {
         let r2 = self.support_radius().powi(2);
@@ -445,5 +479,57 @@ impl Surface for MlsSurface {
         _likely: Option<f32>,
     ) -> BandAnswer {
         self.signed_distance_up_to(query, max_distance)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+    use pointset_core::{PointSet, rng};
+    use rand::RngExt;
+
+    use super::MlsSurface;
+    use crate::params::MlsParams;
+
+    /// Fits from the points gathered along a segment are the index's fits, bit for bit:
+    /// the same points in the same order (rays rely on it to gather once).
+    #[test]
+    fn fits_among_points_gathered_along_a_segment_are_the_index_fits() {
+        let mut g = rng::rng_from_seed(4);
+        // A bumpy sheet with noise, and coincident samples to make ties in the order.
+        let mut positions: Vec<Vec3> = (0..1500)
+            .map(|_| {
+                let (x, y) = (g.random::<f32>(), g.random::<f32>());
+                Vec3::new(x, y, 0.05 * (9.0 * x).sin() + 0.003 * g.random::<f32>())
+            })
+            .collect();
+        positions.extend_from_within(0..100);
+        let n = positions.len();
+        let set = PointSet::new(positions)
+            .unwrap()
+            .with_normals(vec![Vec3::Z; n])
+            .unwrap();
+        let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
+        let mut order = Vec::new();
+        let (mut compared, mut fitted) = (0, 0);
+        for _ in 0..200 {
+            let (x, y) = (g.random::<f32>(), g.random::<f32>());
+            let from = Vec3::new(
+                x,
+                y,
+                0.05 * (9.0 * x).sin() + 0.04 * (g.random::<f32>() - 0.5),
+            );
+            let to = from + 0.1 * (Vec3::new(g.random(), g.random(), g.random()) - 0.5);
+            let gathered = surface.gather_along(from, to);
+            for k in 0..=16 {
+                let x = from.lerp(to, k as f32 / 16.0);
+                let by_index = surface.fit(x);
+                assert_eq!(surface.fit_among(x, &gathered, &mut order), by_index);
+                compared += 1;
+                fitted += usize::from(by_index.is_some());
+            }
+        }
+        // Most of the points compared have a fit (the comparison is not of two `None`s).
+        assert!(fitted > compared / 2, "{fitted} of {compared}");
     }
 }
