@@ -172,17 +172,32 @@ impl ParamsFile {
     }
 
     /// The input options the document records (`T::default()`, every option unset, when
-    /// it records none). Errors name the file and the option.
-    pub fn input_options<T: DeserializeOwned + Default>(&self) -> CliResult<T> {
+    /// it records none), checked. Errors name the file and the option.
+    pub fn input_options<T: RecordedInput>(&self) -> CliResult<T> {
         match &self.0 {
             Some(Document {
                 name,
                 input_options: Some(options),
                 ..
-            }) => Ok(serde_json::from_value(options.clone())
-                .map_err(|e| format!("{name}: {INPUT_OPTIONS_KEY}: {e}"))?),
+            }) => {
+                let options: T = serde_json::from_value(options.clone())
+                    .map_err(|e| format!("{name}: {INPUT_OPTIONS_KEY}: {e}"))?;
+                options
+                    .check()
+                    .map_err(|e| format!("{name}: {INPUT_OPTIONS_KEY}: {e}"))?;
+                Ok(options)
+            }
             _ => Ok(T::default()),
         }
+    }
+}
+
+/// A command's input options as its reports record them under [`INPUT_OPTIONS_KEY`].
+pub trait RecordedInput: DeserializeOwned + Default {
+    /// Why recorded values cannot be used, if they cannot (checked as they are read, so
+    /// the error names the file; by default every value can).
+    fn check(&self) -> Result<(), String> {
+        Ok(())
     }
 }
 

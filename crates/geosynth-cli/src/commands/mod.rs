@@ -20,7 +20,7 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use crate::CliResult;
-use crate::params_file::ParamsFile;
+use crate::params_file::{ParamsFile, RecordedInput};
 
 /// Triangles probed for intersecting parts before a mesh is signed by pseudo-normals
 /// (about 0.1 s on 2 cores).
@@ -86,6 +86,8 @@ pub struct MeshInputOptions {
     /// `--orient-faces`.
     pub orient_faces: bool,
 }
+
+impl RecordedInput for MeshInputOptions {}
 
 impl SignArgs {
     /// These settings with `--orient-faces` on also when `file` records it, and the input

@@ -18,7 +18,8 @@ use super::SignArgs;
 use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
 use crate::params_file::{
-    GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, RECONSTRUCT_REPORTS, ReportKind, SDF_REPORTS,
+    GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, RECONSTRUCT_REPORTS, RecordedInput, ReportKind,
+    SDF_REPORTS,
 };
 use crate::{CliResult, Globals};
 
@@ -137,16 +138,28 @@ struct ReconstructInputOptions {
     trim: Option<f32>,
 }
 
+impl RecordedInput for ReconstructInputOptions {
+    fn check(&self) -> Result<(), String> {
+        check_trim(self.trim).map_err(|e| format!("trim {e}"))
+    }
+}
+
+/// Refuses a trim distance that is not a positive number of spacings.
+fn check_trim(trim: Option<f32>) -> Result<(), String> {
+    match trim {
+        Some(t) if !(t.is_finite() && t > 0.0) => {
+            Err(format!("must be a positive number of spacings, not {t}"))
+        }
+        _ => Ok(()),
+    }
+}
+
 impl ReconstructInputOptions {
     /// The options given on the command line over those of `--params`' file.
     fn of(args: &ReconstructArgs, file: &ParamsFile) -> CliResult<Self> {
         let recorded: Self = file.input_options()?;
+        check_trim(args.trim).map_err(|e| format!("--trim {e}"))?;
         let trim = args.trim.or(recorded.trim);
-        if let Some(t) = trim
-            && !(t.is_finite() && t > 0.0)
-        {
-            return Err(format!("--trim must be a positive number of spacings, not {t}").into());
-        }
         Ok(Self {
             orient_normals: args.orient_normals || recorded.orient_normals,
             trim,

@@ -435,15 +435,24 @@ fn a_report_of_another_command_is_refused_as_such() {
         Some(unnamed),
         "must name the command",
     );
-    // Input options are checked like parameters.
-    let typo = r#"{ "input_options": { "orient_normal": true } }"#;
-    assert_params_refused(
-        &dir,
-        "quilt",
-        &sphere,
-        Some(typo),
-        "input_options: unknown field",
-    );
+    // Input options are checked like parameters, and their errors name the file.
+    for (command, options, said) in [
+        ("quilt", r#"{ "orient_normal": true }"#, "unknown field"),
+        (
+            "quilt",
+            r#"{ "relief": 0 }"#,
+            "relief must be a positive fraction",
+        ),
+        (
+            "reconstruct",
+            r#"{ "trim": -1 }"#,
+            "trim must be a positive number",
+        ),
+    ] {
+        let document = format!(r#"{{ "input_options": {options} }}"#);
+        let said = format!("refused.json: input_options: {said}");
+        assert_params_refused(&dir, command, &sphere, Some(&document), &said);
+    }
 }
 
 #[cfg(unix)]
