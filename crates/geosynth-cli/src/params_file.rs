@@ -192,6 +192,17 @@ impl ParamsFile {
     }
 }
 
+/// Refuses `value` (the option `name`) unless it is unset or a positive, finite number of
+/// `unit`s: `relief must be a positive fraction, not 0`.
+pub fn check_positive(name: &str, value: Option<f32>, unit: &str) -> Result<(), String> {
+    match value {
+        Some(v) if !(v.is_finite() && v > 0.0) => {
+            Err(format!("{name} must be a positive {unit}, not {v}"))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// A command's input options as its reports record them under [`INPUT_OPTIONS_KEY`].
 pub trait RecordedInput: DeserializeOwned + Default {
     /// Why recorded values cannot be used, if they cannot (checked as they are read, so

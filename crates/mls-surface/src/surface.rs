@@ -174,18 +174,17 @@ impl MlsSurface {
             (d2 <= r2).then_some((d2.to_bits(), i))
         }));
         order.sort_unstable();
-        let inside: Vec<usize> = order.iter().map(|&(_, i)| i).collect();
-        self.fit_with(x, &inside)
+        self.fit_with(x, order.iter().map(|&(_, i)| i))
     }
 
     /// Evaluates `a`, `n` and `f` at `x` from the candidate points inside the support.
-    fn fit_with(&self, x: Vec3, candidates: &[usize]) -> Option<LocalFit> {
+    fn fit_with(&self, x: Vec3, candidates: impl IntoIterator<Item = usize>) -> Option<LocalFit> {
         let r2 = self.support_radius().powi(2);
         let inv_h2 = 1.0 / (self.h * self.h);
         // Offsets `p_i − x` are summed instead of positions: they are small, so `a(x) − x`
         // keeps full f32 precision far from the origin.
         let (mut sw, mut sd, mut sn, mut count) = (0.0f32, Vec3::ZERO, Vec3::ZERO, 0usize);
-        for &i in candidates {
+        for i in candidates {
             let d = self.points[i] - x;
             let d2 = d.length_squared();
             if d2 > r2 {
@@ -221,7 +220,7 @@ impl MlsSurface {
         if !x.is_finite() {
             return None;
         }
-        self.fit_with(x, &self.candidates(x, self.support_radius()))
+        self.fit_with(x, self.candidates(x, self.support_radius()))
     }
 
     /// The weighted normal direction `n(x)`.
@@ -256,7 +255,7 @@ impl MlsSurface {
         // reused while the iterate stays within 0.5·support of it.
         let candidates = self.candidates(x, GATHER_RADIUS * self.support_radius());
         attempt.nearest_gathered = candidates.first().copied();
-        attempt.start = self.fit_with(x, &candidates);
+        attempt.start = self.fit_with(x, candidates.iter().copied());
         if let Some(start) = attempt.start {
             attempt.projection = self.iterate_projection(x, start, candidates);
         }
@@ -283,7 +282,7 @@ impl MlsSurface {
                     anchor = y;
                     candidates = self.candidates(anchor, radius + slack);
                 }
-                fit = self.fit_with(y, &candidates)?;
+                fit = self.fit_with(y, candidates.iter().copied())?;
             }
             if fit.value.abs() < tolerance {
                 return Some(self.finish(x, y, fit.normal, iteration, true));
@@ -294,7 +293,7 @@ impl MlsSurface {
             }
             if iteration == self.params.max_iterations {
                 let normal = self
-                    .fit_with(y, &candidates)
+                    .fit_with(y, candidates.iter().copied())
                     .map_or(fit.normal, |f| f.normal);
                 return Some(self.finish(x, y, normal, iteration, false));
             }

@@ -23,7 +23,9 @@ use crate::json_report::write_json_report;
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
 };
-use crate::params_file::{GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, QUILT_REPORTS, RecordedInput};
+use crate::params_file::{
+    GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, QUILT_REPORTS, RecordedInput, check_positive,
+};
 use crate::{CliResult, Globals};
 
 /// Which parts of the algorithm run.
@@ -299,12 +301,7 @@ struct InputOptions {
 
 impl RecordedInput for InputOptions {
     fn check(&self) -> Result<(), String> {
-        match self.relief {
-            Some(r) if !(r.is_finite() && r > 0.0) => {
-                Err(format!("relief must be a positive fraction, not {r}"))
-            }
-            _ => Ok(()),
-        }
+        check_positive("relief", self.relief, "fraction")
     }
 }
 

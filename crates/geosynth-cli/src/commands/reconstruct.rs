@@ -19,7 +19,7 @@ use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
 use crate::params_file::{
     GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, RECONSTRUCT_REPORTS, RecordedInput, ReportKind,
-    SDF_REPORTS,
+    SDF_REPORTS, check_positive,
 };
 use crate::{CliResult, Globals};
 
@@ -140,17 +140,7 @@ struct ReconstructInputOptions {
 
 impl RecordedInput for ReconstructInputOptions {
     fn check(&self) -> Result<(), String> {
-        check_trim(self.trim).map_err(|e| format!("trim {e}"))
-    }
-}
-
-/// Refuses a trim distance that is not a positive number of spacings.
-fn check_trim(trim: Option<f32>) -> Result<(), String> {
-    match trim {
-        Some(t) if !(t.is_finite() && t > 0.0) => {
-            Err(format!("must be a positive number of spacings, not {t}"))
-        }
-        _ => Ok(()),
+        check_positive("trim", self.trim, "number of spacings")
     }
 }
 
@@ -158,7 +148,7 @@ impl ReconstructInputOptions {
     /// The options given on the command line over those of `--params`' file.
     fn of(args: &ReconstructArgs, file: &ParamsFile) -> CliResult<Self> {
         let recorded: Self = file.input_options()?;
-        check_trim(args.trim).map_err(|e| format!("--trim {e}"))?;
+        check_positive("--trim", args.trim, "number of spacings")?;
         let trim = args.trim.or(recorded.trim);
         Ok(Self {
             orient_normals: args.orient_normals || recorded.orient_normals,

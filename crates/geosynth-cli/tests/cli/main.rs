@@ -1276,23 +1276,23 @@ fn sdf_signs_intersecting_pieces_by_winding_numbers_when_asked() {
 /// Runs `geosynth voxel` on `mesh` at 16³ in one level of 8³ blocks, with `extra`
 /// arguments, and returns what it printed.
 fn tiny_voxel(mesh: &Path, out: &Path, extra: &[&str]) -> String {
-    let mut args = vec![
-        "voxel",
-        mesh.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--source-res",
-        "16",
-        "--target-res",
-        "16",
-        "--levels",
-        "1",
-        "--block",
-        "8",
-    ];
+    let mut args = vec!["voxel", mesh.to_str().unwrap(), "-o", out.to_str().unwrap()];
+    args.extend_from_slice(TINY_VOXEL);
     args.extend_from_slice(extra);
     ok(&args)
 }
+
+/// `voxel` settings small enough for a test: a 16³ source and target, one level, 8³ blocks.
+const TINY_VOXEL: &[&str] = &[
+    "--source-res",
+    "16",
+    "--target-res",
+    "16",
+    "--levels",
+    "1",
+    "--block",
+    "8",
+];
 
 /// An icosphere, and the same with every 9th triangle turned over.
 fn icosphere_with_turned_faces() -> (geosynth::core::TriMesh, geosynth::core::TriMesh) {

@@ -6,7 +6,9 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use crate::{Scratch, arg, geosynth, icosphere_with_turned_faces, ok, write_with_defaults};
+use crate::{
+    Scratch, TINY_VOXEL, arg, geosynth, icosphere_with_turned_faces, ok, write_with_defaults,
+};
 
 fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
@@ -480,16 +482,7 @@ fn reports_of_inputs_whose_names_are_not_utf8_are_written() {
         }
         let small: &[&str] = match command {
             "quilt" => &["--scale", "1", "--no-quality"],
-            _ => &[
-                "--source-res",
-                "16",
-                "--target-res",
-                "16",
-                "--levels",
-                "1",
-                "--block",
-                "8",
-            ],
+            _ => TINY_VOXEL,
         };
         args.extend(small.iter().map(Into::into));
         let run = std::process::Command::new(env!("CARGO_BIN_EXE_geosynth"))

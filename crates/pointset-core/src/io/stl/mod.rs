@@ -82,11 +82,11 @@ pub(crate) fn starts_like_ascii(bytes: &[u8]) -> bool {
 ///   facet normal 0 -1 0\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex 0 0 1\n endloop\n endfacet\n\
 /// endsolid tet\n";
 /// let mesh = read_stl(stl.as_bytes())?;
-/// let mesh = mesh.mesh().expect("an STL file is a mesh");
+/// let mesh = mesh.mesh().ok_or("an STL file is a mesh")?;
 /// // Six corners, four distinct positions: shared corners become shared vertices.
 /// assert_eq!(mesh.vertices().len(), 4);
 /// assert_eq!(mesh.triangles(), &[[0, 1, 2], [0, 2, 3]]);
-/// # Ok::<(), pointset_core::Error>(())
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_stl(bytes: &[u8]) -> Result<Geometry> {
     read_stl_at(bytes, false).map(|file| file.geometry)
