@@ -46,6 +46,12 @@ fn warp(c: &mut Criterion) {
     group.bench_function("positions_jacobians_normals_100k", |b| {
         b.iter(|| spline.warp(black_box(points.positions()), points.normals()))
     });
+    group.bench_function("positions_100k", |b| {
+        b.iter(|| spline.eval_many(black_box(points.positions())))
+    });
+    group.bench_function("jacobians_100k", |b| {
+        b.iter(|| spline.jacobians(black_box(points.positions())))
+    });
     group.finish();
 }
 

@@ -4,7 +4,6 @@
 use glam::{Vec2, Vec3};
 use mls_surface::{ClusterParams, Covariance, MlsSurface, adaptive_clusters};
 use pointset_core::Aabb;
-use rayon::prelude::*;
 use tps_warp::{
     PairingParams, PairingPoint, ThinPlateSpline, TpsParams, anchors_in_regions, pair_points,
 };
@@ -220,17 +219,16 @@ pub(crate) fn warp_patch(
     else {
         return counts;
     };
-    let moved: Vec<Vec3> = points.par_iter().map(|&p| spline.eval(p)).collect();
+    let moved = spline.eval_many(points);
     if moved.iter().any(|p| !p.is_finite()) {
         return counts;
     }
     // Normals through the Jacobian (§5.2), only where step 6 can keep the point.
-    let turned: Vec<Option<Vec3>> = points
-        .par_iter()
-        .zip(normals.par_iter())
-        .zip(moved.par_iter())
-        .map(|((&p, &n), &m)| keep.may_land(m).then(|| spline.transform_normal(p, n)))
+    let landing: Vec<usize> = (0..moved.len())
+        .filter(|&i| keep.may_land(moved[i]))
         .collect();
+    let landing_points: Vec<Vec3> = landing.iter().map(|&i| points[i]).collect();
+    let jacobians = spline.jacobians(&landing_points);
     let shifts: Vec<f32> = moved
         .iter()
         .zip(points.iter())
@@ -239,10 +237,8 @@ pub(crate) fn warp_patch(
     counts.mean_displacement = shifts.iter().sum::<f32>() / shifts.len().max(1) as f32;
     counts.max_displacement = shifts.iter().copied().fold(0.0, f32::max);
     points.copy_from_slice(&moved);
-    for (n, turned) in normals.iter_mut().zip(turned) {
-        if let Some(turned) = turned {
-            *n = turned;
-        }
+    for (i, j) in landing.into_iter().zip(jacobians) {
+        normals[i] = ThinPlateSpline::normal_through(j, normals[i]);
     }
     counts.skipped = false;
     counts

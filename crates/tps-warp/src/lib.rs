@@ -74,7 +74,10 @@
 //!
 //! ## Complexity, determinism, errors
 //!
-//! Fitting is `O(n³)` (LU of `n + 4`), evaluation `O(n)` per point (parallel over points).
+//! Fitting is `O(n³)` (LU of `n + 4`), evaluation `O(n)` per point. Many points at once
+//! ([`ThinPlateSpline::eval_many`], [`ThinPlateSpline::jacobians`], [`ThinPlateSpline::warp`])
+//! run in parallel and in blocks of lanes for the vector unit, with results equal bit for
+//! bit to one point at a time.
 //! Pairing is `O(n m)` per round without a distance threshold, less with one. Everything is
 //! deterministic. Errors are [`TpsError`].
 //!

@@ -6,6 +6,8 @@ use rayon::prelude::*;
 
 use crate::error::{Result, TpsError};
 
+mod batch;
+
 /// What to do when the control points do not span 3D (all coplanar, collinear, or a single
 /// point) and the affine part of the spline is therefore undetermined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -320,29 +322,38 @@ impl ThinPlateSpline {
     /// tangents of `n`, `n' = (J u × J v) / |J u × J v|`. Returns `n` unchanged if the warp
     /// collapses the tangent plane (a degenerate Jacobian).
     pub fn transform_normal(&self, x: Vec3, n: Vec3) -> Vec3 {
+        Self::normal_through(self.jacobian(x), n)
+    }
+
+    /// [`Self::transform_normal`] with the Jacobian `j` at the point already known (from
+    /// [`Self::jacobians`]): `n' = (J u × J v) / |J u × J v|`, or `n` unchanged where `J`
+    /// collapses the tangent plane or `n` has no direction.
+    pub fn normal_through(j: DMat3, n: Vec3) -> Vec3 {
         let Some(n) = n.try_normalize() else {
             return n;
         };
         let n = n.as_dvec3();
         let u = n.any_orthonormal_vector();
         let v = n.cross(u);
-        let j = self.jacobian(x);
         let m = (j * u).cross(j * v);
         m.try_normalize().map_or(n.as_vec3(), |m| m.as_vec3())
     }
 
-    /// Warps many points (and their normals, when given) in parallel.
+    /// Warps many points (and their normals, when given) in parallel: [`Self::eval_many`]
+    /// and [`Self::normal_through`] the [`Self::jacobians`]. Normals pair with points in
+    /// order; the turned normals are as many as the shorter of the two.
     pub fn warp(
         &self,
         points: &[Vec3],
         normals: Option<&[Vec3]>,
     ) -> (Vec<Vec3>, Option<Vec<Vec3>>) {
-        let moved = points.par_iter().map(|&p| self.eval(p)).collect();
+        let moved = self.eval_many(points);
         let turned = normals.map(|ns| {
-            points
-                .par_iter()
-                .zip(ns.par_iter())
-                .map(|(&p, &n)| self.transform_normal(p, n))
+            let count = points.len().min(ns.len());
+            self.jacobians(&points[..count])
+                .into_par_iter()
+                .zip(&ns[..count])
+                .map(|(j, &n)| Self::normal_through(j, n))
                 .collect()
         });
         (moved, turned)
