@@ -44,8 +44,8 @@ pub struct Snap {
 /// The input points near one ray's segment, gathered once for every fit along it, and
 /// scratch space for ordering them.
 struct NearSegment {
-    gathered: Vec<usize>,
-    order: Vec<(u32, usize)>,
+    gathered: Vec<u32>,
+    order: Vec<u64>,
 }
 
 impl MlsSurface {

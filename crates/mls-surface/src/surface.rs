@@ -1,6 +1,7 @@
 //! The MLS point-set surface of Adamson & Alexa (2004): evaluation and projection.
 
 use glam::Vec3;
+use pointset_core::spatial::{key_index, nearness_key};
 use pointset_core::{BandAnswer, KdIndex, PointSet, Surface, SurfacePoint};
 use rayon::prelude::*;
 
@@ -147,10 +148,12 @@ impl MlsSurface {
     /// The input points near the segment `from`–`to`: every point within the support of
     /// some point of it, and more (those within the support of the ball around the
     /// segment). [`Self::fit_among`] fits at points of the segment from them.
-    pub(crate) fn gather_along(&self, from: Vec3, to: Vec3) -> Vec<usize> {
+    pub(crate) fn gather_along(&self, from: Vec3, to: Vec3) -> Vec<u32> {
         let reach = 0.5 * from.distance(to) + self.support_radius();
         // A little slack for the rounding of points computed along the segment.
-        self.candidates(0.5 * (from + to), reach * (1.0 + 1e-5) + 1e-6 * self.h)
+        let gathered = self.candidates(0.5 * (from + to), reach * (1.0 + 1e-5) + 1e-6 * self.h);
+        // Lossless: a `KdIndex` holds at most `u32::MAX` points.
+        gathered.into_iter().map(|i| i as u32).collect()
     }
 
     /// [`Self::fit`] at `x` from `gathered` ([`Self::gather_along`] a segment through
@@ -160,8 +163,8 @@ impl MlsSurface {
     pub(crate) fn fit_among(
         &self,
         x: Vec3,
-        gathered: &[usize],
-        order: &mut Vec<(u32, usize)>,
+        gathered: &[u32],
+        order: &mut Vec<u64>,
     ) -> Option<LocalFit> {
         if !x.is_finite() {
             return None;
@@ -170,11 +173,11 @@ impl MlsSurface {
         let r2 = radius * radius;
         order.clear();
         order.extend(gathered.iter().filter_map(|&i| {
-            let d2 = (self.points[i] - x).length_squared();
-            (d2 <= r2).then_some((d2.to_bits(), i))
+            let d2 = (self.points[i as usize] - x).length_squared();
+            (d2 <= r2).then_some(nearness_key(d2, i))
         }));
         order.sort_unstable();
-        self.fit_with(x, order.iter().map(|&(_, i)| i))
+        self.fit_with(x, order.iter().map(|&key| key_index(key) as usize))
     }
 
     /// Evaluates `a`, `n` and `f` at `x` from the candidate points inside the support.

@@ -16,6 +16,21 @@ pub struct Neighbour {
     pub distance_squared: f32,
 }
 
+/// A key that sorts neighbours in the order every query of a [`KdIndex`] returns them:
+/// nearest first, ties to the lower index. The squared distance's bits fill the high half
+/// (squared distances are never negative, so their bits order as their values do, as
+/// `f32::total_cmp` orders them) and the index the low half; an integer key sorts faster
+/// than comparing floats. A `KdIndex` holds at most `u32::MAX` points, so its indices fit.
+/// [`key_index`] reads the index back.
+pub fn nearness_key(distance_squared: f32, index: u32) -> u64 {
+    (u64::from(distance_squared.to_bits()) << 32) | u64::from(index)
+}
+
+/// The index a [`nearness_key`] was made with.
+pub fn key_index(key: u64) -> u32 {
+    (key & u64::from(u32::MAX)) as u32
+}
+
 /// A static k-d tree for k-nearest-neighbour and radius queries over 3D points.
 ///
 /// Built once from a slice; the point at slice position `i` is reported as index `i`.
@@ -119,7 +134,7 @@ impl KdIndex {
             .nearest_n::<SquaredEuclidean<f32>>(k)
             .execute();
         Ok(Self::sorted(
-            found.into_iter().map(|r| (r.item as usize, r.distance)),
+            found.into_iter().map(|r| (r.item, r.distance)),
         ))
     }
 
@@ -154,7 +169,7 @@ impl KdIndex {
             .unsorted()
             .execute();
         Ok(Self::sorted(
-            found.into_iter().map(|r| (r.item as usize, r.distance)),
+            found.into_iter().map(|r| (r.item, r.distance)),
         ))
     }
 
@@ -173,7 +188,7 @@ impl KdIndex {
             .within(radius * radius)
             .execute();
         Ok(Self::sorted(
-            found.into_iter().map(|r| (r.item as usize, r.distance)),
+            found.into_iter().map(|r| (r.item, r.distance)),
         ))
     }
 
@@ -224,18 +239,16 @@ impl KdIndex {
         Ok(d.get(d.len() / 2).copied().unwrap_or(0.0))
     }
 
-    fn sorted(found: impl Iterator<Item = (usize, f32)>) -> Vec<Neighbour> {
-        let mut out: Vec<Neighbour> = found
-            .map(|(index, distance_squared)| Neighbour {
-                index,
-                distance_squared,
+    fn sorted(found: impl Iterator<Item = (u32, f32)>) -> Vec<Neighbour> {
+        // Every key is distinct (indices are), so an unstable sort gives the one order
+        // there is.
+        let mut keys: Vec<u64> = found.map(|(i, d2)| nearness_key(d2, i)).collect();
+        keys.sort_unstable();
+        keys.into_iter()
+            .map(|key| Neighbour {
+                index: key_index(key) as usize,
+                distance_squared: f32::from_bits((key >> 32) as u32),
             })
-            .collect();
-        // Nearest first, ties to the lower index. Squared distances are never negative, so
-        // their bits order as their values do (as `f32::total_cmp` orders them), and an
-        // integer key sorts faster than comparing floats; every key is distinct (indices
-        // are), so an unstable sort gives the one order there is.
-        out.sort_unstable_by_key(|n| (n.distance_squared.to_bits(), n.index));
-        out
+            .collect()
     }
 }

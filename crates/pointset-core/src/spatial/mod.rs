@@ -4,4 +4,4 @@ mod bucket_grid;
 mod kd_index;
 
 pub use bucket_grid::{BucketGrid, PointKey};
-pub use kd_index::{KdIndex, Neighbour};
+pub use kd_index::{KdIndex, Neighbour, key_index, nearness_key};

@@ -13,6 +13,7 @@ use std::path::Path;
 use glam::{DVec3, Vec2, Vec3};
 use pointset_core::io::ply::PlyEncoding;
 use pointset_core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions};
+use pointset_core::spatial::{key_index, nearness_key};
 use pointset_core::testdata::shared_data;
 use pointset_core::{
     Attribute, BucketGrid, Error, KdIndex, Location, PointSet, ScalarType, TriMesh, rng,
@@ -675,6 +676,21 @@ proptest! {
         within.sort_unstable();
         let expected: Vec<usize> = (0..points.len()).filter(|&i| points[i].distance_squared(q) <= r * r).collect();
         prop_assert_eq!(within, expected);
+    }
+
+    #[test]
+    fn nearness_keys_order_as_distance_then_index(
+        a in (0.0f32..=f32::MAX, any::<u32>()),
+        b in (0.0f32..=f32::MAX, any::<u32>()),
+        tie in any::<bool>(),
+    ) {
+        // Half the cases share a distance, so that the index decides.
+        let b = if tie { (a.0, b.1) } else { b };
+        let (ka, kb) = (nearness_key(a.0, a.1), nearness_key(b.0, b.1));
+        let by_value = a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        prop_assert_eq!(ka.cmp(&kb), by_value);
+        prop_assert_eq!(key_index(ka), a.1);
+        prop_assert_eq!(key_index(kb), b.1);
     }
 
     #[test]
