@@ -152,16 +152,17 @@ pub enum Error {
     },
     /// A raw height field whose byte count does not match the size its name gives.
     #[error(
-        "a {width}x{height} raw f32 height field needs {expected_bytes} bytes (4 per sample), \
-         but the data has {found_bytes}"
+        "a {width}x{height} raw f32 height field needs {} bytes (4 per sample), \
+         but the data has {found_bytes}",
+        expected_bytes.map_or_else(|| format!("more than {}", usize::MAX), |n| n.to_string())
     )]
     RawSizeMismatch {
         /// Samples per row.
         width: usize,
         /// Rows.
         height: usize,
-        /// `width · height · 4`, saturated.
-        expected_bytes: usize,
+        /// `width · height · 4`; `None` when that exceeds `usize::MAX` (no file holds it).
+        expected_bytes: Option<usize>,
         /// Bytes present.
         found_bytes: usize,
     },

@@ -62,7 +62,7 @@ impl HeightField {
             return Err(Error::RawSizeMismatch {
                 width,
                 height,
-                expected_bytes: needed.unwrap_or(usize::MAX),
+                expected_bytes: needed,
                 found_bytes: bytes.len(),
             });
         }
@@ -214,7 +214,7 @@ mod tests {
             matches!(
                 short,
                 Error::RawSizeMismatch {
-                    expected_bytes: 16,
+                    expected_bytes: Some(16),
                     found_bytes: 15,
                     ..
                 }
@@ -222,6 +222,22 @@ mod tests {
             "{short}"
         );
         assert!(short.to_string().contains("16 bytes"), "{short}");
+        let huge = HeightField::from_f32le(&[0u8; 16], usize::MAX / 2, 3).unwrap_err();
+        assert!(
+            matches!(
+                huge,
+                Error::RawSizeMismatch {
+                    expected_bytes: None,
+                    ..
+                }
+            ),
+            "{huge}"
+        );
+        assert!(
+            huge.to_string()
+                .contains(&format!("needs more than {} bytes", usize::MAX)),
+            "{huge}"
+        );
         assert_eq!(dims_from_name("SainteHelens_317x460"), Some((317, 460)));
         assert_eq!(dims_from_name("nodims"), None);
     }
