@@ -259,30 +259,50 @@ impl Problem<'_> {
         Some(p.w_p * distance + p.w_n * normal + p.w_v * variation)
     }
 
-    /// `g(s, q, Φ)`: coherence of the pair `s → q` with the pairs of `q`'s neighbours in
-    /// `pairing` (its own pair excluded), weighted by `θ` of distances in `Q`. Terms whose
-    /// direction is undefined (zero-length pair or cancelling neighbour directions) are 0.
-    fn coherence(&self, s: usize, q: usize, source_of: &[Option<usize>]) -> f32 {
+    /// `f_l` and `f_d` of Eq. 3 at target `q`: the `θ`-weighted mean length and summed
+    /// direction of the pairs of `q`'s neighbours in `pairing` (its own pair excluded, as
+    /// `neighbours` holds only other targets). `None` when no neighbour is paired. They do
+    /// not depend on the source, so a round computes them once per target.
+    fn neighbour_pairs(&self, q: usize, pairing: &[Option<usize>]) -> Option<NeighbourPairs> {
         let (mut sum_w, mut sum_len, mut sum_dir) = (0.0f32, 0.0f32, Vec3::ZERO);
         for &(r, w) in &self.neighbours[q] {
-            if let Some(t) = source_of[r] {
+            if let Some(t) = pairing[r] {
                 let v = self.sources[t].position - self.targets[r].position;
                 sum_w += w;
                 sum_len += w * v.length();
                 sum_dir += w * v;
             }
         }
-        if sum_w <= 0.0 {
+        (sum_w > 0.0).then(|| NeighbourPairs {
+            mean_length: sum_len / sum_w,
+            mean_direction: sum_dir.try_normalize(),
+        })
+    }
+
+    /// `g(s, q, Φ)`: coherence of the pair `s → q` with `around`, the pairs of `q`'s
+    /// neighbours in `Φ` ([`Self::neighbour_pairs`]). 0 without paired neighbours; the
+    /// direction term is 0 where a direction is undefined (a zero-length pair, or
+    /// neighbour directions that cancel).
+    fn coherence(&self, s: usize, q: usize, around: Option<&NeighbourPairs>) -> f32 {
+        let Some(around) = around else {
             return 0.0;
-        }
+        };
         let v = self.sources[s].position - self.targets[q].position;
-        let length_term = self.params.w_l * (v.length() - sum_len / sum_w).abs();
-        let direction_term = match (v.try_normalize(), sum_dir.try_normalize()) {
+        let length_term = self.params.w_l * (v.length() - around.mean_length).abs();
+        let direction_term = match (v.try_normalize(), around.mean_direction) {
             (Some(dir), Some(mean)) => 0.5 * self.params.w_d * (1.0 - mean.dot(dir)),
             _ => 0.0,
         };
         length_term + direction_term
     }
+}
+
+/// The pairs around one target that `g` compares a candidate pair with.
+struct NeighbourPairs {
+    /// `f_l`: the `θ`-weighted mean length.
+    mean_length: f32,
+    /// `f_d`: the unit `θ`-weighted mean direction; `None` where the directions cancel.
+    mean_direction: Option<Vec3>,
 }
 
 fn check(points: &[PairingPoint], what: &'static str) -> Result<()> {
@@ -384,10 +404,11 @@ pub fn pair_points(
         let mut used = vec![false; sources.len()];
         let mut next: Vec<Option<usize>> = vec![None; targets.len()];
         for q in (0..targets.len()).filter(|&q| previous[q].is_some()) {
+            let around = problem.neighbour_pairs(q, &previous);
             let best = problem.candidates[q]
                 .iter()
                 .filter(|(s, _)| !used[*s])
-                .map(|&(s, c)| (s, c + problem.coherence(s, q, &previous)))
+                .map(|&(s, c)| (s, c + problem.coherence(s, q, around.as_ref())))
                 .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
             if let Some((s, _)) = best {
                 used[s] = true;
@@ -409,7 +430,8 @@ pub fn pair_points(
             .iter()
             .find(|(t, _)| *t == s)
             .map_or(0.0, |(_, c)| *c);
-        f64::from(c + problem.coherence(s, q, &source_of))
+        let around = problem.neighbour_pairs(q, &source_of);
+        f64::from(c + problem.coherence(s, q, around.as_ref()))
     };
     let pairs: Vec<Pair> = source_of
         .iter()
