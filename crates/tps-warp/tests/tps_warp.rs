@@ -381,6 +381,78 @@ fn a_shifted_noisy_copy_is_paired_back_to_its_originals() {
     assert!(pairing.cost.is_finite() && pairing.cost > 0.0);
 }
 
+/// Eq. 1 for the pairing's final pairs, from scratch: `c` of Eq. 2 plus `g` of Eq. 3 with
+/// the neighbours (other targets within `3σ`, weights `θ`) found by brute force.
+fn eq1_cost(
+    sources: &[PairingPoint],
+    targets: &[PairingPoint],
+    params: &PairingParams,
+    sigma: f32,
+    pairs: &[(usize, usize)],
+) -> f64 {
+    let source_of = |q: usize| pairs.iter().find(|p| p.1 == q).map(|p| p.0);
+    let mut total = 0.0f64;
+    for &(s, q) in pairs {
+        let (ps, pq) = (&sources[s], &targets[q]);
+        let v = ps.position - pq.position;
+        let c = params.w_p * v.length()
+            + params.w_n * 0.5 * (1.0 - ps.normal.dot(pq.normal))
+            + params.w_v * (ps.variation - pq.variation).powi(2);
+        let (mut sum_w, mut sum_len, mut sum_dir) = (0.0f64, 0.0f64, DVec3::ZERO);
+        for (r, t) in targets.iter().enumerate() {
+            let d = t.position.distance(pq.position);
+            let Some(u) = source_of(r).filter(|_| r != q && d <= 3.0 * sigma) else {
+                continue;
+            };
+            let w = f64::from((-(d * d) / (sigma * sigma)).exp());
+            let pair = (sources[u].position - t.position).as_dvec3();
+            sum_w += w;
+            sum_len += w * pair.length();
+            sum_dir += w * pair;
+        }
+        let mut g = 0.0;
+        if sum_w > 0.0 {
+            g += f64::from(params.w_l) * (f64::from(v.length()) - sum_len / sum_w).abs();
+            if let (Some(dir), Some(mean)) = (v.as_dvec3().try_normalize(), sum_dir.try_normalize())
+            {
+                g += 0.5 * f64::from(params.w_d) * (1.0 - mean.dot(dir));
+            }
+        }
+        total += f64::from(c) + g;
+    }
+    total
+}
+
+/// The reported cost is Eq. 1 of the returned pairs, recomputed independently.
+#[test]
+fn the_reported_cost_is_eq1_of_the_pairs() {
+    let mut g = rng::rng_from_seed(11);
+    let q = sheet(&mut g, 150);
+    let s: Vec<PairingPoint> = sheet(&mut g, 600)
+        .into_iter()
+        .map(|p| PairingPoint {
+            position: p.position + Vec3::new(0.01, 0.0, 0.02),
+            ..p
+        })
+        .collect();
+    let sigma = 0.15;
+    for max_distance in [f32::INFINITY, 0.2] {
+        let params = PairingParams::default()
+            .coherence_radius(sigma)
+            .max_distance(max_distance);
+        let pairing = pair_points(&s, &q, &params).unwrap();
+        assert!(pairing.pairs.len() > 100, "{} pairs", pairing.pairs.len());
+        let pairs: Vec<(usize, usize)> =
+            pairing.pairs.iter().map(|p| (p.source, p.target)).collect();
+        let want = eq1_cost(&s, &q, &params, sigma, &pairs);
+        assert!(
+            (pairing.cost - want).abs() <= 1e-4 * want,
+            "reported {} against {want}",
+            pairing.cost
+        );
+    }
+}
+
 #[test]
 fn thresholds_and_opposite_normals_are_honoured() {
     let mut g = rng::rng_from_seed(8);
