@@ -65,6 +65,7 @@ pub mod spatial;
 mod stage;
 mod surface;
 pub mod testdata;
+mod weld;
 
 pub use aabb::{Aabb, MAX_SPAN, check_span};
 pub use disjoint::DisjointSets;

@@ -2,6 +2,7 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::weld::PositionWelder;
 use crate::{Aabb, DisjointSets, Error, PointSet, Result};
 
 /// How face normals are weighted when averaged into vertex normals.
@@ -38,48 +39,6 @@ impl MeshTopology {
     /// two faces, traversed once in each direction).
     pub fn is_closed_manifold(&self) -> bool {
         self.boundary_edges == 0 && self.non_manifold_edges == 0 && self.misoriented_edges == 0
-    }
-}
-
-/// Numbers positions into vertices, equal positions (exact bits, `-0` taken as `0`) into
-/// one, in order of first appearance: the welding rule of [`TriMesh::welded`] and of the
-/// STL reader.
-#[derive(Debug, Default)]
-pub(crate) struct PositionWelder {
-    index: std::collections::HashMap<[u32; 3], u32>,
-    positions: Vec<Vec3>,
-}
-
-impl PositionWelder {
-    /// A welder expecting about `vertices` distinct positions.
-    pub(crate) fn with_capacity(vertices: usize) -> Self {
-        Self {
-            index: std::collections::HashMap::with_capacity(vertices),
-            positions: Vec::with_capacity(vertices),
-        }
-    }
-
-    /// The vertex at `p`, new if no earlier position equals it; an error once there are
-    /// more distinct positions than `u32` indices can number.
-    pub(crate) fn vertex(&mut self, p: Vec3) -> Result<u32> {
-        let key = p
-            .to_array()
-            .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() });
-        let next = u32::try_from(self.positions.len()).map_err(|_| Error::InvalidParameter {
-            name: "vertex count",
-            value: self.positions.len().to_string(),
-            expected: "distinct positions that 32-bit vertex indices can number".into(),
-        })?;
-        let positions = &mut self.positions;
-        Ok(*self.index.entry(key).or_insert_with(|| {
-            positions.push(p);
-            next
-        }))
-    }
-
-    /// The distinct positions, in order of first appearance.
-    pub(crate) fn into_positions(self) -> Vec<Vec3> {
-        self.positions
     }
 }
 

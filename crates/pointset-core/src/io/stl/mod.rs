@@ -38,7 +38,7 @@ mod write;
 use glam::DVec3;
 
 use super::{Geometry, origin_for};
-use crate::mesh::PositionWelder;
+use crate::weld::PositionWelder;
 use crate::{Error, PointSet, Result, TriMesh};
 use ascii::ascii_corners;
 pub(crate) use binary::binary_facet_count;
