@@ -21,7 +21,8 @@ pub struct Neighbour {
 /// (squared distances are never negative, so their bits order as their values do, as
 /// `f32::total_cmp` orders them) and the index the low half; an integer key sorts faster
 /// than comparing floats. A `KdIndex` holds at most `u32::MAX` points, so its indices fit.
-/// [`key_index`] reads the index back.
+/// [`key_index`] reads the index back. The order holds for distances `≥ 0`, as squared
+/// distances are; a negative one would sort after every positive one.
 pub fn nearness_key(distance_squared: f32, index: u32) -> u64 {
     (u64::from(distance_squared.to_bits()) << 32) | u64::from(index)
 }
