@@ -6,7 +6,8 @@
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]
 //!     [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E]
-//!     [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random]
+//!     [--patch-size F] [--overlap F] [--extra-width F] [--pair-distance D] [--blend-reach R]
+//!     [--repair-random]
 //!     [--cluster-points N] [--cluster-variation S] [--anchors A]
 //!     [--max-normal-difference M] FIXTURE.ply...
 //! ```
@@ -18,6 +19,8 @@
 //! `--epsilon E` the search's tolerance `ε` ([`QuiltParams::epsilon`], default 0.1);
 //! `--patch-size F` the patch side as a fraction of the exemplar box's smaller side
 //! ([`QuiltParams::patch_size`], default 0.4; the measure's windows, half a patch, follow it);
+//! `--overlap F` and `--extra-width F` the overlap width and `w_E` as fractions of the patch
+//! ([`QuiltParams::overlap`], 1/6, and [`QuiltParams::extra_width`], 0.3);
 //! `--pair-distance D` the warp's largest pair length ([`QuiltParams::pair_distance`]) and
 //! `--blend-reach R` the blend's largest gap ([`QuiltParams::blend_reach`]);
 //! `--cluster-points N` and `--cluster-variation S` the limits of the clustering that picks
@@ -117,6 +120,8 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "--smoothing" => p.smoothing = value(a, &arg)?,
             "--epsilon" => p.epsilon = value(a, &arg)?,
             "--patch-size" => p.patch_size = value(a, &arg)?,
+            "--overlap" => p.overlap = value(a, &arg)?,
+            "--extra-width" => p.extra_width = value(a, &arg)?,
             "--pair-distance" => p.pair_distance = value(a, &arg)?,
             "--blend-reach" => p.blend_reach = value(a, &arg)?,
             "--cluster-points" => p.clusters.max_points = value(a, &arg)?,
@@ -130,7 +135,8 @@ fn parse() -> Result<Study, Box<dyn Error>> {
         return Err(
             "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
              [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
-             [--patch-size F] [--pair-distance D] [--blend-reach R] [--repair-random] \
+             [--patch-size F] [--overlap F] [--extra-width F] [--pair-distance D] \
+             [--blend-reach R] [--repair-random] \
              [--cluster-points N] [--cluster-variation S] [--anchors A] \
              [--max-normal-difference M] FIXTURE.ply..."
                 .into(),
