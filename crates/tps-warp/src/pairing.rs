@@ -259,8 +259,8 @@ impl Problem<'_> {
         Some(p.w_p * distance + p.w_n * normal + p.w_v * variation)
     }
 
-    /// `f_l` and `f_d` of Eq. 3 at target `q`: the `θ`-weighted mean length and summed
-    /// direction of the pairs of `q`'s neighbours in `pairing` (its own pair excluded, as
+    /// `f_l` and `f_d` of Eq. 3 at target `q`: the `θ`-weighted mean length of the pairs
+    /// of `q`'s neighbours in `pairing` and the direction of their `θ`-weighted sum (its own pair excluded, as
     /// `neighbours` holds only other targets). `None` when no neighbour is paired. They do
     /// not depend on the source, so a round computes them once per target.
     fn neighbour_pairs(&self, q: usize, pairing: &[Option<usize>]) -> Option<NeighbourPairs> {
