@@ -44,7 +44,7 @@ pub struct Snap {
 /// The input points near one ray's segment, gathered once for every fit along it, and
 /// scratch space for ordering them.
 struct NearSegment {
-    gathered: Vec<u32>,
+    gathered: Vec<usize>,
     order: Vec<u64>,
 }
 

@@ -148,12 +148,10 @@ impl MlsSurface {
     /// The input points near the segment `from`–`to`: every point within the support of
     /// some point of it, and more (those within the support of the ball around the
     /// segment). [`Self::fit_among`] fits at points of the segment from them.
-    pub(crate) fn gather_along(&self, from: Vec3, to: Vec3) -> Vec<u32> {
+    pub(crate) fn gather_along(&self, from: Vec3, to: Vec3) -> Vec<usize> {
         let reach = 0.5 * from.distance(to) + self.support_radius();
         // A little slack for the rounding of points computed along the segment.
-        let gathered = self.candidates(0.5 * (from + to), reach * (1.0 + 1e-5) + 1e-6 * self.h);
-        // Lossless: a `KdIndex` holds at most `u32::MAX` points.
-        gathered.into_iter().map(|i| i as u32).collect()
+        self.candidates(0.5 * (from + to), reach * (1.0 + 1e-5) + 1e-6 * self.h)
     }
 
     /// [`Self::fit`] at `x` from `gathered` ([`Self::gather_along`] a segment through
@@ -163,7 +161,7 @@ impl MlsSurface {
     pub(crate) fn fit_among(
         &self,
         x: Vec3,
-        gathered: &[u32],
+        gathered: &[usize],
         order: &mut Vec<u64>,
     ) -> Option<LocalFit> {
         if !x.is_finite() {
@@ -173,8 +171,9 @@ impl MlsSurface {
         let r2 = radius * radius;
         order.clear();
         order.extend(gathered.iter().filter_map(|&i| {
-            let d2 = (self.points[i as usize] - x).length_squared();
-            (d2 <= r2).then_some(nearness_key(d2, i))
+            let d2 = (self.points[i] - x).length_squared();
+            // Lossless: a `KdIndex`, and so this surface, holds at most `u32::MAX` points.
+            (d2 <= r2).then_some(nearness_key(d2, i as u32))
         }));
         order.sort_unstable();
         self.fit_with(x, order.iter().map(|&key| key_index(key) as usize))

@@ -142,21 +142,19 @@ impl ThinPlateSpline {
         for (c, w) in self.centers.iter().zip(&self.weights) {
             let d = block.offsets_from(*c);
             let r = lengths(&d);
-            if r.iter().all(|&r| r > 0.0) {
-                // The common case, without a test per lane, so that it vectorizes.
-                for (col, dk) in j.iter_mut().zip(&d) {
-                    let g: [f64; N] = std::array::from_fn(|l| dk[l] / r[l]);
-                    for (entry, wi) in col.iter_mut().zip(w.to_array()) {
+            // Every lane takes the term unless it sits on the center; the common case,
+            // all lanes apart, is tested once per center so that the sums vectorize.
+            let all_apart = r.iter().all(|&r| r > 0.0);
+            for (col, dk) in j.iter_mut().zip(&d) {
+                let g: [f64; N] = std::array::from_fn(|l| dk[l] / r[l]);
+                for (entry, wi) in col.iter_mut().zip(w.to_array()) {
+                    if all_apart {
                         for l in 0..N {
                             entry[l] += wi * g[l];
                         }
-                    }
-                }
-            } else {
-                for (col, dk) in j.iter_mut().zip(&d) {
-                    for (entry, wi) in col.iter_mut().zip(w.to_array()) {
+                    } else {
                         for l in (0..N).filter(|&l| r[l] > 0.0) {
-                            entry[l] += wi * (dk[l] / r[l]);
+                            entry[l] += wi * g[l];
                         }
                     }
                 }
