@@ -7,6 +7,84 @@ use rayon::prelude::*;
 use crate::error::{FieldError, Result, positive};
 use crate::far_signs::{FarSigns, UNKNOWN, fill_far_signs};
 
+/// Nodes per side of the square blocks (in x and y) whose queries are asked through one
+/// [`Surface::prepared_near`] preparation.
+const BLOCK: usize = 8;
+
+/// What [`Surface::prepared_near`] gave for each block of a row of blocks, `None` for a
+/// block not asked yet.
+type Prepared<'s> = Vec<Option<Option<Box<dyn Surface + 's>>>>;
+
+/// Samples the rows `block_row · BLOCK ..` of layer `k` (`rows`, up to [`BLOCK`] of them),
+/// each block of [`BLOCK`] × [`BLOCK`] nodes through one preparation of the surface,
+/// made when the block's first node is asked.
+fn sample_block_row<'s, S: Surface + ?Sized>(
+    surface: &'s S,
+    spec: &GridSpec,
+    band: f32,
+    (block_row, k): (usize, usize),
+    rows: &mut [Vec4],
+) {
+    let [nx, ny, _] = spec.dims;
+    let mut prepared: Prepared<'s> = (0..nx.div_ceil(BLOCK)).map(|_| None).collect();
+    let prepare = |block: usize| {
+        let lo = [block * BLOCK, block_row * BLOCK];
+        let hi = [(lo[0] + BLOCK).min(nx) - 1, (lo[1] + BLOCK).min(ny) - 1];
+        let (a, b) = (spec.node(lo[0], lo[1], k), spec.node(hi[0], hi[1], k));
+        surface.prepared_near(0.5 * (a + b), 0.5 * a.distance(b))
+    };
+    for (dj, out) in rows.chunks_mut(nx).enumerate() {
+        let j = block_row * BLOCK + dj;
+        sample_row(surface, spec, band, (j, k), out, &mut prepared, &prepare);
+    }
+}
+
+/// Samples row `(j, k)` of `spec` into `out`: each node's signed distance and gradient
+/// within `band`, [`UNKNOWN`] beyond it. The surface prepared for a node's block
+/// (`prepared`, filled in by `prepare`) answers where there is one, `surface`
+/// otherwise. The last node that answered with a clearance, and that clearance, are
+/// kept: the nodes within it are beyond the band without asking.
+fn sample_row<'s, S: Surface + ?Sized>(
+    surface: &'s S,
+    spec: &GridSpec,
+    band: f32,
+    (j, k): (usize, usize),
+    out: &mut [Vec4],
+    prepared: &mut Prepared<'s>,
+    prepare: &dyn Fn(usize) -> Option<Box<dyn Surface + 's>>,
+) {
+    let mut previous: Option<f32> = None;
+    let mut clear: Option<(Vec3, f32)> = None;
+    for (i, slot) in out.iter_mut().enumerate() {
+        let q = spec.node(i, j, k);
+        let cleared = clear.is_some_and(|(at, radius)| at.distance(q) * (1.0 + 1e-5) < radius);
+        let likely = previous.map(|d| d.abs() + spec.spacing * 1.001);
+        let answer = if cleared {
+            None
+        } else {
+            let block = &mut prepared[i / BLOCK];
+            let band_answer = match block.get_or_insert_with(|| prepare(i / BLOCK)) {
+                Some(prepared) => prepared.signed_distance_or_clearance(q, band, likely),
+                None => surface.signed_distance_or_clearance(q, band, likely),
+            };
+            match band_answer {
+                BandAnswer::Within { distance, closest } => Some((distance, closest)),
+                BandAnswer::Beyond { clearance } => {
+                    if clearance > 0.0 {
+                        clear = Some((q, clearance));
+                    }
+                    None
+                }
+            }
+        };
+        previous = answer.map(|(d, _)| d);
+        *slot = match answer {
+            Some((d, p)) => Vec4::new(d, p.normal.x, p.normal.y, p.normal.z),
+            None => Vec4::new(UNKNOWN, 0.0, 0.0, 0.0),
+        };
+    }
+}
+
 /// Where the nodes of a grid lie: `dims` nodes from `origin`, `spacing` apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -143,37 +221,18 @@ impl SdfGrid {
         let grid = Grid3::new(spec.dims, spec.origin, spec.spacing, Vec4::ZERO)?;
         let [nx, ny, _] = spec.dims;
         let mut data = grid.into_data();
-        data.par_chunks_mut(nx).enumerate().for_each(|(row, out)| {
-            let (j, k) = (row % ny, row / ny);
-            let mut previous: Option<f32> = None;
-            // The last node that answered with a clearance, and that clearance: the nodes
-            // within it are beyond the band without asking.
-            let mut clear: Option<(Vec3, f32)> = None;
-            for (i, slot) in out.iter_mut().enumerate() {
-                let q = spec.node(i, j, k);
-                let cleared =
-                    clear.is_some_and(|(at, radius)| at.distance(q) * (1.0 + 1e-5) < radius);
-                let likely = previous.map(|d| d.abs() + spec.spacing * 1.001);
-                let answer = if cleared {
-                    None
-                } else {
-                    match surface.signed_distance_or_clearance(q, band, likely) {
-                        BandAnswer::Within { distance, closest } => Some((distance, closest)),
-                        BandAnswer::Beyond { clearance } => {
-                            if clearance > 0.0 {
-                                clear = Some((q, clearance));
-                            }
-                            None
-                        }
-                    }
-                };
-                previous = answer.map(|(d, _)| d);
-                *slot = match answer {
-                    Some((d, p)) => Vec4::new(d, p.normal.x, p.normal.y, p.normal.z),
-                    None => Vec4::new(UNKNOWN, 0.0, 0.0, 0.0),
-                };
-            }
-        });
+        // Square blocks of BLOCK × BLOCK nodes in x and y share one preparation of the
+        // surface.
+        data.par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, layer)| {
+                layer
+                    .par_chunks_mut(nx * BLOCK)
+                    .enumerate()
+                    .for_each(|(block_row, rows)| {
+                        sample_block_row(surface, spec, band, (block_row, k), rows);
+                    });
+            });
         let far = data.iter().filter(|v| v.x == UNKNOWN).count();
         let undefined = fill_far_signs(&mut data, spec, band, surface, far_signs);
         Ok(Self {

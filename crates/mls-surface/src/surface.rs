@@ -2,7 +2,10 @@
 
 use glam::Vec3;
 use pointset_core::spatial::{key_index, nearness_key};
-use pointset_core::{BandAnswer, KdIndex, PointSet, Surface, SurfacePoint};
+use std::sync::OnceLock;
+
+use pointset_core::spatial::NearestUpTo;
+use pointset_core::{BandAnswer, KdIndex, KdRegion, Neighbour, PointSet, Surface, SurfacePoint};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
@@ -26,6 +29,20 @@ const CLEARANCE_MARGIN: f32 = 1e-5;
 /// reused while the projection's iterate stays within the excess (half a support radius)
 /// of it.
 const GATHER_RADIUS: f32 = 1.5;
+
+/// A surface prepared for queries near one place ([`Surface::prepared_near`]) looks for
+/// the nearest sample of a query out of the kernel's reach among the samples within this
+/// many support radii of the queries' reach.
+const NEAREST_REACH: f32 = 2.5;
+
+/// Relative margin added to the radius a prepared surface gathers in, so that rounding
+/// does not leave the queries at the very end of its reach uncovered.
+const REGION_SLACK: f32 = 1e-4;
+
+/// Largest reach, in support radii, that a surface is prepared for: beyond it the
+/// gathered samples outnumber a query's own neighbours so much that scanning them costs
+/// more than asking the index.
+const PREPARED_MAX_REACH: f32 = 2.0;
 
 /// The local quantities of the surface definition at a point `x`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -139,10 +156,7 @@ impl MlsSurface {
 
     /// Indices of input points within `radius` of `x` (empty for non-finite `x`).
     fn candidates(&self, x: Vec3, radius: f32) -> Vec<usize> {
-        self.index
-            .within(x, radius)
-            .map(|n| n.into_iter().map(|n| n.index).collect())
-            .unwrap_or_default()
+        Neighbours::within(&self.index, x, radius)
     }
 
     /// The input points near the segment `from`–`to`: every point within the support of
@@ -238,13 +252,13 @@ impl MlsSurface {
     /// Quasi-orthogonal projection: repeats `x ← x − f(x) n(x)` until `|f| < tolerance · h`
     /// or the iteration cap. `None` where the surface is not defined (see [`Self::fit`]).
     pub fn project(&self, x: Vec3) -> Option<Projection> {
-        self.attempt_projection(x).projection
+        self.attempt_projection(x, &self.index).projection
     }
 
     /// [`Self::project`], also keeping the fit at `x` itself (its first iteration) and the
     /// nearest sample met on the way, so a caller that needs `f(x)`, the projection or,
     /// failing both, the nearest sample gathers the neighbours once.
-    fn attempt_projection(&self, x: Vec3) -> ProjectionAttempt {
+    fn attempt_projection(&self, x: Vec3, lookup: &dyn Neighbours) -> ProjectionAttempt {
         let mut attempt = ProjectionAttempt {
             start: None,
             projection: None,
@@ -255,22 +269,24 @@ impl MlsSurface {
         }
         // Candidates are gathered in a ball of radius 1.5·support around an anchor and
         // reused while the iterate stays within 0.5·support of it.
-        let candidates = self.candidates(x, GATHER_RADIUS * self.support_radius());
+        let candidates = lookup.within(x, GATHER_RADIUS * self.support_radius());
         attempt.nearest_gathered = candidates.first().copied();
         attempt.start = self.fit_with(x, candidates.iter().copied());
         if let Some(start) = attempt.start {
-            attempt.projection = self.iterate_projection(x, start, candidates);
+            attempt.projection = self.iterate_projection(x, start, candidates, lookup);
         }
         attempt
     }
 
     /// The iteration of [`Self::project`] from the fit `start` at `x`, with `candidates`
-    /// gathered around `x`; `None` where the iteration leaves the surface.
+    /// gathered around `x` and more looked up by `lookup`; `None` where the iteration
+    /// leaves the surface.
     fn iterate_projection(
         &self,
         x: Vec3,
         start: LocalFit,
         mut candidates: Vec<usize>,
+        lookup: &dyn Neighbours,
     ) -> Option<Projection> {
         let radius = self.support_radius();
         let slack = (GATHER_RADIUS - 1.0) * radius;
@@ -282,7 +298,7 @@ impl MlsSurface {
             if iteration > 1 {
                 if y.distance(anchor) > slack {
                     anchor = y;
-                    candidates = self.candidates(anchor, radius + slack);
+                    candidates = lookup.within(anchor, radius + slack);
                 }
                 fit = self.fit_with(y, candidates.iter().copied())?;
             }
@@ -305,16 +321,26 @@ impl MlsSurface {
 
     /// The input point nearest to `query`, with its normal: the surface's stand-in where
     /// the kernel does not reach. `gathered` is the nearest sample a projection attempt
-    /// already found within its gathering ball; only beyond that ball is the index asked.
-    fn nearest_sample(&self, query: Vec3, gathered: Option<usize>) -> Option<SurfacePoint> {
+    /// already found within its gathering ball; only beyond that ball is `lookup` asked.
+    fn nearest_sample(
+        &self,
+        query: Vec3,
+        gathered: Option<usize>,
+        lookup: &dyn Neighbours,
+    ) -> Option<SurfacePoint> {
         let nearest = match gathered {
             Some(index) => index,
-            None => self.index.nearest_one(query).ok()??.index,
+            None => lookup.nearest_one(query)?,
         };
-        Some(SurfacePoint {
-            point: self.points[nearest],
-            normal: self.normals[nearest],
-        })
+        Some(self.sample(nearest))
+    }
+
+    /// Input point `index` with its normal.
+    fn sample(&self, index: usize) -> SurfacePoint {
+        SurfacePoint {
+            point: self.points[index],
+            normal: self.normals[index],
+        }
     }
 
     /// Whether `query` lies inside by the tangent planes of its
@@ -342,25 +368,43 @@ impl MlsSurface {
     /// and so it stays for every query whose nearest sample lies beyond the support radius:
     /// the clearance is how much farther than both that radius and `max_distance` the
     /// nearest sample is (the nearest-sample distance is 1-Lipschitz).
-    fn signed_distance_up_to(&self, query: Vec3, max_distance: f32) -> BandAnswer {
+    fn signed_distance_up_to(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+        lookup: &dyn Neighbours,
+    ) -> BandAnswer {
         let nothing = BandAnswer::Beyond { clearance: 0.0 };
         let ProjectionAttempt {
             start,
             projection,
             nearest_gathered,
-        } = self.attempt_projection(query);
-        let (c, out_of_reach) = match projection {
-            Some(p) => (
-                SurfacePoint {
-                    point: p.point,
-                    normal: p.normal,
-                },
-                false,
-            ),
-            None => match self.nearest_sample(query, nearest_gathered) {
-                Some(c) => (c, start.is_none()),
-                None => return nothing,
+        } = self.attempt_projection(query, lookup);
+        let out_of_reach = projection.is_none() && start.is_none();
+        // Beyond `max_distance`, the nearest sample at least `d` away.
+        let beyond = |d: f32| BandAnswer::Beyond {
+            clearance: if out_of_reach {
+                (d * (1.0 - CLEARANCE_MARGIN) - self.support_radius().max(max_distance)).max(0.0)
+            } else {
+                0.0
             },
+        };
+        let c = match projection {
+            Some(p) => SurfacePoint {
+                point: p.point,
+                normal: p.normal,
+            },
+            None => {
+                let nearest = match nearest_gathered {
+                    Some(index) => index,
+                    None => match lookup.nearest_up_to(query, max_distance) {
+                        NearestUpTo::Found(Some(n)) => n.index,
+                        NearestUpTo::Found(None) => return nothing,
+                        NearestUpTo::Farther { at_least } => return beyond(at_least),
+                    },
+                };
+                self.sample(nearest)
+            }
         };
         let offset = query - c.point;
         let d = offset.length();
@@ -368,14 +412,7 @@ impl MlsSurface {
             return nothing;
         }
         if d > max_distance {
-            let clearance = d * (1.0 - CLEARANCE_MARGIN) - self.support_radius().max(max_distance);
-            return BandAnswer::Beyond {
-                clearance: if out_of_reach {
-                    clearance.max(0.0)
-                } else {
-                    0.0
-                },
-            };
+            return beyond(d);
         }
         let along_normal = offset.dot(c.normal);
         let inside = match start {
@@ -394,6 +431,18 @@ impl MlsSurface {
             distance: if inside { -d } else { d },
             closest: c,
         }
+    }
+
+    /// [`Surface::closest_point`] with neighbours from `lookup`.
+    fn closest_point_with(&self, query: Vec3, lookup: &dyn Neighbours) -> Option<SurfacePoint> {
+        let attempt = self.attempt_projection(query, lookup);
+        if let Some(p) = attempt.projection {
+            return Some(SurfacePoint {
+                point: p.point,
+                normal: p.normal,
+            });
+        }
+        self.nearest_sample(query, attempt.nearest_gathered, lookup)
     }
 
     fn finish(
@@ -438,14 +487,7 @@ impl MlsSurface {
 /// from the samples. [`MlsSurface::project`] itself returns `None` there.
 impl Surface for MlsSurface {
     fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
-        let attempt = self.attempt_projection(query);
-        if let Some(p) = attempt.projection {
-            return Some(SurfacePoint {
-                point: p.point,
-                normal: p.normal,
-            });
-        }
-        self.nearest_sample(query, attempt.nearest_gathered)
+        self.closest_point_with(query, &self.index)
     }
 
     /// Magnitude from the projection; sign from `f(query)` where the kernel reaches the
@@ -454,7 +496,8 @@ impl Surface for MlsSurface {
     /// ([`MlsParams::fallback_sign_samples`](crate::MlsParams::fallback_sign_samples)). The
     /// neighbours of the query are gathered once for the projection and `f`.
     fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
-        self.signed_distance_up_to(query, f32::INFINITY).within()
+        self.signed_distance_up_to(query, f32::INFINITY, &self.index)
+            .within()
     }
 
     /// [`Surface::signed_distance`] filtered to `max_distance`; the sign is not worked out
@@ -465,7 +508,8 @@ impl Surface for MlsSurface {
         query: Vec3,
         max_distance: f32,
     ) -> Option<(f32, SurfacePoint)> {
-        self.signed_distance_up_to(query, max_distance).within()
+        self.signed_distance_up_to(query, max_distance, &self.index)
+            .within()
     }
 
     /// Out of the kernel's reach the clearance is the nearest sample's distance less the
@@ -479,7 +523,164 @@ impl Surface for MlsSurface {
         max_distance: f32,
         _likely: Option<f32>,
     ) -> BandAnswer {
-        self.signed_distance_up_to(query, max_distance)
+        self.signed_distance_up_to(query, max_distance, &self.index)
+    }
+
+    /// The samples near the queries' reach gathered once ([`PreparedMls`]): every
+    /// query's neighbours and nearest sample come from them where they provably hold all
+    /// of them, from the index otherwise, so the answers are the surface's own. `None` for
+    /// a reach over [`PREPARED_MAX_REACH`] support radii.
+    fn prepared_near(&self, centre: Vec3, reach: f32) -> Option<Box<dyn Surface + '_>> {
+        let within_limit = reach <= PREPARED_MAX_REACH * self.support_radius();
+        // A NaN reach is refused too.
+        if !within_limit {
+            return None;
+        }
+        let prepared = PreparedMls {
+            surface: self,
+            centre,
+            reach,
+            neighbours: OnceLock::new(),
+            nearest: OnceLock::new(),
+        };
+        prepared.region(&prepared.neighbours, prepared.gathering())?;
+        Some(Box::new(prepared))
+    }
+}
+
+/// An [`MlsSurface`] prepared for queries within `reach` of `centre`
+/// ([`Surface::prepared_near`]): the samples within [`GATHER_RADIUS`] support radii of the
+/// reach, which hold the neighbours of every query within it, and — gathered on the first
+/// query out of the kernel's reach — those within [`NEAREST_REACH`] support radii, which
+/// hold the nearest sample of most such queries.
+struct PreparedMls<'s> {
+    surface: &'s MlsSurface,
+    centre: Vec3,
+    reach: f32,
+    neighbours: OnceLock<Option<KdRegion<'s>>>,
+    nearest: OnceLock<Option<KdRegion<'s>>>,
+}
+
+impl<'s> PreparedMls<'s> {
+    /// The region in `cell`, gathering it on first use: the samples within `beyond` of
+    /// the reach (and a little more, so that queries at the reach's very end are covered
+    /// despite rounding). `None` where the index cannot gather.
+    fn region<'a>(
+        &'a self,
+        cell: &'a OnceLock<Option<KdRegion<'s>>>,
+        beyond: f32,
+    ) -> Option<&'a KdRegion<'s>> {
+        cell.get_or_init(|| {
+            let radius = (self.reach + beyond) * (1.0 + REGION_SLACK);
+            self.surface.index.region(self.centre, radius).ok()
+        })
+        .as_ref()
+    }
+
+    /// How far beyond the reach the neighbours are gathered: a projection's gathering
+    /// ball.
+    fn gathering(&self) -> f32 {
+        GATHER_RADIUS * self.surface.support_radius()
+    }
+
+    /// How far beyond the reach the nearest samples are gathered for queries bounded by
+    /// `bound`: at least the bound, so that every such query gets its nearest sample or
+    /// its farther-than-the-bound answer from the region; at least [`NEAREST_REACH`]
+    /// support radii, for the unbounded queries. The first query decides.
+    fn nearest_gathering(&self, bound: f32) -> f32 {
+        let least = NEAREST_REACH * self.surface.support_radius();
+        if bound.is_finite() {
+            bound.max(least)
+        } else {
+            least
+        }
+    }
+}
+
+/// The surface's answers, with neighbours looked up in the gathered regions. The default
+/// [`Surface::signed_distance_within`] (the unbounded answer, filtered) gives the
+/// surface's own: within the bound the two are the same.
+impl Surface for PreparedMls<'_> {
+    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
+        self.surface.closest_point_with(query, self)
+    }
+
+    fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
+        self.signed_distance_or_clearance(query, f32::INFINITY, None)
+            .within()
+    }
+
+    fn signed_distance_or_clearance(
+        &self,
+        query: Vec3,
+        max_distance: f32,
+        _likely: Option<f32>,
+    ) -> BandAnswer {
+        self.surface
+            .signed_distance_up_to(query, max_distance, self)
+    }
+}
+
+/// Where a query's neighbours are looked up: the surface's index, or regions of it
+/// gathered for queries near one place, which answer exactly as the index does.
+trait Neighbours {
+    /// Indices of the samples within `radius` of `x`, nearest first, ties to the lower
+    /// index (empty for non-finite `x`).
+    fn within(&self, x: Vec3, radius: f32) -> Vec<usize>;
+
+    /// The index of the sample nearest to `x` (the one the index picks among equally
+    /// near ones); `None` for no samples or a non-finite `x`.
+    fn nearest_one(&self, x: Vec3) -> Option<usize>;
+
+    /// [`Self::nearest_one`] as [`KdRegion::nearest_one_up_to`] gives it: the sample, or a
+    /// distance over `bound` that no sample comes nearer than.
+    fn nearest_up_to(&self, x: Vec3, bound: f32) -> NearestUpTo;
+}
+
+/// Indices of the neighbours found, or none for a query the index refuses.
+fn indices(found: pointset_core::Result<Vec<Neighbour>>) -> Vec<usize> {
+    found
+        .map(|n| n.into_iter().map(|n| n.index).collect())
+        .unwrap_or_default()
+}
+
+impl Neighbours for KdIndex {
+    fn within(&self, x: Vec3, radius: f32) -> Vec<usize> {
+        indices(KdIndex::within(self, x, radius))
+    }
+
+    fn nearest_one(&self, x: Vec3) -> Option<usize> {
+        Some(KdIndex::nearest_one(self, x).ok()??.index)
+    }
+
+    /// Always the sample: the index has no cheaper answer.
+    fn nearest_up_to(&self, x: Vec3, _bound: f32) -> NearestUpTo {
+        NearestUpTo::Found(KdIndex::nearest_one(self, x).ok().flatten())
+    }
+}
+
+impl Neighbours for PreparedMls<'_> {
+    fn within(&self, x: Vec3, radius: f32) -> Vec<usize> {
+        match self.region(&self.neighbours, self.gathering()) {
+            Some(region) => indices(region.within(x, radius)),
+            None => Neighbours::within(&self.surface.index, x, radius),
+        }
+    }
+
+    fn nearest_one(&self, x: Vec3) -> Option<usize> {
+        match self.region(&self.nearest, self.nearest_gathering(f32::INFINITY)) {
+            Some(region) => Some(region.nearest_one(x).ok()??.index),
+            None => Neighbours::nearest_one(&self.surface.index, x),
+        }
+    }
+
+    fn nearest_up_to(&self, x: Vec3, bound: f32) -> NearestUpTo {
+        match self.region(&self.nearest, self.nearest_gathering(bound)) {
+            Some(region) => region
+                .nearest_one_up_to(x, bound)
+                .unwrap_or(NearestUpTo::Found(None)),
+            None => self.surface.index.nearest_up_to(x, bound),
+        }
     }
 }
 
@@ -489,7 +690,9 @@ mod tests {
     use pointset_core::{PointSet, rng};
     use rand::RngExt;
 
-    use super::MlsSurface;
+    use pointset_core::{BandAnswer, Surface};
+
+    use super::{MlsSurface, PREPARED_MAX_REACH};
     use crate::params::MlsParams;
 
     /// Fits from the points gathered along a segment are the index's fits, bit for bit:
@@ -532,5 +735,106 @@ mod tests {
         }
         // Most of the points compared have a fit (the comparison is not of two `None`s).
         assert!(fitted > compared / 2, "{fitted} of {compared}");
+    }
+
+    /// A surface prepared near a place answers every query as the surface does, bit for
+    /// bit — near the place and away from it, in and out of the kernel's reach, with and
+    /// without a bound — except that it may promise a smaller clearance.
+    #[test]
+    fn a_prepared_surface_answers_as_the_surface() {
+        let mut g = rng::rng_from_seed(5);
+        // Two bumpy sheets facing each other (nodes between them are out of reach or
+        // see opposing normals), with coincident samples.
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        for (z, up) in [(0.0, 1.0), (0.3, -1.0)] {
+            for _ in 0..1500 {
+                let (x, y) = (g.random::<f32>(), g.random::<f32>());
+                positions.push(Vec3::new(
+                    x,
+                    y,
+                    z + 0.04 * (9.0 * x).sin() * (7.0 * y).cos(),
+                ));
+                normals.push(Vec3::new(0.1 * g.random::<f32>(), 0.0, up));
+            }
+        }
+        positions.extend_from_within(0..100);
+        normals.extend_from_within(0..100);
+        let set = PointSet::new(positions)
+            .unwrap()
+            .with_normals(normals)
+            .unwrap();
+        let (mut within, mut beyond, mut smaller) = (0, 0, 0);
+        for params in [
+            MlsParams::default(),
+            MlsParams::default().fallback_sign_samples(1),
+        ] {
+            let surface = MlsSurface::new(&set, &params).unwrap();
+            let support = surface.support_radius();
+            for _ in 0..60 {
+                let centre = Vec3::new(g.random(), g.random(), 0.5 * g.random::<f32>() - 0.1);
+                let reach = 2.0 * support * g.random::<f32>();
+                let Some(prepared) = surface.prepared_near(centre, reach) else {
+                    panic!("not prepared for a reach of {reach}");
+                };
+                for _ in 0..30 {
+                    let offset = Vec3::new(g.random(), g.random(), g.random()) - 0.5;
+                    let q = if g.random_bool(0.8) {
+                        centre + offset * reach
+                    } else {
+                        centre + offset
+                    };
+                    assert_eq!(prepared.closest_point(q), surface.closest_point(q));
+                    assert_eq!(
+                        prepared.signed_distance(q),
+                        Surface::signed_distance(&surface, q)
+                    );
+                    for bound in [0.02, 0.1, f32::INFINITY] {
+                        let (a, b) = (
+                            prepared.signed_distance_or_clearance(q, bound, None),
+                            surface.signed_distance_or_clearance(q, bound, None),
+                        );
+                        match (a, b) {
+                            (
+                                BandAnswer::Beyond { clearance: mine },
+                                BandAnswer::Beyond { clearance: theirs },
+                            ) => {
+                                assert!(mine <= theirs, "{q}: {mine} > {theirs}");
+                                beyond += 1;
+                                smaller += usize::from(mine < theirs);
+                            }
+                            _ => {
+                                assert_eq!(a, b, "{q}, bound {bound}");
+                                within += 1;
+                            }
+                        }
+                        assert_eq!(
+                            prepared.signed_distance_within(q, bound),
+                            surface.signed_distance_within(q, bound)
+                        );
+                    }
+                }
+            }
+        }
+        assert!(
+            within > 1000 && beyond > 1000,
+            "{within} within, {beyond} beyond"
+        );
+        assert!(smaller > 0 && smaller < beyond / 2, "{smaller} of {beyond}");
+    }
+
+    /// Only regions up to [`PREPARED_MAX_REACH`] support radii across are prepared.
+    #[test]
+    fn wide_regions_are_not_prepared() {
+        let set = PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE])
+            .unwrap()
+            .with_normals(vec![Vec3::Z; 4])
+            .unwrap();
+        let surface = MlsSurface::new(&set, &MlsParams::default().kernel(0.1)).unwrap();
+        let limit = PREPARED_MAX_REACH * surface.support_radius();
+        assert!(surface.prepared_near(Vec3::ZERO, limit).is_some());
+        assert!(surface.prepared_near(Vec3::ZERO, 1.01 * limit).is_none());
+        assert!(surface.prepared_near(Vec3::ZERO, f32::NAN).is_none());
+        assert!(surface.prepared_near(Vec3::NAN, limit).is_none());
     }
 }

@@ -77,7 +77,7 @@ pub use mesh_orientation::Reorientation;
 pub use pointset::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES};
 pub use scalar::ScalarType;
 pub use scaled::{power_of_two_scale, triangle_normal, unit_vector};
-pub use spatial::{BucketGrid, KdIndex, Neighbour, PointKey};
+pub use spatial::{BucketGrid, KdIndex, KdRegion, Neighbour, PointKey};
 pub use stage::{CancelFlag, NoProgress, Progress, ProgressUpdate, RunContext, Stage, Then};
 pub use surface::{BandAnswer, Surface, SurfacePoint};
 

@@ -64,6 +64,17 @@ pub trait Surface: Send + Sync {
             self.signed_distance_within(query, bound).ok_or(0.0)
         })
     }
+
+    /// This surface prepared for many queries within `reach` of `centre` (a block of grid
+    /// nodes): it answers every query exactly as this surface does, bit for bit, and
+    /// those near `centre` faster, by gathering once what they share. The one liberty
+    /// it may take is a smaller [`BandAnswer::Beyond`] clearance (still a true one),
+    /// where it can tell that a query is beyond the bound without working out how far.
+    /// `None` (the default) when the surface has nothing to gather or the region is too
+    /// large to gain from it; ask the surface itself then.
+    fn prepared_near(&self, _centre: Vec3, _reach: f32) -> Option<Box<dyn Surface + '_>> {
+        None
+    }
 }
 
 /// A surface's answer to a query with a distance bound:

@@ -159,19 +159,27 @@ impl KdIndex {
 
     /// Every point within distance `radius` of `q` (inclusive), nearest first.
     pub fn within(&self, q: Vec3, radius: f32) -> Result<Vec<Neighbour>> {
+        Ok(Self::sorted(self.within_unsorted(q, radius)?))
+    }
+
+    /// Every point within distance `radius` of `q` (inclusive) as `(index, squared
+    /// distance)`, in no particular order.
+    pub(super) fn within_unsorted(
+        &self,
+        q: Vec3,
+        radius: f32,
+    ) -> Result<impl Iterator<Item = (u32, f32)>> {
         let query = check_query(q)?;
         check_radius(radius)?;
-        let Some(tree) = &self.tree else {
-            return Ok(Vec::new());
+        let found = match &self.tree {
+            Some(tree) => tree
+                .query(&query)
+                .within::<SquaredEuclidean<f32>>(radius * radius)
+                .unsorted()
+                .execute(),
+            None => Vec::new(),
         };
-        let found = tree
-            .query(&query)
-            .within::<SquaredEuclidean<f32>>(radius * radius)
-            .unsorted()
-            .execute();
-        Ok(Self::sorted(
-            found.into_iter().map(|r| (r.item, r.distance)),
-        ))
+        Ok(found.into_iter().map(|r| (r.item, r.distance)))
     }
 
     /// At most `k` nearest points within `radius` of `q`, nearest first.

@@ -2,6 +2,8 @@
 
 mod bucket_grid;
 mod kd_index;
+mod region;
 
 pub use bucket_grid::{BucketGrid, PointKey};
 pub use kd_index::{KdIndex, Neighbour, key_index, nearness_key};
+pub use region::{KdRegion, NearestUpTo};
