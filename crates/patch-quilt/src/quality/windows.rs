@@ -45,6 +45,10 @@ pub const REFINED: usize = 8;
 /// measure for more memory than the machine has. Measured on the bumpy fixture (2 cores):
 /// 9 M fine nodes (`field_resolution` 96) take 10 s to build, 40 M (160) take 48 s.
 pub const MAX_MEASURE_NODES: usize = 1 << 26;
+/// Relative slack on the error limit below which the first pass keeps summing a window:
+/// a window whose full error is within the limit is then never cut short by the rounding
+/// of its partial sums (relative 1e-7), and one that is cut short is certainly over it.
+const LIMIT_SLACK: f32 = 1e-5;
 /// Halvings of the step in the continuous pass (the last step is
 /// `1 / (SUBSTEPS · 2^CONTINUOUS_LEVELS)` spacing).
 pub const CONTINUOUS_LEVELS: usize = 3;
@@ -301,6 +305,28 @@ impl ExemplarWindows {
         Ok(Field::distances(&texture_field(surface, &spec, self.band)?))
     }
 
+    /// The [`REFINED`] node-aligned exemplar windows with the least `error(window, limit)`
+    /// as `(error, position number)`, least first, ties to the lower number: the head of
+    /// every position sorted by its error. Once [`REFINED`] are held, a window is summed
+    /// only until it certainly falls behind the last of them (`limit`, with
+    /// [`LIMIT_SLACK`] for the rounding of the sums).
+    fn nearest_aligned(&self, error: impl Fn(WindowAt, f32) -> f32) -> Vec<(f32, usize)> {
+        let mut best: Vec<(f32, usize)> = Vec::with_capacity(REFINED + 1);
+        for (n, &p) in self.positions.iter().enumerate() {
+            let limit = match best.get(REFINED - 1) {
+                Some(&(last, _)) => last * (1.0 + LIMIT_SLACK),
+                None => f32::MAX,
+            };
+            let e = error(self.aligned(p), limit);
+            let at = best.partition_point(|&(b, m)| b.total_cmp(&e).then(m.cmp(&n)).is_lt());
+            if at < REFINED {
+                best.insert(at, (e, n));
+                best.truncate(REFINED);
+            }
+        }
+        best
+    }
+
     /// Mean squared difference between the window of `out` starting at node `at` and the
     /// nearest exemplar window (three passes, see the module docs); `surface` is the
     /// exemplar's surface the windows were sampled from, for the exact last window.
@@ -309,18 +335,12 @@ impl ExemplarWindows {
         let error = |there: WindowAt, limit: f32| {
             out.window_error(here, &self.fine, there, self.shape, limit)
         };
-        let mut ranked: Vec<(f32, usize)> = self
-            .positions
-            .iter()
-            .enumerate()
-            .map(|(n, &p)| (error(self.aligned(p), f32::MAX), n))
-            .collect();
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let ranked = self.nearest_aligned(&error);
         let Some(&(first, n)) = ranked.first() else {
             return Ok(f32::INFINITY);
         };
         let (mut best, mut best_at) = (first, self.aligned(self.positions[n]));
-        for &(_, n) in ranked.iter().take(REFINED) {
+        for &(_, n) in &ranked {
             for there in self.around(self.aligned(self.positions[n])) {
                 let e = error(there, best);
                 if e < best {
@@ -410,6 +430,33 @@ mod tests {
                     f32::MAX,
                 );
                 assert!(error < 1e-10, "{node:?}: {error}");
+            }
+        });
+    }
+
+    /// The first pass keeps the head of the full ranking, cut-short sums and all.
+    #[test]
+    fn the_nearest_aligned_windows_are_the_head_of_the_full_ranking() {
+        with_windows(|windows, surface, _| {
+            let here = WindowAt::at_node([0; 3], 1);
+            for (start, shift) in [
+                ((2usize, 3usize), Vec3::new(1.37, -2.6, 0.9)),
+                ((7, 1), Vec3::ZERO),
+            ] {
+                let node = Vec3::from(windows.aligned(start).node.map(|n| n as f32));
+                let cut = windows.exact(surface, node + shift).unwrap();
+                let error = |there: WindowAt, limit: f32| {
+                    cut.window_error(here, &windows.fine, there, windows.shape, limit)
+                };
+                let mut ranked: Vec<(f32, usize)> = windows
+                    .positions()
+                    .iter()
+                    .enumerate()
+                    .map(|(n, &p)| (error(windows.aligned(p), f32::MAX), n))
+                    .collect();
+                ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                ranked.truncate(REFINED);
+                assert_eq!(windows.nearest_aligned(error), ranked);
             }
         });
     }
