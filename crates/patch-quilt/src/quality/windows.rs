@@ -335,7 +335,7 @@ impl ExemplarWindows {
         let error = |there: WindowAt, limit: f32| {
             out.window_error(here, &self.fine, there, self.shape, limit)
         };
-        let ranked = self.nearest_aligned(&error);
+        let ranked = self.nearest_aligned(error);
         let Some(&(first, n)) = ranked.first() else {
             return Ok(f32::INFINITY);
         };
