@@ -109,7 +109,8 @@ impl Field {
     }
 
     /// Mean squared difference of the `w × w × nz` windows `at` (here) and `other_at`; stops
-    /// early, returning something above `limit`, once the partial sum exceeds it.
+    /// early, returning something above `limit`, once the partial sum exceeds it (checked
+    /// after every row of the window).
     pub fn window_error(
         &self,
         at: WindowAt,
@@ -137,16 +138,17 @@ impl Field {
                     for (x, y) in mine.zip(theirs) {
                         sum += (x - y).powi(2);
                     }
-                    continue;
+                } else {
+                    for a in 0..w {
+                        let mine = self.sample(node(at, [a, b, c]), mine_weights.as_ref());
+                        let theirs =
+                            other.sample(node(other_at, [a, b, c]), their_weights.as_ref());
+                        sum += (mine - theirs).powi(2);
+                    }
                 }
-                for a in 0..w {
-                    let mine = self.sample(node(at, [a, b, c]), mine_weights.as_ref());
-                    let theirs = other.sample(node(other_at, [a, b, c]), their_weights.as_ref());
-                    sum += (mine - theirs).powi(2);
+                if sum > bound {
+                    return sum / count;
                 }
-            }
-            if sum > bound {
-                break;
             }
         }
         sum / count
