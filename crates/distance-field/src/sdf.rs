@@ -7,35 +7,56 @@ use rayon::prelude::*;
 use crate::error::{FieldError, Result, positive};
 use crate::far_signs::{FarSigns, UNKNOWN, fill_far_signs};
 
-/// Nodes per side of the square blocks (in x and y) whose queries are asked through one
-/// [`Surface::prepared_near`] preparation.
-const BLOCK: usize = 8;
+/// Most nodes per side of the square blocks (in x and y) whose queries are asked through
+/// one [`Surface::prepared_near`] preparation.
+const MAX_BLOCK: usize = 8;
+
+/// Blocks of fewer nodes per side than this are not prepared: too few queries share it.
+const MIN_BLOCK: usize = 3;
+
+/// Nodes per side of the blocks that share one preparation of `surface` on a grid of
+/// `spacing`: as many as its [`Surface::preparation_reach`] (half a block's diagonal)
+/// spans, at most [`MAX_BLOCK`]; `None` when that is fewer than [`MIN_BLOCK`] or the
+/// surface gains nothing from preparing.
+fn prepared_block(surface: &(impl Surface + ?Sized), spacing: f32) -> Option<usize> {
+    let reach = surface.preparation_reach()?;
+    // Node intervals along a side; a NaN or negative ratio gives 0, an infinite one the
+    // largest count (`as` saturates).
+    let intervals = (2.0 * reach / (spacing * std::f32::consts::SQRT_2)).floor() as usize;
+    let side = intervals.saturating_add(1).min(MAX_BLOCK);
+    (side >= MIN_BLOCK).then_some(side)
+}
 
 /// What [`Surface::prepared_near`] gave for each block of a row of blocks, `None` for a
 /// block not asked yet.
 type Prepared<'s> = Vec<Option<Option<Box<dyn Surface + 's>>>>;
 
-/// Samples the rows `block_row · BLOCK ..` of layer `k` (`rows`, up to [`BLOCK`] of them),
-/// each block of [`BLOCK`] × [`BLOCK`] nodes through one preparation of the surface,
-/// made when the block's first node is asked.
+/// Samples the rows `block_row · side ..` of layer `k` (`rows`, up to `side` of them),
+/// each block of `side` × `side` nodes through one preparation of the surface, made when
+/// the block's first node is asked; `prepare` says whether to prepare at all.
 fn sample_block_row<'s, S: Surface + ?Sized>(
     surface: &'s S,
     spec: &GridSpec,
     band: f32,
+    (side, prepare): (usize, bool),
     (block_row, k): (usize, usize),
     rows: &mut [Vec4],
 ) {
     let [nx, ny, _] = spec.dims;
-    let mut prepared: Prepared<'s> = (0..nx.div_ceil(BLOCK)).map(|_| None).collect();
-    let prepare = |block: usize| {
-        let lo = [block * BLOCK, block_row * BLOCK];
-        let hi = [(lo[0] + BLOCK).min(nx) - 1, (lo[1] + BLOCK).min(ny) - 1];
+    let mut prepared: Prepared<'s> = (0..nx.div_ceil(side)).map(|_| None).collect();
+    let preparation = |block: usize| {
+        if !prepare {
+            return None;
+        }
+        let lo = [block * side, block_row * side];
+        let hi = [(lo[0] + side).min(nx) - 1, (lo[1] + side).min(ny) - 1];
         let (a, b) = (spec.node(lo[0], lo[1], k), spec.node(hi[0], hi[1], k));
         surface.prepared_near(0.5 * (a + b), 0.5 * a.distance(b))
     };
     for (dj, out) in rows.chunks_mut(nx).enumerate() {
-        let j = block_row * BLOCK + dj;
-        sample_row(surface, spec, band, (j, k), out, &mut prepared, &prepare);
+        let j = block_row * side + dj;
+        let blocks = (side, &mut prepared);
+        sample_row(surface, spec, band, (j, k), out, blocks, &preparation);
     }
 }
 
@@ -50,7 +71,7 @@ fn sample_row<'s, S: Surface + ?Sized>(
     band: f32,
     (j, k): (usize, usize),
     out: &mut [Vec4],
-    prepared: &mut Prepared<'s>,
+    (side, prepared): (usize, &mut Prepared<'s>),
     prepare: &dyn Fn(usize) -> Option<Box<dyn Surface + 's>>,
 ) {
     let mut previous: Option<f32> = None;
@@ -62,8 +83,8 @@ fn sample_row<'s, S: Surface + ?Sized>(
         let answer = if cleared {
             None
         } else {
-            let block = &mut prepared[i / BLOCK];
-            let band_answer = match block.get_or_insert_with(|| prepare(i / BLOCK)) {
+            let block = &mut prepared[i / side];
+            let band_answer = match block.get_or_insert_with(|| prepare(i / side)) {
                 Some(prepared) => prepared.signed_distance_or_clearance(q, band, likely),
                 None => surface.signed_distance_or_clearance(q, band, likely),
             };
@@ -221,16 +242,18 @@ impl SdfGrid {
         let grid = Grid3::new(spec.dims, spec.origin, spec.spacing, Vec4::ZERO)?;
         let [nx, ny, _] = spec.dims;
         let mut data = grid.into_data();
-        // Square blocks of BLOCK × BLOCK nodes in x and y share one preparation of the
-        // surface.
+        // Square blocks of nodes in x and y share one preparation of the surface (when it
+        // gains from one), and are sampled in parallel.
+        let block = prepared_block(surface, spec.spacing);
+        let blocks = (block.unwrap_or(MAX_BLOCK), block.is_some());
         data.par_chunks_mut(nx * ny)
             .enumerate()
             .for_each(|(k, layer)| {
                 layer
-                    .par_chunks_mut(nx * BLOCK)
+                    .par_chunks_mut(nx * blocks.0)
                     .enumerate()
                     .for_each(|(block_row, rows)| {
-                        sample_block_row(surface, spec, band, (block_row, k), rows);
+                        sample_block_row(surface, spec, band, blocks, (block_row, k), rows);
                     });
             });
         let far = data.iter().filter(|v| v.x == UNKNOWN).count();

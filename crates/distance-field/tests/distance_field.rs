@@ -331,6 +331,121 @@ fn clearances_skip_queries_without_changing_the_grid() {
     assert!(asked < asked_without / 2, "{asked} of {asked_without}");
 }
 
+/// A surface asked node by node: it forwards every query but never prepares.
+struct Unprepared<'s>(&'s dyn Surface);
+
+impl Surface for Unprepared<'_> {
+    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
+        self.0.closest_point(query)
+    }
+
+    fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
+        self.0.signed_distance(query)
+    }
+
+    fn signed_distance_within(&self, query: Vec3, max: f32) -> Option<(f32, SurfacePoint)> {
+        self.0.signed_distance_within(query, max)
+    }
+
+    fn signed_distance_or_clearance(
+        &self,
+        query: Vec3,
+        max: f32,
+        likely: Option<f32>,
+    ) -> BandAnswer {
+        self.0.signed_distance_or_clearance(query, max, likely)
+    }
+}
+
+/// A surface that forwards everything, preparations included, and counts those.
+struct Preparing<'s> {
+    surface: &'s dyn Surface,
+    prepared: std::sync::atomic::AtomicUsize,
+}
+
+impl Surface for Preparing<'_> {
+    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
+        self.surface.closest_point(query)
+    }
+
+    fn signed_distance_or_clearance(
+        &self,
+        query: Vec3,
+        max: f32,
+        likely: Option<f32>,
+    ) -> BandAnswer {
+        self.surface
+            .signed_distance_or_clearance(query, max, likely)
+    }
+
+    fn prepared_near(&self, centre: Vec3, reach: f32) -> Option<Box<dyn Surface + '_>> {
+        self.prepared
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.surface.prepared_near(centre, reach)
+    }
+
+    fn preparation_reach(&self) -> Option<f32> {
+        self.surface.preparation_reach()
+    }
+}
+
+#[test]
+fn grids_asked_through_prepared_blocks_are_the_grids_asked_node_by_node() {
+    // Two bumpy sheets facing each other, with coincident samples: nodes in reach, out of
+    // reach within the band, and beyond it.
+    let mut g = rng::rng_from_seed(8);
+    let (mut positions, mut normals) = (Vec::new(), Vec::new());
+    for (z, up) in [(0.0f32, 1.0f32), (0.6, -1.0)] {
+        for _ in 0..2000 {
+            let (x, y) = (g.random::<f32>(), g.random::<f32>());
+            positions.push(Vec3::new(
+                x,
+                y,
+                z + 0.05 * (8.0 * x).sin() * (6.0 * y).cos(),
+            ));
+            normals.push(Vec3::new(0.0, 0.1 * g.random::<f32>(), up));
+        }
+    }
+    positions.extend_from_within(0..50);
+    normals.extend_from_within(0..50);
+    let points = PointSet::new(positions)
+        .unwrap()
+        .with_normals(normals)
+        .unwrap();
+    let bounds = Aabb::new(Vec3::new(0.3, 0.3, -0.3), Vec3::new(0.6, 0.55, 0.9));
+    for params in [
+        MlsParams::default(),
+        MlsParams::default().fallback_sign_samples(1),
+    ] {
+        let mls = MlsSurface::new(&points, &params).unwrap();
+        let reach = mls.preparation_reach().unwrap();
+        // Blocks of 8, 5 and 3 nodes a side, and none (too coarse to prepare).
+        for spacing in [0.1 * reach, 0.35 * reach, 0.7 * reach, 2.0 * reach] {
+            let spec = GridSpec {
+                dims: ((bounds.max - bounds.min) / spacing)
+                    .as_uvec3()
+                    .to_array()
+                    .map(|n| n as usize + 1),
+                origin: bounds.min,
+                spacing,
+            };
+            let band = 4.0 * spacing;
+            let preparing = Preparing {
+                surface: &mls,
+                prepared: Default::default(),
+            };
+            let by_blocks = SdfGrid::from_surface(&preparing, &spec, band).unwrap();
+            let by_nodes = SdfGrid::from_surface(&Unprepared(&mls), &spec, band).unwrap();
+            assert_eq!(by_blocks, by_nodes, "spacing {spacing}");
+            // Prepared where a block of 3 nodes a side (2 spacings, its half-diagonal
+            // √2 spacings) fits the reach.
+            let prepared = preparing.prepared.into_inner();
+            let fits = spacing * std::f32::consts::SQRT_2 <= reach;
+            assert_eq!(prepared > 0, fits, "spacing {spacing}: {prepared}");
+        }
+    }
+}
+
 #[test]
 fn mesh_clearances_skip_queries_without_changing_the_grid() {
     // Two intersecting spheres in a box about three times their size; both sign rules.

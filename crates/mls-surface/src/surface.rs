@@ -526,6 +526,11 @@ impl Surface for MlsSurface {
         self.signed_distance_up_to(query, max_distance, &self.index)
     }
 
+    /// [`PREPARED_MAX_REACH`] support radii.
+    fn preparation_reach(&self) -> Option<f32> {
+        Some(PREPARED_MAX_REACH * self.support_radius())
+    }
+
     /// The samples near the queries' reach gathered once ([`PreparedMls`]): every
     /// query's neighbours and nearest sample come from them where they provably hold all
     /// of them, from the index otherwise, so the answers are the surface's own. `None` for

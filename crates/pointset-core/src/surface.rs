@@ -75,6 +75,13 @@ pub trait Surface: Send + Sync {
     fn prepared_near(&self, _centre: Vec3, _reach: f32) -> Option<Box<dyn Surface + '_>> {
         None
     }
+
+    /// The largest reach [`Surface::prepared_near`] prepares for, and gains at: grids
+    /// group their nodes into blocks about this far from their centres. `None` (the
+    /// default) when preparing gains nothing.
+    fn preparation_reach(&self) -> Option<f32> {
+        None
+    }
 }
 
 /// A surface's answer to a query with a distance bound:
