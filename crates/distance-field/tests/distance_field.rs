@@ -331,35 +331,11 @@ fn clearances_skip_queries_without_changing_the_grid() {
     assert!(asked < asked_without / 2, "{asked} of {asked_without}");
 }
 
-/// A surface asked node by node: it forwards every query but never prepares.
-struct Unprepared<'s>(&'s dyn Surface);
-
-impl Surface for Unprepared<'_> {
-    fn closest_point(&self, query: Vec3) -> Option<SurfacePoint> {
-        self.0.closest_point(query)
-    }
-
-    fn signed_distance(&self, query: Vec3) -> Option<(f32, SurfacePoint)> {
-        self.0.signed_distance(query)
-    }
-
-    fn signed_distance_within(&self, query: Vec3, max: f32) -> Option<(f32, SurfacePoint)> {
-        self.0.signed_distance_within(query, max)
-    }
-
-    fn signed_distance_or_clearance(
-        &self,
-        query: Vec3,
-        max: f32,
-        likely: Option<f32>,
-    ) -> BandAnswer {
-        self.0.signed_distance_or_clearance(query, max, likely)
-    }
-}
-
-/// A surface that forwards everything, preparations included, and counts those.
+/// A surface that forwards the grid's queries, and its preparations when `prepare` is
+/// set (counting them); otherwise it is asked node by node.
 struct Preparing<'s> {
     surface: &'s dyn Surface,
+    prepare: bool,
     prepared: std::sync::atomic::AtomicUsize,
 }
 
@@ -379,13 +355,16 @@ impl Surface for Preparing<'_> {
     }
 
     fn prepared_near(&self, centre: Vec3, reach: f32) -> Option<Box<dyn Surface + '_>> {
+        if !self.prepare {
+            return None;
+        }
         self.prepared
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         self.surface.prepared_near(centre, reach)
     }
 
     fn preparation_reach(&self) -> Option<f32> {
-        self.surface.preparation_reach()
+        self.surface.preparation_reach().filter(|_| self.prepare)
     }
 }
 
@@ -430,16 +409,19 @@ fn grids_asked_through_prepared_blocks_are_the_grids_asked_node_by_node() {
                 spacing,
             };
             let band = 4.0 * spacing;
-            let preparing = Preparing {
+            let preparing = |prepare| Preparing {
                 surface: &mls,
+                prepare,
                 prepared: Default::default(),
             };
-            let by_blocks = SdfGrid::from_surface(&preparing, &spec, band).unwrap();
-            let by_nodes = SdfGrid::from_surface(&Unprepared(&mls), &spec, band).unwrap();
+            let (blocks, nodes) = (preparing(true), preparing(false));
+            let by_blocks = SdfGrid::from_surface(&blocks, &spec, band).unwrap();
+            let by_nodes = SdfGrid::from_surface(&nodes, &spec, band).unwrap();
             assert_eq!(by_blocks, by_nodes, "spacing {spacing}");
+            assert_eq!(by_blocks, SdfGrid::from_surface(&mls, &spec, band).unwrap());
             // Prepared where a block of 3 nodes a side (2 spacings, its half-diagonal
             // √2 spacings) fits the reach.
-            let prepared = preparing.prepared.into_inner();
+            let prepared = blocks.prepared.into_inner();
             let fits = spacing * std::f32::consts::SQRT_2 <= reach;
             assert_eq!(prepared > 0, fits, "spacing {spacing}: {prepared}");
         }
