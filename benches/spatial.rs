@@ -1,4 +1,5 @@
-//! Spatial index kernels: k-d tree build and queries, bucket grid churn and queries.
+//! Spatial index kernels: k-d tree build and queries, regions of it gathered for blocks of
+//! queries, bucket grid churn and queries.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -87,5 +88,94 @@ fn bucket_grid(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, kd_index, bucket_grid);
+/// `n` points on a bumpy sheet over the unit square (a scanned surface, as an MLS surface
+/// is built on).
+fn sheet_points(n: usize, seed: u64) -> Vec<Vec3> {
+    let mut r = rng::rng_from_seed(seed);
+    (0..n)
+        .map(|_| {
+            let (x, y) = (r.random::<f32>(), r.random::<f32>());
+            Vec3::new(x, y, 0.02 * (20.0 * x).sin() * (15.0 * y).cos())
+        })
+        .collect()
+}
+
+/// 48 blocks of 8 × 8 grid nodes spaced `spacing` apart, level with the sheet or up to
+/// `height` above it: each block's centre, reach, and nodes.
+fn node_blocks(spacing: f32, height: f32) -> Vec<(Vec3, f32, Vec<Vec3>)> {
+    let mut r = rng::rng_from_seed(3);
+    (0..48)
+        .map(|_| {
+            let corner = Vec3::new(
+                0.8 * r.random::<f32>(),
+                0.8 * r.random::<f32>(),
+                height * r.random::<f32>(),
+            );
+            let nodes: Vec<Vec3> = (0..64)
+                .map(|n| corner + Vec3::new((n % 8) as f32, (n / 8) as f32, 0.0) * spacing)
+                .collect();
+            let (a, b) = (nodes[0], nodes[63]);
+            (0.5 * (a + b), 0.5 * a.distance(b), nodes)
+        })
+        .collect()
+}
+
+/// The nodes of blocks above a sampled sheet asked of the index one by one, and of a
+/// region gathered once per block — what a distance grid does through a prepared MLS
+/// surface: neighbours in a gathering ball, and the nearest sample within a band.
+fn kd_region(c: &mut Criterion) {
+    let mut group = c.benchmark_group("kd_region_sheet_100k");
+    let index = KdIndex::new(&sheet_points(100_000, 1)).expect("benchmark setup");
+    // A sample spacing of about 0.003: a gathering ball of 1.5 MLS supports (2.5 kernels of
+    // 1.25 spacings) holds about 60 samples; nodes a quarter support apart, a band of 4
+    // supports.
+    let support = 2.5 * 1.25 * 0.0032;
+    let (gather, band) = (1.5 * support, 4.0 * support);
+    let blocks = node_blocks(0.25 * support, band);
+    group.bench_function("within_3072_nodes_by_index", |b| {
+        b.iter(|| {
+            for (_, _, nodes) in &blocks {
+                for &q in nodes {
+                    black_box(index.within(q, gather).ok());
+                }
+            }
+        })
+    });
+    group.bench_function("within_3072_nodes_by_region", |b| {
+        b.iter(|| {
+            for (centre, reach, nodes) in &blocks {
+                let region = index
+                    .region(*centre, (reach + gather) * 1.0001)
+                    .expect("benchmark setup");
+                for &q in nodes {
+                    black_box(region.within(q, gather).ok());
+                }
+            }
+        })
+    });
+    group.bench_function("nearest_one_3072_nodes_by_index", |b| {
+        b.iter(|| {
+            for (_, _, nodes) in &blocks {
+                for &q in nodes {
+                    black_box(index.nearest_one(q).ok());
+                }
+            }
+        })
+    });
+    group.bench_function("nearest_up_to_band_3072_nodes_by_region", |b| {
+        b.iter(|| {
+            for (centre, reach, nodes) in &blocks {
+                let region = index
+                    .region(*centre, (reach + band) * 1.0001)
+                    .expect("benchmark setup");
+                for &q in nodes {
+                    black_box(region.nearest_one_up_to(q, band).ok());
+                }
+            }
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, kd_index, kd_region, bucket_grid);
 criterion_main!(benches);
