@@ -37,10 +37,56 @@ pub struct KdRegion<'i> {
     index: &'i KdIndex,
     centre: Vec3,
     reach: f32,
-    /// The members' positions, contiguous for the scans.
-    positions: Vec<Vec3>,
-    /// The members' indices in the index, in the order of `positions`.
+    /// The members' coordinates, one array per axis, for scans [`LANES`] members at a
+    /// time; padded to whole chunks with infinite coordinates, which are infinitely far
+    /// from every query.
+    xs: Vec<f32>,
+    ys: Vec<f32>,
+    zs: Vec<f32>,
+    /// The members' indices in the index, in the order of the coordinates (no padding).
     members: Vec<u32>,
+}
+
+/// Members scanned side by side.
+const LANES: usize = 8;
+
+/// `values`, padded with infinities to a whole number of [`LANES`].
+fn padded(values: impl ExactSizeIterator<Item = f32>) -> Vec<f32> {
+    let n = values.len();
+    values
+        .chain(std::iter::repeat_n(
+            f32::INFINITY,
+            n.next_multiple_of(LANES) - n,
+        ))
+        .collect()
+}
+
+/// Per lane of a scan for the nearest member: the least squared distance so far, the
+/// first member at it, and whether a later member matched it.
+struct Lanes {
+    least: [f32; LANES],
+    first: [usize; LANES],
+    tied: [bool; LANES],
+}
+
+impl Default for Lanes {
+    fn default() -> Self {
+        Self {
+            least: [f32::INFINITY; LANES],
+            first: [usize::MAX; LANES],
+            tied: [false; LANES],
+        }
+    }
+}
+
+impl Lanes {
+    /// Member `m` at squared distance `d2`, in lane `l`.
+    fn offer(&mut self, l: usize, d2: f32, m: usize) {
+        let nearer = d2 < self.least[l];
+        self.tied[l] = !nearer && (self.tied[l] || d2 == self.least[l]);
+        self.first[l] = if nearer { m } else { self.first[l] };
+        self.least[l] = if nearer { d2 } else { self.least[l] };
+    }
 }
 
 /// [`KdRegion::nearest_one_up_to`]'s answer.
@@ -88,7 +134,9 @@ impl KdIndex {
             index: self,
             centre,
             reach,
-            positions: members.iter().map(|&i| points[i as usize]).collect(),
+            xs: padded(members.iter().map(|&i| points[i as usize].x)),
+            ys: padded(members.iter().map(|&i| points[i as usize].y)),
+            zs: padded(members.iter().map(|&i| points[i as usize].z)),
             members,
         })
     }
@@ -117,15 +165,15 @@ impl KdRegion<'_> {
             return self.index.within(q, radius);
         }
         let r2 = radius * radius;
-        let mut keys: Vec<u64> = self
-            .positions
-            .iter()
-            .zip(&self.members)
-            .filter_map(|(p, &i)| {
-                let d2 = (*p - q).length_squared();
-                (d2 <= r2).then(|| nearness_key(d2, i))
-            })
-            .collect();
+        let mut keys = Vec::new();
+        self.scan(q, |first, d2| {
+            for (l, &d2) in d2.iter().enumerate() {
+                if d2 <= r2 {
+                    // Padding is infinitely far, so `first + l` is a member.
+                    keys.push(nearness_key(d2, self.members[first + l]));
+                }
+            }
+        });
         keys.sort_unstable();
         Ok(keys
             .into_iter()
@@ -176,25 +224,41 @@ impl KdRegion<'_> {
         self.index.nearest_one(q).map(NearestUpTo::Found)
     }
 
-    /// The members' least squared distance to `q`, and the member at it if it is the
-    /// only one there.
-    fn unique_nearest_member(&self, q: Vec3) -> NearestMember {
-        let mut best: Option<(f32, u32)> = None;
-        let mut tied = false;
-        for (p, &i) in self.positions.iter().zip(&self.members) {
-            let d2 = (*p - q).length_squared();
-            match best {
-                Some((b, _)) if d2 > b => {}
-                Some((b, _)) if d2 == b => tied = true,
-                _ => {
-                    best = Some((d2, i));
-                    tied = false;
-                }
-            }
+    /// Calls `visit(first, d2)` for each chunk of [`LANES`] members from member `first` on,
+    /// with their squared distances to `q` computed as `(p - q).length_squared()` and the
+    /// index compute them (`dx² + dy² + dz²`, in that order), bit for bit.
+    fn scan(&self, q: Vec3, mut visit: impl FnMut(usize, &[f32; LANES])) {
+        let (xs, _) = self.xs.as_chunks::<LANES>();
+        let (ys, _) = self.ys.as_chunks::<LANES>();
+        let (zs, _) = self.zs.as_chunks::<LANES>();
+        for (chunk, ((x, y), z)) in xs.iter().zip(ys).zip(zs).enumerate() {
+            let d2: [f32; LANES] = std::array::from_fn(|l| {
+                let (dx, dy, dz) = (x[l] - q.x, y[l] - q.y, z[l] - q.z);
+                dx * dx + dy * dy + dz * dz
+            });
+            visit(chunk * LANES, &d2);
         }
+    }
+
+    /// The members' least squared distance to `q`, and the member at it if it is the
+    /// only one there. The members are scanned [`LANES`] at a time, each lane keeping its
+    /// least distance, the first member at it, and whether another one matched it.
+    fn unique_nearest_member(&self, q: Vec3) -> NearestMember {
+        let mut lanes = Lanes::default();
+        self.scan(q, |first, d2| {
+            for (l, &d2) in d2.iter().enumerate() {
+                lanes.offer(l, d2, first + l);
+            }
+        });
+        let least = lanes.least.into_iter().fold(f32::INFINITY, f32::min);
+        let mut holders = (0..LANES).filter(|&l| lanes.least[l] == least);
+        let unique = match (holders.next(), holders.next()) {
+            (Some(l), None) if !lanes.tied[l] => Some((least, self.members[lanes.first[l]])),
+            _ => None,
+        };
         NearestMember {
-            least_squared: best.map_or(f32::INFINITY, |(d2, _)| d2),
-            unique: best.filter(|_| !tied),
+            least_squared: least,
+            unique,
         }
     }
 }
