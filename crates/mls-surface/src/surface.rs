@@ -35,6 +35,13 @@ const GATHER_RADIUS: f32 = 1.5;
 /// many support radii of the queries' reach.
 const NEAREST_REACH: f32 = 2.5;
 
+/// Most samples a prepared surface expects to gather for nearest samples (estimated from
+/// its neighbours); beyond it, the index answers. Measured on the Mount St. Helens quilt
+/// (146k samples on a sheet): gathering without a limit cost 3% more than asking the index
+/// alone, and a limit of 256 saved 4% against it; the chain mail fixture, whose regions
+/// stay under it, gains the same either way (docs/performance.md).
+const NEAREST_MAX_MEMBERS: f32 = 256.0;
+
 /// Relative margin added to the radius a prepared surface gathers in, so that rounding
 /// does not leave the queries at the very end of its reach uncovered.
 const REGION_SLACK: f32 = 1e-4;
@@ -582,6 +589,22 @@ impl<'s> PreparedMls<'s> {
         .as_ref()
     }
 
+    /// The region for nearest samples within `bound` ([`Self::nearest_gathering`]), unless
+    /// it would hold more than [`NEAREST_MAX_MEMBERS`] samples by the neighbours' count,
+    /// scaled by area (samples lie on a surface): scanning that many costs more than the
+    /// index's search. `None` then, or where the index cannot gather.
+    fn nearest_region(&self, bound: f32) -> Option<&KdRegion<'s>> {
+        let beyond = self.nearest_gathering(bound);
+        if self.nearest.get().is_none() {
+            let neighbours = self.region(&self.neighbours, self.gathering())?;
+            let scale = (self.reach + beyond) / (self.reach + self.gathering());
+            if neighbours.len() as f32 * scale * scale > NEAREST_MAX_MEMBERS {
+                return None;
+            }
+        }
+        self.region(&self.nearest, beyond)
+    }
+
     /// How far beyond the reach the neighbours are gathered: a projection's gathering
     /// ball.
     fn gathering(&self) -> f32 {
@@ -673,14 +696,14 @@ impl Neighbours for PreparedMls<'_> {
     }
 
     fn nearest_one(&self, x: Vec3) -> Option<usize> {
-        match self.region(&self.nearest, self.nearest_gathering(f32::INFINITY)) {
+        match self.nearest_region(f32::INFINITY) {
             Some(region) => Some(region.nearest_one(x).ok()??.index),
             None => Neighbours::nearest_one(&self.surface.index, x),
         }
     }
 
     fn nearest_up_to(&self, x: Vec3, bound: f32) -> NearestUpTo {
-        match self.region(&self.nearest, self.nearest_gathering(bound)) {
+        match self.nearest_region(bound) {
             Some(region) => region
                 .nearest_one_up_to(x, bound)
                 .unwrap_or(NearestUpTo::Found(None)),
