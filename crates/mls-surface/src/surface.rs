@@ -46,9 +46,11 @@ const NEAREST_MAX_MEMBERS: f32 = 256.0;
 /// does not leave the queries at the very end of its reach uncovered.
 const REGION_SLACK: f32 = 1e-4;
 
-/// Largest reach, in support radii, that a surface is prepared for: beyond it the
-/// gathered samples outnumber a query's own neighbours so much that scanning them costs
-/// more than asking the index.
+/// Largest reach, in support radii, that a surface is prepared for: the gathered samples
+/// then lie within 3.5 support radii of the centre, about five times the area of one
+/// query's gathering ball on a sheet. At 2 the quality measure's fine field (nodes a
+/// quarter support apart) is prepared in whole 8 × 8 blocks; the value was not tuned
+/// beyond that (1, with runs of 8 nodes along a row, gained less: docs/performance.md).
 const PREPARED_MAX_REACH: f32 = 2.0;
 
 /// The local quantities of the surface definition at a point `x`.
@@ -533,15 +535,16 @@ impl Surface for MlsSurface {
         self.signed_distance_up_to(query, max_distance, &self.index)
     }
 
-    /// [`PREPARED_MAX_REACH`] support radii.
+    /// Two support radii: the gathered samples then number a few times a query's own
+    /// neighbours (docs/mls-surface.md, "Prepared surfaces").
     fn preparation_reach(&self) -> Option<f32> {
         Some(PREPARED_MAX_REACH * self.support_radius())
     }
 
-    /// The samples near the queries' reach gathered once ([`PreparedMls`]): every
-    /// query's neighbours and nearest sample come from them where they provably hold all
-    /// of them, from the index otherwise, so the answers are the surface's own. `None` for
-    /// a reach over [`PREPARED_MAX_REACH`] support radii.
+    /// The samples near the queries' reach gathered once (a `KdRegion`): every query's
+    /// neighbours and nearest sample come from them where they provably hold all of them,
+    /// from the index otherwise, so the answers are the surface's own. `None` for a reach
+    /// over [`Surface::preparation_reach`].
     fn prepared_near(&self, centre: Vec3, reach: f32) -> Option<Box<dyn Surface + '_>> {
         let within_limit = reach <= PREPARED_MAX_REACH * self.support_radius();
         // A NaN reach is refused too.
