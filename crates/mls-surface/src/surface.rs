@@ -31,8 +31,9 @@ const CLEARANCE_MARGIN: f32 = 1e-5;
 const GATHER_RADIUS: f32 = 1.5;
 
 /// A surface prepared for queries near one place ([`Surface::prepared_near`]) looks for
-/// the nearest sample of a query out of the kernel's reach among the samples within this
-/// many support radii of the queries' reach.
+/// the nearest sample of a query out of the kernel's reach among the samples within the
+/// query's bound (a grid's band) of the queries' reach, and at least this many support
+/// radii.
 const NEAREST_REACH: f32 = 2.5;
 
 /// Most samples a prepared surface expects to gather for nearest samples (estimated from
@@ -558,7 +559,7 @@ impl Surface for MlsSurface {
             neighbours: OnceLock::new(),
             nearest: OnceLock::new(),
         };
-        prepared.region(&prepared.neighbours, prepared.gathering())?;
+        prepared.neighbours_region()?;
         Some(Box::new(prepared))
     }
 }
@@ -566,8 +567,9 @@ impl Surface for MlsSurface {
 /// An [`MlsSurface`] prepared for queries within `reach` of `centre`
 /// ([`Surface::prepared_near`]): the samples within [`GATHER_RADIUS`] support radii of the
 /// reach, which hold the neighbours of every query within it, and — gathered on the first
-/// query out of the kernel's reach — those within [`NEAREST_REACH`] support radii, which
-/// hold the nearest sample of most such queries.
+/// query out of the kernel's reach, unless there would be too many — those within that
+/// query's bound (at least [`NEAREST_REACH`] support radii), which hold the nearest sample
+/// of every query within the bound or show that it lies beyond.
 struct PreparedMls<'s> {
     surface: &'s MlsSurface,
     centre: Vec3,
@@ -577,19 +579,19 @@ struct PreparedMls<'s> {
 }
 
 impl<'s> PreparedMls<'s> {
-    /// The region in `cell`, gathering it on first use: the samples within `beyond` of
-    /// the reach (and a little more, so that queries at the reach's very end are covered
-    /// despite rounding). `None` where the index cannot gather.
-    fn region<'a>(
-        &'a self,
-        cell: &'a OnceLock<Option<KdRegion<'s>>>,
-        beyond: f32,
-    ) -> Option<&'a KdRegion<'s>> {
-        cell.get_or_init(|| {
-            let radius = (self.reach + beyond) * (1.0 + REGION_SLACK);
-            self.surface.index.region(self.centre, radius).ok()
-        })
-        .as_ref()
+    /// The region for neighbours, gathered on first use: the samples within a gathering
+    /// ball of the reach. `None` where the index cannot gather.
+    fn neighbours_region(&self) -> Option<&KdRegion<'s>> {
+        self.neighbours
+            .get_or_init(|| self.gathered(self.gathering()))
+            .as_ref()
+    }
+
+    /// The samples within `beyond` of the reach, and a little more ([`REGION_SLACK`]), so
+    /// that rounding does not leave the queries at the reach's very end uncovered.
+    fn gathered(&self, beyond: f32) -> Option<KdRegion<'s>> {
+        let radius = (self.reach + beyond) * (1.0 + REGION_SLACK);
+        self.surface.index.region(self.centre, radius).ok()
     }
 
     /// The region for nearest samples within `bound` ([`Self::nearest_gathering`]), unless
@@ -597,15 +599,17 @@ impl<'s> PreparedMls<'s> {
     /// scaled by area (samples lie on a surface): scanning that many costs more than the
     /// index's search. `None` then, or where the index cannot gather.
     fn nearest_region(&self, bound: f32) -> Option<&KdRegion<'s>> {
-        let beyond = self.nearest_gathering(bound);
-        if self.nearest.get().is_none() {
-            let neighbours = self.region(&self.neighbours, self.gathering())?;
-            let scale = (self.reach + beyond) / (self.reach + self.gathering());
-            if neighbours.len() as f32 * scale * scale > NEAREST_MAX_MEMBERS {
-                return None;
-            }
-        }
-        self.region(&self.nearest, beyond)
+        self.nearest
+            .get_or_init(|| {
+                let beyond = self.nearest_gathering(bound);
+                let neighbours = self.neighbours_region()?;
+                let scale = (self.reach + beyond) / (self.reach + self.gathering());
+                if neighbours.len() as f32 * scale * scale > NEAREST_MAX_MEMBERS {
+                    return None;
+                }
+                self.gathered(beyond)
+            })
+            .as_ref()
     }
 
     /// How far beyond the reach the neighbours are gathered: a projection's gathering
@@ -692,7 +696,7 @@ impl Neighbours for KdIndex {
 
 impl Neighbours for PreparedMls<'_> {
     fn within(&self, x: Vec3, radius: f32) -> Vec<usize> {
-        match self.region(&self.neighbours, self.gathering()) {
+        match self.neighbours_region() {
             Some(region) => indices(region.within(x, radius)),
             None => Neighbours::within(&self.surface.index, x, radius),
         }
