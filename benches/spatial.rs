@@ -8,7 +8,7 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use geosynth::core::rng;
-use geosynth::core::{Aabb, BucketGrid, KdIndex};
+use geosynth::core::{Aabb, BucketGrid, KdIndex, KdRegion};
 use glam::Vec3;
 use rand::RngExt;
 
@@ -102,7 +102,7 @@ fn sheet_points(n: usize, seed: u64) -> Vec<Vec3> {
 
 /// 48 blocks of 8 × 8 grid nodes spaced `spacing` apart, level with the sheet or up to
 /// `height` above it: each block's centre, reach, and nodes.
-fn node_blocks(spacing: f32, height: f32) -> Vec<(Vec3, f32, Vec<Vec3>)> {
+fn node_blocks(spacing: f32, height: f32) -> Vec<Block> {
     let mut r = rng::rng_from_seed(3);
     (0..48)
         .map(|_| {
@@ -120,6 +120,32 @@ fn node_blocks(spacing: f32, height: f32) -> Vec<(Vec3, f32, Vec<Vec3>)> {
         .collect()
 }
 
+/// A block of nodes: its centre, its reach (half its diagonal) and its nodes.
+type Block = (Vec3, f32, Vec<Vec3>);
+
+/// Calls `ask(q)` for every node of every block.
+fn each_node(blocks: &[Block], mut ask: impl FnMut(Vec3)) {
+    for (_, _, nodes) in blocks {
+        nodes.iter().for_each(|&q| ask(q));
+    }
+}
+
+/// Gathers the points within `beyond` of each block's reach into a region, then calls
+/// `ask(region, q)` for the block's nodes.
+fn each_node_by_region(
+    index: &KdIndex,
+    blocks: &[Block],
+    beyond: f32,
+    mut ask: impl FnMut(&KdRegion, Vec3),
+) {
+    for (centre, reach, nodes) in blocks {
+        let region = index
+            .region(*centre, (reach + beyond) * 1.0001)
+            .expect("benchmark setup");
+        nodes.iter().for_each(|&q| ask(&region, q));
+    }
+}
+
 /// The nodes of blocks above a sampled sheet asked of the index one by one, and of a
 /// region gathered once per block — what a distance grid does through a prepared MLS
 /// surface: neighbours in a gathering ball, and the nearest sample within a band.
@@ -134,44 +160,30 @@ fn kd_region(c: &mut Criterion) {
     let blocks = node_blocks(0.25 * support, band);
     group.bench_function("within_3072_nodes_by_index", |b| {
         b.iter(|| {
-            for (_, _, nodes) in &blocks {
-                for &q in nodes {
-                    black_box(index.within(q, gather).ok());
-                }
-            }
+            each_node(&blocks, |q| {
+                black_box(index.within(q, gather).ok());
+            })
         })
     });
     group.bench_function("within_3072_nodes_by_region", |b| {
         b.iter(|| {
-            for (centre, reach, nodes) in &blocks {
-                let region = index
-                    .region(*centre, (reach + gather) * 1.0001)
-                    .expect("benchmark setup");
-                for &q in nodes {
-                    black_box(region.within(q, gather).ok());
-                }
-            }
+            each_node_by_region(&index, &blocks, gather, |region, q| {
+                black_box(region.within(q, gather).ok());
+            })
         })
     });
     group.bench_function("nearest_one_3072_nodes_by_index", |b| {
         b.iter(|| {
-            for (_, _, nodes) in &blocks {
-                for &q in nodes {
-                    black_box(index.nearest_one(q).ok());
-                }
-            }
+            each_node(&blocks, |q| {
+                black_box(index.nearest_one(q).ok());
+            })
         })
     });
     group.bench_function("nearest_up_to_band_3072_nodes_by_region", |b| {
         b.iter(|| {
-            for (centre, reach, nodes) in &blocks {
-                let region = index
-                    .region(*centre, (reach + band) * 1.0001)
-                    .expect("benchmark setup");
-                for &q in nodes {
-                    black_box(region.nearest_one_up_to(q, band).ok());
-                }
-            }
+            each_node_by_region(&index, &blocks, band, |region, q| {
+                black_box(region.nearest_one_up_to(q, band).ok());
+            })
         })
     });
     group.finish();
