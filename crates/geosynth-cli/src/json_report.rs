@@ -6,10 +6,17 @@ use serde::Serialize;
 use serde_json::{Number, Value};
 
 use crate::CliResult;
+use crate::memory::peak_resident_bytes;
 use crate::params_file::COMMAND_KEY;
 
+/// The key under which a report records the peak resident memory of the process that
+/// wrote it, in bytes: everything the run held at once, reading and writing files included.
+pub const PEAK_MEMORY_KEY: &str = "peak_memory_bytes";
+
 /// Writes the report of `geosynth COMMAND` to `path` as indented JSON, naming the command
-/// under [`COMMAND_KEY`] (so `--params` can tell one command's report from another's).
+/// under [`COMMAND_KEY`] (so `--params` can tell one command's report from another's) and
+/// the process's peak resident memory so far under [`PEAK_MEMORY_KEY`] (`null` where the
+/// platform does not tell).
 /// Numbers that are exactly a single-precision value are written as that value's shortest
 /// decimal: `json!` and `serde_json::to_value` widen an `f32` to the `f64` it equals, which
 /// prints `0.1f32` as `0.10000000149011612`. Read back as `f32` (as `--params` does), the
@@ -18,6 +25,10 @@ pub fn write_json_report(path: &Path, command: &str, report: &impl Serialize) ->
     let mut value = serde_json::to_value(report)?;
     if let Value::Object(fields) = &mut value {
         fields.insert(COMMAND_KEY.to_string(), Value::from(command));
+        fields.insert(
+            PEAK_MEMORY_KEY.to_string(),
+            Value::from(peak_resident_bytes()),
+        );
     }
     shorten_single_precision(&mut value);
     std::fs::write(path, serde_json::to_string_pretty(&value)?)

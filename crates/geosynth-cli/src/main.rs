@@ -2,6 +2,7 @@
 
 mod commands;
 mod json_report;
+mod memory;
 mod output;
 mod params_file;
 

@@ -20,6 +20,7 @@ use serde::Serialize;
 
 use crate::commands::quilt::{measure_for, measured_run, run_json, texture_preview};
 use crate::json_report::write_json_report;
+use crate::memory::peak_resident_bytes;
 use crate::output::{progress_bar, status};
 use crate::{CliResult, Globals, create_dir};
 
@@ -319,8 +320,12 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
 fn write_reports(report: &Report, out: &Path) -> CliResult {
     write_json_report(&out.join("report.json"), "demo", report)?;
     let mut md = String::from("# geosynth demo report\n\n");
+    let peak = match peak_resident_bytes() {
+        Some(bytes) => format!("{:.0} MiB", bytes as f64 / f64::from(1 << 20)),
+        None => "not known on this platform".to_string(),
+    };
     md.push_str(&format!(
-        "geosynth {} · seed {} · {} threads · {}\n\nFixtures from: {}\n\n",
+        "geosynth {} · seed {} · {} threads · {} · peak memory {peak}\n\nFixtures from: {}\n\n",
         report.geosynth_version,
         report.seed,
         report.threads,

@@ -57,6 +57,18 @@ fn arg(path: &Path) -> String {
 }
 
 /// `geosynth info --json` of a file.
+/// Asserts that a report records the peak memory of its run: a plausible number of bytes
+/// on Linux (more than the 1 MiB any run holds, less than 64 GiB), `null` elsewhere.
+fn assert_peak_memory(report: &serde_json::Value) {
+    let peak = &report["peak_memory_bytes"];
+    if cfg!(target_os = "linux") {
+        let bytes = peak.as_u64().unwrap_or(0);
+        assert!((1 << 20..1 << 36).contains(&bytes), "{peak}");
+    } else {
+        assert!(peak.is_null(), "{peak}");
+    }
+}
+
 fn info_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap()
 }
@@ -293,6 +305,9 @@ fn demo_quick_writes_report_geometry_and_previews() {
     ok(&["demo", "--quick", "--quiet", "--out", out.to_str().unwrap()]);
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_peak_memory(&report);
+    let markdown = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(markdown.contains("· peak memory "), "{markdown}");
     let fixtures = report["fixtures"].as_array().unwrap();
     assert!(fixtures.len() >= 6);
     for f in fixtures {

@@ -7,7 +7,8 @@ use std::path::Path;
 use serde_json::Value;
 
 use crate::{
-    Scratch, TINY_VOXEL, arg, geosynth, icosphere_with_turned_faces, ok, write_with_defaults,
+    Scratch, TINY_VOXEL, arg, assert_peak_memory, geosynth, icosphere_with_turned_faces, ok,
+    write_with_defaults,
 };
 
 fn read_json(path: &Path) -> Value {
@@ -311,7 +312,9 @@ fn run_with_report(dir: &Scratch, args: &[&str], out: &str, report: &str) -> Val
     let mut all = args.to_vec();
     all.extend_from_slice(&["-o", &out, "--report", &report, "-q"]);
     ok(&all);
-    read_json(Path::new(&report))
+    let report = read_json(Path::new(&report));
+    assert_peak_memory(&report);
+    report
 }
 
 #[test]
