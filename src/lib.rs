@@ -91,6 +91,31 @@
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! Where one stage's output is not the next one's input, `map` adapts it. A geometry
+//! texture quilted (paper 000) and turned into a mesh, in one pipeline:
+//!
+//! ```
+//! use geosynth::quilt::{OutputSize, Quilt, QuiltParams, texture_from_exemplar};
+//! use geosynth::reconstruct::{FieldParams, Reconstruct};
+//! use geosynth::{fixtures, RunContext, Stage};
+//!
+//! let texture = texture_from_exemplar(&fixtures::textures::bumpy(60.0, 1, 1)?)?;
+//! let quilt = Quilt {
+//!     params: QuiltParams::default().output(OutputSize::Scale(1.25)).field_resolution(20),
+//! };
+//! let to_mesh = Reconstruct { params: FieldParams::default().resolution(40) };
+//! // The quilt's output holds its points, box and placements; the mesh needs the points.
+//! let pipeline = quilt.map(|out| out.points).then(to_mesh);
+//! let mut ctx = RunContext::new(3);
+//! let mesh = pipeline.run(texture, &mut ctx)?;
+//! assert!(mesh.face_count() > 1000);
+//! let stages: Vec<&str> = ctx.timings().iter().map(|(name, _)| name.as_str()).collect();
+//! assert!(stages.contains(&"quilt") && stages.contains(&"reconstruct"), "{stages:?}");
+//! // An open sheet's zero set runs on to the grid's edge: `reconstruct::trim_to_samples`
+//! // cuts it back to the quilted points, as `geosynth reconstruct --trim` does.
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! ## Features
 //!
 //! - `serde`: `Serialize`/`Deserialize` for every crate's parameter types (it turns on each

@@ -78,7 +78,7 @@ pub use pointset::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES};
 pub use scalar::ScalarType;
 pub use scaled::{power_of_two_scale, triangle_normal, unit_vector};
 pub use spatial::{BucketGrid, KdIndex, KdRegion, Neighbour, PointKey};
-pub use stage::{CancelFlag, NoProgress, Progress, ProgressUpdate, RunContext, Stage, Then};
+pub use stage::{CancelFlag, Map, NoProgress, Progress, ProgressUpdate, RunContext, Stage, Then};
 pub use surface::{BandAnswer, Surface, SurfacePoint};
 
 /// Re-export of the `glam` version used for all geometry.

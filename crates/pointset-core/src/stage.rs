@@ -201,6 +201,68 @@ pub trait Stage {
             name,
         }
     }
+
+    /// This stage with its output passed through `f`: the adaptor between stages whose
+    /// types do not meet, such as a synthesis whose output holds the points the next stage
+    /// reads (`quilt.map(|out| out.points).then(reconstruct)`). The stage keeps its name;
+    /// `f` cannot fail and is not timed apart.
+    ///
+    /// ```
+    /// use pointset_core::{RunContext, Stage};
+    ///
+    /// struct Count;
+    /// impl Stage for Count {
+    ///     type Input = Vec<f32>;
+    ///     type Output = (usize, Vec<f32>);
+    ///     type Error = pointset_core::Error;
+    ///     fn name(&self) -> &str { "count" }
+    ///     fn run(&self, v: Vec<f32>, _ctx: &mut RunContext) -> Result<Self::Output, Self::Error> {
+    ///         Ok((v.len(), v))
+    ///     }
+    /// }
+    ///
+    /// let lengths = Count.map(|(n, _)| n).run(vec![1.0, 2.0], &mut RunContext::new(0))?;
+    /// assert_eq!(lengths, 2);
+    /// Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    fn map<F, T>(self, f: F) -> Map<Self, F>
+    where
+        Self: Sized,
+        F: Fn(Self::Output) -> T,
+    {
+        Map { stage: self, f }
+    }
+}
+
+/// A stage whose output is passed through a function; made by [`Stage::map`].
+#[derive(Clone)]
+pub struct Map<A, F> {
+    stage: A,
+    f: F,
+}
+
+impl<A: std::fmt::Debug, F> std::fmt::Debug for Map<A, F> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Map").field("stage", &self.stage).finish()
+    }
+}
+
+impl<A, F, T> Stage for Map<A, F>
+where
+    A: Stage,
+    F: Fn(A::Output) -> T,
+{
+    type Input = A::Input;
+    type Output = T;
+    type Error = A::Error;
+
+    fn name(&self) -> &str {
+        self.stage.name()
+    }
+
+    fn run(&self, input: A::Input, ctx: &mut RunContext) -> Result<T, A::Error> {
+        self.stage.run(input, ctx).map(&self.f)
+    }
 }
 
 /// Two stages run one after the other; made by [`Stage::then`]. Each stage's wall time is
@@ -272,6 +334,21 @@ mod tests {
         assert_eq!(*seen.lock().unwrap(), 3);
         assert_eq!(ctx.timings().len(), 2);
         assert_eq!(ctx.seed(), 5);
+    }
+
+    #[test]
+    fn map_adapts_an_output_between_stages() {
+        let mut ctx = RunContext::new(0);
+        let p = AddOne.map(|x| x * 10).then(AddOne).map(|x| x.to_string());
+        assert_eq!(p.name(), "add-one -> add-one");
+        assert_eq!(p.run(1, &mut ctx).unwrap(), "21");
+        let flag = CancelFlag::new();
+        let mut cancelled = RunContext::new(0).with_cancel_flag(flag.clone());
+        flag.cancel();
+        assert!(matches!(
+            AddOne.map(|x| x + 1).run(1, &mut cancelled),
+            Err(Error::Cancelled)
+        ));
     }
 
     #[test]
