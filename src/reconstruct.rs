@@ -370,11 +370,139 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
     Ok(TriMesh::new(mesh.vertices().clone(), kept)?.without_unreferenced_vertices()?)
 }
 
+/// What [`drop_small_pieces`] leaves.
+#[derive(Debug, Clone)]
+pub struct PiecesKept {
+    /// The mesh without the small pieces (their vertices dropped too).
+    pub mesh: TriMesh,
+    /// How many pieces went.
+    pub dropped: usize,
+}
+
+/// The mesh without its small pieces: the connected pieces (faces joined by shared
+/// corners) whose bounding box's diagonal is shorter than `min_diagonal`.
+///
+/// Where a surface is undersampled — the cliffs of a steep height field, parts of a scan
+/// thinner than the kernel — its MLS surface can close into small bubbles beside the real
+/// one, and the distance field's zero set with it (docs/mls-surface.md, "Small pieces").
+/// This removes such pieces, as MeshLab's "remove isolated pieces (wrt diameter)" does. It
+/// removes real parts that small as well, so it is a choice, never a default; `0` keeps
+/// every piece. Normals and UVs are kept.
+///
+/// Errors: `min_diagonal` negative or not finite.
+///
+/// ```
+/// use geosynth::fixtures::torus_mesh;
+/// use geosynth::reconstruct::drop_small_pieces;
+/// use geosynth::core::{PointSet, TriMesh};
+///
+/// // A torus 2.6 wide and a small one 0.26 wide beside it, as one mesh.
+/// let (big, small) = (torus_mesh(32, 16, 1.0, 0.3)?, torus_mesh(16, 8, 0.1, 0.03)?);
+/// let offset = big.vertex_count() as u32;
+/// let mut positions = big.positions().to_vec();
+/// positions.extend(small.positions().iter().map(|p| *p + glam::Vec3::X * 3.0));
+/// let mut faces = big.triangles().to_vec();
+/// faces.extend(small.triangles().iter().map(|t| t.map(|v| v + offset)));
+/// let both = TriMesh::new(PointSet::new(positions)?, faces)?;
+///
+/// let kept = drop_small_pieces(&both, 1.0)?;
+/// assert_eq!((kept.dropped, kept.mesh.face_count()), (1, big.face_count()));
+/// assert_eq!(drop_small_pieces(&both, 0.0)?.mesh.face_count(), both.face_count());
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn drop_small_pieces(mesh: &TriMesh, min_diagonal: f32) -> Result<PiecesKept> {
+    if !(min_diagonal.is_finite() && min_diagonal >= 0.0) {
+        return Error::invalid("min_diagonal", min_diagonal, "a length ≥ 0");
+    }
+    let triangles = mesh.triangles();
+    let mut pieces = DisjointSets::new(mesh.vertex_count());
+    for t in triangles {
+        pieces.join(t[0], t[1]);
+        pieces.join(t[0], t[2]);
+    }
+    // Each piece's box, kept at its root vertex.
+    let mut boxes: Vec<Option<Aabb>> = vec![None; mesh.vertex_count()];
+    let roots: Vec<u32> = triangles.iter().map(|t| pieces.root(t[0])).collect();
+    for (t, &root) in triangles.iter().zip(&roots) {
+        let slot = &mut boxes[root as usize];
+        for &v in t {
+            let p = mesh.positions()[v as usize];
+            *slot = Some(slot.map_or(Aabb::new(p, p), |b| b.including(p)));
+        }
+    }
+    let diagonals: Vec<f32> = boxes
+        .iter()
+        .map(|b| b.map_or(f32::NAN, |b| b.diagonal()))
+        .collect();
+    // Vertices that root no piece hold NaN, which is never small.
+    let small = |d: f32| d < min_diagonal;
+    let dropped = diagonals.iter().filter(|&&d| small(d)).count();
+    let kept: Vec<[u32; 3]> = triangles
+        .iter()
+        .zip(&roots)
+        .filter(|&(_, &root)| !small(diagonals[root as usize]))
+        .map(|(t, _)| *t)
+        .collect();
+    let trimmed = TriMesh::new(mesh.vertices().clone(), kept)?;
+    let trimmed = match mesh.uvs() {
+        Some(uvs) => trimmed.with_uvs(uvs.to_vec())?,
+        None => trimmed,
+    };
+    Ok(PiecesKept {
+        mesh: trimmed.without_unreferenced_vertices()?,
+        dropped,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use glam::{Vec3, Vec4};
     use pointset_core::Grid3;
+
+    #[test]
+    fn pieces_shorter_than_the_diagonal_go_with_their_vertices() {
+        // A unit right triangle (diagonal √2), one ten times larger, an unused vertex.
+        let positions = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::new(5.0, 0.0, 0.0),
+            Vec3::new(15.0, 0.0, 0.0),
+            Vec3::new(5.0, 10.0, 0.0),
+            Vec3::splat(100.0),
+        ];
+        let normals = (0..7)
+            .map(|i| Vec3::new(i as f32, 0.0, 1.0).normalize())
+            .collect();
+        let uvs: Vec<glam::Vec2> = (0..7).map(|i| glam::Vec2::splat(i as f32)).collect();
+        let points = PointSet::new(positions)
+            .unwrap()
+            .with_normals(normals)
+            .unwrap();
+        let mesh = TriMesh::new(points, vec![[0, 1, 2], [3, 4, 5]])
+            .unwrap()
+            .with_uvs(uvs)
+            .unwrap();
+        // A piece exactly as long as the limit stays.
+        let all = drop_small_pieces(&mesh, 2f32.sqrt()).unwrap();
+        assert_eq!((all.dropped, all.mesh.face_count()), (0, 2));
+        assert_eq!(all.mesh.vertex_count(), 6);
+        let big = drop_small_pieces(&mesh, 1.5).unwrap();
+        assert_eq!(big.dropped, 1);
+        assert_eq!(big.mesh.triangles(), &[[0, 1, 2]]);
+        assert_eq!(big.mesh.positions(), &mesh.positions()[3..6]);
+        assert_eq!(big.mesh.uvs().unwrap(), &mesh.uvs().unwrap()[3..6]);
+        assert_eq!(
+            big.mesh.vertices().normals().unwrap(),
+            &mesh.vertices().normals().unwrap()[3..6]
+        );
+        assert_eq!(drop_small_pieces(&mesh, 15.0).unwrap().mesh.face_count(), 0);
+        for bad in [f32::NAN, -1.0, f32::INFINITY] {
+            let err = drop_small_pieces(&mesh, bad).unwrap_err();
+            assert!(err.to_string().contains("min_diagonal"), "{err}");
+        }
+    }
 
     #[test]
     fn a_field_without_a_zero_crossing_is_no_surface_not_an_empty_mesh() {

@@ -1385,6 +1385,88 @@ fn sdf_and_voxel_turn_disagreeing_triangles_around_when_asked() {
 }
 
 #[test]
+fn reconstruct_drops_small_pieces_when_asked_and_says_so_when_not() {
+    // A sphere of radius 1 (3000 samples) and one of radius 0.1 beside it (300): the small
+    // one comes out as its own closed piece about 4 median spacings across.
+    let dir = Scratch::new();
+    let big = geosynth::fixtures::sphere_points(3000).unwrap();
+    let small = geosynth::fixtures::sphere_points(300).unwrap();
+    let shifted: Vec<glam::Vec3> = small
+        .positions()
+        .iter()
+        .map(|p| *p * 0.1 + glam::Vec3::new(1.6, 0.0, 0.0))
+        .collect();
+    let positions = [big.positions(), &shifted].concat();
+    let normals = [big.normals().unwrap(), small.normals().unwrap()].concat();
+    let points = dir.path("two.ply");
+    write_with_defaults(
+        &points,
+        &geosynth::core::io::Geometry::Points(
+            geosynth::core::PointSet::new(positions)
+                .unwrap()
+                .with_normals(normals)
+                .unwrap(),
+        ),
+    );
+    let (mesh, report) = (dir.path("mesh.ply"), dir.path("report.json"));
+    let reconstruct = |extra: &[&str]| {
+        let (points, mesh, report) = (arg(&points), arg(&mesh), arg(&report));
+        let mut args = vec![
+            "reconstruct",
+            &points,
+            "-o",
+            &mesh,
+            "--resolution",
+            "64",
+            "--report",
+            &report,
+        ];
+        args.extend_from_slice(extra);
+        let said = ok(&args);
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (said, json)
+    };
+    let (said, json) = reconstruct(&[]);
+    assert_eq!(json["components"], 2, "{said}");
+    assert!(json["pieces_dropped"].is_null(), "{json}");
+    assert!(
+        said.contains("1 of the 2 pieces are under 12 sample spacings")
+            && said.contains("--drop-pieces"),
+        "{said}"
+    );
+    // `--drop-pieces` alone is 12 spacings, and the report records it for `--params`.
+    let (said, json) = reconstruct(&["--drop-pieces"]);
+    assert_eq!(
+        (json["components"].as_u64(), json["pieces_dropped"].as_u64()),
+        (Some(1), Some(1)),
+        "{said}"
+    );
+    assert_eq!(json["input_options"]["drop_pieces"].as_f64(), Some(12.0));
+    assert!(
+        said.contains("after dropping 1 small") && !said.contains("note"),
+        "{said}"
+    );
+    let mesh = geosynth::core::io::read_geometry(&mesh).unwrap().geometry;
+    assert!(mesh.points().positions().iter().all(|p| p.x < 1.2));
+    // A limit below the small sphere's width keeps it; a bad one is refused by name.
+    let (_, json) = reconstruct(&["--drop-pieces", "1"]);
+    assert_eq!(json["pieces_dropped"].as_u64(), Some(0));
+    let out = geosynth(&[
+        "reconstruct",
+        &arg(&points),
+        "-o",
+        &arg(&dir.path("bad.ply")),
+        "--drop-pieces=-1",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--drop-pieces"),
+        "{err}"
+    );
+}
+
+#[test]
 fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding() {
     // 4000 points on a sphere, every 25th normal turned inward: each such sample turns the
     // MLS surface's implicit function around near it, and the surface comes out in
