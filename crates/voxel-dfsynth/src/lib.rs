@@ -76,8 +76,8 @@
 //! | `seed` | 0 | the random seeding of the first iteration (and the baseline's picks) |
 //!
 //! [`QualityParams`] (window 8, 64 windows, seed 0) sets the measure and [`RelaxParams`]
-//! (weld radius 1 spacing, 8 rounds of at most [`MAX_RELAX_ITERATIONS`], 2 rings, step ½)
-//! the seam relaxation of [`copied_mesh`].
+//! (weld radius 1 spacing, at most [`MAX_WELD_RADIUS`]; 8 rounds, at most
+//! [`MAX_RELAX_ITERATIONS`]; 2 rings; step ½) the seam relaxation of [`copied_mesh`].
 //!
 //! ## Complexity
 //!
@@ -146,7 +146,7 @@ pub use field::{BoxMeans, QuantizedField, SubsampledSource, block_level};
 pub use matcher::{BlockMatcher, BruteForce, FftMatcher};
 pub use quality::{QualityParams, VoxelQuality, evaluate, unit_gradient_fraction};
 pub use reconstruct::{
-    CopiedMesh, MAX_RELAX_ITERATIONS, RelaxParams, copied_mesh, isosurface_mesh,
+    CopiedMesh, MAX_RELAX_ITERATIONS, MAX_WELD_RADIUS, RelaxParams, copied_mesh, isosurface_mesh,
 };
 pub use synth::{
     BlockCopy, LevelReport, MAX_TARGET_SAMPLES, MatcherKind, Synthesis, VoxelParams,

@@ -326,10 +326,21 @@ fn copied_triangles_are_welded_and_relaxed_onto_the_target() {
             voxel_dfsynth::RelaxParams::default().iterations(too_many),
             "iterations",
         ),
+        (
+            voxel_dfsynth::RelaxParams::default()
+                .weld_radius(voxel_dfsynth::MAX_WELD_RADIUS * 1.01),
+            "weld_radius",
+        ),
+        (
+            voxel_dfsynth::RelaxParams::default().weld_radius(f32::NAN),
+            "weld_radius",
+        ),
     ] {
         assert!(matches!(
             voxel_dfsynth::copied_mesh(&source_mesh, &out, &bad),
             Err(voxel_dfsynth::VoxelError::InvalidParameter { name: n, .. }) if n == name
         ));
     }
+    let widest = voxel_dfsynth::RelaxParams::default().weld_radius(voxel_dfsynth::MAX_WELD_RADIUS);
+    assert!(widest.validate().is_ok());
 }
