@@ -383,8 +383,9 @@ pub struct PiecesKept {
 /// corners) whose bounding box's diagonal is shorter than `min_diagonal`.
 ///
 /// Where a surface is undersampled — the steep sides of a height field's features, parts
-/// of a scan thinner than the kernel — its MLS surface can close into small bubbles beside the real
-/// one, and the distance field's zero set with it (docs/mls-surface.md, "Small pieces").
+/// of a scan thinner than the kernel — its MLS surface can close into small bubbles beside
+/// the real one, and the distance field's zero set with it (docs/mls-surface.md, "Small
+/// pieces").
 /// This removes such pieces, as MeshLab's "remove isolated pieces (wrt diameter)" does. It
 /// removes real parts that small as well, so it is a choice, never a default; `0` keeps
 /// every piece. Normals and UVs are kept.
