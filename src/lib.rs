@@ -96,23 +96,23 @@
 //!
 //! ```
 //! use geosynth::quilt::{OutputSize, Quilt, QuiltParams, texture_from_exemplar};
-//! use geosynth::reconstruct::{FieldParams, Reconstruct};
+//! use geosynth::reconstruct::{FieldParams, ReconstructOpen};
 //! use geosynth::{fixtures, RunContext, Stage};
 //!
 //! let texture = texture_from_exemplar(&fixtures::textures::bumpy(60.0, 1, 1)?)?;
 //! let quilt = Quilt {
 //!     params: QuiltParams::default().output(OutputSize::Scale(1.25)).field_resolution(20),
 //! };
-//! let to_mesh = Reconstruct { params: FieldParams::default().resolution(40) };
+//! // The sheet is open: its mesh is cut back to the quilted points.
+//! let to_mesh = ReconstructOpen { params: FieldParams::default().resolution(40), ..Default::default() };
 //! // The quilt's output holds its points, box and placements; the mesh needs the points.
 //! let pipeline = quilt.map(|out| out.points).then(to_mesh);
 //! let mut ctx = RunContext::new(3);
-//! let mesh = pipeline.run(texture, &mut ctx)?;
-//! assert!(mesh.face_count() > 1000);
+//! let sheet = pipeline.run(texture, &mut ctx)?;
+//! let topology = sheet.topology();
+//! assert!(sheet.face_count() > 1000 && topology.components == 1 && topology.boundary_edges > 0);
 //! let stages: Vec<&str> = ctx.timings().iter().map(|(name, _)| name.as_str()).collect();
-//! assert!(stages.contains(&"quilt") && stages.contains(&"reconstruct"), "{stages:?}");
-//! // An open sheet's zero set runs on to the grid's edge: `reconstruct::trim_to_samples`
-//! // cuts it back to the quilted points, as `geosynth reconstruct --trim` does.
+//! assert!(stages.contains(&"quilt") && stages.contains(&"trim"), "{stages:?}");
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!

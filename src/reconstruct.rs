@@ -278,6 +278,78 @@ impl Stage for Reconstruct {
     }
 }
 
+/// Median sample spacings from every point beyond which [`ReconstructOpen`] cuts by
+/// default (`geosynth reconstruct --trim` alone). Below about 2 the gaps of a random
+/// sampling join up with the border and the sheet falls apart.
+pub const DEFAULT_TRIM_SPACINGS: f32 = 2.0;
+
+/// Stage: oriented points of an open surface — a scan, a terrain, a quilted sheet → a mesh
+/// cut back to the samples. [`Reconstruct`], then [`trim_to_samples`] with a limit of
+/// `trim` median sample spacings (nearest-neighbour distances); what
+/// `geosynth reconstruct --trim` runs.
+///
+/// Errors: those of [`Reconstruct`]; `trim` not positive and finite.
+///
+/// ```
+/// use geosynth::reconstruct::{FieldParams, Reconstruct, ReconstructOpen};
+/// use geosynth::{fixtures, RunContext, Stage};
+///
+/// // A terrain over [0, 2]²: closed, its zero set runs on to the grid's sides; open, it
+/// // ends where the samples do.
+/// let terrain = fixtures::heightfield_points(40, 2.0, 7)?;
+/// let params = FieldParams::default().resolution(40);
+/// let closed = Reconstruct { params: params.clone() }.run(terrain.clone(), &mut RunContext::new(0))?;
+/// let open = ReconstructOpen { params, ..Default::default() }.run(terrain, &mut RunContext::new(0))?;
+/// let reach = |m: &geosynth::core::TriMesh| m.bounding_box().map(|b| b.extent().x);
+/// assert!(reach(&open) < reach(&closed) && open.face_count() < closed.face_count());
+/// assert_eq!(open.topology().components, 1);
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct ReconstructOpen {
+    /// The parameters of the field.
+    pub params: FieldParams,
+    /// How far the mesh may run from every sample, in median sample spacings; default
+    /// [`DEFAULT_TRIM_SPACINGS`].
+    pub trim: f32,
+}
+
+impl Default for ReconstructOpen {
+    fn default() -> Self {
+        Self {
+            params: FieldParams::default(),
+            trim: DEFAULT_TRIM_SPACINGS,
+        }
+    }
+}
+
+impl Stage for ReconstructOpen {
+    type Input = PointSet;
+    type Output = TriMesh;
+    type Error = Error;
+
+    fn name(&self) -> &str {
+        "reconstruct open"
+    }
+
+    fn run(&self, input: PointSet, ctx: &mut RunContext) -> Result<TriMesh> {
+        if !(self.trim.is_finite() && self.trim > 0.0) {
+            return Error::invalid("trim", self.trim, "a positive number of spacings");
+        }
+        let spacing = KdIndex::new(input.positions())?.median_spacing()?;
+        let samples = input.positions().to_vec();
+        let mesh = Reconstruct {
+            params: self.params.clone(),
+        }
+        .run(input, ctx)?;
+        ctx.timed("trim", |_| {
+            trim_to_samples(&mesh, &samples, self.trim * spacing)
+        })
+    }
+}
+
 /// The zero set of `sdf`, or [`Error::NoSurface`] when the field never crosses zero (an
 /// empty mesh is not a reconstruction).
 fn surface_of(sdf: &SdfGrid) -> Result<TriMesh> {
@@ -460,6 +532,24 @@ mod tests {
     use super::*;
     use glam::{Vec3, Vec4};
     use pointset_core::Grid3;
+
+    #[test]
+    fn an_open_reconstruction_refuses_a_trim_that_is_no_length() {
+        let terrain = crate::fixtures::heightfield_points(12, 1.0, 3).unwrap();
+        for trim in [0.0, -2.0, f32::NAN, f32::INFINITY] {
+            let stage = ReconstructOpen {
+                trim,
+                ..Default::default()
+            };
+            let err = stage
+                .run(terrain.clone(), &mut RunContext::new(0))
+                .unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidParameter { name: "trim", .. }),
+                "{err}"
+            );
+        }
+    }
 
     #[test]
     fn pieces_shorter_than_the_diagonal_go_with_their_vertices() {

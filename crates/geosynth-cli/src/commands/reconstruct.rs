@@ -8,7 +8,7 @@ use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
 use geosynth::mls::{MlsParams, orient_normals};
 use geosynth::reconstruct::{
-    FieldParams, Reconstruct, drop_small_pieces, signed_distance, trim_to_samples,
+    FieldParams, Reconstruct, ReconstructOpen, drop_small_pieces, signed_distance,
 };
 use geosynth::sdf::{PointSign, PointWinding, nrrd};
 use geosynth::{RunContext, Stage};
@@ -121,7 +121,7 @@ pub struct ReconstructArgs {
     orient_normals: bool,
     /// For open scans (a façade, a terrain, a quilted sheet): cut the surface where it runs
     /// on past the scan's border, beyond this many median sample spacings from every point
-    /// (`--trim` alone: 2). Gaps inside the scan stay bridged. Below about 2 the gaps of a
+    /// (`--trim` alone: 2, `DEFAULT_TRIM_SPACINGS`). Gaps inside the scan stay bridged. Below about 2 the gaps of a
     /// random sampling join up with the border and the sheet falls apart.
     #[arg(long, value_name = "SPACINGS", num_args = 0..=1, default_missing_value = "2")]
     trim: Option<f32>,
@@ -203,16 +203,16 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     }
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
-    let mut mesh = Reconstruct {
-        params: params.clone(),
-    }
-    .run(points.clone(), &mut ctx)?;
+    let field = params.clone();
+    let mut mesh = match options.trim {
+        Some(trim) => ReconstructOpen {
+            params: field,
+            trim,
+        }
+        .run(points.clone(), &mut ctx)?,
+        None => Reconstruct { params: field }.run(points.clone(), &mut ctx)?,
+    };
     let spacing = KdIndex::new(points.positions())?.median_spacing()?;
-    if let Some(spacings) = options.trim {
-        mesh = ctx.timed("trim", |_| {
-            trim_to_samples(&mesh, points.positions(), spacings * spacing)
-        })?;
-    }
     let mut pieces_dropped = None;
     if let Some(spacings) = options.drop_pieces {
         let kept = ctx.timed("drop pieces", |_| {
