@@ -11,9 +11,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use crate::{CliResult, Globals};
 
 /// Refuses to start work whose results could not be saved: the directory of every output
-/// path must exist, and geometry outputs need an extension the writers know (`.ply`,
-/// `.obj`, `.off`, `.stl`). Checked before a run, so a typo does not cost the run; what
-/// the format can hold is checked by [`check_geometry_output`] once the input is read.
+/// path must exist, no path may be given for two outputs (the second would overwrite the
+/// first), and geometry outputs need an extension the writers know (`.ply`, `.obj`,
+/// `.off`, `.stl`). Checked before a run, so a typo does not cost the run; what the format
+/// can hold is checked by [`check_geometry_output`] once the input is read.
 pub(crate) fn check_output_paths<'a>(
     geometry: impl IntoIterator<Item = &'a Path>,
     other: impl IntoIterator<Item = &'a Path>,
@@ -29,7 +30,17 @@ pub(crate) fn check_output_paths<'a>(
             .into());
         }
     }
-    for path in geometry.into_iter().chain(other) {
+    let all: Vec<&Path> = geometry.into_iter().chain(other).collect();
+    for (n, path) in all.iter().enumerate() {
+        if all[..n].contains(path) {
+            return Err(format!(
+                "cannot write {} twice: it is given for two of the outputs",
+                path.display()
+            )
+            .into());
+        }
+    }
+    for path in all {
         let dir = match path.parent() {
             Some(dir) if !dir.as_os_str().is_empty() => dir,
             _ => Path::new("."),

@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
-use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::{KdIndex, PointSet};
 use geosynth::mls::Covariance;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
@@ -19,6 +19,7 @@ use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
+use super::sheet_mesh::sheet_mesh;
 use crate::json_report::write_json_report;
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
@@ -209,6 +210,11 @@ pub struct QuiltArgs {
     /// Render exemplar | output to a PNG.
     #[arg(long)]
     preview: Option<PathBuf>,
+    /// Also write the output as a mesh (.ply, .obj, .off, .stl), as `geosynth reconstruct
+    /// --trim` makes one: its MLS surface on a grid of one node per two median sample
+    /// spacings (32 to 512 along the longest side), cut back to the points.
+    #[arg(long, value_name = "MESH")]
+    mesh: Option<PathBuf>,
     /// Skip the quality measure: it builds distance fields of the exemplar and of every
     /// output and can take longer than the synthesis (a 70k → 200k chain mail takes about
     /// 6 s with it, 3 s without). The report then says why its quality is missing.
@@ -562,20 +568,61 @@ pub fn texture_preview(
     Ok(())
 }
 
+/// Writes the quilted points `points` (in the file's frame) as a mesh to `path`, with the
+/// output's `options` (origin and comments); returns the report's `mesh` entry.
+fn write_sheet_mesh(
+    path: &Path,
+    points: PointSet,
+    options: &WriteOptions,
+    globals: Globals,
+) -> CliResult<Value> {
+    let bar = spinner(globals, "meshing");
+    let (mesh, resolution, seconds) = sheet_mesh(points)?;
+    bar.finish_and_clear();
+    io::write_geometry(path, &Geometry::Mesh(mesh.clone()), options)?;
+    let topology = mesh.topology();
+    status(
+        globals,
+        format!(
+            "wrote {} ({} vertices, {} faces, {} component(s), grid {resolution}, {seconds:.2}s)",
+            path.display(),
+            mesh.vertex_count(),
+            mesh.face_count(),
+            topology.components,
+        ),
+    );
+    Ok(json!({
+        "path": path.display().to_string(),
+        "resolution": resolution,
+        "vertices": mesh.vertex_count(),
+        "faces": mesh.face_count(),
+        "components": topology.components,
+        "boundary_edges": topology.boundary_edges,
+        "seconds": seconds,
+    }))
+}
+
 /// Runs `geosynth quilt`.
 pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     check_output_paths(
-        [args.output.as_path()],
+        std::iter::once(args.output.as_path()).chain(args.mesh.as_deref()),
         args.report
             .iter()
             .chain(&args.preview)
             .map(PathBuf::as_path),
     )?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
+    if let Some(mesh) = &args.mesh {
+        check_geometry_output(mesh, true, DVec3::ZERO)?;
+    }
     let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
     let params = run_params(args, &params_file, given)?;
     let input_options = InputOptions::of(args, &params_file)?;
     let file = load(args, &input_options)?;
+    if let Some(mesh) = &args.mesh {
+        // Georeferenced exemplars are written back in place: can the mesh's format say so?
+        check_geometry_output(mesh, true, file.origin)?;
+    }
     if let Some(path) = &args.exemplar {
         report_not_kept(globals, path, &file.notes);
     }
@@ -604,14 +651,15 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     for c in comments {
         options = options.comment(c);
     }
-    io::write_geometry(
-        &args.output,
-        &Geometry::Points(file.to_file_frame(&main.output.points)?),
-        &options,
-    )?;
+    let written = file.to_file_frame(&main.output.points)?;
+    io::write_geometry(&args.output, &Geometry::Points(written.clone()), &options)?;
     if let Some(path) = &args.preview {
         texture_preview(texture, &[&main.output], path, 480, 360)?;
     }
+    let mesh = match &args.mesh {
+        Some(path) => Some(write_sheet_mesh(path, written, &options, globals)?),
+        None => None,
+    };
     let measure = if args.no_quality {
         Err("skipped (--no-quality)".to_string())
     } else {
@@ -625,6 +673,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             INPUT_OPTIONS_KEY: input_options,
             "params": params,
             "run": run_json(&main),
+            "mesh": mesh,
         });
         if args.baselines {
             for (name, method) in [

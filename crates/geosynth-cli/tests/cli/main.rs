@@ -838,6 +838,86 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
 }
 
 #[test]
+fn quilt_also_writes_the_sheet_as_a_mesh() {
+    let dir = Scratch::new();
+    let exemplar = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
+    let (out, mesh, report) = (
+        arg(&dir.path("q.ply")),
+        arg(&dir.path("q_mesh.obj")),
+        arg(&dir.path("q.json")),
+    );
+    let quilt = |mesh: &str| {
+        geosynth(&[
+            "quilt",
+            &exemplar,
+            "-o",
+            &out,
+            "--scale",
+            "1.3",
+            "--resolution",
+            "24",
+            "--no-quality",
+            "--mesh",
+            mesh,
+            "--report",
+            &report,
+        ])
+    };
+    let said = quilt(&mesh);
+    assert!(
+        said.status.success(),
+        "{}",
+        String::from_utf8_lossy(&said.stderr)
+    );
+    let points = geosynth::core::io::read_geometry(Path::new(&out))
+        .unwrap()
+        .geometry;
+    let sheet = match geosynth::core::io::read_geometry(Path::new(&mesh))
+        .unwrap()
+        .geometry
+    {
+        geosynth::core::io::Geometry::Mesh(m) => m,
+        geosynth::core::io::Geometry::Points(_) => panic!("a mesh was written"),
+    };
+    // An open sheet cut back to the points: open edges, nothing far beyond the points.
+    let topology = sheet.topology();
+    assert!(
+        sheet.face_count() > 1000 && topology.boundary_edges > 0,
+        "{topology:?}"
+    );
+    let (inner, outer) = (
+        points.points().bounding_box().unwrap(),
+        sheet.bounding_box().unwrap(),
+    );
+    assert!(inner.inflated(0.2).contains(outer.min) && inner.inflated(0.2).contains(outer.max));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["mesh"]["faces"].as_u64(), Some(sheet.face_count() as u64));
+    assert!(
+        r["mesh"]["resolution"].as_u64().unwrap() >= 32,
+        "{}",
+        r["mesh"]
+    );
+    // The mesh may not overwrite the points, and must go to a format that stores faces.
+    for (bad, why) in [
+        (out.as_str(), "twice"),
+        (&arg(&dir.path("q_mesh.xyz")), "must end in"),
+    ] {
+        let refused = quilt(bad);
+        let err = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            !refused.status.success() && err.contains(why),
+            "{bad}: {err}"
+        );
+    }
+    // No command writes two of its outputs to one path.
+    let torus = arg(&geosynth::fixtures::bundled_dir().join("torus_mesh.ply"));
+    let refused = geosynth(&["voxel", &torus, "-o", &mesh, "--isosurface", &mesh]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && err.contains("twice"), "{err}");
+}
+
+#[test]
 fn quilt_writes_output_report_with_baselines_and_preview() {
     let dir = tempfile::tempdir().unwrap();
     let exemplar = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
