@@ -1,5 +1,5 @@
 //! `geosynth quilt --mesh`: the quilted sheet as a mesh, the way `geosynth reconstruct
-//! --trim` would make it, on a grid as fine as the points.
+//! --trim` would make it, on a grid that follows the points' spacing.
 
 use std::time::Instant;
 
@@ -10,8 +10,8 @@ use crate::CliResult;
 
 /// Fewest grid nodes along the sheet's longest side.
 pub const MIN_SHEET_NODES: usize = 32;
-/// Most grid nodes along the sheet's longest side (a 512 × 512 sheet grid is about 10 M
-/// nodes with its margins and relief).
+/// Most grid nodes along the sheet's longest side (512 × 512 nodes across, times as many
+/// as the relief and the margins take).
 pub const MAX_SHEET_NODES: usize = 512;
 
 /// Median sample spacings per grid spacing. The MLS kernel reaches 1.25 median spacings,
