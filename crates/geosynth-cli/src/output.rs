@@ -1,7 +1,7 @@
 //! Console output helpers: progress bars and status lines that respect `--quiet`.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use geosynth::core::io::FileFormat;
 use geosynth::{ProgressUpdate, RunContext};
@@ -30,29 +30,36 @@ pub(crate) fn check_output_paths<'a>(
             .into());
         }
     }
-    let all: Vec<&Path> = geometry.into_iter().chain(other).collect();
-    for (n, path) in all.iter().enumerate() {
-        if all[..n].contains(path) {
+    let mut files: Vec<PathBuf> = Vec::new();
+    for path in geometry.into_iter().chain(other) {
+        let dir = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        // The directory exists, so it has a canonical form: `a.ply`, `./a.ply` and
+        // `d/../a.ply` are one file.
+        let Some(name) = path.file_name() else {
+            return Err(format!("cannot write {}: it names no file", path.display()).into());
+        };
+        let file = match dir.canonicalize() {
+            Ok(dir) if dir.is_dir() => dir.join(name),
+            _ => {
+                return Err(format!(
+                    "cannot write {}: the directory {} does not exist",
+                    path.display(),
+                    dir.display()
+                )
+                .into());
+            }
+        };
+        if files.contains(&file) {
             return Err(format!(
                 "cannot write {} twice: it is given for two of the outputs",
                 path.display()
             )
             .into());
         }
-    }
-    for path in all {
-        let dir = match path.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            return Err(format!(
-                "cannot write {}: the directory {} does not exist",
-                path.display(),
-                dir.display()
-            )
-            .into());
-        }
+        files.push(file);
     }
     Ok(())
 }

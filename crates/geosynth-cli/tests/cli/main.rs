@@ -912,7 +912,8 @@ fn quilt_also_writes_the_sheet_as_a_mesh() {
     }
     // No command writes two of its outputs to one path.
     let torus = arg(&geosynth::fixtures::bundled_dir().join("torus_mesh.ply"));
-    let refused = geosynth(&["voxel", &torus, "-o", &mesh, "--isosurface", &mesh]);
+    let same = arg(&dir.path(".").join("q_mesh.obj"));
+    let refused = geosynth(&["voxel", &torus, "-o", &mesh, "--isosurface", &same]);
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success() && err.contains("twice"), "{err}");
 }
