@@ -376,8 +376,8 @@ fn surface_of(sdf: &SdfGrid) -> Result<TriMesh> {
 /// bounding box (grown by `max_distance`) runs on past the scan, and is cut. Far regions
 /// inside it — gaps in the sampling the reconstruction bridged — stay, so a randomly
 /// sampled sheet is not left full of pinholes, and a scan's holes stay closed.
-/// The vertices no kept face uses are dropped; normals are kept. A closed surface sampled
-/// all over loses nothing.
+/// The vertices no kept face uses are dropped; normals and UVs are kept (UVs were dropped
+/// before the twenty-eighth session). A closed surface sampled all over loses nothing.
 ///
 /// Errors: no samples, a non-finite sample, `max_distance` not positive.
 ///
@@ -434,12 +434,7 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
             runaway[root as usize] = true;
         }
     }
-    let kept: Vec<[u32; 3]> = triangles
-        .iter()
-        .copied()
-        .filter(|t| !(is_far(t) && runaway[regions.root(t[0]) as usize]))
-        .collect();
-    Ok(TriMesh::new(mesh.vertices().clone(), kept)?.without_unreferenced_vertices()?)
+    Ok(mesh.with_triangles_kept(|_, t| !(is_far(t) && runaway[regions.root(t[0]) as usize]))?)
 }
 
 /// What [`drop_small_pieces`] leaves.
@@ -510,19 +505,8 @@ pub fn drop_small_pieces(mesh: &TriMesh, min_diagonal: f32) -> Result<PiecesKept
     // Vertices that root no piece hold NaN, which is never small.
     let small = |d: f32| d < min_diagonal;
     let dropped = diagonals.iter().filter(|&&d| small(d)).count();
-    let kept: Vec<[u32; 3]> = triangles
-        .iter()
-        .zip(&roots)
-        .filter(|&(_, &root)| !small(diagonals[root as usize]))
-        .map(|(t, _)| *t)
-        .collect();
-    let trimmed = TriMesh::new(mesh.vertices().clone(), kept)?;
-    let trimmed = match mesh.uvs() {
-        Some(uvs) => trimmed.with_uvs(uvs.to_vec())?,
-        None => trimmed,
-    };
     Ok(PiecesKept {
-        mesh: trimmed.without_unreferenced_vertices()?,
+        mesh: mesh.with_triangles_kept(|i, _| !small(diagonals[roots[i] as usize]))?,
         dropped,
     })
 }

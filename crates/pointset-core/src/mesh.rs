@@ -353,6 +353,40 @@ impl TriMesh {
         self.vertex_count() - self.referenced().iter().filter(|&&u| u).count()
     }
 
+    /// The mesh with only the triangles `keep` accepts (given each triangle's index and
+    /// corners), in order, and only the vertices they use
+    /// ([`Self::without_unreferenced_vertices`]: normals, attributes and UVs follow their
+    /// vertices).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::{PointSet, TriMesh};
+    /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+    /// let mesh = TriMesh::new(PointSet::new(p)?, vec![[0, 1, 2], [0, 1, 3]])?;
+    /// let kept = mesh.with_triangles_kept(|i, _| i == 1)?;
+    /// assert_eq!(kept.triangles(), &[[0, 1, 2]]);
+    /// assert_eq!(kept.positions(), &[Vec3::ZERO, Vec3::X, Vec3::Z]);
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn with_triangles_kept(
+        &self,
+        mut keep: impl FnMut(usize, &[u32; 3]) -> bool,
+    ) -> Result<TriMesh> {
+        let triangles = self
+            .triangles
+            .iter()
+            .enumerate()
+            .filter(|(i, t)| keep(*i, t))
+            .map(|(_, t)| *t)
+            .collect();
+        let mesh = TriMesh::new(self.vertices.clone(), triangles)?;
+        let mesh = match &self.uvs {
+            Some(uvs) => mesh.with_uvs(uvs.clone())?,
+            None => mesh,
+        };
+        mesh.without_unreferenced_vertices()
+    }
+
     /// The mesh without the vertices no triangle uses, the others kept in order with their
     /// normals, attributes and UVs, and the triangles renumbered.
     ///

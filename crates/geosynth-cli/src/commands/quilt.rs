@@ -651,14 +651,17 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     for c in comments {
         options = options.comment(c);
     }
-    let written = file.to_file_frame(&main.output.points)?;
-    io::write_geometry(&args.output, &Geometry::Points(written.clone()), &options)?;
+    let written = Geometry::Points(file.to_file_frame(&main.output.points)?);
+    io::write_geometry(&args.output, &written, &options)?;
     if let Some(path) = &args.preview {
         texture_preview(texture, &[&main.output], path, 480, 360)?;
     }
-    let mesh = match &args.mesh {
-        Some(path) => Some(write_sheet_mesh(path, written, &options, globals)?),
-        None => None,
+    // The written points, taken back for the mesh (no copy of them is made).
+    let mesh = match (&args.mesh, written) {
+        (Some(path), Geometry::Points(points)) => {
+            Some(write_sheet_mesh(path, points, &options, globals)?)
+        }
+        _ => None,
     };
     let measure = if args.no_quality {
         Err("skipped (--no-quality)".to_string())

@@ -212,12 +212,12 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
         .run(points.clone(), &mut ctx)?,
         None => Reconstruct { params: field }.run(points.clone(), &mut ctx)?,
     };
-    let spacing = KdIndex::new(points.positions())?.median_spacing()?;
+    // Measured only when a piece's size is asked about (`--drop-pieces`, the note).
+    let spacing = || -> CliResult<f32> { Ok(KdIndex::new(points.positions())?.median_spacing()?) };
     let mut pieces_dropped = None;
     if let Some(spacings) = options.drop_pieces {
-        let kept = ctx.timed("drop pieces", |_| {
-            drop_small_pieces(&mesh, spacings * spacing)
-        })?;
+        let limit = spacings * spacing()?;
+        let kept = ctx.timed("drop pieces", |_| drop_small_pieces(&mesh, limit))?;
         (mesh, pieces_dropped) = (kept.mesh, Some(kept.dropped));
     }
     bar.finish_and_clear();
@@ -270,7 +270,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
         }),
     )?;
     if options.drop_pieces.is_none() && topology.components > 1 {
-        let small = drop_small_pieces(&mesh, DROP_PIECES_SPACINGS * spacing)?.dropped;
+        let small = drop_small_pieces(&mesh, DROP_PIECES_SPACINGS * spacing()?)?.dropped;
         if small > 0 {
             status(
                 globals,
