@@ -203,8 +203,9 @@ pub struct QuiltArgs {
     #[arg(long)]
     report: Option<PathBuf>,
     /// Also run and measure the random-placement and search-only baselines for the report,
-    /// and (for the full method) its own patches pasted without warp or blend. Needs
-    /// `--report`: the baselines are written nowhere else.
+    /// and (for the full method) its own patches pasted without warp or blend; their errors
+    /// are summarised under the run's own. Needs `--report`: their outputs and counts are
+    /// written nowhere else.
     #[arg(long, requires = "report")]
     baselines: bool,
     /// Render exemplar | output to a PNG.
@@ -669,6 +670,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         measure_for(texture, &params, globals)
     };
     let main = main.measured(&measure, globals, "quilt");
+    // The baselines' qualities, summarised after the run's own line.
+    let mut compared = Vec::new();
     if let Some(path) = &args.report {
         let mut report = json!({
             "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref())
@@ -679,30 +682,55 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "mesh": mesh,
         });
         if args.baselines {
-            for (name, method) in [
-                ("search_only", Method::SearchOnly),
-                ("random_placement", Method::RandomPlacement),
+            for (key, label, method) in [
+                ("search_only", "search only", Method::SearchOnly),
+                (
+                    "random_placement",
+                    "random placement",
+                    Method::RandomPlacement,
+                ),
             ] {
                 let baseline = measured_run(
                     texture,
                     &params.clone().method(method),
                     &measure,
                     globals,
-                    name,
+                    key,
                 )?;
-                report[name] = run_json(&baseline);
+                report[key] = run_json(&baseline);
+                compared.push((label, baseline.quality));
             }
             if params.method == Method::Full {
                 // The control: the same patches pasted, so only the warp and blend differ.
                 let pasted = params.same_layout_control(&main.output);
-                let control =
-                    measured_run(texture, &pasted, &measure, globals, "same layout, pasted")?;
+                let label = "full's layout, pasted";
+                let control = measured_run(texture, &pasted, &measure, globals, label)?;
                 report["same_layout_pasted"] = run_json(&control);
+                compared.push((label, control.quality));
             }
         }
         write_json_report(path, "quilt", &report)?;
     }
-    let quality = match &main.quality {
+    status(
+        globals,
+        format!(
+            "wrote {} ({} points, {} patches, {:.2}s; {})",
+            args.output.display(),
+            main.output.points.len(),
+            main.output.stats.patches,
+            main.seconds,
+            quality_summary(&main.quality),
+        ),
+    );
+    for (label, quality) in &compared {
+        status(globals, format!("  {label}: {}", quality_summary(quality)));
+    }
+    Ok(())
+}
+
+/// The quality part of a run's summary line: its two errors, or why there are none.
+fn quality_summary(quality: &Result<QualityReport, String>) -> String {
+    match quality {
         Ok(q) if q.featureless_exemplar => "the exemplar has no relief, so its window \
             errors are not meaningful; see the report's coverage"
             .to_string(),
@@ -711,16 +739,5 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             q.neighbourhood_error, q.seam_error
         ),
         Err(reason) => format!("quality not measured: {reason}"),
-    };
-    status(
-        globals,
-        format!(
-            "wrote {} ({} points, {} patches, {:.2}s; {quality})",
-            args.output.display(),
-            main.output.points.len(),
-            main.output.stats.patches,
-            main.seconds,
-        ),
-    );
-    Ok(())
+    }
 }

@@ -927,7 +927,7 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         dir.path().join("q.json"),
         dir.path().join("q.png"),
     );
-    ok(&[
+    let summary = ok(&[
         "quilt",
         exemplar.to_str().unwrap(),
         "-o",
@@ -945,10 +945,28 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         "3",
         "--epsilon",
         "0.2",
-        "-q",
     ]);
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    // The summary gives every run's errors, as the report has them, one line each.
+    for (key, label) in [
+        ("run", "wrote "),
+        ("search_only", "  search only: "),
+        ("random_placement", "  random placement: "),
+        ("same_layout_pasted", "  full's layout, pasted: "),
+    ] {
+        let quality = &r[key]["quality"];
+        let expected = format!(
+            "neighbourhood error {:.3}, seam error {:.3}",
+            quality["neighbourhood_error"].as_f64().unwrap(),
+            quality["seam_error"].as_f64().unwrap()
+        );
+        let line = summary.lines().find(|l| l.starts_with(label));
+        assert!(
+            line.is_some_and(|l| l.ends_with(&format!("{expected})")) || l.ends_with(&expected)),
+            "{key}: {expected} in {summary}"
+        );
+    }
     // The report records the parameters the run used, the given ones and the defaults.
     let params = &r["params"];
     assert_eq!(params["seed"], 3);
