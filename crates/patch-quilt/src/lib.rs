@@ -102,7 +102,11 @@
 //!   ([`QuiltStats::warps_skipped`]).
 //! - Anchors: up to 4 points in each `w_E × w_E` corner of `B_k` that shares no area with the
 //!   overlap — three corners for an interior patch (the strips run along the patch's sides
-//!   only, so the corners beyond their ends are free).
+//!   only, so the corners beyond their ends are free). The paper does not say which points;
+//!   they are spread through the corner's height, one from each of 4 layers, nearest the
+//!   corner's centre ([`tps_warp::anchors_in_regions`]). Anchors at one height left the
+//!   spline's stretch along the normal free, and rough height fields' far corners were
+//!   squashed (docs/patch-quilt.md, "Anchors through the height").
 //! - The first patch of each later row overlaps only the row below; the first row only its
 //!   left neighbour.
 //! - Each paired source goes onto its target `q` ([`WarpTargets::Exact`], the default). The

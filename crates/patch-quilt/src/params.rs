@@ -122,7 +122,8 @@ pub struct QuiltParams {
     /// raised them on a flatter reading of St. Helens at 1.6 times its size
     /// (`docs/patch-quilt.md`, "Cluster size"); so 12 stays the default.
     pub clusters: ClusterParams,
-    /// Anchor points mapped to themselves per free corner of `F_k`; default 4.
+    /// Anchor points mapped to themselves per free corner of `F_k`; default 4, spread
+    /// through the corner's height ([`tps_warp::anchors_in_regions`]).
     pub anchors_per_corner: usize,
     /// The output extent; default twice the exemplar in each direction.
     pub output: OutputSize,

@@ -492,8 +492,33 @@ fn remove_crossings(problem: &Problem<'_>, source_of: &mut [Option<usize>]) -> u
     }
 }
 
-/// Up to `per_region` points inside each region, nearest its centre first: the anchor
+/// Up to `per_region` points inside each region, spread through its height: the anchor
 /// points paper 000 maps to themselves in the corners of `F_k` so the warp stays local.
+///
+/// A region's points are cut into `per_region` layers of equal thickness along z, from
+/// its lowest point to its highest, and each layer gives its point nearest the region's
+/// centre in the xy plane; the slots of empty layers go to the remaining points nearest the
+/// centre in xy. Regions may be unbounded along z (paper 000's corners are columns over the
+/// reference plane). Anchors at one height leave the spline free to stretch and shear the
+/// patch along z: taken nearest the centre in 3D, they all sat in the valleys of rough
+/// height fields, and the warp squashed far corners' peaks by up to 40% (patch-quilt's
+/// docs, "Anchors through the height").
+///
+/// ```
+/// use glam::Vec3;
+/// use pointset_core::Aabb;
+/// use tps_warp::anchors_in_regions;
+///
+/// // A column of points 0 to 1 high at the centre of a corner, and lower ones off-centre.
+/// let points: Vec<Vec3> = (0..=10)
+///     .map(|i| Vec3::new(0.5, 0.5, i as f32 / 10.0))
+///     .chain((0..5).map(|i| Vec3::new(0.1 * i as f32, 0.9, 0.0)))
+///     .collect();
+/// let corner = Aabb::new(Vec3::new(0.0, 0.0, f32::MIN), Vec3::new(1.0, 1.0, f32::MAX));
+/// let anchors = anchors_in_regions(&points, &[corner], 2);
+/// let heights: Vec<f32> = anchors.iter().map(|a| a.z).collect();
+/// assert_eq!(heights, [0.0, 0.5]); // one from each half of the height, nearest the centre
+/// ```
 pub fn anchors_in_regions(points: &[Vec3], regions: &[Aabb], per_region: usize) -> Vec<Vec3> {
     let mut out = Vec::new();
     for region in regions {
@@ -502,11 +527,60 @@ pub fn anchors_in_regions(points: &[Vec3], regions: &[Aabb], per_region: usize) 
             .copied()
             .filter(|p| region.contains(*p))
             .collect();
-        let c = region.center();
-        inside.sort_by(|a, b| a.distance_squared(c).total_cmp(&b.distance_squared(c)));
-        out.extend(inside.into_iter().take(per_region));
+        let centre = region.center().truncate();
+        inside.sort_by(|a, b| {
+            (a.truncate() - centre)
+                .length_squared()
+                .total_cmp(&(b.truncate() - centre).length_squared())
+        });
+        out.extend(spread_through_height(&inside, per_region));
     }
     out
+}
+
+/// Up to `count` of `by_preference` (sorted, most preferred first): the most preferred of
+/// each of `count` equal layers between their lowest and highest z, then the most preferred
+/// of the rest for the layers left empty.
+fn spread_through_height(by_preference: &[Vec3], count: usize) -> Vec<Vec3> {
+    if count == 0 {
+        return Vec::new();
+    }
+    let (low, high) = by_preference
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.z), hi.max(p.z))
+        });
+    let thickness = (high - low) / count as f32;
+    let layer = |z: f32| {
+        if thickness > 0.0 {
+            (((z - low) / thickness) as usize).min(count - 1)
+        } else {
+            0
+        }
+    };
+    let mut layer_taken = vec![false; count];
+    let mut chosen = vec![false; by_preference.len()];
+    for (i, p) in by_preference.iter().enumerate() {
+        let l = layer(p.z);
+        if !layer_taken[l] {
+            layer_taken[l] = true;
+            chosen[i] = true;
+        }
+    }
+    let empty_layers = layer_taken.iter().filter(|t| !**t).count();
+    let rest: Vec<usize> = (0..by_preference.len())
+        .filter(|&i| !chosen[i])
+        .take(empty_layers)
+        .collect();
+    for i in rest {
+        chosen[i] = true;
+    }
+    by_preference
+        .iter()
+        .zip(&chosen)
+        .filter(|(_, c)| **c)
+        .map(|(p, _)| *p)
+        .collect()
 }
 
 /// A fitted warp with the pairing behind it.

@@ -3,7 +3,7 @@
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use glam::{DMat3, DVec3, Mat3, Vec3};
+use glam::{DMat3, DVec3, Mat3, Vec2, Vec3};
 use pointset_core::{Aabb, rng};
 use proptest::prelude::*;
 use rand::RngExt;
@@ -576,6 +576,125 @@ fn pairing_is_deterministic_and_validates_input() {
         ),
         Err(TpsError::InvalidParameter { name: "rounds", .. })
     ));
+}
+
+/// A column over the unit square of the xy plane, unbounded along z (paper 000's corners).
+fn unit_column() -> Aabb {
+    Aabb::new(Vec3::new(0.0, 0.0, f32::MIN), Vec3::new(1.0, 1.0, f32::MAX))
+}
+
+proptest! {
+    #[test]
+    fn anchors_reach_both_ends_of_the_height(seed in any::<u64>(), n in 0usize..200, per_region in 0usize..9, height in 0.0f32..2.0) {
+        let mut g = rng::rng_from_seed(seed);
+        // Points over a larger square, so some fall outside the column.
+        let points: Vec<Vec3> = (0..n)
+            .map(|_| Vec3::new(g.random_range(-0.5..1.5), g.random_range(-0.5..1.5), g.random_range(0.0..=height)))
+            .collect();
+        let column = unit_column();
+        let inside: Vec<Vec3> = points.iter().copied().filter(|p| column.contains(*p)).collect();
+        let anchors = anchors_in_regions(&points, &[column], per_region);
+        prop_assert_eq!(anchors.len(), per_region.min(inside.len()));
+        for a in &anchors {
+            prop_assert!(inside.contains(a));
+            prop_assert_eq!(anchors.iter().filter(|b| *b == a).count(), 1, "no anchor twice");
+        }
+        if anchors.is_empty() {
+            return Ok(());
+        }
+        // The point nearest the centre in the plane is always one.
+        let centre = Vec2::splat(0.5);
+        let xy = |p: &Vec3| p.truncate().distance(centre);
+        let nearest = inside.iter().copied().min_by(|a, b| xy(a).total_cmp(&xy(b)));
+        prop_assert!(nearest.is_some_and(|p| anchors.iter().any(|a| xy(a) == xy(&p))));
+        // With two or more, the lowest and the highest layer each give one.
+        let low = inside.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+        let high = inside.iter().map(|p| p.z).fold(f32::NEG_INFINITY, f32::max);
+        let layer = (high - low) / per_region as f32;
+        if per_region >= 2 && layer > 0.0 {
+            prop_assert!(anchors.iter().any(|a| a.z < low + layer), "{anchors:?}");
+            prop_assert!(anchors.iter().any(|a| a.z >= high - layer), "{anchors:?}");
+        }
+    }
+}
+
+#[test]
+fn anchors_of_a_flat_region_are_the_nearest_its_centre() {
+    let mut g = rng::rng_from_seed(4);
+    let points: Vec<Vec3> = (0..300)
+        .map(|_| Vec3::new(g.random(), g.random(), 0.25))
+        .collect();
+    let anchors = anchors_in_regions(&points, &[unit_column()], 5);
+    // Brute force: the five nearest the centre.
+    let mut by_distance = points.clone();
+    by_distance.sort_by(|a, b| {
+        let d = |p: &Vec3| p.truncate().distance(Vec2::splat(0.5));
+        d(a).total_cmp(&d(b))
+    });
+    let mut got = anchors.clone();
+    got.sort_by(|a, b| a.x.total_cmp(&b.x));
+    let mut expected = by_distance[..5].to_vec();
+    expected.sort_by(|a, b| a.x.total_cmp(&b.x));
+    assert_eq!(got, expected);
+}
+
+#[test]
+fn anchors_through_the_height_hold_a_rough_corner_in_place() {
+    // A rough height field over [0, 1]²: heights up to 0.3, at random, on a 40 × 40 grid.
+    let mut g = rng::rng_from_seed(21);
+    let field: Vec<Vec3> = (0..1600)
+        .map(|i| {
+            let (x, y) = ((i % 40) as f32 / 39.0, (i / 40) as f32 / 39.0);
+            Vec3::new(x, y, g.random_range(0.0..0.3))
+        })
+        .collect();
+    // Pairs along the left side among the valleys, each pulled up or down a little.
+    let from: Vec<Vec3> = field
+        .iter()
+        .copied()
+        .filter(|p| p.x < 0.15 && p.z < 0.05)
+        .collect();
+    let to: Vec<Vec3> = from
+        .iter()
+        .map(|p| *p + Vec3::Z * g.random_range(-0.02..0.02))
+        .collect();
+    let corners: Vec<Aabb> = [(0.7, 0.0), (0.7, 0.7)]
+        .iter()
+        .map(|&(x, y)| {
+            Aabb::new(
+                Vec3::new(x, y, f32::MIN),
+                Vec3::new(x + 0.3, y + 0.3, f32::MAX),
+            )
+        })
+        .collect();
+    // How far the warp moves the corners' points with the given anchors.
+    let corner_shift = |anchors: &[Vec3]| {
+        let sources: Vec<Vec3> = from.iter().chain(anchors).copied().collect();
+        let targets: Vec<Vec3> = to.iter().chain(anchors).copied().collect();
+        let w = ThinPlateSpline::fit(&sources, &targets, &TpsParams::default()).unwrap();
+        field
+            .iter()
+            .filter(|p| corners.iter().any(|c| c.contains(**p)))
+            .map(|p| w.eval(*p).distance(*p))
+            .fold(0.0f32, f32::max)
+    };
+    let spread = anchors_in_regions(&field, &corners, 4);
+    // The same number of anchors per corner, all in its valleys (measured: the corners move
+    // 0.005 against 0.024; the largest pull of a pair is 0.02).
+    let valleys: Vec<Vec3> = corners
+        .iter()
+        .flat_map(|c| {
+            let mut inside: Vec<Vec3> = field.iter().copied().filter(|p| c.contains(*p)).collect();
+            inside.sort_by(|a, b| a.z.total_cmp(&b.z));
+            inside.truncate(4);
+            inside
+        })
+        .collect();
+    let (spread_shift, valley_shift) = (corner_shift(&spread), corner_shift(&valleys));
+    assert!(
+        spread_shift < 0.5 * valley_shift && spread_shift < 0.01,
+        "anchors through the height move the corners by {spread_shift}, in the valleys by {valley_shift}"
+    );
 }
 
 #[test]
