@@ -479,9 +479,10 @@ fn on_a_real_terrain_the_full_method_beats_pasting() {
     // Mount St. Helens (every second sample): not periodic, so pasted patches meet with
     // steps in height, and the warp and blend close them (docs/patch-quilt.md, "Real
     // height fields"). One seed is noisy, so the means over seeds 1–8 are compared.
-    // Measured (lengths in box units, fourteenth session): neighbourhood 0.045 against
-    // 0.058, seam 0.047 against 0.060. At every fourth sample search-only leads (0.037
-    // against 0.050 and 0.039 against 0.048): too few samples per feature.
+    // Measured (anchors through the height, twenty-ninth session): neighbourhood 0.044
+    // against 0.058, seam 0.044 against 0.060. At every fourth sample search-only led
+    // (fourteenth session: 0.037 against 0.050 and 0.039 against 0.048): too few samples
+    // per feature.
     let Some(t) = shared_heightfield_texture(
         "real_terrain_full_beats_pasting",
         "heightfields/SainteHelens_317x460.f32le",
