@@ -338,14 +338,15 @@ impl Stage for ReconstructOpen {
         if !(self.trim.is_finite() && self.trim > 0.0) {
             return Error::invalid("trim", self.trim, "a positive number of spacings");
         }
-        let spacing = KdIndex::new(input.positions())?.median_spacing()?;
-        let samples = input.positions().to_vec();
+        // One index of the samples, for their spacing and for the trim.
+        let samples = KdIndex::new(input.positions())?;
+        let spacing = samples.median_spacing()?;
         let mesh = Reconstruct {
             params: self.params.clone(),
         }
         .run(input, ctx)?;
         ctx.timed("trim", |_| {
-            trim_to_samples(&mesh, &samples, self.trim * spacing)
+            trim_to_indexed_samples(&mesh, &samples, self.trim * spacing)
         })
     }
 }
@@ -394,6 +395,11 @@ fn surface_of(sdf: &SdfGrid) -> Result<TriMesh> {
 /// Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> Result<TriMesh> {
+    trim_to_indexed_samples(mesh, &KdIndex::new(samples)?, max_distance)
+}
+
+/// [`trim_to_samples`] with the samples already indexed.
+fn trim_to_indexed_samples(mesh: &TriMesh, index: &KdIndex, max_distance: f32) -> Result<TriMesh> {
     if !(max_distance.is_finite() && max_distance > 0.0) {
         return Error::invalid(
             "max_distance",
@@ -403,10 +409,9 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
     }
     // A region that leaves the samples' box (by more than `max_distance`) runs on past
     // the scan; one that stays inside it fills a gap between samples.
-    let Some(reach) = Aabb::from_points(samples).map(|b| b.inflated(max_distance)) else {
+    let Some(reach) = Aabb::from_points(index.points()).map(|b| b.inflated(max_distance)) else {
         return Error::invalid("samples", "none", "at least one sample");
     };
-    let index = KdIndex::new(samples)?;
     let limit = max_distance * max_distance;
     let near = mesh
         .positions()
