@@ -465,6 +465,14 @@ fn the_shared_height_fields_quilt() {
         let params = small_params();
         let out = quilt(&t, &params, &mut RunContext::new(9)).unwrap();
         assert!(out.points.len() > t.canonical_points().len());
+        // The output keeps the exemplar's density, so its size is known beforehand.
+        let expected = t.expected_output_points(params.output);
+        let ratio = out.points.len() as f64 / expected;
+        assert!(
+            (0.9..1.1).contains(&ratio),
+            "{rel}: {} points, {expected:.0} expected",
+            out.points.len()
+        );
         let q = evaluate(&t, &out, &params, 12).unwrap();
         assert!(
             q.neighbourhood_error.is_finite()

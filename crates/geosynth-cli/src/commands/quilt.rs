@@ -293,6 +293,25 @@ fn precision_note(file: &TextureFile) -> Option<String> {
     super::single_precision_note(file.origin, step, spacing, "its sample spacing")
 }
 
+/// Expected output sizes above this many points get a note before the run starts.
+const LARGE_OUTPUT_POINTS: f64 = 1.0e6;
+
+/// A note when the output will be large (more than [`LARGE_OUTPUT_POINTS`] points at the
+/// exemplar's density, [`GeometryTexture::expected_output_points`]): such runs take
+/// minutes, and the measure, which is on by default, can take longer than the synthesis.
+fn size_note(texture: &GeometryTexture, params: &QuiltParams) -> Option<String> {
+    let expected = texture.expected_output_points(params.output);
+    (expected > LARGE_OUTPUT_POINTS).then(|| {
+        format!(
+            "note: about {:.1} million output points expected; runs this large take minutes \
+             (a 1024 × 1024 image read as a height field: 1.9 million points in about 90 s \
+             on 2 cores, before the quality measure). --scale or --size make the output \
+             smaller; --no-quality skips the measure",
+            expected / 1.0e6
+        )
+    })
+}
+
 /// How the exemplar is read: the options a report records under
 /// [`INPUT_OPTIONS_KEY`], so that `--params REPORT` reads it as the reported run did.
 #[derive(Debug, Default, Serialize, Deserialize)]
@@ -633,6 +652,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         tilt_note(&file),
         precision_note(&file),
         super::unoriented_normals_note(texture.canonical_points()),
+        size_note(texture, &params),
     ]
     .into_iter()
     .flatten()
@@ -739,5 +759,30 @@ fn quality_summary(quality: &Result<QualityReport, String>) -> String {
             q.neighbourhood_error, q.seam_error
         ),
         Err(reason) => format!("quality not measured: {reason}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geosynth::core::HeightField;
+
+    /// A 40 × 40 height field 0.1 apart (about 107 samples per unit area in its box).
+    fn small_texture() -> GeometryTexture {
+        let heights = (0..1600).map(|i| (i % 7) as f32 * 0.01).collect();
+        let field = HeightField::new(40, 40, heights).unwrap_or_else(|e| panic!("{e}"));
+        GeometryTexture::from_heightfield(&field, 0.1, 1.0, 4).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn large_outputs_get_a_note_before_the_run() {
+        let texture = small_texture();
+        let params = QuiltParams::default();
+        assert_eq!(size_note(&texture, &params), None, "a 2 × 2 quilt is small");
+        // 100 × 100 at about 107 samples per unit area: about 1.07 million points.
+        let large = params.output(OutputSize::Absolute(100.0, 100.0));
+        let note = size_note(&texture, &large).unwrap_or_default();
+        assert!(note.contains("about 1.1 million output points"), "{note}");
+        assert!(note.contains("--no-quality"), "{note}");
     }
 }
