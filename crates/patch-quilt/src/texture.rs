@@ -228,7 +228,7 @@ impl GeometryTexture {
 
     /// Samples per unit area of the reference plane inside the box's footprint (padding
     /// excluded); 0 for a footprint without area.
-    pub fn footprint_density(&self) -> f64 {
+    fn footprint_density(&self) -> f64 {
         let (lo, hi) = self.footprint();
         let area = f64::from(hi.x - lo.x) * f64::from(hi.y - lo.y);
         if !(area.is_finite() && area > 0.0) {
@@ -249,7 +249,9 @@ impl GeometryTexture {
     /// About how many points a quilt of this texture at `size` holds: the footprint's
     /// sample density times the output's area. Patches are copies of the exemplar, so the
     /// output keeps its density; the count is known before the run, for sizing it (the
-    /// fixtures' outputs at `Scale(2.0)` come within 7% of it, seed 1).
+    /// fixtures' outputs at `Scale(2.0)` come within 7% of it, seed 1). Sizes that
+    /// [`QuiltParams::validate`](crate::QuiltParams::validate) refuses (not positive, not
+    /// finite) give 0.
     ///
     /// ```
     /// use patch_quilt::{GeometryTexture, OutputSize};
@@ -263,6 +265,8 @@ impl GeometryTexture {
     /// assert!((expected / 4096.0 - 1.0).abs() < 0.1);
     /// let half = texture.expected_output_points(OutputSize::Absolute(6.2, 3.1));
     /// assert!((half / expected - 0.5).abs() < 1e-3);
+    /// assert_eq!(texture.expected_output_points(OutputSize::Scale(f32::NAN)), 0.0);
+    /// assert_eq!(texture.expected_output_points(OutputSize::Scale(-2.0)), 0.0);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn expected_output_points(&self, size: OutputSize) -> f64 {
@@ -271,6 +275,9 @@ impl GeometryTexture {
             OutputSize::Absolute(w, h) => (f64::from(w), f64::from(h)),
             OutputSize::Scale(s) => (f64::from((hi.x - lo.x) * s), f64::from((hi.y - lo.y) * s)),
         };
+        if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
+            return 0.0;
+        }
         self.footprint_density() * w * h
     }
 }
