@@ -128,22 +128,26 @@ fn parse() -> Result<Study, Box<dyn Error>> {
             "--cluster-variation" => p.clusters.max_variation = value(a, &arg)?,
             "--anchors" => p.anchors_per_corner = value(a, &arg)?,
             "--max-normal-difference" => study.max_normal_difference = Some(value(a, &arg)?),
+            "--help" | "-h" => return Err(USAGE.into()),
+            flag if flag.starts_with('-') => {
+                return Err(format!("unknown flag {flag}; {USAGE}").into());
+            }
             _ => study.fixtures.push(PathBuf::from(arg)),
         }
     }
     if study.fixtures.is_empty() || study.seeds == 0 || study.windows == 0 {
-        return Err(
-            "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
-             [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
-             [--patch-size F] [--overlap F] [--extra-width F] [--pair-distance D] \
-             [--blend-reach R] [--repair-random] \
-             [--cluster-points N] [--cluster-variation S] [--anchors A] \
-             [--max-normal-difference M] FIXTURE.ply..."
-                .into(),
-        );
+        return Err(USAGE.into());
     }
     Ok(study)
 }
+
+/// What the command line takes (the flags are described in the module docs).
+const USAGE: &str = "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [--resampled DIR] \
+     [--surface-gap] [--normal-agreement C] [--smoothing L] [--epsilon E] \
+     [--patch-size F] [--overlap F] [--extra-width F] [--pair-distance D] \
+     [--blend-reach R] [--repair-random] \
+     [--cluster-points N] [--cluster-variation S] [--anchors A] \
+     [--max-normal-difference M] FIXTURE.ply...";
 
 /// A texture file (PLY, OBJ, OFF), or a height field (`.png`, `.f32le`) read with the
 /// command line's conventions.
