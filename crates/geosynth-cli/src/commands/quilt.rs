@@ -300,16 +300,19 @@ const LARGE_OUTPUT_POINTS: f64 = 1.0e6;
 
 /// A note when the output will be large (more than [`LARGE_OUTPUT_POINTS`] points at the
 /// exemplar's density, [`GeometryTexture::expected_output_points`]): such runs take
-/// minutes, and on sparse exemplars the measure, which is on by default, can take longer
+/// minutes to hours (the warp's spline systems grow with the exemplar's density, so the
+/// time grows faster than the output), and on sparse exemplars the measure, which is on by default, can take longer
 /// than the synthesis.
 fn size_note(texture: &GeometryTexture, params: &QuiltParams) -> Option<String> {
     let expected = texture.expected_output_points(params.output);
     (expected > LARGE_OUTPUT_POINTS).then(|| {
         format!(
             "note: about {:.1} million output points expected; runs this large take minutes \
-             (a 1024 × 1024 image read as a height field: 1.9 million points in about 95 s \
-             on 2 cores, the quality measure included). --scale or --size make the output \
-             smaller; --no-quality skips the measure",
+             to hours, and the time grows faster than the output (on 2 cores, a 1024 × 1024 \
+             image read as a height field: 1.9 million points in about 95 s, the quality \
+             measure included; a 2048 × 2048 one, 7.5 million, had not finished after 40 \
+             minutes). --scale or --size make the output smaller; --no-quality skips the \
+             measure",
             expected / 1.0e6
         )
     })
