@@ -226,26 +226,6 @@ impl GeometryTexture {
         (self.bounds.min.truncate(), self.bounds.max.truncate())
     }
 
-    /// Samples per unit area of the reference plane inside the box's footprint (padding
-    /// excluded); 0 for a footprint without area.
-    fn footprint_density(&self) -> f64 {
-        let (lo, hi) = self.footprint();
-        let area = f64::from(hi.x - lo.x) * f64::from(hi.y - lo.y);
-        if !(area.is_finite() && area > 0.0) {
-            return 0.0;
-        }
-        let inside = self
-            .points
-            .positions()
-            .iter()
-            .filter(|p| {
-                let q = p.truncate();
-                q.cmpge(lo).all() && q.cmple(hi).all()
-            })
-            .count();
-        inside as f64 / area
-    }
-
     /// About how many points a quilt of this texture at `size` holds: the footprint's
     /// sample density times the output's area. Patches are copies of the exemplar, so the
     /// output keeps its density; the count is known before the run, for sizing it (the
@@ -278,6 +258,17 @@ impl GeometryTexture {
         if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
             return 0.0;
         }
-        self.footprint_density() * w * h
+        // The box has a positive extent (`new` refuses any other), so the area is too.
+        let area = f64::from(hi.x - lo.x) * f64::from(hi.y - lo.y);
+        let inside = self
+            .points
+            .positions()
+            .iter()
+            .filter(|p| {
+                let q = p.truncate();
+                q.cmpge(lo).all() && q.cmple(hi).all()
+            })
+            .count();
+        inside as f64 / area * w * h
     }
 }
