@@ -27,7 +27,7 @@ fn controls(n: usize, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
 fn fit(c: &mut Criterion) {
     let mut group = c.benchmark_group("tps_fit");
     group.sample_size(10);
-    for n in [50usize, 200, 500] {
+    for n in [50usize, 200, 500, 1500] {
         let (s, q) = controls(n, 1);
         group.bench_with_input(BenchmarkId::from_parameter(n), &(s, q), |b, (s, q)| {
             b.iter(|| ThinPlateSpline::fit(black_box(s), black_box(q), &TpsParams::default()))

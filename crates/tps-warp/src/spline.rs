@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use crate::error::{Result, TpsError};
 
 mod batch;
+mod blocked_lu;
 
 /// What to do when the control points do not span 3D (all coplanar, collinear, or a single
 /// point) and the affine part of the spline is therefore undetermined.
@@ -208,7 +209,12 @@ impl ThinPlateSpline {
                 rhs[(n + 1 + k, k)] = -mu;
             }
         }
-        let solution = m.lu().solve(&rhs).ok_or(TpsError::Singular)?;
+        let solution = if size >= blocked_lu::BLOCKED_LU_MIN_SIZE {
+            blocked_lu::solve(m, rhs)
+        } else {
+            m.lu().solve(&rhs)
+        }
+        .ok_or(TpsError::Singular)?;
         if solution.iter().any(|v| !v.is_finite()) {
             return Err(TpsError::Singular);
         }

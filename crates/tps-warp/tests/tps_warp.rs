@@ -125,6 +125,53 @@ proptest! {
     }
 }
 
+/// From 512 unknowns up the system goes to the blocked LU: its splines must interpolate, keep
+/// the side conditions `Σ wᵢ = 0`, `Σ wᵢ sᵢᵀ = 0`, and reproduce affine maps, like the small
+/// ones above. A flat control set (every height field's patch) takes the regularized affine
+/// rows through the same solver.
+#[test]
+fn large_systems_interpolate_and_keep_the_side_conditions() {
+    let mut g = rng::rng_from_seed(5);
+    let solid = random_points(&mut g, 700, 2.0);
+    let flat: Vec<Vec3> = random_points(&mut g, 600, 2.0)
+        .into_iter()
+        .map(|p| p * Vec3::new(1.0, 1.0, 0.0))
+        .collect();
+    for (s, params) in [(&solid, strict()), (&flat, TpsParams::default())] {
+        let q: Vec<Vec3> = s
+            .iter()
+            .map(|p| *p + Vec3::new(g.random(), g.random(), g.random()) * 0.3)
+            .collect();
+        let w = ThinPlateSpline::fit(s, &q, &params).unwrap();
+        for (a, b) in s.iter().zip(&q) {
+            let err = w.eval_f64(a.as_dvec3()).distance(b.as_dvec3());
+            assert!(err <= 1e-8, "{} points: residual {err}", s.len());
+        }
+        let total: DVec3 = w.weights().iter().sum();
+        let moment = w
+            .weights()
+            .iter()
+            .zip(w.centers())
+            .fold(DMat3::ZERO, |m, (wi, si)| {
+                m + DMat3::from_cols(*wi * si.x, *wi * si.y, *wi * si.z)
+            });
+        let scale: f64 = w.weights().iter().map(|wi| wi.length()).sum();
+        assert!(total.length() <= 1e-9 * scale, "Σ w = {total}");
+        assert!(
+            moment
+                .abs()
+                .to_cols_array()
+                .iter()
+                .all(|v| *v <= 1e-9 * scale)
+        );
+    }
+    let m = Mat3::from_cols_array(&[1.2, 0.1, -0.2, 0.05, 0.9, 0.1, 0.3, -0.1, 1.1]);
+    let t = Vec3::new(0.5, -0.25, 2.0);
+    let q: Vec<Vec3> = solid.iter().map(|p| m * *p + t).collect();
+    let w = ThinPlateSpline::fit(&solid, &q, &strict()).unwrap();
+    assert!(w.weights().iter().all(|wi| wi.length() < 1e-5));
+}
+
 #[test]
 fn heavy_smoothing_tends_to_the_least_squares_affine_map() {
     let mut g = rng::rng_from_seed(11);
