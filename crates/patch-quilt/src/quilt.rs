@@ -52,6 +52,10 @@ pub struct QuiltStats {
     pub mean_pairs: f64,
     /// Patches left unwarped.
     pub warps_skipped: usize,
+    /// Patches whose targets `Q` were clustered more coarsely than
+    /// [`QuiltParams::clusters`] asks, to keep the spline within its size limit (dense
+    /// exemplars only; [`WarpCounts::coarsenings`](crate::WarpCounts::coarsenings)).
+    pub warps_coarsened: usize,
     /// `D(T_in)` dimensions.
     pub field_dims: [usize; 3],
     /// Bytes held by `D(T_in)` (the patches' fields are read from it, not unpacked).
@@ -565,6 +569,7 @@ pub fn quilt(
             .iter()
             .filter(|p| p.index > 0 && p.warp.skipped)
             .count(),
+        warps_coarsened: placements.iter().filter(|p| p.warp.coarsenings > 0).count(),
         field_dims: frame.spec.dims,
         field_bytes: ex.field_bytes(),
         geometry: g,

@@ -5,7 +5,8 @@ use glam::{Vec2, Vec3};
 use mls_surface::{ClusterParams, Covariance, MlsSurface, adaptive_clusters};
 use pointset_core::Aabb;
 use tps_warp::{
-    PairingParams, PairingPoint, ThinPlateSpline, TpsParams, anchors_in_regions, pair_points,
+    MAX_CONTROL_POINTS, PairingParams, PairingPoint, ThinPlateSpline, TpsParams,
+    anchors_in_regions, pair_points,
 };
 
 use crate::blend::{GapLimits, KeptFootprint, Overlap};
@@ -74,6 +75,10 @@ pub struct WarpCounts {
     pub anchors: usize,
     /// Targets `|Q|`.
     pub targets: usize,
+    /// Times the clustering's limits (`n_max` and `σ_max`) were both doubled to keep
+    /// `|Q|` within the spline's size limit: 0 unless the overlap holds more clusters than
+    /// [`MAX_CONTROL_POINTS`] less the anchors allows.
+    pub coarsenings: usize,
     /// `C(Φ)` of the pairing, its lengths in units of the exemplar box
     /// ([`BASE_SIDE`](crate::BASE_SIDE)).
     pub cost: f64,
@@ -118,23 +123,6 @@ pub(crate) fn warp_patch(
         .iter()
         .map(|&i| neighbourhood.points[i])
         .collect();
-    let Ok(groups) = adaptive_clusters(&positions, clusters) else {
-        return WarpCounts {
-            skipped: true,
-            ..WarpCounts::default()
-        };
-    };
-    let q: Vec<PairingPoint> = groups
-        .iter()
-        .map(|c| {
-            let i = in_overlap[c.representative];
-            PairingPoint {
-                position: neighbourhood.points[i],
-                normal: neighbourhood.normals[i],
-                variation: neighbourhood.variation(i),
-            }
-        })
-        .collect();
     let s: Vec<PairingPoint> = (0..points.len())
         .map(|i| PairingPoint {
             position: points[i],
@@ -160,49 +148,31 @@ pub(crate) fn warp_patch(
         })
         .collect();
     let anchors = anchors_in_regions(points, &free, anchors_per_corner);
+    let target_side = TargetSide {
+        in_overlap: &in_overlap,
+        positions: &positions,
+        neighbourhood,
+    };
+    let (found, coarsenings) = coarsened_until(
+        clusters,
+        positions.len(),
+        MAX_CONTROL_POINTS.saturating_sub(anchors.len()),
+        |params| {
+            let found = target_side.spline_pairs(params, &s, source.targets, pairing);
+            let size = found.from.len();
+            (found, size)
+        },
+    );
     let mut counts = WarpCounts {
-        targets: q.len(),
+        targets: found.targets,
+        coarsenings,
         anchors: anchors.len(),
         skipped: true,
+        cost: found.cost,
+        dropped_pairs: found.dropped,
         ..WarpCounts::default()
     };
-    if q.len() < 4 {
-        return counts;
-    }
-    let limit = pairing.max_distance;
-    let Ok(pairing) = pair_points(&s, &q, pairing) else {
-        return counts;
-    };
-    counts.cost = pairing.cost;
-    let mut from = Vec::with_capacity(pairing.pairs.len() + anchors.len());
-    let mut to = Vec::with_capacity(pairing.pairs.len() + anchors.len());
-    for pair in &pairing.pairs {
-        let (s_k, q_k) = (&s[pair.source], &q[pair.target]);
-        let target = match source.targets {
-            PairTargets::Exact => Some(q_k.position),
-            PairTargets::SurfaceGap {
-                foot_offset,
-                normal_agreement,
-            } => surface_gap(
-                neighbourhood.surface,
-                s_k.position,
-                s_k.normal,
-                foot_offset[pair.source],
-                GapLimits {
-                    distance: limit,
-                    normal_agreement,
-                },
-            )
-            .map(|gap| s_k.position + gap),
-        };
-        match target {
-            Some(t) => {
-                from.push(s_k.position);
-                to.push(t);
-            }
-            None => counts.dropped_pairs += 1,
-        }
-    }
+    let (mut from, mut to) = (found.from, found.to);
     counts.pairs = from.len();
     if counts.pairs < 4 {
         return counts;
@@ -242,6 +212,133 @@ pub(crate) fn warp_patch(
     }
     counts.skipped = false;
     counts
+}
+
+/// The target side of the pairing: the overlap's points of `N_k` (`positions`, at
+/// `in_overlap` in the neighbourhood), from which `Q` is clustered.
+struct TargetSide<'a> {
+    in_overlap: &'a [usize],
+    positions: &'a [Vec3],
+    neighbourhood: &'a Neighbourhood<'a>,
+}
+
+/// What the pairing gives the spline for one clustering of `Q`.
+#[derive(Default)]
+struct SplinePairs {
+    /// `|Q|` (0 when the clustering failed).
+    targets: usize,
+    /// `C(Φ)` of the pairing (0 when there was none).
+    cost: f64,
+    /// Paired sources.
+    from: Vec<Vec3>,
+    /// Where the spline maps each of `from`.
+    to: Vec<Vec3>,
+    /// Pairs dropped for want of a target ([`PairTargets::SurfaceGap`]).
+    dropped: usize,
+}
+
+impl TargetSide<'_> {
+    /// Clusters the overlap with `params` into `Q`, pairs `s` with it and maps each pair
+    /// to its target. Fewer than 4 targets, or a failed clustering or pairing, give no
+    /// pairs.
+    fn spline_pairs(
+        &self,
+        params: &ClusterParams,
+        s: &[PairingPoint],
+        kind: PairTargets<'_>,
+        pairing: &PairingParams,
+    ) -> SplinePairs {
+        let Ok(groups) = adaptive_clusters(self.positions, params) else {
+            return SplinePairs::default();
+        };
+        let q: Vec<PairingPoint> = groups
+            .iter()
+            .map(|c| {
+                let i = self.in_overlap[c.representative];
+                PairingPoint {
+                    position: self.neighbourhood.points[i],
+                    normal: self.neighbourhood.normals[i],
+                    variation: self.neighbourhood.variation(i),
+                }
+            })
+            .collect();
+        let mut found = SplinePairs {
+            targets: q.len(),
+            ..SplinePairs::default()
+        };
+        if q.len() < 4 {
+            return found;
+        }
+        let Ok(pairs) = pair_points(s, &q, pairing) else {
+            return found;
+        };
+        found.cost = pairs.cost;
+        for pair in &pairs.pairs {
+            let (s_k, q_k) = (&s[pair.source], &q[pair.target]);
+            let target = match kind {
+                PairTargets::Exact => Some(q_k.position),
+                PairTargets::SurfaceGap {
+                    foot_offset,
+                    normal_agreement,
+                } => surface_gap(
+                    self.neighbourhood.surface,
+                    s_k.position,
+                    s_k.normal,
+                    foot_offset[pair.source],
+                    GapLimits {
+                        distance: pairing.max_distance,
+                        normal_agreement,
+                    },
+                )
+                .map(|gap| s_k.position + gap),
+            };
+            match target {
+                Some(t) => {
+                    found.from.push(s_k.position);
+                    found.to.push(t);
+                }
+                None => found.dropped += 1,
+            }
+        }
+        found
+    }
+}
+
+/// Runs `attempt` with the clustering limits `params` and, while the size it reports
+/// exceeds `limit`, again with `n_max` and `σ_max` both doubled (a `σ_max` of 0 becomes
+/// 1/1024). Returns the last attempt's result and the number of doublings.
+///
+/// Clusters hold at most `n_max` points, so on dense exemplars `|Q|`, and the pairs with
+/// it, grow with the overlap's point count: a 2048 × 2048 height field gave about 4,900
+/// pairs a warp, and 4 of its 49 patches more than the spline takes
+/// ([`MAX_CONTROL_POINTS`]), whose warps were then skipped. Coarser clusters give those
+/// patches the warp of a coarser `Q` instead; patches within the limit keep the paper's
+/// clustering. Stops over the limit once `n_max` reaches `points` (the overlap's point
+/// count) and `σ_max` every possible variation (1/3): the overlap is then one cluster.
+fn coarsened_until<T>(
+    params: &ClusterParams,
+    points: usize,
+    limit: usize,
+    mut attempt: impl FnMut(&ClusterParams) -> (T, usize),
+) -> (T, usize) {
+    /// Surface variation `λ₀ / (λ₀ + λ₁ + λ₂)` never exceeds this.
+    const LARGEST_VARIATION: f32 = 1.0 / 3.0;
+    /// A `σ_max` of 0 doubles to this, so that it reaches [`LARGEST_VARIATION`] in a few
+    /// rounds.
+    const SMALLEST_RELAXED_VARIATION: f32 = 1.0 / 1024.0;
+    let mut params = params.clone();
+    let mut coarsenings = 0;
+    loop {
+        let (result, size) = attempt(&params);
+        let one_cluster = params.max_points >= points && params.max_variation >= LARGEST_VARIATION;
+        if size <= limit || one_cluster {
+            return (result, coarsenings);
+        }
+        params.max_points = params.max_points.saturating_mul(2);
+        params.max_variation =
+            (params.max_variation * 2.0).clamp(SMALLEST_RELAXED_VARIATION, LARGEST_VARIATION);
+        coarsenings += 1;
+    }
 }
 
 /// Signed offset along each point's normal from the point to its foot on `surface` (0 where
@@ -291,6 +388,65 @@ mod tests {
                 (p + Vec3::Z * lift, n)
             })
             .unzip()
+    }
+
+    /// `params` with both limits doubled `times` times, as [`clusters_within`] does.
+    fn doubled(params: &ClusterParams, times: usize) -> ClusterParams {
+        let mut p = params.clone();
+        for _ in 0..times {
+            p.max_points *= 2;
+            p.max_variation = (p.max_variation * 2.0).clamp(1.0 / 1024.0, 1.0 / 3.0);
+        }
+        p
+    }
+
+    /// [`coarsened_until`] with the clustering itself as the attempt: its clusters and
+    /// their count.
+    fn clusters_within(
+        points: &[Vec3],
+        params: &ClusterParams,
+        limit: usize,
+    ) -> (Vec<mls_surface::Cluster>, usize) {
+        coarsened_until(params, points.len(), limit, |p| {
+            let groups = adaptive_clusters(points, p).unwrap_or_default();
+            let size = groups.len();
+            (groups, size)
+        })
+    }
+
+    #[test]
+    fn clusters_are_coarsened_only_past_the_limit_and_no_further_than_needed() {
+        let (points, _) = sampled(3, 0.0);
+        let params = ClusterParams::default().max_points(4).max_variation(0.1);
+        let fine = adaptive_clusters(&points, &params).unwrap_or_default();
+        assert!(fine.len() > 1000, "{} clusters", fine.len());
+        // Within the limit: the paper's clustering, untouched.
+        assert_eq!(
+            clusters_within(&points, &params, fine.len()),
+            (fine.clone(), 0)
+        );
+        // Past it: the first doubling that fits, every point in exactly one cluster.
+        let limit = fine.len() / 5;
+        let (coarse, coarsenings) = clusters_within(&points, &params, limit);
+        assert!(
+            coarsenings >= 2 && coarse.len() <= limit,
+            "{coarsenings}, {}",
+            coarse.len()
+        );
+        let at = |times| adaptive_clusters(&points, &doubled(&params, times)).unwrap_or_default();
+        assert_eq!(at(coarsenings), coarse);
+        assert!(at(coarsenings - 1).len() > limit);
+        let mut members: Vec<usize> = coarse.iter().flat_map(|c| c.members.clone()).collect();
+        members.sort_unstable();
+        assert_eq!(members, (0..points.len()).collect::<Vec<_>>());
+        // A limit of one, from σ_max 0: the limits reach one cluster and stop; a limit of
+        // zero cannot be met, and the loop still stops there.
+        let strict = ClusterParams::default().max_points(1).max_variation(0.0);
+        for limit in [1, 0] {
+            let (single, coarsenings) = clusters_within(&points, &strict, limit);
+            assert_eq!(single.len(), 1);
+            assert!(coarsenings <= 20, "{coarsenings} rounds");
+        }
     }
 
     /// The footprint the wave tests keep, with a blend reach of 0.05.
