@@ -99,9 +99,9 @@
 //! - `N_k`'s MLS surface uses the exemplar's kernel, so both fields see the same surface
 //!   definition.
 //! - A patch with fewer than 4 pairs, or a degenerate spline, is pasted unwarped and counted
-//!   ([`QuiltStats::warps_skipped`]). A patch whose overlap holds more clusters than the
-//!   spline takes ([`tps_warp::MAX_CONTROL_POINTS`], reached by 2K height maps) is warped
-//!   with a coarser clustering instead, its limits doubled until `Q` fits, and counted
+//!   ([`QuiltStats::warps_skipped`]). A patch whose pairs would exceed what the spline
+//!   takes ([`tps_warp::MAX_CONTROL_POINTS`], reached by 2K height maps) is warped with a
+//!   coarser clustering instead, its limits doubled until the pairs fit, and counted
 //!   ([`QuiltStats::warps_coarsened`]).
 //! - Anchors: up to 4 points in each `w_E × w_E` corner of `B_k` that shares no area with the
 //!   overlap — three corners for an interior patch (the strips run along the patch's sides

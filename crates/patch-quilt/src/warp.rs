@@ -75,9 +75,9 @@ pub struct WarpCounts {
     pub anchors: usize,
     /// Targets `|Q|`.
     pub targets: usize,
-    /// Times the clustering's limits (`n_max` and `σ_max`) were both doubled to keep
-    /// `|Q|` within the spline's size limit: 0 unless the overlap holds more clusters than
-    /// [`MAX_CONTROL_POINTS`] less the anchors allows.
+    /// Times the clustering's limits (`n_max` and `σ_max`) were both doubled to keep the
+    /// pairs within the spline's size limit: 0 unless the configured clustering gives
+    /// more pairs than [`MAX_CONTROL_POINTS`] less the anchors.
     pub coarsenings: usize,
     /// `C(Φ)` of the pairing, its lengths in units of the exemplar box
     /// ([`BASE_SIDE`](crate::BASE_SIDE)).
@@ -310,10 +310,10 @@ impl TargetSide<'_> {
 ///
 /// Clusters hold at most `n_max` points, so on dense exemplars `|Q|`, and the pairs with
 /// it, grow with the overlap's point count: a 2048 × 2048 height field gave about 4,900
-/// pairs a warp, and 4 of its 49 patches more than the spline takes
-/// ([`MAX_CONTROL_POINTS`]), whose warps were then skipped. Coarser clusters give those
-/// patches the warp of a coarser `Q` instead; patches within the limit keep the paper's
-/// clustering. Stops over the limit once `n_max` reaches `points` (the overlap's point
+/// pairs a warp, and a patch with more than the spline takes ([`MAX_CONTROL_POINTS`]) was
+/// pasted unwarped (4 of that run's 49 warps were skipped; with this, none). Coarser
+/// clusters give such patches the warp of a coarser `Q` instead; patches within the limit
+/// keep the configured clustering. Stops over the limit once `n_max` reaches `points` (the overlap's point
 /// count) and `σ_max` every possible variation (1/3): the overlap is then one cluster.
 fn coarsened_until<T>(
     params: &ClusterParams,
@@ -390,7 +390,7 @@ mod tests {
             .unzip()
     }
 
-    /// `params` with both limits doubled `times` times, as [`clusters_within`] does.
+    /// `params` with both limits doubled `times` times, as [`coarsened_until`] does.
     fn doubled(params: &ClusterParams, times: usize) -> ClusterParams {
         let mut p = params.clone();
         for _ in 0..times {
