@@ -321,11 +321,6 @@ fn coarsened_until<T>(
     limit: usize,
     mut attempt: impl FnMut(&ClusterParams) -> (T, usize),
 ) -> (T, usize) {
-    /// Surface variation `λ₀ / (λ₀ + λ₁ + λ₂)` never exceeds this.
-    const LARGEST_VARIATION: f32 = 1.0 / 3.0;
-    /// A `σ_max` of 0 doubles to this, so that it reaches [`LARGEST_VARIATION`] in a few
-    /// rounds.
-    const SMALLEST_RELAXED_VARIATION: f32 = 1.0 / 1024.0;
     let mut params = params.clone();
     let mut coarsenings = 0;
     loop {
@@ -334,11 +329,26 @@ fn coarsened_until<T>(
         if size <= limit || one_cluster {
             return (result, coarsenings);
         }
-        params.max_points = params.max_points.saturating_mul(2);
-        params.max_variation =
-            (params.max_variation * 2.0).clamp(SMALLEST_RELAXED_VARIATION, LARGEST_VARIATION);
+        params = coarser(&params);
         coarsenings += 1;
     }
+}
+
+/// Surface variation `λ₀ / (λ₀ + λ₁ + λ₂)` never exceeds this.
+const LARGEST_VARIATION: f32 = 1.0 / 3.0;
+
+/// A `σ_max` of 0 doubles to this, so that it reaches [`LARGEST_VARIATION`] in a few rounds.
+const SMALLEST_RELAXED_VARIATION: f32 = 1.0 / 1024.0;
+
+/// One step of [`coarsened_until`]: `n_max` and `σ_max` doubled, `σ_max` kept within
+/// [`SMALLEST_RELAXED_VARIATION`] and [`LARGEST_VARIATION`].
+fn coarser(params: &ClusterParams) -> ClusterParams {
+    params
+        .clone()
+        .max_points(params.max_points.saturating_mul(2))
+        .max_variation(
+            (params.max_variation * 2.0).clamp(SMALLEST_RELAXED_VARIATION, LARGEST_VARIATION),
+        )
 }
 
 /// Signed offset along each point's normal from the point to its foot on `surface` (0 where
@@ -390,14 +400,9 @@ mod tests {
             .unzip()
     }
 
-    /// `params` with both limits doubled `times` times, as [`coarsened_until`] does.
+    /// `params` after `times` steps of [`coarser`].
     fn doubled(params: &ClusterParams, times: usize) -> ClusterParams {
-        let mut p = params.clone();
-        for _ in 0..times {
-            p.max_points *= 2;
-            p.max_variation = (p.max_variation * 2.0).clamp(1.0 / 1024.0, 1.0 / 3.0);
-        }
-        p
+        (0..times).fold(params.clone(), |p, _| coarser(&p))
     }
 
     /// [`coarsened_until`] with the clustering itself as the attempt: its clusters and

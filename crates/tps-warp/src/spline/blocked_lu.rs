@@ -44,10 +44,10 @@ pub(crate) fn solve(mut m: DMatrix<f64>, mut rhs: DMatrix<f64>) -> Option<DMatri
             rhs.swap_rows(row, pivot);
         }
     }
-    for mut column in rhs.column_iter_mut() {
-        substitute(&m, column.as_mut_slice());
-    }
-    Some(rhs)
+    // Every pivot is non-zero, so neither triangular solve can refuse.
+    (m.solve_lower_triangular_with_diag_mut(&mut rhs, 1.0)
+        && m.solve_upper_triangular_mut(&mut rhs))
+    .then_some(rhs)
 }
 
 /// Factors `m` in place into `P m = L U` (`L` unit lower, below the diagonal; `U` on and
@@ -128,10 +128,12 @@ fn update_trailing(m: &mut DMatrix<f64>, start: usize, width: usize) {
         .par_chunks_mut(CHUNK_COLUMNS * n)
         .for_each(|chunk| {
             let columns = chunk.len() / n;
-            for column in chunk.chunks_exact_mut(n) {
-                forward_unit_lower(&l11, &mut column[start..end]);
+            let mut u12 = DMatrix::from_fn(width, columns, |r, c| chunk[c * n + start + r]);
+            // `L₁₁` has a unit diagonal, so the solve cannot refuse.
+            l11.solve_lower_triangular_with_diag_mut(&mut u12, 1.0);
+            for (column, solved) in chunk.chunks_exact_mut(n).zip(u12.column_iter()) {
+                column[start..end].copy_from_slice(solved.as_slice());
             }
-            let u12 = DMatrix::from_fn(width, columns, |r, c| chunk[c * n + start + r]);
             let mut a22 = DMatrixViewMut::from_slice_with_strides_mut(
                 &mut chunk[end..],
                 n - end,
@@ -141,32 +143,6 @@ fn update_trailing(m: &mut DMatrix<f64>, start: usize, width: usize) {
             );
             a22.gemm(-1.0, &l21, &u12, 1.0);
         });
-}
-
-/// Solves `L x = b` in place for the unit lower triangle of the square `l`.
-fn forward_unit_lower(l: &DMatrix<f64>, b: &mut [f64]) {
-    for (j, l_column) in l.column_iter().enumerate() {
-        let x = b[j];
-        if x != 0.0 {
-            for (value, l_ij) in b[j + 1..].iter_mut().zip(&l_column.as_slice()[j + 1..]) {
-                *value -= l_ij * x;
-            }
-        }
-    }
-}
-
-/// Solves `L U x = b` in place with the factors stored in `lu`.
-fn substitute(lu: &DMatrix<f64>, b: &mut [f64]) {
-    forward_unit_lower(lu, b);
-    for (j, u_column) in lu.column_iter().enumerate().rev() {
-        b[j] /= u_column[j];
-        let x = b[j];
-        if x != 0.0 {
-            for (value, u_ij) in b[..j].iter_mut().zip(u_column.as_slice()) {
-                *value -= u_ij * x;
-            }
-        }
-    }
 }
 
 #[cfg(test)]
