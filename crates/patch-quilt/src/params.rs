@@ -123,7 +123,10 @@ pub struct QuiltParams {
     /// (`docs/patch-quilt.md`, "Cluster size"); so 12 stays the default.
     pub clusters: ClusterParams,
     /// Anchor points mapped to themselves per free corner of `F_k`; default 4, spread
-    /// through the corner's height ([`tps_warp::anchors_in_regions`]).
+    /// through the corner's height ([`tps_warp::anchors_in_regions`]). Unless it is 0, a
+    /// free corner's column is also pinned at the patch's lowest or highest z where the
+    /// patch reaches far beyond the spline's control points along z (the crate docs,
+    /// "Choices where the paper leaves room").
     pub anchors_per_corner: usize,
     /// The output extent; default twice the exemplar in each direction.
     pub output: OutputSize,

@@ -147,7 +147,12 @@ pub(crate) fn warp_patch(
             )
         })
         .collect();
-    let anchors = anchors_in_regions(points, &free, anchors_per_corner);
+    let mut anchors = anchors_in_regions(points, &free, anchors_per_corner);
+    let column_ends_at_most = if anchors_per_corner > 0 {
+        2 * free.len()
+    } else {
+        0
+    };
     let target_side = TargetSide {
         in_overlap: &in_overlap,
         positions: &positions,
@@ -156,7 +161,7 @@ pub(crate) fn warp_patch(
     let (found, coarsenings) = coarsened_until(
         clusters,
         positions.len(),
-        MAX_CONTROL_POINTS.saturating_sub(anchors.len()),
+        MAX_CONTROL_POINTS.saturating_sub(anchors.len() + column_ends_at_most),
         |params| {
             let found = target_side.spline_pairs(params, &s, source.targets, pairing);
             let size = found.from.len();
@@ -166,7 +171,6 @@ pub(crate) fn warp_patch(
     let mut counts = WarpCounts {
         targets: found.targets,
         coarsenings,
-        anchors: anchors.len(),
         skipped: true,
         cost: found.cost,
         dropped_pairs: found.dropped,
@@ -183,6 +187,12 @@ pub(crate) fn warp_patch(
         .map(|(a, b)| a.distance(*b))
         .sum::<f32>()
         / counts.pairs as f32;
+    if column_ends_at_most > 0 {
+        let controls = height_range(from.iter().chain(&anchors));
+        let ends = column_end_anchors(&free, height_range(points.iter()), controls, corner);
+        anchors.extend(ends);
+    }
+    counts.anchors = anchors.len();
     from.extend_from_slice(&anchors);
     to.extend_from_slice(&anchors);
     let Ok(spline) = ThinPlateSpline::fit(&from, &to, &TpsParams::default().smoothing(smoothing))
@@ -212,6 +222,52 @@ pub(crate) fn warp_patch(
     }
     counts.skipped = false;
     counts
+}
+
+/// Lowest and highest z of `points` (`(0, 0)` for none).
+fn height_range<'a>(points: impl Iterator<Item = &'a Vec3>) -> (f32, f32) {
+    points
+        .map(|p| p.z)
+        .fold(None, |range: Option<(f32, f32)>, z| {
+            Some(range.map_or((z, z), |(lo, hi)| (lo.min(z), hi.max(z))))
+        })
+        .unwrap_or_default()
+}
+
+/// Extra anchors at the bottom and top of each free corner's column: the corner's centre
+/// at the patch's lowest or highest z (`patch`, a height range), where the patch reaches
+/// farther beyond the spline's other control points (`controls`, their height range)
+/// than both the controls' own height span and an eighth of the corner's side `corner`.
+///
+/// The paper maps "corner regions of `F_k`" to themselves; in 3D a corner region is a
+/// column through the patch's height. Where every pair and corner sample sits in a thin
+/// slab (a plateau of a height map), the spline's stretch along z is fitted to the pairs'
+/// noise alone and extrapolated over the patch's full height: on Spot's 1024² texture
+/// one warp moved a pit's points by 11 times its longest pair (0.31 box units). Pinning
+/// the column's far end bounds that extrapolation ([`warp_patch`]). Where the controls
+/// already span the patch's height, the ends are left free: pinned there too, they took
+/// most of the full method's lead on Mount St. Helens (docs/patch-quilt.md, "Column
+/// ends").
+fn column_end_anchors(
+    free: &[Aabb],
+    (low, high): (f32, f32),
+    (control_low, control_high): (f32, f32),
+    corner: f32,
+) -> Vec<Vec3> {
+    let beyond = (control_high - control_low).max(corner / 8.0);
+    let heights: Vec<f32> = [
+        (control_low - low > beyond).then_some(low),
+        (high - control_high > beyond).then_some(high),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    free.iter()
+        .flat_map(|region| {
+            let centre = region.center().truncate();
+            heights.iter().map(move |z| centre.extend(*z))
+        })
+        .collect()
 }
 
 /// The target side of the pairing: the overlap's points of `N_k` (`positions`, at
@@ -384,17 +440,25 @@ fn surface_gap(
 mod tests {
     use super::*;
     use crate::params::WarpTargets;
-    use crate::test_surfaces::wave;
+    use crate::test_surfaces::{plateau_with_pit, wave};
     use mls_surface::{MlsParams, surface_variation};
     use pointset_core::{PointSet, rng};
     use rand::RngExt;
 
+    /// An analytic height field and its unit normal at `(x, y)`.
+    type Surface = fn(f32, f32) -> (Vec3, Vec3);
+
     /// 6000 samples of the wave over `[-0.5, 2.5]²`, uniformly at random, lifted by `lift`.
     fn sampled(seed: u64, lift: f32) -> (Vec<Vec3>, Vec<Vec3>) {
+        sampled_surface(wave, seed, lift)
+    }
+
+    /// 6000 samples of `surface` over `[-0.5, 2.5]²`, uniformly at random, lifted by `lift`.
+    fn sampled_surface(surface: Surface, seed: u64, lift: f32) -> (Vec<Vec3>, Vec<Vec3>) {
         let mut r = rng::rng_from_seed(seed);
         (0..6000)
             .map(|_| {
-                let (p, n) = wave(r.random_range(-0.5..2.5), r.random_range(-0.5..2.5));
+                let (p, n) = surface(r.random_range(-0.5..2.5), r.random_range(-0.5..2.5));
                 (p + Vec3::Z * lift, n)
             })
             .unzip()
@@ -465,21 +529,33 @@ mod tests {
         (before, after, counts)
     }
 
-    /// Warps a patch sampled with `seed` and lifted by `lift` onto the neighbourhood
-    /// sampled with seed 1; returns the points before and after, the normals before and
-    /// after, and the counts.
+    /// [`warp_surface`] on the wave, with an overlap on the left and at the bottom.
     fn warp_wave_with_normals(
         seed: u64,
         lift: f32,
         targets: WarpTargets,
     ) -> (Vec<Vec3>, Vec<Vec3>, [Vec<Vec3>; 2], WarpCounts) {
+        warp_surface(wave, seed, lift, targets, true)
+    }
+
+    /// Warps a patch of `surface` sampled with `seed` and lifted by `lift` onto the
+    /// neighbourhood sampled with seed 1, over an overlap at the bottom and, when `left`,
+    /// on the left; returns the points before and after, the normals before and after, and
+    /// the counts.
+    fn warp_surface(
+        surface: Surface,
+        seed: u64,
+        lift: f32,
+        targets: WarpTargets,
+        left: bool,
+    ) -> (Vec<Vec3>, Vec<Vec3>, [Vec<Vec3>; 2], WarpCounts) {
         let mls = MlsParams::default();
-        let (n_points, n_normals) = sampled(1, 0.0);
+        let (n_points, n_normals) = sampled_surface(surface, 1, 0.0);
         let n_set = PointSet::new(n_points.clone())
             .and_then(|s| s.with_normals(n_normals.clone()))
             .unwrap();
         let n_surface = MlsSurface::new(&n_set, &mls).unwrap();
-        let (before, normals_before) = sampled(seed, lift);
+        let (before, normals_before) = sampled_surface(surface, seed, lift);
         let mut normals = normals_before.clone();
         let f_set = PointSet::new(before.clone())
             .and_then(|s| s.with_normals(normals.clone()))
@@ -491,7 +567,7 @@ mod tests {
             origin: Vec2::ZERO,
             width: 0.3,
             patch: 1.5,
-            left: true,
+            left,
             bottom: true,
         };
         let mut points = before.clone();
@@ -604,6 +680,51 @@ mod tests {
             after.len()
         );
         assert!(turned > kept / 2, "{turned} of {kept} normals turned");
+    }
+
+    #[test]
+    fn column_ends_are_pinned_only_where_the_patch_reaches_far_beyond_the_controls() {
+        let column = |x: f32| {
+            Aabb::new(
+                Vec3::new(x, 0.0, f32::MIN / 4.0),
+                Vec3::new(x + 0.4, 0.4, f32::MAX / 4.0),
+            )
+        };
+        let free = [column(0.0), column(2.0)];
+        // Controls in a slab 0.01 thick at the top of a patch 0.8 high: the bottom ends.
+        let ends = column_end_anchors(&free, (-0.3, 0.5), (0.49, 0.5), 0.4);
+        assert_eq!(ends, [Vec3::new(0.2, 0.2, -0.3), Vec3::new(2.2, 0.2, -0.3)]);
+        // In the middle of it: both ends of both columns.
+        assert_eq!(
+            column_end_anchors(&free, (-0.3, 0.5), (0.1, 0.11), 0.4).len(),
+            4
+        );
+        // Beyond the controls by less than their span, or than an eighth of the corner.
+        assert!(column_end_anchors(&free, (-0.3, 0.5), (-0.1, 0.3), 0.4).is_empty());
+        assert!(column_end_anchors(&free, (0.0, 0.04), (0.0, 0.0), 0.4).is_empty());
+        // A flat patch.
+        assert!(column_end_anchors(&free, (0.1, 0.1), (0.1, 0.1), 0.4).is_empty());
+        assert_eq!(
+            height_range([Vec3::Z, Vec3::NEG_Z * 2.0].iter()),
+            (-2.0, 1.0)
+        );
+        assert_eq!(height_range([].iter()), (0.0, 0.0));
+    }
+
+    #[test]
+    fn a_warp_on_a_plateau_does_not_stretch_into_a_pit() {
+        // Every pair and every corner sample sits on the plateau, within ±0.003 of one
+        // height; the pit reaches 0.27 below it. The column ends pin the stretch along z.
+        let (before, after, _, counts) =
+            warp_surface(plateau_with_pit, 2, 0.0, WarpTargets::Exact, false);
+        assert!(!counts.skipped && counts.pairs >= 20, "{counts:?}");
+        let pit_moved = before
+            .iter()
+            .zip(&after)
+            .filter(|(b, _)| b.z < 0.2)
+            .map(|(b, a)| a.distance(*b))
+            .fold(0.0, f32::max);
+        assert!(pit_moved < 0.06, "pit moved by {pit_moved}: {counts:?}");
     }
 
     /// Gap limits: `distance`, and normals at most about 37° apart.
