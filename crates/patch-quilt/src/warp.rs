@@ -71,7 +71,7 @@ pub struct WarpCounts {
     /// limit along the source's normal, or only one facing another way
     /// ([`WarpTargets::SurfaceGap`] only).
     pub dropped_pairs: usize,
-    /// Anchor points mapped to themselves.
+    /// Anchor points mapped to themselves (column ends included).
     pub anchors: usize,
     /// Targets `|Q|`.
     pub targets: usize,
@@ -97,7 +97,9 @@ pub struct WarpCounts {
 /// `Q` = representatives of adaptive clusters of the neighbourhood's points inside the
 /// overlap region; anchors = up to `anchors_per_corner` points of `S` in each `w_E × w_E`
 /// corner of `B_k`'s footprint that shares no area with the overlap (three for an interior
-/// patch: the strips run along the patch's sides only). The spline maps each paired
+/// patch: the strips run along the patch's sides only), and those corners' column ends
+/// where the patch reaches far beyond the controls along z ([`column_end_anchors`]). The
+/// spline maps each paired
 /// source to its target ([`WarpTargets`]). A patch with fewer than four pairs, or whose
 /// spline cannot be fitted, is left unwarped (reported, not an error). Normals are turned
 /// through the Jacobian only for points that can still land in `keep`
@@ -235,9 +237,10 @@ fn height_range<'a>(points: impl Iterator<Item = &'a Vec3>) -> (f32, f32) {
 }
 
 /// Extra anchors at the bottom and top of each free corner's column: the corner's centre
-/// at the patch's lowest or highest z (`patch`, a height range), where the patch reaches
-/// farther beyond the spline's other control points (`controls`, their height range)
-/// than both the controls' own height span and an eighth of the corner's side `corner`.
+/// at the patch's lowest or highest z (`(low, high)`, the patch's height range), where the
+/// patch reaches farther beyond the spline's other control points (`(control_low,
+/// control_high)`, their height range) than both the controls' own height span and an
+/// eighth of the corner's side `corner`.
 ///
 /// The paper maps "corner regions of `F_k`" to themselves; in 3D a corner region is a
 /// column through the patch's height. Where every pair and corner sample sits in a thin
