@@ -99,8 +99,7 @@ pub struct WarpCounts {
 /// corner of `B_k`'s footprint that shares no area with the overlap (three for an interior
 /// patch: the strips run along the patch's sides only), and those corners' column ends
 /// where the patch reaches far beyond the controls along z ([`column_end_anchors`]). The
-/// spline maps each paired
-/// source to its target ([`WarpTargets`]). A patch with fewer than four pairs, or whose
+/// spline maps each paired source to its target ([`WarpTargets`]). A patch with fewer than four pairs, or whose
 /// spline cannot be fitted, is left unwarped (reported, not an error). Normals are turned
 /// through the Jacobian only for points that can still land in `keep`
 /// ([`KeptFootprint::may_land`]); the others keep their normals, and step 6 discards them.
@@ -189,9 +188,13 @@ pub(crate) fn warp_patch(
         .map(|(a, b)| a.distance(*b))
         .sum::<f32>()
         / counts.pairs as f32;
-    if column_ends_at_most > 0 {
-        let controls = height_range(from.iter().chain(&anchors));
-        let ends = column_end_anchors(&free, height_range(points.iter()), controls, corner);
+    if let (true, Some(patch), Some(paired)) = (
+        column_ends_at_most > 0,
+        Aabb::from_points(points),
+        Aabb::from_points(&from),
+    ) {
+        let controls = anchors.iter().fold(paired, |b, a| b.including(*a));
+        let ends = column_end_anchors(&free, &patch, &controls, corner);
         anchors.extend(ends);
     }
     counts.anchors = anchors.len();
@@ -226,21 +229,11 @@ pub(crate) fn warp_patch(
     counts
 }
 
-/// Lowest and highest z of `points` (`(0, 0)` for none).
-fn height_range<'a>(points: impl Iterator<Item = &'a Vec3>) -> (f32, f32) {
-    points
-        .map(|p| p.z)
-        .fold(None, |range: Option<(f32, f32)>, z| {
-            Some(range.map_or((z, z), |(lo, hi)| (lo.min(z), hi.max(z))))
-        })
-        .unwrap_or_default()
-}
-
 /// Extra anchors at the bottom and top of each free corner's column: the corner's centre
-/// at the patch's lowest or highest z (`(low, high)`, the patch's height range), where the
-/// patch reaches farther beyond the spline's other control points (`(control_low,
-/// control_high)`, their height range) than both the controls' own height span and an
-/// eighth of the corner's side `corner`.
+/// at the lowest or highest z of `patch` (the patch's bounding box), where the patch
+/// reaches farther beyond `controls` (the bounding box of the spline's other control
+/// points) along z than both the controls' own height span and an eighth of the corner's
+/// side `corner`.
 ///
 /// The paper maps "corner regions of `F_k`" to themselves; in 3D a corner region is a
 /// column through the patch's height. Where every pair and corner sample sits in a thin
@@ -251,16 +244,12 @@ fn height_range<'a>(points: impl Iterator<Item = &'a Vec3>) -> (f32, f32) {
 /// already span the patch's height, the ends are left free: pinned there too, they took
 /// most of the full method's lead on Mount St. Helens (docs/patch-quilt.md, "Column
 /// ends").
-fn column_end_anchors(
-    free: &[Aabb],
-    (low, high): (f32, f32),
-    (control_low, control_high): (f32, f32),
-    corner: f32,
-) -> Vec<Vec3> {
-    let beyond = (control_high - control_low).max(corner / 8.0);
+fn column_end_anchors(free: &[Aabb], patch: &Aabb, controls: &Aabb, corner: f32) -> Vec<Vec3> {
+    let beyond = controls.extent().z.max(corner / 8.0);
+    let (low, high) = (patch.min.z, patch.max.z);
     let heights: Vec<f32> = [
-        (control_low - low > beyond).then_some(low),
-        (high - control_high > beyond).then_some(high),
+        (controls.min.z - low > beyond).then_some(low),
+        (high - controls.max.z > beyond).then_some(high),
     ]
     .into_iter()
     .flatten()
@@ -694,24 +683,23 @@ mod tests {
             )
         };
         let free = [column(0.0), column(2.0)];
+        // Boxes spanning heights `low` to `high` (only z matters).
+        let heights =
+            |low: f32, high: f32| Aabb::new(Vec3::new(0.0, 0.0, low), Vec3::new(1.0, 1.0, high));
+        let patch = heights(-0.3, 0.5);
         // Controls in a slab 0.01 thick at the top of a patch 0.8 high: the bottom ends.
-        let ends = column_end_anchors(&free, (-0.3, 0.5), (0.49, 0.5), 0.4);
+        let ends = column_end_anchors(&free, &patch, &heights(0.49, 0.5), 0.4);
         assert_eq!(ends, [Vec3::new(0.2, 0.2, -0.3), Vec3::new(2.2, 0.2, -0.3)]);
         // In the middle of it: both ends of both columns.
         assert_eq!(
-            column_end_anchors(&free, (-0.3, 0.5), (0.1, 0.11), 0.4).len(),
+            column_end_anchors(&free, &patch, &heights(0.1, 0.11), 0.4).len(),
             4
         );
         // Beyond the controls by less than their span, or than an eighth of the corner.
-        assert!(column_end_anchors(&free, (-0.3, 0.5), (-0.1, 0.3), 0.4).is_empty());
-        assert!(column_end_anchors(&free, (0.0, 0.04), (0.0, 0.0), 0.4).is_empty());
+        assert!(column_end_anchors(&free, &patch, &heights(-0.1, 0.3), 0.4).is_empty());
+        assert!(column_end_anchors(&free, &heights(0.0, 0.04), &heights(0.0, 0.0), 0.4).is_empty());
         // A flat patch.
-        assert!(column_end_anchors(&free, (0.1, 0.1), (0.1, 0.1), 0.4).is_empty());
-        assert_eq!(
-            height_range([Vec3::Z, Vec3::NEG_Z * 2.0].iter()),
-            (-2.0, 1.0)
-        );
-        assert_eq!(height_range([].iter()), (0.0, 0.0));
+        assert!(column_end_anchors(&free, &heights(0.1, 0.1), &heights(0.1, 0.1), 0.4).is_empty());
     }
 
     #[test]
