@@ -116,7 +116,12 @@
 //!   anchor too. Without them, a patch whose pairs and corners all lay on one plateau was
 //!   stretched along z by the pairs' noise: on a 1024² height map one warp moved a pit's
 //!   points by 11 times its longest pair. Pinned always, the ends took most of the full
-//!   method's lead on Mount St. Helens (docs/patch-quilt.md, "Column ends").
+//!   method's lead on Mount St. Helens (docs/patch-quilt.md, "Column ends"). A warp that
+//!   still moves a point that may land in `B_k` by more than 3 times its longest pair is
+//!   fitted again with each free corner's column pinned wherever the patch reaches beyond
+//!   the controls by more than an eighth of the corner, and the fit whose landing points
+//!   move less is kept ([`QuiltStats::warps_restrained`]; docs/patch-quilt.md, "Stretch
+//!   limit").
 //! - The first patch of each later row overlaps only the row below; the first row only its
 //!   left neighbour.
 //! - Each paired source goes onto its target `q` ([`WarpTargets::Exact`], the default). The

@@ -125,8 +125,9 @@ pub struct QuiltParams {
     /// Anchor points mapped to themselves per free corner of `F_k`; default 4, spread
     /// through the corner's height ([`tps_warp::anchors_in_regions`]). Unless it is 0, a
     /// free corner's column is also pinned at the patch's lowest or highest z where the
-    /// patch reaches far beyond the spline's control points along z (the crate docs,
-    /// "Choices where the paper leaves room").
+    /// patch reaches far beyond the spline's control points along z, and more widely for
+    /// a warp that stretches too far (the crate docs, "Choices where the paper leaves
+    /// room").
     pub anchors_per_corner: usize,
     /// The output extent; default twice the exemplar in each direction.
     pub output: OutputSize,

@@ -56,6 +56,10 @@ pub struct QuiltStats {
     /// [`QuiltParams::clusters`] asks, to keep the spline within its size limit (dense
     /// exemplars only; [`WarpCounts::coarsenings`](crate::WarpCounts::coarsenings)).
     pub warps_coarsened: usize,
+    /// Patches whose first warp stretched too far and that were warped again with the
+    /// free corners' columns pinned at their ends
+    /// ([`WarpCounts::restrained`](crate::WarpCounts::restrained)).
+    pub warps_restrained: usize,
     /// `D(T_in)` dimensions.
     pub field_dims: [usize; 3],
     /// Bytes held by `D(T_in)` (the patches' fields are read from it, not unpacked).
@@ -570,6 +574,7 @@ pub fn quilt(
             .filter(|p| p.index > 0 && p.warp.skipped)
             .count(),
         warps_coarsened: placements.iter().filter(|p| p.warp.coarsenings > 0).count(),
+        warps_restrained: placements.iter().filter(|p| p.warp.restrained).count(),
         field_dims: frame.spec.dims,
         field_bytes: ex.field_bytes(),
         geometry: g,

@@ -88,6 +88,9 @@ pub struct WarpCounts {
     pub mean_displacement: f32,
     /// Largest distance the warp moved a point.
     pub max_displacement: f32,
+    /// True when the first fit stretched too far and the warp was fitted again with
+    /// every free corner's column pinned at its ends.
+    pub restrained: bool,
     /// Mean length of the spline's pair displacements (after [`WarpTargets`]).
     pub mean_pair_length: f32,
 }
@@ -148,7 +151,7 @@ pub(crate) fn warp_patch(
             )
         })
         .collect();
-    let mut anchors = anchors_in_regions(points, &free, anchors_per_corner);
+    let anchors = anchors_in_regions(points, &free, anchors_per_corner);
     let column_ends_at_most = if anchors_per_corner > 0 {
         2 * free.len()
     } else {
@@ -177,7 +180,7 @@ pub(crate) fn warp_patch(
         dropped_pairs: found.dropped,
         ..WarpCounts::default()
     };
-    let (mut from, mut to) = (found.from, found.to);
+    let (from, to) = (found.from, found.to);
     counts.pairs = from.len();
     if counts.pairs < 4 {
         return counts;
@@ -188,45 +191,175 @@ pub(crate) fn warp_patch(
         .map(|(a, b)| a.distance(*b))
         .sum::<f32>()
         / counts.pairs as f32;
-    if let (true, Some(patch), Some(paired)) = (
-        column_ends_at_most > 0,
+    let ends = match (
+        anchors_per_corner > 0,
         Aabb::from_points(points),
         Aabb::from_points(&from),
     ) {
-        let controls = anchors.iter().fold(paired, |b, a| b.including(*a));
-        let ends = column_end_anchors(&free, &patch, &controls, corner);
-        anchors.extend(ends);
-    }
-    counts.anchors = anchors.len();
-    from.extend_from_slice(&anchors);
-    to.extend_from_slice(&anchors);
-    let Ok(spline) = ThinPlateSpline::fit(&from, &to, &TpsParams::default().smoothing(smoothing))
-    else {
+        (true, Some(patch), Some(paired)) => {
+            let controls = anchors.iter().fold(paired, |b, a| b.including(*a));
+            ColumnEnds::new(&free, &patch, &controls, corner)
+        }
+        _ => ColumnEnds::default(),
+    };
+    let controls = Controls {
+        from: &from,
+        to: &to,
+        anchors: &anchors,
+    };
+    let Some((warp, restrained)) = fit_restrained(points, &controls, &ends, smoothing, keep) else {
         return counts;
     };
-    let moved = spline.eval_many(points);
-    if moved.iter().any(|p| !p.is_finite()) {
-        return counts;
-    }
-    // Normals through the Jacobian (§5.2), only where step 6 can keep the point.
-    let landing: Vec<usize> = (0..moved.len())
-        .filter(|&i| keep.may_land(moved[i]))
-        .collect();
-    let landing_points: Vec<Vec3> = landing.iter().map(|&i| points[i]).collect();
-    let jacobians = spline.jacobians(&landing_points);
-    let shifts: Vec<f32> = moved
+    counts.anchors = warp.anchors;
+    counts.restrained = restrained;
+    let landing_points: Vec<Vec3> = warp.landing.iter().map(|&i| points[i]).collect();
+    let jacobians = warp.spline.jacobians(&landing_points);
+    let shifts: Vec<f32> = warp
+        .moved
         .iter()
         .zip(points.iter())
         .map(|(a, b)| a.distance(*b))
         .collect();
     counts.mean_displacement = shifts.iter().sum::<f32>() / shifts.len().max(1) as f32;
     counts.max_displacement = shifts.iter().copied().fold(0.0, f32::max);
-    points.copy_from_slice(&moved);
-    for (i, j) in landing.into_iter().zip(jacobians) {
+    points.copy_from_slice(&warp.moved);
+    for (i, j) in warp.landing.into_iter().zip(jacobians) {
         normals[i] = ThinPlateSpline::normal_through(j, normals[i]);
     }
     counts.skipped = false;
     counts
+}
+
+/// A warp whose largest move of a point that may land in `B_k` exceeds this many times
+/// its longest pair is fitted again with every free corner's column pinned at its ends
+/// ([`fit_restrained`]).
+const STRETCH_LIMIT: f32 = 3.0;
+
+/// The spline's control points: the paired sources `from`, mapped to `to`, and the
+/// corner `anchors`, mapped to themselves.
+struct Controls<'a> {
+    from: &'a [Vec3],
+    to: &'a [Vec3],
+    anchors: &'a [Vec3],
+}
+
+/// Fits the warp of `points` with the column ends of [`ColumnEnds::where_beyond_the_controls`]
+/// and, where it moves a point that may land farther than [`STRETCH_LIMIT`] times its
+/// longest pair, again with those of [`ColumnEnds::wherever_beyond_the_corner`], keeping
+/// the fit whose landing points move less. Returns the fit and whether it is the second.
+///
+/// The first rule leaves the ends free where the controls span the patch's height, which
+/// keeps the warp's freedom on terrain like Mount St. Helens; on a dense height map it
+/// still let one patch stretch a pit by 3.9 times its longest pair, with one corner's
+/// samples as deep as the pit and every pair on the plateau above it (docs/patch-quilt.md,
+/// "Stretch limit"). `None` when the first fit fails.
+fn fit_restrained(
+    points: &[Vec3],
+    controls: &Controls<'_>,
+    ends: &ColumnEnds,
+    smoothing: f64,
+    keep: &KeptFootprint,
+) -> Option<(FittedWarp, bool)> {
+    let fit = |extra: &[Vec3]| FittedWarp::new(points, controls, extra, smoothing, keep);
+    let first = fit(&ends.where_beyond_the_controls)?;
+    let longest_pair = controls
+        .from
+        .iter()
+        .zip(controls.to)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f32::max);
+    let more_ends = ends.wherever_beyond_the_corner.len() > ends.where_beyond_the_controls.len();
+    if first.landing_reach <= STRETCH_LIMIT * longest_pair || !more_ends {
+        return Some((first, false));
+    }
+    match fit(&ends.wherever_beyond_the_corner) {
+        Some(second) if second.landing_reach < first.landing_reach => Some((second, true)),
+        _ => Some((first, false)),
+    }
+}
+
+/// A fitted spline and where it moves the patch's points.
+struct FittedWarp {
+    spline: ThinPlateSpline,
+    /// Control points mapped to themselves (corner anchors and column ends).
+    anchors: usize,
+    /// The patch's points, moved.
+    moved: Vec<Vec3>,
+    /// Indices of the moved points that may land in `B_k` ([`KeptFootprint::may_land`]).
+    landing: Vec<usize>,
+    /// Largest distance the spline moves a point of `landing`.
+    landing_reach: f32,
+}
+
+impl FittedWarp {
+    /// Fits the spline of `controls` with the column ends `ends` as further anchors, and
+    /// moves `points` with it. `None` when the system is degenerate or a point moves to a
+    /// non-finite position.
+    fn new(
+        points: &[Vec3],
+        controls: &Controls<'_>,
+        ends: &[Vec3],
+        smoothing: f64,
+        keep: &KeptFootprint,
+    ) -> Option<Self> {
+        let fixed: Vec<Vec3> = controls.anchors.iter().chain(ends).copied().collect();
+        let sources: Vec<Vec3> = controls.from.iter().chain(&fixed).copied().collect();
+        let targets: Vec<Vec3> = controls.to.iter().chain(&fixed).copied().collect();
+        let spline = ThinPlateSpline::fit(
+            &sources,
+            &targets,
+            &TpsParams::default().smoothing(smoothing),
+        )
+        .ok()?;
+        let moved = spline.eval_many(points);
+        if moved.iter().any(|p| !p.is_finite()) {
+            return None;
+        }
+        let landing: Vec<usize> = (0..moved.len())
+            .filter(|&i| keep.may_land(moved[i]))
+            .collect();
+        let landing_reach = landing
+            .iter()
+            .map(|&i| moved[i].distance(points[i]))
+            .fold(0.0, f32::max);
+        Some(Self {
+            spline,
+            anchors: fixed.len(),
+            moved,
+            landing,
+            landing_reach,
+        })
+    }
+}
+
+/// The anchors at the ends of the free corners' columns ([`column_end_anchors`]) under
+/// the two rules a warp may use.
+#[derive(Default)]
+struct ColumnEnds {
+    /// Where the patch reaches beyond the spline's other control points: the rule every
+    /// warp uses.
+    where_beyond_the_controls: Vec<Vec3>,
+    /// Where the patch reaches beyond them by more than an eighth of the corner, however
+    /// far the controls span: used for a warp that stretches too far
+    /// ([`STRETCH_LIMIT`]).
+    wherever_beyond_the_corner: Vec<Vec3>,
+}
+
+impl ColumnEnds {
+    /// The column ends of the free corners `free` (each of side `corner`) for a patch
+    /// bounded by `patch` whose spline's other control points are bounded by `controls`.
+    fn new(free: &[Aabb], patch: &Aabb, controls: &Aabb, corner: f32) -> Self {
+        let least = corner / 8.0;
+        Self {
+            where_beyond_the_controls: column_end_anchors(
+                free,
+                patch,
+                controls,
+                controls.extent().z.max(least),
+            ),
+            wherever_beyond_the_corner: column_end_anchors(free, patch, controls, least),
+        }
+    }
 }
 
 /// Extra anchors at the bottom and top of each free corner's column: the corner's centre
@@ -244,8 +377,7 @@ pub(crate) fn warp_patch(
 /// already span the patch's height, the ends are left free: pinned there too, they took
 /// most of the full method's lead on Mount St. Helens (docs/patch-quilt.md, "Column
 /// ends").
-fn column_end_anchors(free: &[Aabb], patch: &Aabb, controls: &Aabb, corner: f32) -> Vec<Vec3> {
-    let beyond = controls.extent().z.max(corner / 8.0);
+fn column_end_anchors(free: &[Aabb], patch: &Aabb, controls: &Aabb, beyond: f32) -> Vec<Vec3> {
     let (low, high) = (patch.min.z, patch.max.z);
     let heights: Vec<f32> = [
         (controls.min.z - low > beyond).then_some(low),
@@ -700,6 +832,123 @@ mod tests {
         assert!(column_end_anchors(&free, &heights(0.0, 0.04), &heights(0.0, 0.0), 0.4).is_empty());
         // A flat patch.
         assert!(column_end_anchors(&free, &heights(0.1, 0.1), &heights(0.1, 0.1), 0.4).is_empty());
+    }
+
+    /// One warp's scene on the plateau of [`plateau_with_pit`].
+    struct PlateauScene {
+        points: Vec<Vec3>,
+        /// 40 pairs' sources along the bottom strip.
+        from: Vec<Vec3>,
+        /// Their targets, each moved by up to 0.01 (a pairing's noise).
+        to: Vec<Vec3>,
+        /// 4 anchors in each top corner, all on the plateau.
+        anchors: Vec<Vec3>,
+        /// The two top corners' columns.
+        free: Vec<Aabb>,
+    }
+
+    impl PlateauScene {
+        fn new() -> Self {
+            let (points, _) = sampled_surface(plateau_with_pit, 2, 0.0);
+            let from: Vec<Vec3> = points
+                .iter()
+                .filter(|p| p.x > 0.0 && p.x < 2.0 && p.y > 0.0 && p.y < 0.3)
+                .step_by(5)
+                .take(40)
+                .copied()
+                .collect();
+            let to = from
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let t = i as f32;
+                    *p + Vec3::new(0.006 * t.sin(), 0.006 * t.cos(), 0.004 * (3.0 * t).sin())
+                })
+                .collect();
+            let column = |x: f32| {
+                Aabb::new(
+                    Vec3::new(x, 1.55, f32::MIN / 4.0),
+                    Vec3::new(x + 0.45, 2.0, f32::MAX / 4.0),
+                )
+            };
+            let free = vec![column(0.0), column(1.55)];
+            let anchors = anchors_in_regions(&points, &free, 4);
+            Self {
+                points,
+                from,
+                to,
+                anchors,
+                free,
+            }
+        }
+    }
+
+    #[test]
+    fn a_warp_that_stretches_too_far_is_fitted_again_with_the_columns_pinned() {
+        let PlateauScene {
+            points,
+            from,
+            to,
+            anchors,
+            free,
+        } = PlateauScene::new();
+        assert_eq!((from.len(), anchors.len()), (40, 8));
+        let controls = Controls {
+            from: &from,
+            to: &to,
+            anchors: &anchors,
+        };
+        let longest = from
+            .iter()
+            .zip(&to)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0, f32::max);
+        let bounds = |p: &[Vec3]| Aabb::from_points(p).unwrap();
+        let whole = bounds(&[from.clone(), anchors.clone()].concat());
+        let pinned = ColumnEnds::new(&free, &bounds(&points), &whole, 0.45);
+        assert_eq!(pinned.wherever_beyond_the_corner.len(), 2);
+        let pit_moved = |warp: &FittedWarp| {
+            points
+                .iter()
+                .zip(&warp.moved)
+                .filter(|(b, _)| b.z < 0.2)
+                .map(|(b, a)| a.distance(*b))
+                .fold(0.0, f32::max)
+        };
+        // With no end pinned at first (as where the controls span the patch's height),
+        // the spline stretches the pit far beyond its longest pair, and the second fit,
+        // with the columns' bottom ends pinned, is kept.
+        let loose = ColumnEnds {
+            where_beyond_the_controls: Vec::new(),
+            wherever_beyond_the_corner: pinned.wherever_beyond_the_corner.clone(),
+        };
+        let (restrained, second) =
+            fit_restrained(&points, &controls, &loose, 0.0, &wave_keep()).unwrap();
+        assert!(second);
+        assert_eq!(restrained.anchors, 10);
+        assert!(
+            pit_moved(&restrained) < STRETCH_LIMIT * longest,
+            "{}",
+            pit_moved(&restrained)
+        );
+        // Without ends to pin, the first fit stands, stretched.
+        let (free_fit, second) = fit_restrained(
+            &points,
+            &controls,
+            &ColumnEnds::default(),
+            0.0,
+            &wave_keep(),
+        )
+        .unwrap();
+        assert!(!second);
+        assert!(free_fit.landing_reach > STRETCH_LIMIT * longest);
+        assert!(pit_moved(&free_fit) > 3.0 * pit_moved(&restrained));
+        // With the ends the first rule gives here (every control on the plateau), the
+        // first fit stays within the limit and is kept.
+        let (kept, second) =
+            fit_restrained(&points, &controls, &pinned, 0.0, &wave_keep()).unwrap();
+        assert!(!second);
+        assert!(kept.landing_reach <= STRETCH_LIMIT * longest);
     }
 
     #[test]

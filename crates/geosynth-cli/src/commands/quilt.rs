@@ -552,6 +552,7 @@ pub fn run_json(run: &MeasuredRun) -> Value {
         "mean_pairs": s.mean_pairs,
         "warps_skipped": s.warps_skipped,
         "warps_coarsened": s.warps_coarsened,
+        "warps_restrained": s.warps_restrained,
         "dropped_pairs": run.output.placements.iter().map(|p| p.warp.dropped_pairs).sum::<usize>(),
         "warp_displacement": {
             "mean": mean(run.output.placements.iter().filter(|p| !p.warp.skipped).map(|p| p.warp.mean_displacement)),
