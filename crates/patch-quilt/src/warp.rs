@@ -88,6 +88,9 @@ pub struct WarpCounts {
     pub mean_displacement: f32,
     /// Largest distance the warp moved a point.
     pub max_displacement: f32,
+    /// Largest distance the warp moved a point that can still land in `B_k` (one within
+    /// twice the blend reach of its footprint); step 6 discards the others.
+    pub max_landing_displacement: f32,
     /// True when the first fit stretched too far and the warp was fitted again with
     /// every free corner's column pinned at its ends.
     pub restrained: bool,
@@ -198,7 +201,7 @@ pub(crate) fn warp_patch(
     ) {
         (true, Some(patch), Some(paired)) => {
             let controls = anchors.iter().fold(paired, |b, a| b.including(*a));
-            ColumnEnds::new(&free, &patch, &controls, corner)
+            ColumnEnds::new(&free, &patch, &paired, &controls, corner)
         }
         _ => ColumnEnds::default(),
     };
@@ -211,6 +214,7 @@ pub(crate) fn warp_patch(
         return counts;
     };
     counts.anchors = warp.anchors;
+    counts.max_landing_displacement = warp.landing_reach;
     counts.restrained = restrained;
     let landing_points: Vec<Vec3> = warp.landing.iter().map(|&i| points[i]).collect();
     let jacobians = warp.spline.jacobians(&landing_points);
@@ -243,9 +247,9 @@ struct Controls<'a> {
     anchors: &'a [Vec3],
 }
 
-/// Fits the warp of `points` with the column ends of [`ColumnEnds::where_beyond_the_controls`]
+/// Fits the warp of `points` with the column ends of [`ColumnEnds::beyond_the_controls`]
 /// and, where it moves a point that may land farther than [`STRETCH_LIMIT`] times its
-/// longest pair, again with those of [`ColumnEnds::wherever_beyond_the_corner`], keeping
+/// longest pair, again with those of [`ColumnEnds::beyond_the_pairs`], keeping
 /// the fit whose landing points move less. Returns the fit and whether it is the second.
 ///
 /// The first rule leaves the ends free where the controls span the patch's height, which
@@ -261,18 +265,18 @@ fn fit_restrained(
     keep: &KeptFootprint,
 ) -> Option<(FittedWarp, bool)> {
     let fit = |extra: &[Vec3]| FittedWarp::new(points, controls, extra, smoothing, keep);
-    let first = fit(&ends.where_beyond_the_controls)?;
+    let first = fit(&ends.beyond_the_controls)?;
     let longest_pair = controls
         .from
         .iter()
         .zip(controls.to)
         .map(|(a, b)| a.distance(*b))
         .fold(0.0, f32::max);
-    let more_ends = ends.wherever_beyond_the_corner.len() > ends.where_beyond_the_controls.len();
+    let more_ends = ends.beyond_the_pairs.len() > ends.beyond_the_controls.len();
     if first.landing_reach <= STRETCH_LIMIT * longest_pair || !more_ends {
         return Some((first, false));
     }
-    match fit(&ends.wherever_beyond_the_corner) {
+    match fit(&ends.beyond_the_pairs) {
         Some(second) if second.landing_reach < first.landing_reach => Some((second, true)),
         _ => Some((first, false)),
     }
@@ -334,39 +338,6 @@ impl FittedWarp {
 
 /// The anchors at the ends of the free corners' columns ([`column_end_anchors`]) under
 /// the two rules a warp may use.
-#[derive(Default)]
-struct ColumnEnds {
-    /// Where the patch reaches beyond the spline's other control points: the rule every
-    /// warp uses.
-    where_beyond_the_controls: Vec<Vec3>,
-    /// Where the patch reaches beyond them by more than an eighth of the corner, however
-    /// far the controls span: used for a warp that stretches too far
-    /// ([`STRETCH_LIMIT`]).
-    wherever_beyond_the_corner: Vec<Vec3>,
-}
-
-impl ColumnEnds {
-    /// The column ends of the free corners `free` (each of side `corner`) for a patch
-    /// bounded by `patch` whose spline's other control points are bounded by `controls`.
-    fn new(free: &[Aabb], patch: &Aabb, controls: &Aabb, corner: f32) -> Self {
-        let least = corner / 8.0;
-        Self {
-            where_beyond_the_controls: column_end_anchors(
-                free,
-                patch,
-                controls,
-                controls.extent().z.max(least),
-            ),
-            wherever_beyond_the_corner: column_end_anchors(free, patch, controls, least),
-        }
-    }
-}
-
-/// Extra anchors at the bottom and top of each free corner's column: the corner's centre
-/// at the lowest or highest z of `patch` (the patch's bounding box), where the patch
-/// reaches farther beyond `controls` (the bounding box of the spline's other control
-/// points) along z than both the controls' own height span and an eighth of the corner's
-/// side `corner`.
 ///
 /// The paper maps "corner regions of `F_k`" to themselves; in 3D a corner region is a
 /// column through the patch's height. Where every pair and corner sample sits in a thin
@@ -374,14 +345,48 @@ impl ColumnEnds {
 /// noise alone and extrapolated over the patch's full height: on Spot's 1024² texture
 /// one warp moved a pit's points by 11 times its longest pair (0.31 box units). Pinning
 /// the column's far end bounds that extrapolation ([`warp_patch`]). Where the controls
-/// already span the patch's height, the ends are left free: pinned there too, they took
-/// most of the full method's lead on Mount St. Helens (docs/patch-quilt.md, "Column
-/// ends").
-fn column_end_anchors(free: &[Aabb], patch: &Aabb, controls: &Aabb, beyond: f32) -> Vec<Vec3> {
+/// already span the patch's height, the ends are left free at first: pinned there too,
+/// they took most of the full method's lead on Mount St. Helens (docs/patch-quilt.md,
+/// "Column ends").
+#[derive(Default)]
+struct ColumnEnds {
+    /// Where the patch reaches beyond the spline's other control points (pairs and corner
+    /// anchors) by more than both their height span and an eighth of the corner: the
+    /// rule every warp uses.
+    beyond_the_controls: Vec<Vec3>,
+    /// Where the patch reaches beyond the pairs alone by more than an eighth of the
+    /// corner, however deep the corners' samples reach: for a warp that stretches too far
+    /// ([`STRETCH_LIMIT`]).
+    beyond_the_pairs: Vec<Vec3>,
+}
+
+impl ColumnEnds {
+    /// The column ends of the free corners `free` (each of side `corner`) for a patch
+    /// bounded by `patch` whose pairs' sources are bounded by `paired` and whose spline's
+    /// other control points (pairs and corner anchors) by `controls`.
+    fn new(free: &[Aabb], patch: &Aabb, paired: &Aabb, controls: &Aabb, corner: f32) -> Self {
+        let least = corner / 8.0;
+        Self {
+            beyond_the_controls: column_end_anchors(
+                free,
+                patch,
+                controls,
+                controls.extent().z.max(least),
+            ),
+            beyond_the_pairs: column_end_anchors(free, patch, paired, least),
+        }
+    }
+}
+
+/// Extra anchors at the bottom and top of each free corner's column: the corner's centre
+/// at the lowest or highest z of `patch` (the patch's bounding box), where the patch
+/// reaches more than `beyond` below or above `reference` (the bounding box of some of the
+/// spline's control points; [`ColumnEnds`]).
+fn column_end_anchors(free: &[Aabb], patch: &Aabb, reference: &Aabb, beyond: f32) -> Vec<Vec3> {
     let (low, high) = (patch.min.z, patch.max.z);
     let heights: Vec<f32> = [
-        (controls.min.z - low > beyond).then_some(low),
-        (high - controls.max.z > beyond).then_some(high),
+        (reference.min.z - low > beyond).then_some(low),
+        (high - reference.max.z > beyond).then_some(high),
     ]
     .into_iter()
     .flatten()
@@ -818,20 +823,38 @@ mod tests {
         // Boxes spanning heights `low` to `high` (only z matters).
         let heights =
             |low: f32, high: f32| Aabb::new(Vec3::new(0.0, 0.0, low), Vec3::new(1.0, 1.0, high));
-        let patch = heights(-0.3, 0.5);
+        // The ends under both rules, for pairs and controls spanning the given heights.
+        let ends = |patch: (f32, f32), pairs: (f32, f32), controls: (f32, f32)| {
+            let e = ColumnEnds::new(
+                &free,
+                &heights(patch.0, patch.1),
+                &heights(pairs.0, pairs.1),
+                &heights(controls.0, controls.1),
+                0.4,
+            );
+            (e.beyond_the_controls, e.beyond_the_pairs)
+        };
+        let bottom = [Vec3::new(0.2, 0.2, -0.3), Vec3::new(2.2, 0.2, -0.3)];
         // Controls in a slab 0.01 thick at the top of a patch 0.8 high: the bottom ends.
-        let ends = column_end_anchors(&free, &patch, &heights(0.49, 0.5), 0.4);
-        assert_eq!(ends, [Vec3::new(0.2, 0.2, -0.3), Vec3::new(2.2, 0.2, -0.3)]);
-        // In the middle of it: both ends of both columns.
+        let (first, wider) = ends((-0.3, 0.5), (0.49, 0.5), (0.49, 0.5));
         assert_eq!(
-            column_end_anchors(&free, &patch, &heights(0.1, 0.11), 0.4).len(),
-            4
+            (first.as_slice(), wider.as_slice()),
+            (&bottom[..], &bottom[..])
         );
-        // Beyond the controls by less than their span, or than an eighth of the corner.
-        assert!(column_end_anchors(&free, &patch, &heights(-0.1, 0.3), 0.4).is_empty());
-        assert!(column_end_anchors(&free, &heights(0.0, 0.04), &heights(0.0, 0.0), 0.4).is_empty());
-        // A flat patch.
-        assert!(column_end_anchors(&free, &heights(0.1, 0.1), &heights(0.1, 0.1), 0.4).is_empty());
+        // In the middle of it: both ends of both columns.
+        let (first, wider) = ends((-0.3, 0.5), (0.1, 0.11), (0.1, 0.11));
+        assert_eq!((first.len(), wider.len()), (4, 4));
+        // Beyond the controls by less than their span: none at first; beyond the pairs by
+        // more than an eighth of the corner: both ends.
+        let (first, wider) = ends((-0.3, 0.5), (-0.1, 0.3), (-0.1, 0.3));
+        assert_eq!((first.len(), wider.len()), (0, 4));
+        // Corner samples as deep as the patch, pairs in a slab at the top: the bottom ends
+        // of the wider rule only.
+        let (first, wider) = ends((-0.3, 0.5), (0.45, 0.5), (-0.3, 0.5));
+        assert_eq!((first.len(), wider.as_slice()), (0, &bottom[..]));
+        // Beyond both by less than an eighth of the corner, and a flat patch.
+        assert_eq!(ends((0.0, 0.04), (0.0, 0.0), (0.0, 0.0)), (vec![], vec![]));
+        assert_eq!(ends((0.1, 0.1), (0.1, 0.1), (0.1, 0.1)), (vec![], vec![]));
     }
 
     /// One warp's scene on the plateau of [`plateau_with_pit`].
@@ -905,8 +928,8 @@ mod tests {
             .fold(0.0, f32::max);
         let bounds = |p: &[Vec3]| Aabb::from_points(p).unwrap();
         let whole = bounds(&[from.clone(), anchors.clone()].concat());
-        let pinned = ColumnEnds::new(&free, &bounds(&points), &whole, 0.45);
-        assert_eq!(pinned.wherever_beyond_the_corner.len(), 2);
+        let pinned = ColumnEnds::new(&free, &bounds(&points), &bounds(&from), &whole, 0.45);
+        assert_eq!(pinned.beyond_the_pairs.len(), 2);
         let pit_moved = |warp: &FittedWarp| {
             points
                 .iter()
@@ -919,8 +942,8 @@ mod tests {
         // the spline stretches the pit far beyond its longest pair, and the second fit,
         // with the columns' bottom ends pinned, is kept.
         let loose = ColumnEnds {
-            where_beyond_the_controls: Vec::new(),
-            wherever_beyond_the_corner: pinned.wherever_beyond_the_corner.clone(),
+            beyond_the_controls: Vec::new(),
+            beyond_the_pairs: pinned.beyond_the_pairs.clone(),
         };
         let (restrained, second) =
             fit_restrained(&points, &controls, &loose, 0.0, &wave_keep()).unwrap();

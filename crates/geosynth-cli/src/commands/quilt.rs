@@ -557,6 +557,7 @@ pub fn run_json(run: &MeasuredRun) -> Value {
         "warp_displacement": {
             "mean": mean(run.output.placements.iter().filter(|p| !p.warp.skipped).map(|p| p.warp.mean_displacement)),
             "max": run.output.placements.iter().map(|p| p.warp.max_displacement).fold(0.0f32, f32::max),
+            "max_landing": run.output.placements.iter().map(|p| p.warp.max_landing_displacement).fold(0.0f32, f32::max),
             "mean_pair_length": mean(run.output.placements.iter().filter(|p| !p.warp.skipped).map(|p| p.warp.mean_pair_length)),
         },
         "blend": blend_json(run.output.placements.iter().map(|p| p.blend).sum()),
