@@ -119,8 +119,8 @@
 //!   method's lead on Mount St. Helens (docs/patch-quilt.md, "Column ends"). A warp that
 //!   still moves a point that may land in `B_k` by more than 3 times its longest pair is
 //!   fitted again with each free corner's column pinned wherever the patch reaches beyond
-//!   the controls by more than an eighth of the corner, and the fit whose landing points
-//!   move less is kept ([`QuiltStats::warps_restrained`]; docs/patch-quilt.md, "Stretch
+//!   the pairs alone by more than an eighth of the corner, and the fit whose landing
+//!   points move less is kept ([`QuiltStats::warps_restrained`]; docs/patch-quilt.md, "Stretch
 //!   limit").
 //! - The first patch of each later row overlaps only the row below; the first row only its
 //!   left neighbour.

@@ -56,8 +56,8 @@ pub struct QuiltStats {
     /// [`QuiltParams::clusters`] asks, to keep the spline within its size limit (dense
     /// exemplars only; [`WarpCounts::coarsenings`](crate::WarpCounts::coarsenings)).
     pub warps_coarsened: usize,
-    /// Patches whose first warp stretched too far and that were warped again with the
-    /// free corners' columns pinned at their ends
+    /// Patches whose first warp stretched too far and that were warped with a second fit,
+    /// more of the free corners' columns pinned
     /// ([`WarpCounts::restrained`](crate::WarpCounts::restrained)).
     pub warps_restrained: usize,
     /// `D(T_in)` dimensions.

@@ -91,8 +91,8 @@ pub struct WarpCounts {
     /// Largest distance the warp moved a point that can still land in `B_k` (one within
     /// twice the blend reach of its footprint); step 6 discards the others.
     pub max_landing_displacement: f32,
-    /// True when the first fit stretched too far and the warp was fitted again with
-    /// every free corner's column pinned at its ends.
+    /// True when the first fit stretched too far and the warp kept is the second fit, with
+    /// the free corners' columns pinned wherever the patch reaches beyond the pairs.
     pub restrained: bool,
     /// Mean length of the spline's pair displacements (after [`WarpTargets`]).
     pub mean_pair_length: f32,
@@ -235,7 +235,7 @@ pub(crate) fn warp_patch(
 }
 
 /// A warp whose largest move of a point that may land in `B_k` exceeds this many times
-/// its longest pair is fitted again with every free corner's column pinned at its ends
+/// its longest pair is fitted again with more of the free corners' columns pinned
 /// ([`fit_restrained`]).
 const STRETCH_LIMIT: f32 = 3.0;
 
@@ -254,7 +254,7 @@ struct Controls<'a> {
 ///
 /// The first rule leaves the ends free where the controls span the patch's height, which
 /// keeps the warp's freedom on terrain like Mount St. Helens; on a dense height map it
-/// still let one patch stretch a pit by 3.9 times its longest pair, with one corner's
+/// still let one patch stretch a pit by about 3.9 times its longest pair, with one corner's
 /// samples as deep as the pit and every pair on the plateau above it (docs/patch-quilt.md,
 /// "Stretch limit"). `None` when the first fit fails.
 fn fit_restrained(
@@ -862,7 +862,7 @@ mod tests {
         points: Vec<Vec3>,
         /// 40 pairs' sources along the bottom strip.
         from: Vec<Vec3>,
-        /// Their targets, each moved by up to 0.01 (a pairing's noise).
+        /// Their targets, each moved by at most 0.0073 (a pairing's noise).
         to: Vec<Vec3>,
         /// 4 anchors in each top corner, all on the plateau.
         anchors: Vec<Vec3>,
