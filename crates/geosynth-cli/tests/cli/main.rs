@@ -1000,6 +1000,15 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
     for s in ["search", "warp", "blend", "other"] {
         assert!(stages.contains(&s), "{s} in {stages:?}");
     }
+    // The warp's largest move of a point that can still land is one of its moves, and
+    // the patches fitted twice for stretch are some of the patches.
+    let moved = &r["run"]["warp_displacement"];
+    let largest = |k: &str| moved[k].as_f64().unwrap();
+    assert!(largest("max_landing") > 0.0, "{moved}");
+    assert!(largest("max_landing") <= largest("max"), "{moved}");
+    assert!(
+        r["run"]["warps_restrained"].as_u64().unwrap() <= r["run"]["patches"].as_u64().unwrap()
+    );
     // Step 5's counts: the full run blends, the baselines do not; every blended point is
     // accounted for by exactly one outcome.
     let blend = &r["run"]["blend"];
