@@ -15,7 +15,7 @@
 //! Around it: [`MlsSurface::intersect_ray`] and the two-ray [`MlsSurface::snap_along_normal`]
 //! of paper 000 §5.3; [`surface_variation`] `σ = λ0/(λ0+λ1+λ2)` (Pauly et al. 2002, used by
 //! paper 000 Eq. 2); [`adaptive_clusters`] (Pauly et al. 2002, paper 000 §5.2's target set
-//! Q); [`relax`] (paper 000 §6). [`MlsSurface`] implements [`pointset_core::Surface`], so
+//! Q); [`relax`](relax()) (paper 000 §6). [`MlsSurface`] implements [`pointset_core::Surface`], so
 //! `distance-field` can sample it.
 //!
 //! ## Quick start

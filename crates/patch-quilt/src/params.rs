@@ -64,7 +64,7 @@ pub enum OutputSize {
     Scale(f32),
 }
 
-/// Parameters of [`crate::quilt`]. Lengths given as fractions are relative to the patch
+/// Parameters of [`crate::quilt()`]. Lengths given as fractions are relative to the patch
 /// size; the patch size is relative to the exemplar box.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]

@@ -210,7 +210,7 @@ impl<'t> QualityMeasure<'t> {
     /// Mean neighbourhood and seam errors of quilting this measure's texture with `params`
     /// at each of `seeds` (the seed set in `params` is replaced), each output measured with
     /// `windows` windows per class: one seed is too noisy to compare methods on. Errors:
-    /// no seeds, and whatever [`quilt`](crate::quilt) or [`Self::evaluate`] fails on.
+    /// no seeds, and whatever [`quilt`](crate::quilt()) or [`Self::evaluate`] fails on.
     pub fn mean_errors(
         &self,
         params: &QuiltParams,
