@@ -85,6 +85,7 @@
 
 mod cluster;
 mod error;
+mod heights;
 mod orientation;
 mod params;
 mod pca;
@@ -94,6 +95,7 @@ mod surface;
 
 pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
+pub use heights::{HeightMethod, TopHeight};
 pub use orientation::{
     LIKELY_UNORIENTED, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS, orient_normals,
     orientation_disagreement,
