@@ -1,7 +1,7 @@
 //! Images and height fields from files: textures (PNG, JPEG) and height fields (raw
 //! `*_WxH.f32le` or grey PNG, 8 or 16 bit).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use image::DynamicImage;
 use pointset_core::{HeightField, TriMesh};
@@ -52,4 +52,113 @@ pub fn heightfield_mesh(field: &HeightField, relief: f32) -> Result<TriMesh> {
     let (lo, hi) = field.range();
     let scale = if hi > lo { relief / (hi - lo) } else { 1.0 };
     Ok(field.to_mesh(spacing, scale)?)
+}
+
+/// A height field written by [`write_heightfield`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct WrittenHeightField {
+    /// The file written (a raw file's name carries its size).
+    pub path: PathBuf,
+    /// Heights outside `0..=1` stored as 0 or 1 in a PNG (none in a raw file).
+    pub clamped: usize,
+}
+
+/// Writes a height field the way [`read_heightfield`] reads it back: a `.png` as 16-bit
+/// grey with the height as the grey level in `0..=1` (heights beyond are clamped and
+/// counted), a `.f32le` as raw little-endian samples under a name that ends in the
+/// field's `_WxH` ([`raw_heightfield_path`]). Errors on any other extension and on I/O.
+///
+/// ```
+/// use geosynth::core::HeightField;
+/// use geosynth::imagery::{read_heightfield, write_heightfield};
+///
+/// let field = HeightField::new(3, 2, vec![0.0, 0.25, 0.5, 0.75, 1.0, 1.5])?;
+/// let dir = std::env::temp_dir();
+/// let png = write_heightfield(&dir.join("geosynth_doc_written.png"), &field)?;
+/// assert_eq!(png.clamped, 1);
+/// let back = read_heightfield(&png.path)?;
+/// assert!((back.get(1, 0).ok_or("no sample")? - 0.25).abs() < 1e-4);
+/// let raw = write_heightfield(&dir.join("geosynth_doc_written.f32le"), &field)?;
+/// assert!(raw.path.ends_with("geosynth_doc_written_3x2.f32le"));
+/// assert_eq!(read_heightfield(&raw.path)?, field);
+/// # std::fs::remove_file(&png.path)?;
+/// # std::fs::remove_file(&raw.path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeightField> {
+    let (width, height) = (field.width(), field.height());
+    if is_raw_heightfield_path(path) {
+        let path = raw_heightfield_path(path, width, height);
+        let bytes: Vec<u8> = field
+            .heights()
+            .iter()
+            .flat_map(|h| h.to_le_bytes())
+            .collect();
+        std::fs::write(&path, bytes).map_err(|source| pointset_core::Error::Io {
+            path: path.clone(),
+            source,
+        })?;
+        return Ok(WrittenHeightField { path, clamped: 0 });
+    }
+    if extension(path) != "png" {
+        return Err(heightfield_format_error(path));
+    }
+    let clamped = field
+        .heights()
+        .iter()
+        .filter(|h| !(0.0..=1.0).contains(*h))
+        .count();
+    let grey: Vec<u16> = field
+        .heights()
+        .iter()
+        .map(|h| (h.clamp(0.0, 1.0) * 65535.0).round() as u16)
+        .collect();
+    let too_large = || Error::InvalidParameter {
+        name: "height field size",
+        value: format!("{width} × {height}"),
+        expected: "a PNG's at most 4294967295 samples a side".into(),
+    };
+    let (w, h) = (
+        u32::try_from(width).map_err(|_| too_large())?,
+        u32::try_from(height).map_err(|_| too_large())?,
+    );
+    // The buffer holds exactly `w × h` samples, so this cannot fail.
+    let image =
+        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, grey).ok_or_else(too_large)?;
+    image.save(path).map_err(|source| Error::Image {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(WrittenHeightField {
+        path: path.to_path_buf(),
+        clamped,
+    })
+}
+
+/// Whether [`write_heightfield`] can write `path` (`.png` or `.f32le`); the error says
+/// what it takes.
+pub fn check_heightfield_output(path: &Path) -> Result<()> {
+    if is_raw_heightfield_path(path) || extension(path) == "png" {
+        Ok(())
+    } else {
+        Err(heightfield_format_error(path))
+    }
+}
+
+fn heightfield_format_error(path: &Path) -> Error {
+    Error::InvalidParameter {
+        name: "height field output",
+        value: path.display().to_string(),
+        expected: "a .png (16-bit grey, heights 0..1) or .f32le (raw) file".into(),
+    }
+}
+
+/// `path` itself when its name already ends in `_WxH` for this size, else the same name
+/// with `_WxH` added before `.f32le` (the readers take a raw file's size from its name).
+pub fn raw_heightfield_path(path: &Path, width: usize, height: usize) -> PathBuf {
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+    if pointset_core::dims_from_name(stem) == Some((width, height)) {
+        return path.to_path_buf();
+    }
+    path.with_file_name(format!("{stem}_{width}x{height}.f32le"))
 }

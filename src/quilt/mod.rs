@@ -36,6 +36,7 @@ use crate::{Error, Result};
 
 mod files;
 mod fitted;
+mod heights;
 
 pub(crate) use files::single_precision_step;
 pub use files::{
@@ -43,6 +44,7 @@ pub use files::{
     read_texture_file, read_texture_with_up, texture_comments, texture_comments_at,
 };
 pub use fitted::{MAX_PLANE_SPREAD, read_texture_file_fitted};
+pub use heights::{HeightFieldFrame, MAX_HEIGHT_SAMPLES, SampledHeights, sample_heights};
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a
 /// fraction of the samples' longer extent.
@@ -93,6 +95,30 @@ pub fn read_heightfield_texture(path: &Path) -> Result<GeometryTexture> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_heightfield_texture_with_relief(path: &Path, relief: f32) -> Result<GeometryTexture> {
+    Ok(read_heightfield_texture_framed(path, relief)?.0)
+}
+
+/// [`read_heightfield_texture_with_relief`], with where the samples were placed: the frame
+/// [`sample_heights`] needs to write a quilt of the texture back as a height field in the
+/// file's units.
+///
+/// ```
+/// let path = std::env::temp_dir().join("geosynth_doc_framed_20x10.f32le");
+/// let heights: Vec<u8> = (0..20 * 10).flat_map(|i| ((i % 20) as f32 * 3.0).to_le_bytes()).collect();
+/// std::fs::write(&path, heights)?;
+/// let (texture, frame) = geosynth::quilt::read_heightfield_texture_framed(&path, 0.1)?;
+/// // 20 samples span 4 units; heights 0..57 span 0.4.
+/// assert!((frame.spacing - 4.0 / 19.0).abs() < 1e-6);
+/// assert!((frame.scale - 0.4 / 57.0).abs() < 1e-6);
+/// let p = texture.canonical_points().positions()[19];
+/// assert!((p.z / frame.scale - 57.0).abs() < 1e-3);
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_heightfield_texture_framed(
+    path: &Path,
+    relief: f32,
+) -> Result<(GeometryTexture, HeightFieldFrame)> {
     if !(relief.is_finite() && relief > 0.0) {
         return Error::invalid(
             "relief",
@@ -110,9 +136,8 @@ pub fn read_heightfield_texture_with_relief(path: &Path, relief: f32) -> Result<
         1.0
     };
     let padding = field.width().min(field.height()) / 6;
-    Ok(GeometryTexture::from_heightfield(
-        &field, spacing, scale, padding,
-    )?)
+    let texture = GeometryTexture::from_heightfield(&field, spacing, scale, padding)?;
+    Ok((texture, HeightFieldFrame { spacing, scale }))
 }
 
 /// The geometry texture of a procedural exemplar.

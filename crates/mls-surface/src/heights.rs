@@ -34,11 +34,11 @@ impl MlsSurface {
     /// The height of the surface's top sheet above each point of `columns` (in the XY
     /// plane; +Z is up), in parallel and in order.
     ///
-    /// For each column the [`COLUMN_NEIGHBOURS`] samples nearest in projection within the
-    /// support radius bound the search: a ray cast straight down from a support radius
-    /// above the highest of them, as far as a support radius below the lowest, and its
-    /// first hit ([`MlsSurface::intersect_ray`]) is the top sheet there, even on a steep
-    /// wall or where a fold puts two sheets above one point. Where the ray meets nothing,
+    /// For each column the 8 samples nearest in projection within the support radius bound
+    /// the search: a ray cast straight down from a support radius above the highest of
+    /// them, as far as a support radius below the lowest, and its first hit
+    /// ([`MlsSurface::intersect_ray`]) is the top sheet there, even on a steep wall or
+    /// where a fold puts two sheets above one point. Where the ray meets nothing,
     /// the nearest sample's height is projected onto the surface. `None` for a column with
     /// no sample within the support radius (a hole) or where neither finds the surface.
     ///

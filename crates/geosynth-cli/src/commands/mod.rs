@@ -8,6 +8,7 @@ pub mod normals;
 pub mod quilt;
 pub mod reconstruct;
 pub mod render;
+pub mod sheet_heights;
 pub mod sheet_mesh;
 pub mod voxel;
 pub mod warp;

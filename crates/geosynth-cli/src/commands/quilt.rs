@@ -6,12 +6,14 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{KdIndex, PointSet};
+use geosynth::imagery::check_heightfield_output;
 use geosynth::mls::Covariance;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
-    BlendCounts, DEFAULT_RELIEF, GeometryTexture, MAX_PLANE_SPREAD, Method, OutputSize,
-    QualityMeasure, QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis, WarpTargets,
-    quilt, read_heightfield_texture_with_relief, read_texture_file, read_texture_file_fitted,
+    BlendCounts, DEFAULT_RELIEF, GeometryTexture, HeightFieldFrame, MAX_PLANE_SPREAD, Method,
+    OutputSize, QualityMeasure, QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis,
+    WarpTargets, quilt, read_heightfield_texture_framed, read_texture_file,
+    read_texture_file_fitted,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 use glam::{DMat3, DVec3};
@@ -19,6 +21,7 @@ use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
+use super::sheet_heights::write_sheet_heights;
 use super::sheet_mesh::sheet_mesh;
 use crate::json_report::write_json_report;
 use crate::output::{
@@ -218,6 +221,13 @@ pub struct QuiltArgs {
     /// spacings (32 to 512 along the longest side), cut back to the points.
     #[arg(long, value_name = "MESH")]
     mesh: Option<PathBuf>,
+    /// With `--heightfield`: also write the output as a height field (.png or .f32le) on
+    /// the input's sample spacing, in the input's height units: its top surface sampled
+    /// straight down. A PNG is 16-bit grey, heights 0..1 as the input's grey levels were
+    /// read (beyond that clamped); a raw file keeps every height and gets `_WxH` in its
+    /// name.
+    #[arg(long, value_name = "MAP")]
+    heightfield_out: Option<PathBuf>,
     /// Skip the quality measure: it builds distance fields of the exemplar and of every
     /// output and can take longer than the synthesis (a 70k → 200k chain mail takes about
     /// 6 s with it, 3 s without). The report then says why its quality is missing.
@@ -399,29 +409,39 @@ fn run_params(args: &QuiltArgs, file: &ParamsFile, given: GivenFlags) -> CliResu
 }
 
 /// Loads the texture named by the arguments as `options` say (a height field is at the
-/// origin), its normals oriented if asked.
-fn load(args: &QuiltArgs, options: &InputOptions) -> CliResult<TextureFile> {
-    let mut file = read_texture(args, options)?;
+/// origin), its normals oriented if asked, and for a height field where its samples were
+/// placed.
+fn load(
+    args: &QuiltArgs,
+    options: &InputOptions,
+) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
+    let (mut file, frame) = read_texture(args, options)?;
     if options.orient_normals {
         file.texture = file.texture.with_oriented_normals()?;
     }
-    Ok(file)
+    Ok((file, frame))
 }
 
-/// Reads the texture named by the arguments with the axis or relief of `options`.
-fn read_texture(args: &QuiltArgs, options: &InputOptions) -> CliResult<TextureFile> {
+/// Reads the texture named by the arguments with the axis or relief of `options`, and for
+/// a height field where its samples were placed.
+fn read_texture(
+    args: &QuiltArgs,
+    options: &InputOptions,
+) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
     if let Some(path) = &args.heightfield {
         let relief = options.relief.unwrap_or(DEFAULT_RELIEF);
-        return Ok(read_heightfield_texture_with_relief(path, relief)?.into());
+        let (texture, frame) = read_heightfield_texture_framed(path, relief)?;
+        return Ok((texture.into(), Some(frame)));
     }
     let path = args
         .exemplar
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
-    match options.up {
-        Some(TextureUpArg::Auto) => Ok(read_texture_file_fitted(path)?),
-        up => Ok(read_texture_file(path, up.and_then(TextureUpArg::axis))?),
-    }
+    let file = match options.up {
+        Some(TextureUpArg::Auto) => read_texture_file_fitted(path)?,
+        up => read_texture_file(path, up.and_then(TextureUpArg::axis))?,
+    };
+    Ok((file, None))
 }
 
 /// One measured run: the output, its timings and its quality.
@@ -638,16 +658,31 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         args.report
             .iter()
             .chain(&args.preview)
+            .chain(&args.heightfield_out)
             .map(PathBuf::as_path),
     )?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
+    if let Some(map) = &args.heightfield_out {
+        // Checked here, not by clap's `requires`: clap skips that check when the required
+        // flag conflicts with one given (clap-rs/clap#4520), as `--heightfield` does with
+        // an exemplar.
+        if args.heightfield.is_none() {
+            return Err(format!(
+                "--heightfield-out {} needs --heightfield: the output is written on that \
+                 file's sample spacing and in its height units",
+                map.display()
+            )
+            .into());
+        }
+        check_heightfield_output(map)?;
+    }
     if let Some(mesh) = &args.mesh {
         check_geometry_output(mesh, true, DVec3::ZERO)?;
     }
     let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
     let params = run_params(args, &params_file, given)?;
     let input_options = InputOptions::of(args, &params_file)?;
-    let file = load(args, &input_options)?;
+    let (file, heightfield_frame) = load(args, &input_options)?;
     if let Some(mesh) = &args.mesh {
         // Georeferenced exemplars are written back in place: can the mesh's format say so?
         check_geometry_output(mesh, true, file.origin)?;
@@ -693,6 +728,11 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         }
         _ => None,
     };
+    // A height field is read at the origin, so the output's points are in its frame.
+    let heightfield_out = match (&args.heightfield_out, heightfield_frame) {
+        (Some(path), Some(frame)) => Some(write_sheet_heights(path, &main.output, frame, globals)?),
+        _ => None,
+    };
     let measure = if args.no_quality {
         Err("skipped (--no-quality)".to_string())
     } else {
@@ -709,6 +749,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "params": params,
             "run": run_json(&main),
             "mesh": mesh,
+            "heightfield_out": heightfield_out,
         });
         if args.baselines {
             for (key, label, method) in [

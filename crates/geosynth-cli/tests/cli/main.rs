@@ -1172,6 +1172,100 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
 }
 
 #[test]
+fn quilt_writes_a_height_field_back_as_one() {
+    let dir = Scratch::new();
+    // Ridges 40..46 units high: a raw file keeps those units, a PNG stores 0..1.
+    let hf = dir.path("ridges_60x48.f32le");
+    let heights: Vec<u8> = (0..60 * 48)
+        .flat_map(|i| (43.0 + 3.0 * ((i % 60) as f32 * 0.35).sin()).to_le_bytes())
+        .collect();
+    std::fs::write(&hf, heights).unwrap();
+    let (out, report) = (dir.path("out.ply"), dir.path("r.json"));
+    let quilt_into = |map: &Path| {
+        ok(&[
+            "quilt",
+            "--heightfield",
+            &arg(&hf),
+            "-o",
+            &arg(&out),
+            "--resolution",
+            "20",
+            "--no-quality",
+            "--heightfield-out",
+            &arg(map),
+            "--report",
+            &arg(&report),
+        ])
+    };
+    let said = quilt_into(&dir.path("map.f32le"));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let entry = &r["heightfield_out"];
+    let (w, h) = (
+        entry["width"].as_u64().unwrap(),
+        entry["height"].as_u64().unwrap(),
+    );
+    // The box spans the samples but 8 of padding on each side (43 × 31 spacings); the
+    // output twice that at the default scale, sampled at the input's spacing.
+    assert_eq!((w, h), (87, 63), "{entry}");
+    let written = dir.path(&format!("map_{w}x{h}.f32le"));
+    assert_eq!(entry["path"].as_str().unwrap(), arg(&written));
+    assert!(said.contains(&arg(&written)), "{said}");
+    let sampled = ["by_ray", "by_projection", "filled"]
+        .map(|k| entry[k].as_u64().unwrap())
+        .iter()
+        .sum::<u64>();
+    assert_eq!(sampled, w * h, "{entry}");
+    assert!(
+        entry["by_ray"].as_u64().unwrap() > w * h * 9 / 10,
+        "{entry}"
+    );
+    let map = geosynth::imagery::read_heightfield(&written).unwrap();
+    let (lo, hi) = map.range();
+    assert!(lo > 39.9 && hi < 46.1 && hi - lo > 5.0, "{lo}..{hi}");
+    // The same run into a PNG: heights beyond 0..1 are clamped, and it says so.
+    let png = dir.path("map.png");
+    let said = quilt_into(&png);
+    assert!(said.contains("clamped"), "{said}");
+    let map = geosynth::imagery::read_heightfield(&png).unwrap();
+    assert_eq!((map.width() as u64, map.height() as u64), (w, h));
+    // Without a height field to take the spacing and units from, and into a format it
+    // cannot write: errors, and nothing written.
+    let point_set = dir.path("sheet.ply");
+    for (args, message) in [
+        (
+            vec![
+                "quilt",
+                &arg(&out),
+                "-o",
+                &arg(&point_set),
+                "--heightfield-out",
+                &arg(&png),
+            ],
+            "--heightfield",
+        ),
+        (
+            vec![
+                "quilt",
+                "--heightfield",
+                &arg(&hf),
+                "-o",
+                &arg(&point_set),
+                "--heightfield-out",
+                &arg(&dir.path("map.tif")),
+            ],
+            ".f32le",
+        ),
+    ] {
+        let bad = geosynth(&args);
+        assert!(!bad.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&bad.stderr);
+        assert!(stderr.contains(message), "{args:?}: {stderr}");
+        assert!(!point_set.exists());
+    }
+}
+
+#[test]
 fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     use geosynth::core::PointSet;
     use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};

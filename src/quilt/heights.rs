@@ -1,0 +1,310 @@
+//! A quilted height field written back as one: the output sheet sampled on the input's
+//! grid spacing and heights in the input file's units.
+
+use std::collections::VecDeque;
+
+use glam::Vec2;
+use mls_surface::{HeightMethod, MlsParams, MlsSurface};
+use pointset_core::{Aabb, HeightField, PointSet};
+
+use crate::{Error, Result};
+
+/// Most samples [`sample_heights`] writes (a 16384 × 16384 map).
+pub const MAX_HEIGHT_SAMPLES: usize = 1 << 28;
+
+/// Where a height field's samples were placed as a geometry texture
+/// ([`super::read_heightfield_texture_framed`]): sample `(c, r)` at
+/// `x = c·spacing`, `y = (rows − 1 − r)·spacing`, `z = scale·h`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeightFieldFrame {
+    /// Distance between neighbouring samples.
+    pub spacing: f32,
+    /// World height per unit of the file's heights.
+    pub scale: f32,
+}
+
+/// A height field sampled from a sheet by [`sample_heights`], with how each sample was
+/// found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampledHeights {
+    /// The heights, in the file's units, row 0 at the top (largest y), as the readers
+    /// place them.
+    pub field: HeightField,
+    /// Samples where a ray cast down met the surface.
+    pub by_ray: usize,
+    /// Samples where it did not and the nearest sample's height was projected
+    /// ([`MlsSurface::top_heights`]).
+    pub by_projection: usize,
+    /// Samples with no surface within the kernel's reach (holes), given the height of the
+    /// nearest sample that has one, counted in grid steps.
+    pub filled: usize,
+}
+
+/// The top of the sheet sampled by `points` (oriented, +Z up) as a height field over the
+/// footprint of `bounds`, on the grid of `frame` starting at `bounds`' lower corner, with
+/// heights divided by `frame.scale` ([`MlsSurface::top_heights`] on the points' MLS
+/// surface with the default parameters). Samples over holes take the nearest found
+/// sample's height.
+///
+/// Errors: a frame whose spacing is not positive or whose scale is zero or not finite, a
+/// footprint with fewer than 2 × 2 samples or more than [`MAX_HEIGHT_SAMPLES`], points
+/// without normals, and a sheet with no surface over any sample.
+///
+/// ```
+/// use geosynth::core::{Aabb, PointSet};
+/// use geosynth::quilt::{HeightFieldFrame, sample_heights};
+/// use glam::Vec3;
+///
+/// // The ramp z = 0.1 x on a 40 × 40 grid 0.1 apart, read back at its own spacing with
+/// // heights in units of 0.1.
+/// let p: Vec<Vec3> = (0..1600)
+///     .map(|i| {
+///         let x = (i % 40) as f32 * 0.1;
+///         Vec3::new(x, (i / 40) as f32 * 0.1, 0.1 * x)
+///     })
+///     .collect();
+/// let n = Vec3::new(-0.1, 0.0, 1.0).normalize();
+/// let points = PointSet::new(p)?.with_normals(vec![n; 1600])?;
+/// let bounds = Aabb::new(Vec3::new(1.0, 1.0, 0.0), Vec3::new(3.0, 2.0, 0.4));
+/// let sampled = sample_heights(&points, &bounds, HeightFieldFrame { spacing: 0.1, scale: 0.1 })?;
+/// assert_eq!((sampled.field.width(), sampled.field.height()), (21, 11));
+/// // Column c lies at x = 1 + 0.1 c, where the ramp is 1 + 0.1 c units high.
+/// let h = sampled.field.get(5, 0).ok_or("no sample")?;
+/// assert!((h - 1.5).abs() < 1e-3, "{h}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn sample_heights(
+    points: &PointSet,
+    bounds: &Aabb,
+    frame: HeightFieldFrame,
+) -> Result<SampledHeights> {
+    let (cols, rows) = grid_size(bounds, frame)?;
+    let lo = bounds.min.truncate();
+    let columns: Vec<Vec2> = (0..rows)
+        .flat_map(|r| {
+            (0..cols).map(move |c| lo + Vec2::new(c as f32, (rows - 1 - r) as f32) * frame.spacing)
+        })
+        .collect();
+    let surface = MlsSurface::new(points, &MlsParams::default())?;
+    let found = surface.top_heights(&columns)?;
+    let by_ray = found
+        .iter()
+        .flatten()
+        .filter(|h| h.method == HeightMethod::Ray)
+        .count();
+    let by_projection = found.iter().flatten().count() - by_ray;
+    let known: Vec<Option<f32>> = found
+        .into_iter()
+        .map(|h| h.map(|h| h.z / frame.scale))
+        .collect();
+    let filled = known.iter().filter(|h| h.is_none()).count();
+    let heights = fill_from_nearest(known, cols).ok_or_else(|| Error::NoSurface {
+        reason: format!(
+            "the {} points have no surface over any of the {cols} × {rows} samples",
+            points.len()
+        ),
+    })?;
+    Ok(SampledHeights {
+        field: HeightField::new(cols, rows, heights)?,
+        by_ray,
+        by_projection,
+        filled,
+    })
+}
+
+/// Samples along x and y of the grid of `frame` over `bounds`' footprint: one per
+/// `spacing` from the lower corner, the far side included where it falls on the grid
+/// (to within a thousandth of a step).
+fn grid_size(bounds: &Aabb, frame: HeightFieldFrame) -> Result<(usize, usize)> {
+    let HeightFieldFrame { spacing, scale } = frame;
+    if !(spacing.is_finite() && spacing > 0.0 && scale.is_finite() && scale != 0.0) {
+        return Err(Error::InvalidParameter {
+            name: "height field frame",
+            value: format!("spacing {spacing}, scale {scale}"),
+            expected: "a positive spacing and a non-zero finite scale".into(),
+        });
+    }
+    let steps = (bounds.extent().truncate() / spacing + 1e-3).floor();
+    let too_many = |s: f32| !(s.is_finite() && s < MAX_HEIGHT_SAMPLES as f32);
+    if too_many(steps.x) || too_many(steps.y) {
+        return Err(too_large(steps));
+    }
+    let (cols, rows) = (steps.x as usize + 1, steps.y as usize + 1);
+    if cols < 2 || rows < 2 {
+        return Err(Error::InvalidParameter {
+            name: "height field size",
+            value: format!("{cols} × {rows}"),
+            expected: "a footprint of at least 2 × 2 samples".into(),
+        });
+    }
+    match cols.checked_mul(rows) {
+        Some(n) if n <= MAX_HEIGHT_SAMPLES => Ok((cols, rows)),
+        _ => Err(too_large(steps)),
+    }
+}
+
+fn too_large(steps: glam::Vec2) -> Error {
+    Error::InvalidParameter {
+        name: "height field size",
+        value: format!("{} × {} samples", steps.x + 1.0, steps.y + 1.0),
+        expected: format!("at most {MAX_HEIGHT_SAMPLES} samples"),
+    }
+}
+
+/// The grid `known` (row-major, `cols` wide) with each missing value taken from the
+/// nearest known one in grid steps (4-neighbour breadth-first order, ties to the one
+/// reached first); `None` when no value is known.
+fn fill_from_nearest(known: Vec<Option<f32>>, cols: usize) -> Option<Vec<f32>> {
+    let mut queue: VecDeque<usize> = (0..known.len()).filter(|&k| known[k].is_some()).collect();
+    if queue.is_empty() {
+        return None;
+    }
+    let rows = known.len() / cols;
+    let mut heights = known;
+    while let Some(k) = queue.pop_front() {
+        let value = heights[k];
+        let (c, r) = (k % cols, k / cols);
+        let neighbours = [
+            (c > 0).then(|| k - 1),
+            (c + 1 < cols).then(|| k + 1),
+            (r > 0).then(|| k - cols),
+            (r + 1 < rows).then(|| k + cols),
+        ];
+        for m in neighbours.into_iter().flatten() {
+            if heights[m].is_none() {
+                heights[m] = value;
+                queue.push_back(m);
+            }
+        }
+    }
+    heights.into_iter().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use glam::Vec3;
+
+    use super::*;
+
+    #[test]
+    fn missing_heights_come_from_the_nearest_known_sample() {
+        let known = vec![
+            Some(1.0),
+            None,
+            None,
+            None,
+            //
+            None,
+            None,
+            None,
+            Some(5.0),
+        ];
+        let filled = fill_from_nearest(known, 4).unwrap();
+        assert_eq!(filled, vec![1.0, 1.0, 1.0, 5.0, 1.0, 1.0, 5.0, 5.0]);
+        assert!(fill_from_nearest(vec![None; 6], 3).is_none());
+    }
+
+    #[test]
+    fn the_grid_covers_the_footprint_at_the_frames_spacing() {
+        let frame = HeightFieldFrame {
+            spacing: 0.1,
+            scale: 2.0,
+        };
+        let bounds = |w: f32, h: f32| Aabb::new(Vec3::ZERO, Vec3::new(w, h, 1.0));
+        assert_eq!(grid_size(&bounds(2.0, 1.0), frame).unwrap(), (21, 11));
+        assert_eq!(grid_size(&bounds(2.05, 1.0), frame).unwrap(), (21, 11));
+        assert!(grid_size(&bounds(0.05, 1.0), frame).is_err());
+        assert!(grid_size(&bounds(1e9, 1e9), frame).is_err());
+        for (spacing, scale) in [(0.0, 1.0), (-0.1, 1.0), (f32::NAN, 1.0), (0.1, 0.0)] {
+            let frame = HeightFieldFrame { spacing, scale };
+            assert!(grid_size(&bounds(2.0, 1.0), frame).is_err());
+        }
+    }
+
+    #[test]
+    fn a_sheet_with_a_hole_is_sampled_everywhere_and_the_hole_counted() {
+        // z = 0.5 everywhere but a square hole of side 1 in the middle of a 4 × 4 sheet.
+        let p: Vec<Vec3> = (0..81 * 81)
+            .map(|i| Vec3::new((i % 81) as f32, (i / 81) as f32, 25.0) * 0.05)
+            .filter(|p| (p.x - 2.0).abs().max((p.y - 2.0).abs()) > 0.5)
+            .collect();
+        let count = p.len();
+        let points = PointSet::new(p)
+            .unwrap()
+            .with_normals(vec![Vec3::Z; count])
+            .unwrap();
+        let bounds = Aabb::new(Vec3::ZERO, Vec3::new(4.0, 4.0, 2.0));
+        let frame = HeightFieldFrame {
+            spacing: 0.05,
+            scale: 0.5,
+        };
+        let sampled = sample_heights(&points, &bounds, frame).unwrap();
+        assert_eq!(sampled.field.width(), 81);
+        assert!(
+            sampled
+                .field
+                .heights()
+                .iter()
+                .all(|h| (h - 2.5).abs() < 1e-4)
+        );
+        assert!(sampled.filled > 0 && sampled.filled < 21 * 21);
+        assert_eq!(
+            sampled.by_ray + sampled.by_projection + sampled.filled,
+            81 * 81
+        );
+    }
+
+    /// The texture read from the height field file at `path` sampled back over its own
+    /// box: the worst and the root-mean-square difference from the file's samples there,
+    /// as fractions of the file's height range.
+    fn read_back_errors(path: &std::path::Path) -> (f32, f32) {
+        let field = crate::imagery::read_heightfield(path).unwrap();
+        let (texture, frame) = super::super::read_heightfield_texture_framed(path, 0.1).unwrap();
+        let bounds = texture.canonical_bounds();
+        let sampled = sample_heights(texture.canonical_points(), &bounds, frame).unwrap();
+        let padding = field.width().min(field.height()) / 6;
+        let back = &sampled.field;
+        assert_eq!(back.width(), field.width() - 2 * padding);
+        assert_eq!(back.height(), field.height() - 2 * padding);
+        let (lo, hi) = field.range();
+        let (mut worst, mut squares) = (0.0f32, 0.0f64);
+        for r in 0..back.height() {
+            for c in 0..back.width() {
+                let d = back.get(c, r).unwrap() - field.get(c + padding, r + padding).unwrap();
+                worst = worst.max(d.abs());
+                squares += f64::from(d * d);
+            }
+        }
+        let rms = (squares / back.heights().len() as f64).sqrt() as f32;
+        (worst / (hi - lo), rms / (hi - lo))
+    }
+
+    #[test]
+    fn a_smooth_height_field_is_read_back_from_its_own_samples() {
+        let path = std::env::temp_dir().join("geosynth_heights_read_back_90x60.f32le");
+        let bytes: Vec<u8> = (0..90 * 60)
+            .flat_map(|i| {
+                let (c, r) = ((i % 90) as f32, (i / 90) as f32);
+                (3.0 * (0.2 * c).sin() + 2.0 * (0.15 * r).cos() + 40.0).to_le_bytes()
+            })
+            .collect();
+        std::fs::write(&path, bytes).unwrap();
+        let (worst, rms) = read_back_errors(&path);
+        std::fs::remove_file(&path).unwrap();
+        assert!(worst < 0.01 && rms < 0.005, "worst {worst}, rms {rms}");
+    }
+
+    #[test]
+    fn mount_st_helens_is_read_back_from_its_own_samples() {
+        let test = "mount_st_helens_is_read_back_from_its_own_samples";
+        let relative = "heightfields/SainteHelens_317x460.f32le";
+        let Some(path) = pointset_core::testdata::shared_data(test, relative) else {
+            return;
+        };
+        let (worst, rms) = read_back_errors(&path);
+        eprintln!("St. Helens read back: worst {worst}, rms {rms} of the height range");
+        assert!(worst < 0.05 && rms < 0.005, "worst {worst}, rms {rms}");
+    }
+}
