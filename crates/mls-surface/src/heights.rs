@@ -8,9 +8,6 @@ use rayon::prelude::*;
 use crate::Result;
 use crate::surface::MlsSurface;
 
-/// Samples nearest in projection whose heights bound a column's ray.
-const COLUMN_NEIGHBOURS: usize = 8;
-
 /// How [`MlsSurface::top_heights`] found a column's height.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum HeightMethod {
@@ -34,11 +31,12 @@ impl MlsSurface {
     /// The height of the surface's top sheet above each point of `columns` (in the XY
     /// plane; +Z is up), in parallel and in order.
     ///
-    /// For each column the 8 samples nearest in projection within the support radius bound
-    /// the search: a ray cast straight down from a support radius above the highest of
-    /// them, as far as a support radius below the lowest, and its first hit
-    /// ([`MlsSurface::intersect_ray`]) is the top sheet there, even on a steep wall or
-    /// where a fold puts two sheets above one point. Where the ray meets nothing,
+    /// For each column the samples within the support radius of it in projection bound the
+    /// search. Every surface point on the column lies within a support radius of its
+    /// weighted centre, a mean of such samples, so a ray cast straight down from a support
+    /// radius above the highest of them to a support radius below the lowest meets every
+    /// one; its first hit ([`MlsSurface::intersect_ray`]) is the top sheet, even on a
+    /// steep wall or where a fold puts two sheets above one point. Where the ray meets nothing,
     /// the nearest sample's height is projected onto the surface. `None` for a column with
     /// no sample within the support radius (a hole) or where neither finds the surface.
     ///
@@ -71,14 +69,14 @@ impl MlsSurface {
         columns
             .par_iter()
             .map(|column| {
-                let near = index.nearest_within(column.extend(0.0), COLUMN_NEIGHBOURS, reach)?;
+                let near = index.within(column.extend(0.0), reach)?;
                 Ok(self.top_height_among(*column, near.iter().map(|n| n.index)))
             })
             .collect()
     }
 
-    /// [`Self::top_heights`] at one column whose nearest samples in projection are
-    /// `near` (indices into [`Self::points`], nearest first).
+    /// [`Self::top_heights`] at one column whose samples within the support radius in
+    /// projection are `near` (indices into [`Self::points`], nearest first).
     fn top_height_among(
         &self,
         column: Vec2,
