@@ -1,6 +1,6 @@
-//! Surface kernels: MLS projection throughput, signed distance grids from a mesh and from a
-//! point set (signed either way), winding numbers of meshes and point clouds, iso-surface
-//! extraction.
+//! Surface kernels: MLS projection throughput, the MLS surface read as a height field,
+//! signed distance grids from a mesh and from a point set (signed either way), winding
+//! numbers of meshes and point clouds, iso-surface extraction.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -16,7 +16,7 @@ use geosynth::mls::{MlsParams, MlsSurface};
 use geosynth::sdf::{
     GridSpec, MeshSign, MeshSurface, PointWinding, SdfGrid, WindingSigned, sdf_isosurface,
 };
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rand::RngExt;
 
 fn mls_projection(c: &mut Criterion) {
@@ -44,6 +44,30 @@ fn mls_projection(c: &mut Criterion) {
                 black_box(surface.snap(q, n));
             }
         })
+    });
+    group.finish();
+}
+
+/// The surface read as a height field (`geosynth quilt --heightfield-out`): a rolling
+/// 200 × 200 height field's samples, read back between them.
+fn mls_top_heights(c: &mut Criterion) {
+    let heights = (0..200 * 200)
+        .map(|i| {
+            let (x, y) = ((i % 200) as f32 * 0.05, (i / 200) as f32 * 0.05);
+            (2.0 * x).sin() * (1.5 * y).cos() + 0.3 * (5.0 * x + 3.0 * y).sin()
+        })
+        .collect();
+    let field = geosynth::core::HeightField::new(200, 200, heights).expect("benchmark setup");
+    let points = field.to_points(0.02, 0.2).expect("benchmark setup");
+    let surface = MlsSurface::new(&points, &MlsParams::default()).expect("benchmark setup");
+    let columns: Vec<Vec2> = (0..200 * 200)
+        .map(|i| Vec2::new((i % 200) as f32 + 0.37, (i / 200) as f32 + 0.61) * 0.02)
+        .collect();
+    let mut group = c.benchmark_group("mls_top_heights_40k_points");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(columns.len() as u64));
+    group.bench_function("40k_columns", |b| {
+        b.iter(|| surface.top_heights(black_box(&columns)))
     });
     group.finish();
 }
@@ -171,6 +195,7 @@ fn mesh_surface_build(c: &mut Criterion) {
 criterion_group!(
     benches,
     mls_projection,
+    mls_top_heights,
     sdf_grids,
     winding_numbers,
     mesh_surface_build
