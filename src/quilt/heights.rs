@@ -12,6 +12,11 @@ use crate::{Error, Result};
 /// Most samples [`sample_heights`] writes (a 16384 × 16384 map).
 pub const MAX_HEIGHT_SAMPLES: usize = 1 << 28;
 
+/// Most Gauss–Seidel sweeps [`fill_holes`] makes over a map's holes. A hole `n` samples
+/// across settles in about `n²` sweeps; the gaps a warp opens on a cliff are a few
+/// samples wide.
+const MAX_FILL_SWEEPS: usize = 500;
+
 /// Where a height field's samples were placed as a geometry texture
 /// ([`super::read_heightfield_texture_framed`]): sample `(c, r)` at
 /// `x = c·spacing`, `y = (rows − 1 − r)·spacing`, `z = scale·h`.
@@ -35,16 +40,18 @@ pub struct SampledHeights {
     /// Samples where it did not and the nearest sample's height was projected
     /// ([`MlsSurface::top_heights`]).
     pub by_projection: usize,
-    /// Samples with no surface within the kernel's reach (holes), given the height of the
-    /// nearest sample that has one, counted in grid steps.
+    /// Samples with no surface within the kernel's reach (holes), filled from the samples
+    /// around them ([`sample_heights`]).
     pub filled: usize,
 }
 
 /// The top of the sheet sampled by `points` (oriented, +Z up) as a height field over the
 /// footprint of `bounds`, on the grid of `frame` starting at `bounds`' lower corner, with
 /// heights divided by `frame.scale` ([`MlsSurface::top_heights`] on the points' MLS
-/// surface with the default parameters). Samples over holes take the nearest found
-/// sample's height.
+/// surface with the default parameters). Samples over holes are filled from those around
+/// them: the smooth (harmonic) surface their heights bound, the way height maps are
+/// commonly inpainted. Across a gap a warp opened at a cliff that is a ramp from its top
+/// to its foot, as the MLS surface on either side has it.
 ///
 /// Errors: a frame whose spacing is not positive or whose scale is zero or not finite, a
 /// footprint with fewer than 2 × 2 samples or more than [`MAX_HEIGHT_SAMPLES`], points
@@ -98,7 +105,7 @@ pub fn sample_heights(
         .map(|h| h.map(|h| h.z / frame.scale))
         .collect();
     let filled = known.iter().filter(|h| h.is_none()).count();
-    let heights = fill_from_nearest(known, cols).ok_or_else(|| Error::NoSurface {
+    let heights = fill_holes(known, cols).ok_or_else(|| Error::NoSurface {
         reason: format!(
             "the {} points have no surface over any of the {cols} × {rows} samples",
             points.len()
@@ -151,6 +158,36 @@ fn too_large(steps: glam::Vec2) -> Error {
     }
 }
 
+/// The grid `known` (row-major, `cols` wide) with its missing values filled: first each
+/// from the nearest known one ([`fill_from_nearest`]), then relaxed by Gauss–Seidel sweeps
+/// towards the mean of their grid neighbours (a discrete harmonic fill with the known
+/// values fixed) until no value moves by more than a millionth of the known range, or
+/// [`MAX_FILL_SWEEPS`]. `None` when no value is known.
+fn fill_holes(known: Vec<Option<f32>>, cols: usize) -> Option<Vec<f32>> {
+    let holes: Vec<usize> = (0..known.len()).filter(|&k| known[k].is_none()).collect();
+    let (lo, hi) = known
+        .iter()
+        .flatten()
+        .fold((f32::MAX, f32::MIN), |(lo, hi), &h| (lo.min(h), hi.max(h)));
+    let mut heights = fill_from_nearest(known, cols)?;
+    let rows = heights.len() / cols;
+    let settled = 1e-6 * (hi - lo).max(f32::MIN_POSITIVE);
+    for _ in 0..MAX_FILL_SWEEPS {
+        let mut largest_move = 0.0f32;
+        for &k in &holes {
+            let (sum, count) = grid_neighbours(k, cols, rows)
+                .fold((0.0f32, 0u8), |(s, n), m| (s + heights[m], n + 1));
+            let mean = sum / f32::from(count.max(1));
+            largest_move = largest_move.max((mean - heights[k]).abs());
+            heights[k] = mean;
+        }
+        if largest_move <= settled {
+            break;
+        }
+    }
+    Some(heights)
+}
+
 /// The grid `known` (row-major, `cols` wide) with each missing value taken from the
 /// nearest known one in grid steps (4-neighbour breadth-first order, ties to the one
 /// reached first); `None` when no value is known.
@@ -163,14 +200,7 @@ fn fill_from_nearest(known: Vec<Option<f32>>, cols: usize) -> Option<Vec<f32>> {
     let mut heights = known;
     while let Some(k) = queue.pop_front() {
         let value = heights[k];
-        let (c, r) = (k % cols, k / cols);
-        let neighbours = [
-            (c > 0).then(|| k - 1),
-            (c + 1 < cols).then(|| k + 1),
-            (r > 0).then(|| k - cols),
-            (r + 1 < rows).then(|| k + cols),
-        ];
-        for m in neighbours.into_iter().flatten() {
+        for m in grid_neighbours(k, cols, rows) {
             if heights[m].is_none() {
                 heights[m] = value;
                 queue.push_back(m);
@@ -178,6 +208,19 @@ fn fill_from_nearest(known: Vec<Option<f32>>, cols: usize) -> Option<Vec<f32>> {
         }
     }
     heights.into_iter().collect()
+}
+
+/// The 4 neighbours of sample `k` of a row-major `cols × rows` grid that lie on it.
+fn grid_neighbours(k: usize, cols: usize, rows: usize) -> impl Iterator<Item = usize> {
+    let (c, r) = (k % cols, k / cols);
+    [
+        (c > 0).then(|| k - 1),
+        (c + 1 < cols).then(|| k + 1),
+        (r > 0).then(|| k - cols),
+        (r + 1 < rows).then(|| k + cols),
+    ]
+    .into_iter()
+    .flatten()
 }
 
 #[cfg(test)]
@@ -204,6 +247,27 @@ mod tests {
         let filled = fill_from_nearest(known, 4).unwrap();
         assert_eq!(filled, vec![1.0, 1.0, 1.0, 5.0, 1.0, 1.0, 5.0, 5.0]);
         assert!(fill_from_nearest(vec![None; 6], 3).is_none());
+    }
+
+    #[test]
+    fn a_hole_in_a_ramp_is_filled_with_the_ramp() {
+        let ramp = |k: usize| 0.5 * (k % 30) as f32 - 0.2 * (k / 30) as f32;
+        let in_hole = |k: usize| {
+            let (c, r) = ((k % 30) as i32, (k / 30) as i32);
+            (c - 12).abs() <= 4 && (r - 9).abs() <= 6
+        };
+        let known: Vec<Option<f32>> = (0..600).map(|k| (!in_hole(k)).then(|| ramp(k))).collect();
+        let nearest = fill_from_nearest(known.clone(), 30).unwrap();
+        let filled = fill_holes(known, 30).unwrap();
+        let worst = |heights: &[f32]| {
+            (0..600)
+                .map(|k| (heights[k] - ramp(k)).abs())
+                .fold(0.0, f32::max)
+        };
+        // A linear ramp is harmonic: the fill finds it; the nearest value is off by up to
+        // half the hole's width times the slope.
+        assert!(worst(&filled) < 1e-3, "{}", worst(&filled));
+        assert!(worst(&nearest) > 1.0, "{}", worst(&nearest));
     }
 
     #[test]

@@ -30,7 +30,7 @@ pub fn write_sheet_heights(
     let mut notes = Vec::new();
     if sampled.filled > 0 {
         notes.push(format!(
-            "{} over holes took the nearest sample's height",
+            "{} over holes filled from the heights around them",
             sampled.filled
         ));
     }
