@@ -9,8 +9,10 @@ use pointset_core::{Aabb, HeightField, PointSet};
 
 use crate::{Error, Result};
 
-/// Most samples [`sample_heights`] writes (a 16384 × 16384 map).
-pub const MAX_HEIGHT_SAMPLES: usize = 1 << 28;
+/// Most samples [`sample_heights`] writes: an 8192 × 8192 map (a 2048² height field
+/// quilted at the default scale gives about 2730 × 2730). Sampling holds about 32 bytes
+/// a sample.
+pub const MAX_HEIGHT_SAMPLES: usize = 1 << 26;
 
 /// Most Gauss–Seidel sweeps [`fill_holes`] makes over a map's holes. A hole `n` samples
 /// across settles in about `n²` sweeps; the gaps a warp opens on a cliff are a few
@@ -50,8 +52,8 @@ pub struct SampledHeights {
 /// heights divided by `frame.scale` ([`MlsSurface::top_heights`] on the points' MLS
 /// surface with the default parameters). Samples over holes are filled from those around
 /// them: the smooth (harmonic) surface their heights bound, the way height maps are
-/// commonly inpainted. Across a gap a warp opened at a cliff that is a ramp from its top
-/// to its foot, as the MLS surface on either side has it.
+/// commonly inpainted. Across a gap that a warp opened at a cliff, that is a ramp from the
+/// cliff's foot to its top.
 ///
 /// Errors: a frame whose spacing is not positive or whose scale is zero or not finite, a
 /// footprint with fewer than 2 × 2 samples or more than [`MAX_HEIGHT_SAMPLES`], points
@@ -150,7 +152,8 @@ fn grid_size(bounds: &Aabb, frame: HeightFieldFrame) -> Result<(usize, usize)> {
     }
 }
 
-fn too_large(steps: glam::Vec2) -> Error {
+/// The error for a grid of `steps + 1` samples along x and y, past [`MAX_HEIGHT_SAMPLES`].
+fn too_large(steps: Vec2) -> Error {
     Error::InvalidParameter {
         name: "height field size",
         value: format!("{} × {} samples", steps.x + 1.0, steps.y + 1.0),

@@ -36,9 +36,10 @@ impl MlsSurface {
     /// weighted centre, a mean of such samples, so a ray cast straight down from a support
     /// radius above the highest of them to a support radius below the lowest meets every
     /// one; its first hit ([`MlsSurface::intersect_ray`]) is the top sheet, even on a
-    /// steep wall or where a fold puts two sheets above one point. Where the ray meets nothing,
-    /// the nearest sample's height is projected onto the surface. `None` for a column with
-    /// no sample within the support radius (a hole) or where neither finds the surface.
+    /// steep wall or where a fold puts two sheets above one point. Where the ray meets
+    /// nothing, the nearest sample's height is projected onto the surface. `None` for a
+    /// column with no sample within the support radius (a hole) or where neither finds
+    /// the surface.
     ///
     /// ```
     /// use glam::{Vec2, Vec3};
@@ -106,20 +107,16 @@ impl MlsSurface {
 mod tests {
     #![allow(clippy::unwrap_used)]
 
-    use pointset_core::PointSet;
+    use pointset_core::{PointSet, rng};
+    use rand::RngExt;
 
     use super::*;
     use crate::MlsParams;
 
     /// `height` sampled on a jittered grid of `n × n` points `step` apart, with its normals.
     fn sampled(n: usize, step: f32, height: impl Fn(f32, f32) -> (f32, Vec2)) -> MlsSurface {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut jitter = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            ((state >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.4 * step
-        };
+        let mut g = rng::rng_from_seed(7);
+        let mut jitter = || g.random_range(-0.2..0.2) * step;
         let (mut p, mut normals) = (Vec::new(), Vec::new());
         for k in 0..n * n {
             let x = (k % n) as f32 * step + jitter();
