@@ -5,7 +5,8 @@ use std::collections::VecDeque;
 
 use glam::Vec2;
 use mls_surface::{HeightMethod, MlsParams, MlsSurface};
-use pointset_core::{Aabb, HeightField, PointSet};
+use patch_quilt::QuiltOutput;
+use pointset_core::{Aabb, HeightField, PointSet, RunContext, Stage};
 
 use crate::{Error, Result};
 
@@ -45,6 +46,56 @@ pub struct SampledHeights {
     /// Samples with no surface within the kernel's reach (holes), filled from the samples
     /// around them ([`sample_heights`]).
     pub filled: usize,
+}
+
+/// Stage: a quilted height field → its height map ([`sample_heights`] over the output
+/// box, on the grid of `frame`). Follows [`super::Quilt`] on a texture read by
+/// [`super::read_heightfield_texture_framed`], which gives the frame.
+///
+/// ```
+/// use geosynth::quilt::{OutputSize, Quilt, QuiltParams, SampleHeights};
+/// use geosynth::{RunContext, Stage};
+///
+/// // A 48 × 48 raw height field of bumps, quilted to 1.5 times its box and written back
+/// // as a height map in the file's units.
+/// let path = std::env::temp_dir().join("geosynth_doc_stage_bumps_48x48.f32le");
+/// let heights: Vec<u8> = (0..48 * 48)
+///     .flat_map(|i| (((i % 48) as f32 * 0.5).sin() * ((i / 48) as f32 * 0.4).cos()).to_le_bytes())
+///     .collect();
+/// std::fs::write(&path, heights)?;
+/// let (texture, frame) = geosynth::quilt::read_heightfield_texture_framed(&path, 0.1)?;
+/// let params = QuiltParams::default().output(OutputSize::Scale(1.5)).field_resolution(20);
+/// let pipeline = Quilt { params }.then(SampleHeights { frame });
+/// let mut ctx = RunContext::new(1);
+/// let map = pipeline.run(texture, &mut ctx)?;
+/// assert!(ctx.timings().iter().any(|(stage, _)| stage == "sample heights"));
+/// // The box spans 31 of the 48 samples' spacings; the output 1.5 times that.
+/// assert_eq!(map.field.width(), 47);
+/// let (lo, hi) = map.field.range();
+/// assert!(lo > -1.1 && hi < 1.1 && hi - lo > 1.0, "{lo}..{hi}");
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleHeights {
+    /// Where the quilted height field's samples were placed.
+    pub frame: HeightFieldFrame,
+}
+
+impl Stage for SampleHeights {
+    type Input = QuiltOutput;
+    type Output = SampledHeights;
+    type Error = Error;
+
+    fn name(&self) -> &str {
+        "sample heights"
+    }
+
+    fn run(&self, input: QuiltOutput, ctx: &mut RunContext) -> Result<SampledHeights> {
+        ctx.timed("sample heights", |_| {
+            sample_heights(&input.points, &input.bounds, self.frame)
+        })
+    }
 }
 
 /// The top of the sheet sampled by `points` (oriented, +Z up) as a height field over the

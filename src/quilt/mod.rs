@@ -44,7 +44,9 @@ pub use files::{
     read_texture_file, read_texture_with_up, texture_comments, texture_comments_at,
 };
 pub use fitted::{MAX_PLANE_SPREAD, read_texture_file_fitted};
-pub use heights::{HeightFieldFrame, MAX_HEIGHT_SAMPLES, SampledHeights, sample_heights};
+pub use heights::{
+    HeightFieldFrame, MAX_HEIGHT_SAMPLES, SampleHeights, SampledHeights, sample_heights,
+};
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a
 /// fraction of the samples' longer extent.
