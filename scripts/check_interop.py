@@ -8,12 +8,14 @@
    attribute; an extra element), OBJ/OFF/STL (binary and ASCII) files with trimesh and
    NRRD fields with pynrrd (raw, gzip, ascii; float, double, int64, short, uchar; attached
    and detached headers) into DIR/foreign, and checks that `geosynth info --json` reads
-   the same counts, box, attributes and value range.
+   the same counts, box, attributes and value range;
+3. reads the demo's 16-bit height maps with Pillow and has `geosynth info --json` read a
+   16-bit grey PNG Pillow wrote, comparing mode, size and channels.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
 
-    pip install --user plyfile trimesh pynrrd
+    pip install --user plyfile trimesh pynrrd pillow
     geosynth demo --quick --out /tmp/demo
     python3 scripts/check_interop.py target/release/geosynth /tmp/demo
 
@@ -23,6 +25,7 @@ our files (42 of them STL) and 40 of theirs (2 STL, 3 int64 NRRD, 3 detached NRR
 """
 import json, subprocess, sys, pathlib
 import numpy as np, plyfile, trimesh, nrrd
+from PIL import Image
 
 G = sys.argv[1]
 root = pathlib.Path(sys.argv[2])
@@ -155,5 +158,32 @@ for path, vertices, face_count, points, attributes in written:
         note = f"{ours['vertices']} v {ours['faces']} f attributes {','.join(names) or '-'}"
     bad += not ok
     print(('ok  ' if ok else 'BAD ') + str(path.relative_to(root)) + ': ' + note)
+# 3. Height maps both ways: ours (the demo's `geometry/*.png`, 16-bit grey) read by Pillow,
+#    and a 16-bit grey PNG written by Pillow read by us.
+def check_height_map(path, expect_size=None):
+    result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
+    if result.returncode != 0:
+        return False, result.stderr.strip()
+    ours = json.loads(result.stdout)
+    with Image.open(path) as image:
+        values = np.asarray(image)
+        mode, size = image.mode, image.size
+    ok = (mode.startswith('I;16') and ours['channels'] == 'L16'
+          and [ours['width'], ours['height']] == list(size)
+          and values.max() - values.min() > 6553
+          and (expect_size is None or list(size) == list(expect_size)))
+    return ok, f"Pillow {mode} {size[0]}x{size[1]} values {values.min()}..{values.max()}"
+report = json.loads((root / 'report.json').read_text())
+for entry in report.get('terrain', []):
+    path = root / entry['height_map']
+    ok, note = check_height_map(path, (entry['width'], entry['height']))
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + str(path.relative_to(root)) + ': ' + note)
+ramp = (np.add.outer(np.arange(37) * 900, np.arange(53) * 500)).astype(np.uint16)
+theirs = foreign / 'ramp_16bit.png'
+Image.fromarray(ramp).save(theirs)
+ok, note = check_height_map(theirs, (53, 37))
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + str(theirs.relative_to(root)) + ': ' + note)
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

@@ -2,7 +2,9 @@
 //!
 //! Loads the bundled fixtures (regenerating them in memory when the source tree's
 //! `fixtures/` folder is not available), runs every synthesis family the workspace has on
-//! them, and writes geometry files, PNG previews, `report.json` and `report.md`.
+//! them, and writes geometry files, PNG previews, `report.json` and `report.md`. With the
+//! shared data it also reconstructs real scans and quilts a real terrain into a height map
+//! ([`super::demo_terrain`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -18,6 +20,7 @@ use geosynth::tps::{PairingParams, Table1Preset};
 use geosynth::{RunContext, Stage};
 use serde::Serialize;
 
+use crate::commands::demo_terrain::{TERRAIN, TerrainEntry, quilt_terrain};
 use crate::commands::quilt::{measure_for, measured_run, run_json, texture_preview};
 use crate::json_report::write_json_report;
 use crate::memory::peak_resident_bytes;
@@ -57,6 +60,7 @@ struct Report {
     fixtures: Vec<FixtureEntry>,
     reconstructions: Vec<ReconstructionEntry>,
     quilts: Vec<QuiltEntry>,
+    terrain: Vec<TerrainEntry>,
     volumes: Vec<VolumeEntry>,
     skipped: Vec<String>,
 }
@@ -151,7 +155,7 @@ fn load_fixtures(dir: &Path) -> CliResult<(Vec<Fixture>, String)> {
     Ok((generated, dir.display().to_string()))
 }
 
-fn relative(path: &Path, base: &Path) -> String {
+pub(super) fn relative(path: &Path, base: &Path) -> String {
     path.strip_prefix(base)
         .unwrap_or(path)
         .display()
@@ -285,6 +289,24 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     let quilts = quilt_textures(&dir, args, globals)?;
     timed("quilts", t);
     let t = Instant::now();
+    let terrain_path = data_dir.join(TERRAIN);
+    let mut terrain = Vec::new();
+    if terrain_path.is_file() {
+        terrain.push(quilt_terrain(
+            &terrain_path,
+            &args.out,
+            args.quick,
+            args.seed,
+            globals,
+        )?);
+    } else {
+        skipped.push(format!(
+            "terrain height map: {} not found (set GEOSYNTH_DATA or --data)",
+            terrain_path.display()
+        ));
+    }
+    timed("terrain", t);
+    let t = Instant::now();
     let volumes = synthesize_volumes(args, globals)?;
     timed("voxel synthesis", t);
     timed("total", started);
@@ -299,6 +321,7 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
         fixtures: entries,
         reconstructions,
         quilts,
+        terrain,
         volumes,
         skipped,
     };
@@ -306,10 +329,11 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     status(
         globals,
         format!(
-            "demo: {} fixtures rendered, {} reconstructions, {} quilts, {} synthesized solids; results, previews and report in {}",
+            "demo: {} fixtures rendered, {} reconstructions, {} quilts, {} height maps, {} synthesized solids; results, previews and report in {}",
             report.fixtures.len(),
             report.reconstructions.len(),
             report.quilts.len(),
+            report.terrain.len(),
             report.volumes.len(),
             args.out.display()
         ),
@@ -378,6 +402,23 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
     }
     for q in &report.quilts {
         md.push_str(&format!("\n![{}]({}) ", q.exemplar, q.preview));
+    }
+    if !report.terrain.is_empty() {
+        md.push_str("\n\n### A height field in, a height map out\n\nA real terrain quilted from its height field and written back as a 16-bit height map on its own sample spacing (`geosynth quilt --heightfield IMG --heightfield-out MAP.png`); the preview draws input | output at one height scale. Filled = samples over holes in the quilted points, filled from the heights around them.\n\n| exemplar | scale | map | samples | filled | quilt s | map s | preview |\n|---|---:|---|---|---:|---:|---:|---|\n");
+        for t in &report.terrain {
+            md.push_str(&format!(
+                "| {} | {} | {} | {} × {} | {} | {:.2} | {:.2} | ![]({}) |\n",
+                t.exemplar,
+                t.scale,
+                t.height_map,
+                t.width,
+                t.height,
+                t.filled,
+                t.seconds_quilt,
+                t.seconds_heights,
+                t.preview
+            ));
+        }
     }
     md.push_str("\n## Distance-field synthesis (paper 001)\n\nNeighbourhood and seam errors are normalized by the source's own window / sample variation (0 = like the source); DF = share of samples whose gradient has unit length (source in brackets); verbatim = neighbouring blocks copied together.\n\n");
     md.push_str("| exemplar | method | seconds | neighbourhood | seam | DF | verbatim | copied triangles | open edges before → after weld |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n");

@@ -2,6 +2,7 @@
 
 pub mod convert;
 pub mod demo;
+pub mod demo_terrain;
 pub mod fixtures;
 pub mod info;
 pub mod normals;

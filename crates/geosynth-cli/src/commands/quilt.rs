@@ -486,7 +486,7 @@ pub fn measured_run(
 }
 
 /// Runs `quilt` with a progress bar; its quality is left to [`MeasuredRun::measured`].
-fn unmeasured_run(
+pub fn unmeasured_run(
     texture: &GeometryTexture,
     params: &QuiltParams,
     globals: Globals,

@@ -346,6 +346,25 @@ fn demo_quick_writes_report_geometry_and_previews() {
                 >= 0.0
         );
     }
+    // A real terrain quilted and written back as a height map, with the shared data (the
+    // demo also looks beside the source tree when `GEOSYNTH_DATA` is not set).
+    let terrain = report["terrain"].as_array().unwrap();
+    let test = "demo_quick_writes_report_geometry_and_previews";
+    match terrain.first() {
+        Some(t) => {
+            assert_eq!(terrain.len(), 1);
+            assert!(out.join(t["preview"].as_str().unwrap()).is_file());
+            let map_path = out.join(t["height_map"].as_str().unwrap());
+            let map = geosynth::imagery::read_heightfield(&map_path).unwrap();
+            assert_eq!(map.width() as u64, t["width"].as_u64().unwrap());
+            assert_eq!(map.height() as u64, t["height"].as_u64().unwrap());
+        }
+        None => {
+            let data = shared_data(test, "heightfields/SainteHelens_317x460_u16.png");
+            assert!(data.is_none(), "{}", report["skipped"]);
+            assert!(report["skipped"].to_string().contains("terrain height map"));
+        }
+    }
     // Distance-field synthesis: every Figure 6 solid, search beating random blocks.
     let volumes = report["volumes"].as_array().unwrap();
     assert_eq!(volumes.len(), 5);
