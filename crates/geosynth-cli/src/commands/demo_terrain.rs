@@ -30,12 +30,14 @@ pub struct TerrainEntry {
     pub height_map: String,
     /// Input and output maps drawn as terrain at one scale.
     pub preview: String,
-    /// Samples of the map along x and y.
+    /// Columns of the map (samples along x).
     pub width: usize,
     /// Rows of the map.
     pub height: usize,
     /// Samples over holes in the output, filled from around them.
     pub filled: usize,
+    /// Heights outside the PNG's 0..1, clamped.
+    pub clamped: usize,
     /// Seconds to quilt.
     pub seconds_quilt: f64,
     /// Seconds to sample the map.
@@ -82,6 +84,7 @@ pub fn quilt_terrain(
         width: sampled.field.width(),
         height: sampled.field.height(),
         filled: sampled.filled,
+        clamped: written.clamped,
         seconds_quilt: run.seconds,
         seconds_heights,
     })
