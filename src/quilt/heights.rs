@@ -1,11 +1,13 @@
-//! A quilted height field written back as one: the output sheet sampled on the input's
-//! grid spacing and heights in the input file's units.
+//! A quilted sheet written as a height map: a quilted height field on the input's grid
+//! spacing with heights in the input file's units, a quilted point set on a grid of its
+//! own spacing with heights in its length units.
 
+use std::borrow::Cow;
 use std::collections::VecDeque;
 
 use glam::Vec2;
 use mls_surface::{HeightMethod, MlsParams, MlsSurface};
-use patch_quilt::QuiltOutput;
+use patch_quilt::{GeometryTexture, QuiltOutput, UpAxis};
 use pointset_core::{Aabb, HeightField, PointSet, RunContext, Stage};
 
 use crate::{Error, Result};
@@ -20,15 +22,59 @@ pub const MAX_HEIGHT_SAMPLES: usize = 1 << 26;
 /// samples wide.
 const MAX_FILL_SWEEPS: usize = 500;
 
-/// Where a height field's samples were placed as a geometry texture
-/// ([`super::read_heightfield_texture_framed`]): sample `(c, r)` at
-/// `x = c·spacing`, `y = (rows − 1 − r)·spacing`, `z = scale·h`.
+/// Where a height map's samples lie in a texture's frame: sample `(c, r)` of a height
+/// field read as a texture ([`super::read_heightfield_texture_framed`]) at
+/// `x = c·spacing`, `y = (rows − 1 − r)·spacing`, `z = scale·h`; for a point-set texture
+/// ([`Self::of_points`]), on a grid of its own spacing with heights in its length units.
+/// `x`, `y` and `z` are the canonical axes of a texture whose up axis is `up`
+/// ([`UpAxis::canonical_points`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HeightFieldFrame {
     /// Distance between neighbouring samples.
     pub spacing: f32,
-    /// World height per unit of the file's heights.
+    /// World height per unit of the map's heights.
     pub scale: f32,
+    /// The axis the heights run along ([`UpAxis::Z`] for a height field).
+    pub up: UpAxis,
+}
+
+impl HeightFieldFrame {
+    /// The frame of a height map of a point-set texture (or of its quilt): samples
+    /// `spacing` apart, or without one as many as the texture has points
+    /// (`1 / √`[`GeometryTexture::sample_density`]), with heights in the texture's length
+    /// units along its up axis (scale 1). On a grid of points that is their own spacing;
+    /// points scattered at random lie closer to their nearest neighbours (about half as
+    /// far), and a map that fine would show their MLS surface's holes at every sample.
+    ///
+    /// Errors: a given spacing that is not positive and finite.
+    ///
+    /// ```
+    /// use geosynth::quilt::{HeightFieldFrame, UpAxis, texture_from_exemplar};
+    ///
+    /// let exemplar = geosynth::fixtures::textures::bumpy(60.0, 1, 1)?;
+    /// let texture = texture_from_exemplar(&exemplar)?;
+    /// let frame = HeightFieldFrame::of_points(&texture, None)?;
+    /// // 60 points per unit area: a grid of as many is 1/√60 apart.
+    /// assert!((frame.spacing * 60f32.sqrt() - 1.0).abs() < 0.1, "{}", frame.spacing);
+    /// assert_eq!((frame.scale, frame.up), (1.0, UpAxis::Z));
+    /// assert_eq!(HeightFieldFrame::of_points(&texture, Some(0.5))?.spacing, 0.5);
+    /// assert!(HeightFieldFrame::of_points(&texture, Some(-0.5)).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn of_points(texture: &GeometryTexture, spacing: Option<f32>) -> Result<Self> {
+        let spacing = match spacing {
+            Some(s) if s.is_finite() && s > 0.0 => s,
+            Some(s) => return Error::invalid("map spacing", s, "a positive length"),
+            // A texture holds points inside its box's positive area (`GeometryTexture::new`
+            // refuses any other), so the density is positive and finite.
+            None => (1.0 / texture.sample_density().sqrt()) as f32,
+        };
+        Ok(Self {
+            spacing,
+            scale: 1.0,
+            up: texture.up(),
+        })
+    }
 }
 
 /// A height field sampled from a sheet by [`sample_heights`], with how each sample was
@@ -48,9 +94,10 @@ pub struct SampledHeights {
     pub filled: usize,
 }
 
-/// Stage: a quilted height field → its height map ([`sample_heights`] over the output
-/// box, on the grid of `frame`). Follows [`super::Quilt`] on a texture read by
-/// [`super::read_heightfield_texture_framed`], which gives the frame.
+/// Stage: a quilted sheet → its height map ([`sample_heights`] over the output box, on
+/// the grid of `frame`). Follows [`super::Quilt`] on a texture read by
+/// [`super::read_heightfield_texture_framed`], which gives the frame, or on a point-set
+/// texture, whose frame [`HeightFieldFrame::of_points`] gives.
 ///
 /// ```
 /// use geosynth::quilt::{OutputSize, Quilt, QuiltParams, SampleHeights};
@@ -98,10 +145,11 @@ impl Stage for SampleHeights {
     }
 }
 
-/// The top of the sheet sampled by `points` (oriented, +Z up) as a height field over the
-/// footprint of `bounds`, on the grid of `frame` starting at `bounds`' lower corner, with
-/// heights divided by `frame.scale` ([`MlsSurface::top_heights`] on the points' MLS
-/// surface with the default parameters). Samples over holes are filled from those around
+/// The top of the sheet sampled by `points` (oriented, in the world frame of a texture
+/// whose up axis is `frame.up`, as a quilt outputs them) as a height field over the
+/// footprint of `bounds`, on the grid of `frame` starting at `bounds`' lower corner in the
+/// canonical frame, with heights divided by `frame.scale` ([`MlsSurface::top_heights`] on
+/// the points' MLS surface with the default parameters). Samples over holes are filled from those around
 /// them: the smooth (harmonic) surface their heights bound, the way height maps are
 /// commonly inpainted. Across a gap that a warp opened at a cliff, that is a ramp from the
 /// cliff's foot to its top.
@@ -112,7 +160,7 @@ impl Stage for SampleHeights {
 ///
 /// ```
 /// use geosynth::core::{Aabb, PointSet};
-/// use geosynth::quilt::{HeightFieldFrame, sample_heights};
+/// use geosynth::quilt::{HeightFieldFrame, UpAxis, sample_heights};
 /// use glam::Vec3;
 ///
 /// // The ramp z = 0.1 x on a 40 × 40 grid 0.1 apart, read back at its own spacing with
@@ -126,7 +174,7 @@ impl Stage for SampleHeights {
 /// let n = Vec3::new(-0.1, 0.0, 1.0).normalize();
 /// let points = PointSet::new(p)?.with_normals(vec![n; 1600])?;
 /// let bounds = Aabb::new(Vec3::new(1.0, 1.0, 0.0), Vec3::new(3.0, 2.0, 0.4));
-/// let sampled = sample_heights(&points, &bounds, HeightFieldFrame { spacing: 0.1, scale: 0.1 })?;
+/// let sampled = sample_heights(&points, &bounds, HeightFieldFrame { spacing: 0.1, scale: 0.1, up: UpAxis::Z })?;
 /// assert_eq!((sampled.field.width(), sampled.field.height()), (21, 11));
 /// // Column c lies at x = 1 + 0.1 c, where the ramp is 1 + 0.1 c units high.
 /// let h = sampled.field.get(5, 0).ok_or("no sample")?;
@@ -138,14 +186,21 @@ pub fn sample_heights(
     bounds: &Aabb,
     frame: HeightFieldFrame,
 ) -> Result<SampledHeights> {
-    let (cols, rows) = grid_size(bounds, frame)?;
+    let (points, bounds) = match frame.up {
+        UpAxis::Z => (Cow::Borrowed(points), *bounds),
+        up => (
+            Cow::Owned(up.canonical_points(points)?),
+            up.canonical_box(bounds),
+        ),
+    };
+    let (cols, rows) = grid_size(&bounds, frame)?;
     let lo = bounds.min.truncate();
     let columns: Vec<Vec2> = (0..rows)
         .flat_map(|r| {
             (0..cols).map(move |c| lo + Vec2::new(c as f32, (rows - 1 - r) as f32) * frame.spacing)
         })
         .collect();
-    let surface = MlsSurface::new(points, &MlsParams::default())?;
+    let surface = MlsSurface::new(&points, &MlsParams::default())?;
     let found = surface.top_heights(&columns)?;
     let by_ray = found
         .iter()
@@ -176,7 +231,7 @@ pub fn sample_heights(
 /// `spacing` from the lower corner, the far side included where it falls on the grid
 /// (to within a thousandth of a step).
 fn grid_size(bounds: &Aabb, frame: HeightFieldFrame) -> Result<(usize, usize)> {
-    let HeightFieldFrame { spacing, scale } = frame;
+    let HeightFieldFrame { spacing, scale, .. } = frame;
     if !(spacing.is_finite() && spacing > 0.0 && scale.is_finite() && scale != 0.0) {
         return Err(Error::InvalidParameter {
             name: "height field frame",
@@ -329,6 +384,7 @@ mod tests {
         let frame = HeightFieldFrame {
             spacing: 0.1,
             scale: 2.0,
+            up: UpAxis::Z,
         };
         let bounds = |w: f32, h: f32| Aabb::new(Vec3::ZERO, Vec3::new(w, h, 1.0));
         assert_eq!(grid_size(&bounds(2.0, 1.0), frame).unwrap(), (21, 11));
@@ -336,7 +392,11 @@ mod tests {
         assert!(grid_size(&bounds(0.05, 1.0), frame).is_err());
         assert!(grid_size(&bounds(1e9, 1e9), frame).is_err());
         for (spacing, scale) in [(0.0, 1.0), (-0.1, 1.0), (f32::NAN, 1.0), (0.1, 0.0)] {
-            let frame = HeightFieldFrame { spacing, scale };
+            let frame = HeightFieldFrame {
+                spacing,
+                scale,
+                up: UpAxis::Z,
+            };
             assert!(grid_size(&bounds(2.0, 1.0), frame).is_err());
         }
     }
@@ -357,6 +417,7 @@ mod tests {
         let frame = HeightFieldFrame {
             spacing: 0.05,
             scale: 0.5,
+            up: UpAxis::Z,
         };
         let sampled = sample_heights(&points, &bounds, frame).unwrap();
         assert_eq!(sampled.field.width(), 81);

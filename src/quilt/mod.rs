@@ -139,7 +139,12 @@ pub fn read_heightfield_texture_framed(
     };
     let padding = field.width().min(field.height()) / 6;
     let texture = GeometryTexture::from_heightfield(&field, spacing, scale, padding)?;
-    Ok((texture, HeightFieldFrame { spacing, scale }))
+    let frame = HeightFieldFrame {
+        spacing,
+        scale,
+        up: UpAxis::Z,
+    };
+    Ok((texture, frame))
 }
 
 /// The geometry texture of a procedural exemplar.

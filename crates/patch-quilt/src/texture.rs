@@ -20,7 +20,7 @@ pub enum UpAxis {
 
 impl UpAxis {
     /// World → canonical frame (up becomes +Z; a cyclic permutation, so orientation is kept).
-    pub(crate) fn to_canonical(self, v: Vec3) -> Vec3 {
+    pub fn to_canonical(self, v: Vec3) -> Vec3 {
         match self {
             UpAxis::X => Vec3::new(v.y, v.z, v.x),
             UpAxis::Y => Vec3::new(v.z, v.x, v.y),
@@ -29,12 +29,47 @@ impl UpAxis {
     }
 
     /// Canonical frame → world.
-    pub(crate) fn to_world(self, v: Vec3) -> Vec3 {
+    pub fn to_world(self, v: Vec3) -> Vec3 {
         match self {
             UpAxis::X => Vec3::new(v.z, v.x, v.y),
             UpAxis::Y => Vec3::new(v.y, v.z, v.x),
             UpAxis::Z => v,
         }
+    }
+
+    /// `points` (world coordinates, e.g. a quilt's output) in the canonical frame of a
+    /// texture with this up axis: up becomes +Z, the plane's axes follow cyclically (for
+    /// Y up, world z and x become x and y). Normals turn with the points; attributes are
+    /// kept.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use patch_quilt::UpAxis;
+    /// use pointset_core::{Aabb, PointSet};
+    ///
+    /// let points = PointSet::new(vec![Vec3::new(1.0, 2.0, 3.0)])?.with_normals(vec![Vec3::Y])?;
+    /// let canonical = UpAxis::Y.canonical_points(&points)?;
+    /// assert_eq!(canonical.positions()[0], Vec3::new(3.0, 1.0, 2.0));
+    /// assert_eq!(canonical.normals().ok_or("no normals")?[0], Vec3::Z);
+    /// let bounds = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0));
+    /// assert_eq!(UpAxis::X.canonical_box(&bounds).max, Vec3::new(2.0, 3.0, 1.0));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn canonical_points(self, points: &PointSet) -> Result<PointSet> {
+        let turn = |v: &[Vec3]| v.iter().map(|&v| self.to_canonical(v)).collect::<Vec<_>>();
+        let mut canonical = PointSet::new(turn(points.positions()))?;
+        if let Some(normals) = points.normals() {
+            canonical = canonical.with_normals(turn(normals))?;
+        }
+        for a in points.attributes() {
+            canonical.set_attribute(a.clone())?;
+        }
+        Ok(canonical)
+    }
+
+    /// `bounds` (world coordinates) in the canonical frame ([`Self::canonical_points`]).
+    pub fn canonical_box(self, bounds: &Aabb) -> Aabb {
+        Aabb::new(self.to_canonical(bounds.min), self.to_canonical(bounds.max))
     }
 }
 
@@ -59,7 +94,7 @@ impl GeometryTexture {
     /// [`pointset_core::MAX_SPAN`], points that all coincide, a box with zero extent, no
     /// points inside it.
     pub fn new(points: &PointSet, bounds: Aabb, up: UpAxis) -> Result<Self> {
-        let normals = points.normals().ok_or_else(|| QuiltError::InvalidTexture {
+        points.normals().ok_or_else(|| QuiltError::InvalidTexture {
             reason: "the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into(),
         })?;
         if points.len() < 16 {
@@ -80,9 +115,7 @@ impl GeometryTexture {
                 ),
             });
         }
-        let lo = up.to_canonical(bounds.min);
-        let hi = up.to_canonical(bounds.max);
-        let canonical_bounds = Aabb::new(lo, hi);
+        let canonical_bounds = up.canonical_box(&bounds);
         let extent = canonical_bounds.extent();
         if !extent.is_finite() || extent.min_element() <= 0.0 {
             let (a, b) = (bounds.min, bounds.max);
@@ -98,18 +131,14 @@ impl GeometryTexture {
                 ),
             });
         }
-        let p: Vec<Vec3> = points
-            .positions()
-            .iter()
-            .map(|&v| up.to_canonical(v))
-            .collect();
-        let n: Vec<Vec3> = normals.iter().map(|&v| up.to_canonical(v)).collect();
+        let canonical = up.canonical_points(points)?;
+        let p = canonical.positions();
         if !p.iter().any(|q| canonical_bounds.contains(*q)) {
             return Err(QuiltError::InvalidTexture {
                 reason: "no point lies inside the box".into(),
             });
         }
-        let all = Aabb::from_points(&p).unwrap_or(canonical_bounds);
+        let all = Aabb::from_points(p).unwrap_or(canonical_bounds);
         let padding = [
             canonical_bounds.min.x - all.min.x,
             canonical_bounds.min.y - all.min.y,
@@ -119,10 +148,6 @@ impl GeometryTexture {
         .into_iter()
         .fold(f32::MAX, f32::min)
         .max(0.0);
-        let mut canonical = PointSet::new(p)?.with_normals(n)?;
-        for a in points.attributes() {
-            canonical.set_attribute(a.clone())?;
-        }
         Ok(Self {
             points: canonical,
             bounds: canonical_bounds,
@@ -258,6 +283,25 @@ impl GeometryTexture {
         if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
             return 0.0;
         }
+        self.sample_density() * w * h
+    }
+
+    /// Samples per unit area of the reference plane: the points whose projection lies in
+    /// the box's footprint, over its area. `1 / √density` is the spacing of a grid with
+    /// as many samples.
+    ///
+    /// ```
+    /// use patch_quilt::GeometryTexture;
+    /// use pointset_core::HeightField;
+    ///
+    /// // Samples 0.1 apart: 100 per unit area.
+    /// let field = HeightField::new(40, 40, vec![0.0; 1600])?;
+    /// let texture = GeometryTexture::from_heightfield(&field, 0.1, 1.0, 4)?;
+    /// assert!((texture.sample_density() / 100.0 - 1.0).abs() < 0.1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn sample_density(&self) -> f64 {
+        let (lo, hi) = self.footprint();
         // The box has a positive extent (`new` refuses any other), so the area is too.
         let area = f64::from(hi.x - lo.x) * f64::from(hi.y - lo.y);
         let inside = self
@@ -269,6 +313,6 @@ impl GeometryTexture {
                 q.cmpge(lo).all() && q.cmple(hi).all()
             })
             .count();
-        inside as f64 / area * w * h
+        inside as f64 / area
     }
 }

@@ -21,7 +21,7 @@ use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use super::sheet_heights::write_sheet_heights;
+use super::sheet_heights::{MapPlacement, write_sheet_heights};
 use super::sheet_mesh::sheet_mesh;
 use crate::json_report::write_json_report;
 use crate::output::{
@@ -221,13 +221,19 @@ pub struct QuiltArgs {
     /// spacings (32 to 512 along the longest side), cut back to the points.
     #[arg(long, value_name = "MESH")]
     mesh: Option<PathBuf>,
-    /// With `--heightfield`: also write the output as a height field (.png or .f32le) on
-    /// the input's sample spacing, in the input's height units: its top surface sampled
-    /// straight down. A PNG is 16-bit grey, heights 0..1 as the input's grey levels were
-    /// read (beyond that clamped); a raw file keeps every height and gets `_WxH` in its
-    /// name.
+    /// Also write the output as a height map (.png or .f32le): its top surface sampled
+    /// straight down. A raw file keeps every height and gets `_WxH` in its name. With
+    /// `--heightfield`, on the input's sample spacing and in its height units, a PNG's
+    /// grey levels 0..1 as the input's were read (beyond that clamped). From a point set,
+    /// on a grid of its median point spacing (or `--map-spacing`), heights in the file's
+    /// length units along the up axis, a PNG's grey levels spanning the map's own range;
+    /// the report says where the grid lies in the file and what the grey levels mean.
     #[arg(long, value_name = "MAP")]
     heightfield_out: Option<PathBuf>,
+    /// The grid spacing of a point-set exemplar's `--heightfield-out` map, in the file's
+    /// length units (default: the exemplar's median point spacing).
+    #[arg(long, value_name = "S")]
+    map_spacing: Option<f32>,
     /// Skip the quality measure: it builds distance fields of the exemplar and of every
     /// output and can take longer than the synthesis (a 70k → 200k chain mail takes about
     /// 6 s with it, 3 s without). The report then says why its quality is missing.
@@ -663,18 +669,18 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     )?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
     if let Some(map) = &args.heightfield_out {
-        // Checked here, not by clap's `requires`: clap skips that check when the required
-        // flag conflicts with one given (clap-rs/clap#4520), as `--heightfield` does with
-        // an exemplar.
-        if args.heightfield.is_none() {
-            return Err(format!(
-                "--heightfield-out {} needs --heightfield: the output is written on that \
-                 file's sample spacing and in its height units",
-                map.display()
-            )
-            .into());
-        }
         check_heightfield_output(map)?;
+    }
+    // Checked here, not by clap's `requires` and `conflicts_with`: clap skips `requires`
+    // when the required flag conflicts with one given (clap-rs/clap#4520).
+    if let Some(spacing) = args.map_spacing
+        && (args.heightfield_out.is_none() || args.heightfield.is_some())
+    {
+        return Err(format!(
+            "--map-spacing {spacing} sets the grid of a point-set exemplar's \
+             --heightfield-out map (a height field's map keeps the input's own grid)"
+        )
+        .into());
     }
     if let Some(mesh) = &args.mesh {
         check_geometry_output(mesh, true, DVec3::ZERO)?;
@@ -690,6 +696,13 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(path) = &args.exemplar {
         report_not_kept(globals, path, &file.notes);
     }
+    // Before the run: a spacing the map cannot take must not cost the quilt. A height
+    // field is read at the origin, so the output's points are in its frame.
+    let map_placement = match (&args.heightfield_out, heightfield_frame) {
+        (None, _) => None,
+        (Some(_), Some(frame)) => Some(MapPlacement { frame, file: None }),
+        (Some(_), None) => Some(MapPlacement::of_points(&file, args.map_spacing)?),
+    };
     let texture = &file.texture;
     for note in [
         orientation_note(texture),
@@ -728,9 +741,10 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         }
         _ => None,
     };
-    // A height field is read at the origin, so the output's points are in its frame.
-    let heightfield_out = match (&args.heightfield_out, heightfield_frame) {
-        (Some(path), Some(frame)) => Some(write_sheet_heights(path, &main.output, frame, globals)?),
+    let heightfield_out = match (&args.heightfield_out, map_placement) {
+        (Some(path), Some(placement)) => {
+            Some(write_sheet_heights(path, &main.output, placement, globals)?)
+        }
         _ => None,
     };
     let measure = if args.no_quality {

@@ -1,32 +1,107 @@
-//! `geosynth quilt --heightfield-out`: a quilted height field written back as one, on the
-//! input's grid spacing and in its units.
+//! `geosynth quilt --heightfield-out`: a quilted sheet written as a height map. A quilted
+//! height field goes back on the input's grid spacing and in its height units; a quilted
+//! point set on a grid of its own spacing (or `--map-spacing`), with heights in the file's
+//! length units and the map's place in the file's coordinates in the report.
 
 use std::path::Path;
 use std::time::Instant;
 
-use geosynth::imagery::write_heightfield;
-use geosynth::quilt::{HeightFieldFrame, QuiltOutput, sample_heights};
+use geosynth::core::HeightField;
+use geosynth::imagery::{is_raw_heightfield_path, write_heightfield};
+use geosynth::quilt::{HeightFieldFrame, QuiltOutput, TextureFile, sample_heights};
+use glam::{DMat3, DVec3, Vec3};
 use serde_json::{Value, json};
 
 use crate::output::{spinner, status};
 use crate::{CliResult, Globals};
 
-/// Samples the top of `output`'s sheet on the grid of `frame` over the output box
+/// Where a quilt's height map lies: the grid and height axis of the texture's frame, and
+/// for a point-set exemplar where that frame lies in the file.
+#[derive(Debug, Clone, Copy)]
+pub struct MapPlacement {
+    /// The map's grid and height axis in the texture's frame.
+    pub frame: HeightFieldFrame,
+    /// For a point-set exemplar, the texture's origin and axes in the file
+    /// ([`TextureFile::origin`], [`TextureFile::frame`]): its heights are then offset to
+    /// the file's coordinates and a PNG spans the map's own range. `None` for a height
+    /// field, whose map keeps the input's units.
+    pub file: Option<(DVec3, DMat3)>,
+}
+
+impl MapPlacement {
+    /// The placement of a height map of a quilt of the point-set exemplar `file`, on a
+    /// grid `spacing` apart (the exemplar's median point spacing without one).
+    pub fn of_points(file: &TextureFile, spacing: Option<f32>) -> CliResult<Self> {
+        Ok(Self {
+            frame: HeightFieldFrame::of_points(&file.texture, spacing)?,
+            file: Some((file.origin, file.frame)),
+        })
+    }
+}
+
+/// Where a point-set quilt's map lies in the file: sample `(c, r)` with height `h` is at
+/// `lower_corner + spacing·(c·columns + (rows − 1 − r)·rows_axis) + h·up`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FileGrid {
+    /// File coordinates of the bottom row's first sample at height 0.
+    lower_corner: DVec3,
+    /// Along the columns (file directions, unit length).
+    columns: DVec3,
+    /// Along the rows, bottom to top.
+    rows_axis: DVec3,
+    /// The direction heights grow in.
+    up: DVec3,
+    /// Added to every height: the origin's coordinate along `up`.
+    offset: f64,
+}
+
+impl FileGrid {
+    /// The grid of a map over `output`'s box in the texture frame `frame`, whose origin
+    /// and axes in the file are `origin` and `axes`.
+    fn new(output: &QuiltOutput, frame: HeightFieldFrame, origin: DVec3, axes: DMat3) -> Self {
+        let up_axis = frame.up;
+        let lo = up_axis.canonical_box(&output.bounds).min;
+        let world = |v: Vec3| axes * up_axis.to_world(v).as_dvec3();
+        let up = world(Vec3::Z);
+        let offset = origin.dot(up);
+        Self {
+            lower_corner: origin - offset * up + world(Vec3::new(lo.x, lo.y, 0.0)),
+            columns: world(Vec3::X),
+            rows_axis: world(Vec3::Y),
+            up,
+            offset,
+        }
+    }
+}
+
+/// Samples the top of `output`'s sheet on the grid of `placement` over the output box
 /// ([`sample_heights`]), writes it to `path` ([`write_heightfield`]) and returns the
 /// report's `heightfield_out` entry.
 pub fn write_sheet_heights(
     path: &Path,
     output: &QuiltOutput,
-    frame: HeightFieldFrame,
+    placement: MapPlacement,
     globals: Globals,
 ) -> CliResult<Value> {
     let start = Instant::now();
     let bar = spinner(globals, "sampling heights");
+    let frame = placement.frame;
     let sampled = sample_heights(&output.points, &output.bounds, frame)?;
     bar.finish_and_clear();
-    let written = write_heightfield(path, &sampled.field)?;
+    let grid = placement
+        .file
+        .map(|(origin, axes)| FileGrid::new(output, frame, origin, axes));
+    let mut field = sampled.field;
+    if let Some(grid) = grid {
+        field = offset_heights(&field, grid.offset)?;
+    }
+    let png_range = (grid.is_some() && !is_raw_heightfield_path(path)).then(|| field.range());
+    let written = match png_range {
+        Some(range) => write_heightfield(path, &stretched(&field, range)?)?,
+        None => write_heightfield(path, &field)?,
+    };
     let seconds = start.elapsed().as_secs_f64();
-    let (width, height) = (sampled.field.width(), sampled.field.height());
+    let (width, height) = (field.width(), field.height());
     let mut notes = Vec::new();
     if sampled.filled > 0 {
         notes.push(format!(
@@ -40,6 +115,9 @@ pub fn write_sheet_heights(
             written.clamped
         ));
     }
+    if let Some((lo, hi)) = png_range {
+        notes.push(format!("grey 0..65535 is height {lo}..{hi}"));
+    }
     let notes = if notes.is_empty() {
         String::new()
     } else {
@@ -52,6 +130,7 @@ pub fn write_sheet_heights(
             written.path.display()
         ),
     );
+    let vector = |v: DVec3| [v.x, v.y, v.z];
     Ok(json!({
         "path": written.path.display().to_string(),
         "width": width,
@@ -61,5 +140,70 @@ pub fn write_sheet_heights(
         "filled": sampled.filled,
         "clamped": written.clamped,
         "seconds": seconds,
+        "spacing": grid.map(|_| frame.spacing),
+        "lower_corner": grid.map(|g| vector(g.lower_corner)),
+        "columns_axis": grid.map(|g| vector(g.columns)),
+        "rows_axis": grid.map(|g| vector(g.rows_axis)),
+        "up_axis": grid.map(|g| vector(g.up)),
+        "png_range": png_range.map(|(lo, hi)| [lo, hi]),
     }))
+}
+
+/// `field` with `offset` added to every height (in double precision, so a georeferenced
+/// height keeps what `f32` can hold of it).
+fn offset_heights(field: &HeightField, offset: f64) -> CliResult<HeightField> {
+    if offset == 0.0 {
+        return Ok(field.clone());
+    }
+    let heights = field
+        .heights()
+        .iter()
+        .map(|&h| (f64::from(h) + offset) as f32)
+        .collect();
+    Ok(HeightField::new(field.width(), field.height(), heights)?)
+}
+
+/// `field` mapped linearly from `lo..hi` onto `0..1` (a flat field onto 0), the way a
+/// PNG's grey levels hold it.
+fn stretched(field: &HeightField, (lo, hi): (f32, f32)) -> CliResult<HeightField> {
+    let span = f64::from(hi) - f64::from(lo);
+    let heights = field
+        .heights()
+        .iter()
+        .map(|&h| {
+            if span > 0.0 {
+                ((f64::from(h) - f64::from(lo)) / span) as f32
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    Ok(HeightField::new(field.width(), field.height(), heights)?)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    #[test]
+    fn a_stretched_map_spans_zero_to_one_and_a_flat_one_is_zero() {
+        let field = HeightField::new(2, 2, vec![1000.5, 1002.5, 1001.0, 1000.5]).unwrap();
+        let unit = stretched(&field, field.range()).unwrap();
+        assert_eq!(unit.heights(), &[0.0, 1.0, 0.25, 0.0]);
+        let flat = HeightField::new(2, 1, vec![7.0, 7.0]).unwrap();
+        assert_eq!(
+            stretched(&flat, flat.range()).unwrap().heights(),
+            &[0.0, 0.0]
+        );
+    }
+
+    #[test]
+    fn offsets_are_added_in_double_precision() {
+        let field = HeightField::new(2, 1, vec![0.25, -1.5]).unwrap();
+        let moved = offset_heights(&field, 4096.0).unwrap();
+        assert_eq!(moved.heights(), &[4096.25, 4094.5]);
+        assert_eq!(offset_heights(&field, 0.0).unwrap(), field);
+    }
 }

@@ -56,7 +56,6 @@ fn arg(path: &Path) -> String {
     path.to_str().unwrap().to_string()
 }
 
-/// `geosynth info --json` of a file.
 /// Asserts that a report records the peak memory of its run: a plausible number of bytes
 /// on Linux (more than the 1 MiB any run holds, less than 64 GiB), `null` elsewhere.
 fn assert_peak_memory(report: &serde_json::Value) {
@@ -69,6 +68,7 @@ fn assert_peak_memory(report: &serde_json::Value) {
     }
 }
 
+/// `geosynth info --json` of a file.
 fn info_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap()
 }
@@ -1248,20 +1248,23 @@ fn quilt_writes_a_height_field_back_as_one() {
     assert!(said.contains("clamped"), "{said}");
     let map = geosynth::imagery::read_heightfield(&png).unwrap();
     assert_eq!((map.width() as u64, map.height() as u64), (w, h));
-    // Without a height field to take the spacing and units from, and into a format it
-    // cannot write: errors, and nothing written.
+    // A grid spacing for a height field's map, and a format it cannot write: errors, and
+    // nothing written.
     let point_set = dir.path("sheet.ply");
     for (args, message) in [
         (
             vec![
                 "quilt",
-                &arg(&out),
+                "--heightfield",
+                &arg(&hf),
                 "-o",
                 &arg(&point_set),
                 "--heightfield-out",
                 &arg(&png),
+                "--map-spacing",
+                "0.1",
             ],
-            "--heightfield",
+            "input's own grid",
         ),
         (
             vec![
@@ -1281,6 +1284,199 @@ fn quilt_writes_a_height_field_back_as_one() {
         let stderr = String::from_utf8_lossy(&bad.stderr);
         assert!(stderr.contains(message), "{args:?}: {stderr}");
         assert!(!point_set.exists());
+    }
+}
+
+/// A report's `[x, y, z]`.
+fn json_vector(v: &serde_json::Value) -> glam::DVec3 {
+    glam::DVec3::new(
+        v[0].as_f64().unwrap(),
+        v[1].as_f64().unwrap(),
+        v[2].as_f64().unwrap(),
+    )
+}
+
+/// How far the samples of the height map a quilt report's `entry` describes lie from the
+/// points of the quilt written to `output`, placed by the entry's grid (every 7th sample:
+/// median, 90th percentile); as a control, with the map's rows read upside down.
+fn map_misses(entry: &serde_json::Value, output: &Path, upside_down: bool) -> (f64, f64) {
+    use geosynth::core::KdIndex;
+    use geosynth::core::io::{ReadOptions, read_geometry_with};
+    let map =
+        geosynth::imagery::read_heightfield(Path::new(entry["path"].as_str().unwrap())).unwrap();
+    let (w, h) = (map.width(), map.height());
+    let written = read_geometry_with(output, &ReadOptions::default().recentre_far(true)).unwrap();
+    let index = KdIndex::new(written.geometry.points().positions()).unwrap();
+    let corner = json_vector(&entry["lower_corner"]);
+    let [columns, rows, up] =
+        ["columns_axis", "rows_axis", "up_axis"].map(|k| json_vector(&entry[k]));
+    let spacing = entry["spacing"].as_f64().unwrap();
+    let mut misses: Vec<f64> = (0..w * h)
+        .step_by(7)
+        .map(|k| {
+            let (c, r) = (k % w, k / w);
+            let up_row = if upside_down { r } else { h - 1 - r };
+            let height = f64::from(map.get(c, r).unwrap());
+            let file = corner + spacing * (c as f64 * columns + up_row as f64 * rows) + height * up;
+            let nearest = index
+                .nearest_one((file - written.origin).as_vec3())
+                .unwrap()
+                .unwrap();
+            f64::from(nearest.distance_squared).sqrt()
+        })
+        .collect();
+    misses.sort_by(f64::total_cmp);
+    (misses[misses.len() / 2], misses[misses.len() * 9 / 10])
+}
+
+/// The report's `heightfield_out` entry of a quilt run.
+fn height_map_entry(report: &Path) -> serde_json::Value {
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    r["heightfield_out"].clone()
+}
+
+#[test]
+fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
+    use geosynth::core::PointSet;
+    use geosynth::core::io::{Geometry, WriteOptions};
+    use glam::{DVec3, Vec3};
+    let dir = Scratch::new();
+    let bumpy = geosynth::core::io::read_geometry(
+        geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"),
+    )
+    .unwrap()
+    .geometry;
+    // The bumpy fixture without its comments, its positions and normals mapped by `map`,
+    // written relative to `origin` in double precision.
+    let write_mapped = |name: &str, map: &dyn Fn(Vec3) -> Vec3, origin: DVec3| {
+        let points = bumpy.points();
+        let mapped = PointSet::new(points.positions().iter().map(|&p| map(p)).collect())
+            .unwrap()
+            .with_normals(points.normals().unwrap().iter().map(|&n| map(n)).collect())
+            .unwrap();
+        let path = dir.path(name);
+        let options = WriteOptions::default().origin(origin);
+        geosynth::core::io::write_geometry(&path, &Geometry::Points(mapped), &options).unwrap();
+        path
+    };
+    let out = dir.path("out.ply");
+    let report = dir.path("r.json");
+    // A small quilt of `exemplar` with its map written to `map`; the map's entry.
+    let quilt = |exemplar: &Path, map: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "quilt".to_string(),
+            arg(exemplar),
+            "-o".into(),
+            arg(&out),
+            "--scale".into(),
+            "1.2".into(),
+            "--resolution".into(),
+            "24".into(),
+            "--no-quality".into(),
+            "--heightfield-out".into(),
+            arg(map),
+            "--report".into(),
+            arg(&report),
+        ];
+        args.extend(extra.iter().map(|a| a.to_string()));
+        ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        height_map_entry(&report)
+    };
+    // Georeferenced, 1000 units up: the map's heights are the file's z, and every sample
+    // of it lies on the written output's sheet where the report's grid puts it.
+    let origin = DVec3::new(5e5, 4e6, 1000.0);
+    let far = write_mapped("far.ply", &|v| v, origin);
+    let entry = quilt(&far, &dir.path("far.f32le"), &[]);
+    let (w, h) = (
+        entry["width"].as_u64().unwrap() as usize,
+        entry["height"].as_u64().unwrap() as usize,
+    );
+    let map =
+        geosynth::imagery::read_heightfield(Path::new(entry["path"].as_str().unwrap())).unwrap();
+    assert_eq!((map.width(), map.height()), (w, h));
+    let (lo, hi) = map.range();
+    assert!(lo > 999.9 && hi < 1000.6 && hi - lo > 0.3, "{lo}..{hi}");
+    let axes = ["columns_axis", "rows_axis", "up_axis"].map(|k| json_vector(&entry[k]));
+    assert_eq!(axes, [DVec3::X, DVec3::Y, DVec3::Z]);
+    let spacing = entry["spacing"].as_f64().unwrap();
+    // The fixture holds about 300 samples per unit area.
+    assert!((spacing * 300f64.sqrt() - 1.0).abs() < 0.1, "{spacing}");
+    // Samples scattered at random: a point of their sheet is about half a grid spacing
+    // from the nearest. Measured: 0.52 and 0.97 spacings; upside down, the tail is 2.7.
+    let (median, tail) = map_misses(&entry, &out, false);
+    assert!(
+        median < 0.75 * spacing && tail < 1.5 * spacing,
+        "{median}, {tail}"
+    );
+    let (_, flipped_tail) = map_misses(&entry, &out, true);
+    assert!(flipped_tail > 2.0 * spacing, "{flipped_tail}");
+    // Tilted by 35° about (1, 1, 0) and moved: quilted in its fitted plane (`--up auto`),
+    // mapped along that plane's normal, and placed back where its points are.
+    let turn = glam::Quat::from_axis_angle(Vec3::new(1.0, 1.0, 0.0).normalize(), 0.61);
+    let tilted = write_mapped("tilted.ply", &|v| turn * v, DVec3::new(10.0, -3.0, 7.0));
+    let entry = quilt(&tilted, &dir.path("tilted.f32le"), &["--up", "auto"]);
+    let up = json_vector(&entry["up_axis"]);
+    let angle = up.angle_between((turn * Vec3::Z).as_dvec3()).to_degrees();
+    assert!(
+        angle < 2.0,
+        "the map's heights run {angle}° off the sheet's normal"
+    );
+    let (median, tail) = map_misses(&entry, &out, false);
+    assert!(
+        median < 0.75 * spacing && tail < 1.5 * spacing,
+        "{median}, {tail}"
+    );
+    // The same run into a PNG: grey levels span the map's range, which the report gives.
+    let entry = quilt(&far, &dir.path("far.png"), &[]);
+    let range = &entry["png_range"];
+    let (a, b) = (range[0].as_f64().unwrap(), range[1].as_f64().unwrap());
+    assert!((a - f64::from(lo)).abs() < 1e-3 && (b - f64::from(hi)).abs() < 1e-3);
+    let grey = geosynth::imagery::read_heightfield(&dir.path("far.png")).unwrap();
+    let worst = grey
+        .heights()
+        .iter()
+        .zip(map.heights())
+        .map(|(&g, &m)| (a + f64::from(g) * (b - a) - f64::from(m)).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < (b - a) / 65535.0 + 1e-3, "{worst}");
+    assert_eq!(entry["clamped"], 0);
+    // Stood up as a Y-up tool writes it (up is y, the plane's axes z and x): the same
+    // quilt, so the same map, and the report's axes say where it lies.
+    let z_up = write_mapped("z_up.ply", &|v| v, DVec3::ZERO);
+    let y_up = write_mapped("y_up.ply", &|v| Vec3::new(v.y, v.z, v.x), DVec3::ZERO);
+    let entry = quilt(&z_up, &dir.path("z_up.f32le"), &[]);
+    let z_map = std::fs::read(entry["path"].as_str().unwrap()).unwrap();
+    let entry = quilt(&y_up, &dir.path("y_up.f32le"), &["--up", "y"]);
+    let y_map = std::fs::read(entry["path"].as_str().unwrap()).unwrap();
+    assert!(z_map == y_map, "a Y-up exemplar gives another map");
+    let axes = ["columns_axis", "rows_axis", "up_axis"].map(|k| json_vector(&entry[k]));
+    assert_eq!(axes, [DVec3::Z, DVec3::X, DVec3::Y]);
+    // A grid spacing of one's own choosing.
+    let entry = quilt(&z_up, &dir.path("coarse.f32le"), &["--map-spacing", "0.25"]);
+    assert_eq!(entry["spacing"], 0.25);
+    assert!((w as f64 * spacing / 0.25 - entry["width"].as_f64().unwrap()).abs() < 2.0);
+    // A spacing that is no length, or without a map to set: errors before the quilt.
+    let unwritten = dir.path("unwritten.ply");
+    for (extra, message) in [
+        (
+            &["--heightfield-out", "m.f32le", "--map-spacing=-1"][..],
+            "map spacing",
+        ),
+        (&["--map-spacing", "0.25"][..], "--heightfield-out"),
+    ] {
+        let mut args = vec![
+            "quilt",
+            z_up.to_str().unwrap(),
+            "-o",
+            unwritten.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let bad = geosynth(&args);
+        assert!(!bad.status.success(), "{extra:?}");
+        let stderr = String::from_utf8_lossy(&bad.stderr);
+        assert!(stderr.contains(message), "{extra:?}: {stderr}");
+        assert!(!unwritten.exists());
     }
 }
 

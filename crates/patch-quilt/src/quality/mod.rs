@@ -15,7 +15,7 @@ use distance_field::GridSpec;
 use glam::{Vec2, Vec3};
 use mls_surface::MlsSurface;
 use pointset_core::rng::{self, SeededRng};
-use pointset_core::{KdIndex, PointSet, RunContext};
+use pointset_core::{KdIndex, RunContext};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -283,23 +283,12 @@ impl<'t> QualityMeasure<'t> {
     fn output_field(&self, output: &QuiltOutput) -> Result<OutputField> {
         let (ex, w) = (&self.ex, self.exemplar_windows.width());
         let up = self.texture.up();
-        let points: Vec<Vec3> = output
-            .points
-            .positions()
-            .iter()
-            .map(|&p| up.to_canonical(p))
-            .collect();
-        let normals: Vec<Vec3> = output
-            .points
-            .normals()
-            .map(|n| n.iter().map(|&v| up.to_canonical(v)).collect())
-            .unwrap_or_default();
-        let set = PointSet::new(points.clone())?.with_normals(normals)?;
-        let surface = MlsSurface::new(&set, &texture_mls_params().kernel(ex.surface.kernel()))?;
-        let (a, b) = (
-            up.to_canonical(output.bounds.min).truncate(),
-            up.to_canonical(output.bounds.max).truncate(),
+        let (set, bounds) = (
+            up.canonical_points(&output.points)?,
+            up.canonical_box(&output.bounds),
         );
+        let surface = MlsSurface::new(&set, &texture_mls_params().kernel(ex.surface.kernel()))?;
+        let (a, b) = (bounds.min.truncate(), bounds.max.truncate());
         let (lo, hi) = (a.min(b), a.max(b));
         let s = ex.geometry.spacing;
         let dims = [
@@ -324,7 +313,7 @@ impl<'t> QualityMeasure<'t> {
             ));
         }
         Ok(OutputField {
-            points,
+            points: set.positions().to_vec(),
             field,
             dims,
             lo,
