@@ -225,13 +225,14 @@ pub struct QuiltArgs {
     /// straight down. A raw file keeps every height and gets `_WxH` in its name. With
     /// `--heightfield`, on the input's sample spacing and in its height units, a PNG's
     /// grey levels 0..1 as the input's were read (beyond that clamped). From a point set,
-    /// on a grid of its median point spacing (or `--map-spacing`), heights in the file's
-    /// length units along the up axis, a PNG's grey levels spanning the map's own range;
+    /// on a grid as dense as its points (or `--map-spacing`), heights in the file's
+    /// coordinates along the up axis, a PNG's grey levels spanning the map's own range;
     /// the report says where the grid lies in the file and what the grey levels mean.
     #[arg(long, value_name = "MAP")]
     heightfield_out: Option<PathBuf>,
     /// The grid spacing of a point-set exemplar's `--heightfield-out` map, in the file's
-    /// length units (default: the exemplar's median point spacing).
+    /// length units (default: one over the square root of its points per unit area, the
+    /// spacing of a grid with as many samples).
     #[arg(long, value_name = "S")]
     map_spacing: Option<f32>,
     /// Skip the quality measure: it builds distance fields of the exemplar and of every

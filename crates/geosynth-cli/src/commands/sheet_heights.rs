@@ -30,7 +30,8 @@ pub struct MapPlacement {
 
 impl MapPlacement {
     /// The placement of a height map of a quilt of the point-set exemplar `file`, on a
-    /// grid `spacing` apart (the exemplar's median point spacing without one).
+    /// grid `spacing` apart (without one, a grid with as many samples as the exemplar
+    /// has points: [`HeightFieldFrame::of_points`]).
     pub fn of_points(file: &TextureFile, spacing: Option<f32>) -> CliResult<Self> {
         Ok(Self {
             frame: HeightFieldFrame::of_points(&file.texture, spacing)?,
