@@ -1481,6 +1481,74 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
 }
 
 #[test]
+fn a_height_fields_points_quilt_to_its_own_map_in_world_units() {
+    use geosynth::core::io::{Geometry, WriteOptions, write_geometry};
+    use geosynth::quilt::{read_heightfield_texture_framed, texture_comments};
+    let dir = Scratch::new();
+    // Bumps 12..20 units high, and the same samples as a point set whose comments give
+    // the texture's box: one texture, read two ways.
+    let hf = dir.path("bumps_56x44.f32le");
+    let heights: Vec<u8> = (0..56 * 44)
+        .flat_map(|i| {
+            let (c, r) = ((i % 56) as f32, (i / 56) as f32);
+            (16.0 + 4.0 * (0.45 * c).sin() * (0.3 * r).cos()).to_le_bytes()
+        })
+        .collect();
+    std::fs::write(&hf, heights).unwrap();
+    let (texture, frame) = read_heightfield_texture_framed(&hf, 0.1).unwrap();
+    let ply = dir.path("bumps.ply");
+    let mut options = WriteOptions::default();
+    for line in texture_comments(&texture.canonical_bounds(), texture.up()) {
+        options = options.comment(line);
+    }
+    let points = Geometry::Points(texture.canonical_points().clone());
+    write_geometry(&ply, &points, &options).unwrap();
+    let out = dir.path("out.ply");
+    let quilt = |input: &[&str], map: &Path| {
+        let mut args = input.to_vec();
+        let (out, map) = (arg(&out), arg(map));
+        args.extend(["-o", &out, "--resolution", "20", "--no-quality"]);
+        args.extend(["--heightfield-out", &map]);
+        ok(&args);
+        std::fs::read(&out).unwrap()
+    };
+    let from_field = quilt(
+        &["quilt", "--heightfield", &arg(&hf)],
+        &dir.path("field.f32le"),
+    );
+    let spacing = frame.spacing.to_string();
+    let point_args = ["quilt", &arg(&ply), "--map-spacing", &spacing];
+    let from_points = quilt(&point_args, &dir.path("points.f32le"));
+    assert!(from_field == from_points, "the two readings quilt alike");
+    // The same output sampled on the same grid: the field's map in file units, the
+    // points' in world units, `scale` times as large.
+    let maps = ["field", "points"].map(|name| {
+        let found = std::fs::read_dir(dir.0.path())
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .find(|p| {
+                let file = p.file_name().unwrap().to_str().unwrap();
+                file.starts_with(name) && file.ends_with(".f32le")
+            })
+            .unwrap();
+        geosynth::imagery::read_heightfield(&found).unwrap()
+    });
+    let [field, points] = &maps;
+    assert_eq!(
+        (field.width(), field.height()),
+        (points.width(), points.height())
+    );
+    let worst = field
+        .heights()
+        .iter()
+        .zip(points.heights())
+        .map(|(f, p)| (f * frame.scale - p).abs())
+        .fold(0.0, f32::max);
+    let (lo, hi) = points.range();
+    assert!(worst <= 1e-5 * (hi - lo), "{worst} of {lo}..{hi}");
+}
+
+#[test]
 fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     use geosynth::core::PointSet;
     use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
