@@ -193,18 +193,19 @@ mod tests {
         let field = HeightField::new(2, 2, vec![1000.5, 1002.5, 1001.0, 1000.5]).unwrap();
         let unit = stretched(&field, field.range()).unwrap();
         assert_eq!(unit.heights(), &[0.0, 1.0, 0.25, 0.0]);
-        let flat = HeightField::new(2, 1, vec![7.0, 7.0]).unwrap();
-        assert_eq!(
-            stretched(&flat, flat.range()).unwrap().heights(),
-            &[0.0, 0.0]
-        );
+        let flat = HeightField::new(2, 2, vec![7.0; 4]).unwrap();
+        assert_eq!(stretched(&flat, flat.range()).unwrap().heights(), &[0.0; 4]);
     }
 
     #[test]
     fn offsets_are_added_in_double_precision() {
-        let field = HeightField::new(2, 1, vec![0.25, -1.5]).unwrap();
+        let field = HeightField::new(2, 2, vec![0.25, -1.5, 0.0, 1.0]).unwrap();
         let moved = offset_heights(&field, 4096.0).unwrap();
-        assert_eq!(moved.heights(), &[4096.25, 4094.5]);
+        assert_eq!(moved.heights(), &[4096.25, 4094.5, 4096.0, 4097.0]);
+        // 2²⁴ + 1 has no single-precision value: rounded first, then added, 1 more would
+        // give 2²⁴ (a tie, to even); added first, 2²⁴ + 2.
+        let far = offset_heights(&field, 16_777_217.0).unwrap();
+        assert_eq!(far.heights()[3], 16_777_218.0);
         assert_eq!(offset_heights(&field, 0.0).unwrap(), field);
     }
 }
