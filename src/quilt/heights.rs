@@ -75,6 +75,52 @@ impl HeightFieldFrame {
             up: texture.up(),
         })
     }
+
+    /// Samples along x and y of a map on this frame's grid over a footprint `extent`
+    /// wide (canonical x and y): one per `spacing` from the lower corner, the far side
+    /// included where it falls on the grid (to within a thousandth of a step). Run before
+    /// a quilt on [`GeometryTexture::output_extent`], it refuses a map
+    /// [`sample_heights`] would refuse after it.
+    ///
+    /// Errors: a spacing that is not positive, a scale that is zero or not finite, fewer
+    /// than 2 × 2 samples or more than [`MAX_HEIGHT_SAMPLES`].
+    ///
+    /// ```
+    /// use geosynth::quilt::{HeightFieldFrame, UpAxis};
+    /// use glam::Vec2;
+    ///
+    /// let frame = HeightFieldFrame { spacing: 0.1, scale: 1.0, up: UpAxis::Z };
+    /// assert_eq!(frame.map_size(Vec2::new(2.0, 1.05))?, (21, 11));
+    /// assert!(frame.map_size(Vec2::new(1e6, 1e6)).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn map_size(&self, extent: Vec2) -> Result<(usize, usize)> {
+        let HeightFieldFrame { spacing, scale, .. } = *self;
+        if !(spacing.is_finite() && spacing > 0.0 && scale.is_finite() && scale != 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "height field frame",
+                value: format!("spacing {spacing}, scale {scale}"),
+                expected: "a positive spacing and a non-zero finite scale".into(),
+            });
+        }
+        let steps = (extent / spacing + 1e-3).floor();
+        let too_many = |s: f32| !(s.is_finite() && s < MAX_HEIGHT_SAMPLES as f32);
+        if too_many(steps.x) || too_many(steps.y) {
+            return Err(too_large(steps));
+        }
+        let (cols, rows) = (steps.x as usize + 1, steps.y as usize + 1);
+        if cols < 2 || rows < 2 {
+            return Err(Error::InvalidParameter {
+                name: "height field size",
+                value: format!("{cols} × {rows}"),
+                expected: "a footprint of at least 2 × 2 samples".into(),
+            });
+        }
+        match cols.checked_mul(rows) {
+            Some(n) if n <= MAX_HEIGHT_SAMPLES => Ok((cols, rows)),
+            _ => Err(too_large(steps)),
+        }
+    }
 }
 
 /// A height field sampled from a sheet by [`sample_heights`], with how each sample was
@@ -193,7 +239,7 @@ pub fn sample_heights(
             up.canonical_box(bounds),
         ),
     };
-    let (cols, rows) = grid_size(&bounds, frame)?;
+    let (cols, rows) = frame.map_size(bounds.extent().truncate())?;
     let lo = bounds.min.truncate();
     let columns: Vec<Vec2> = (0..rows)
         .flat_map(|r| {
@@ -225,37 +271,6 @@ pub fn sample_heights(
         by_projection,
         filled,
     })
-}
-
-/// Samples along x and y of the grid of `frame` over `bounds`' footprint: one per
-/// `spacing` from the lower corner, the far side included where it falls on the grid
-/// (to within a thousandth of a step).
-fn grid_size(bounds: &Aabb, frame: HeightFieldFrame) -> Result<(usize, usize)> {
-    let HeightFieldFrame { spacing, scale, .. } = frame;
-    if !(spacing.is_finite() && spacing > 0.0 && scale.is_finite() && scale != 0.0) {
-        return Err(Error::InvalidParameter {
-            name: "height field frame",
-            value: format!("spacing {spacing}, scale {scale}"),
-            expected: "a positive spacing and a non-zero finite scale".into(),
-        });
-    }
-    let steps = (bounds.extent().truncate() / spacing + 1e-3).floor();
-    let too_many = |s: f32| !(s.is_finite() && s < MAX_HEIGHT_SAMPLES as f32);
-    if too_many(steps.x) || too_many(steps.y) {
-        return Err(too_large(steps));
-    }
-    let (cols, rows) = (steps.x as usize + 1, steps.y as usize + 1);
-    if cols < 2 || rows < 2 {
-        return Err(Error::InvalidParameter {
-            name: "height field size",
-            value: format!("{cols} × {rows}"),
-            expected: "a footprint of at least 2 × 2 samples".into(),
-        });
-    }
-    match cols.checked_mul(rows) {
-        Some(n) if n <= MAX_HEIGHT_SAMPLES => Ok((cols, rows)),
-        _ => Err(too_large(steps)),
-    }
 }
 
 /// The error for a grid of `steps + 1` samples along x and y, past [`MAX_HEIGHT_SAMPLES`].
@@ -386,18 +401,17 @@ mod tests {
             scale: 2.0,
             up: UpAxis::Z,
         };
-        let bounds = |w: f32, h: f32| Aabb::new(Vec3::ZERO, Vec3::new(w, h, 1.0));
-        assert_eq!(grid_size(&bounds(2.0, 1.0), frame).unwrap(), (21, 11));
-        assert_eq!(grid_size(&bounds(2.05, 1.0), frame).unwrap(), (21, 11));
-        assert!(grid_size(&bounds(0.05, 1.0), frame).is_err());
-        assert!(grid_size(&bounds(1e9, 1e9), frame).is_err());
+        assert_eq!(frame.map_size(Vec2::new(2.0, 1.0)).unwrap(), (21, 11));
+        assert_eq!(frame.map_size(Vec2::new(2.05, 1.0)).unwrap(), (21, 11));
+        assert!(frame.map_size(Vec2::new(0.05, 1.0)).is_err());
+        assert!(frame.map_size(Vec2::new(1e9, 1e9)).is_err());
         for (spacing, scale) in [(0.0, 1.0), (-0.1, 1.0), (f32::NAN, 1.0), (0.1, 0.0)] {
             let frame = HeightFieldFrame {
                 spacing,
                 scale,
                 up: UpAxis::Z,
             };
-            assert!(grid_size(&bounds(2.0, 1.0), frame).is_err());
+            assert!(frame.map_size(Vec2::new(2.0, 1.0)).is_err());
         }
     }
 

@@ -275,15 +275,38 @@ impl GeometryTexture {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn expected_output_points(&self, size: OutputSize) -> f64 {
-        let (lo, hi) = self.footprint();
-        let (w, h) = match size {
-            OutputSize::Absolute(w, h) => (f64::from(w), f64::from(h)),
-            OutputSize::Scale(s) => (f64::from((hi.x - lo.x) * s), f64::from((hi.y - lo.y) * s)),
-        };
+        let extent = self.output_extent(size);
+        let (w, h) = (f64::from(extent.x), f64::from(extent.y));
         if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
             return 0.0;
         }
         self.sample_density() * w * h
+    }
+
+    /// The footprint of a quilt of this texture at `size` on the reference plane (canonical
+    /// x and y): the box's footprint scaled, or the absolute size. The output box spans
+    /// it from the footprint's lower corner. Not checked: sizes that
+    /// [`QuiltParams::validate`](crate::QuiltParams::validate) refuses pass through.
+    ///
+    /// ```
+    /// use glam::Vec2;
+    /// use patch_quilt::{GeometryTexture, OutputSize};
+    /// use pointset_core::HeightField;
+    ///
+    /// let field = HeightField::new(40, 20, vec![0.0; 800])?;
+    /// let texture = GeometryTexture::from_heightfield(&field, 0.1, 1.0, 4)?;
+    /// // 31 × 11 spacings inside the padding.
+    /// let scaled = texture.output_extent(OutputSize::Scale(2.0));
+    /// assert!((scaled - Vec2::new(6.2, 2.2)).abs().max_element() < 1e-5);
+    /// assert_eq!(texture.output_extent(OutputSize::Absolute(5.0, 1.0)), Vec2::new(5.0, 1.0));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn output_extent(&self, size: OutputSize) -> Vec2 {
+        let (lo, hi) = self.footprint();
+        match size {
+            OutputSize::Absolute(w, h) => Vec2::new(w, h),
+            OutputSize::Scale(s) => (hi - lo) * s,
+        }
     }
 
     /// Samples per unit area of the reference plane: the points whose projection lies in

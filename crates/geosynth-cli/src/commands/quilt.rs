@@ -697,13 +697,17 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(path) = &args.exemplar {
         report_not_kept(globals, path, &file.notes);
     }
-    // Before the run: a spacing the map cannot take must not cost the quilt. A height
+    // Before the run: a map that cannot be written must not cost the quilt. A height
     // field is read at the origin, so the output's points are in its frame.
     let map_placement = match (&args.heightfield_out, heightfield_frame) {
         (None, _) => None,
         (Some(_), Some(frame)) => Some(MapPlacement { frame, file: None }),
         (Some(_), None) => Some(MapPlacement::of_points(&file, args.map_spacing)?),
     };
+    if let Some(placement) = &map_placement {
+        let extent = file.texture.output_extent(params.output);
+        placement.frame.map_size(extent)?;
+    }
     let texture = &file.texture;
     for note in [
         orientation_note(texture),

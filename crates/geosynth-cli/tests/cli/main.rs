@@ -1456,12 +1456,21 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
     let entry = quilt(&z_up, &dir.path("coarse.f32le"), &["--map-spacing", "0.25"]);
     assert_eq!(entry["spacing"], 0.25);
     assert!((w as f64 * spacing / 0.25 - entry["width"].as_f64().unwrap()).abs() < 2.0);
-    // A spacing that is no length, or without a map to set: errors before the quilt.
+    // A spacing that is no length, one that gives a map too large or too small to write,
+    // or one without a map to set: errors before the quilt.
     let unwritten = dir.path("unwritten.ply");
     for (extra, message) in [
         (
             &["--heightfield-out", "m.f32le", "--map-spacing=-1"][..],
             "map spacing",
+        ),
+        (
+            &["--heightfield-out", "m.f32le", "--map-spacing", "1e-4"][..],
+            "at most 67108864 samples",
+        ),
+        (
+            &["--heightfield-out", "m.f32le", "--map-spacing", "100"][..],
+            "at least 2 × 2 samples",
         ),
         (&["--map-spacing", "0.25"][..], "--heightfield-out"),
     ] {
