@@ -94,9 +94,11 @@ impl GeometryTexture {
     /// [`pointset_core::MAX_SPAN`], points that all coincide, a box with zero extent, no
     /// points inside it.
     pub fn new(points: &PointSet, bounds: Aabb, up: UpAxis) -> Result<Self> {
-        points.normals().ok_or_else(|| QuiltError::InvalidTexture {
-            reason: "the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into(),
-        })?;
+        if points.normals().is_none() {
+            return Err(QuiltError::InvalidTexture {
+                reason: "the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into(),
+            });
+        }
         if points.len() < 16 {
             return Err(QuiltError::InvalidTexture {
                 reason: format!("{} points are too few for a texture", points.len()),

@@ -92,10 +92,10 @@ pub fn write_sheet_heights(
     let grid = placement
         .file
         .map(|(origin, axes)| FileGrid::new(output, frame, origin, axes));
-    let mut field = sampled.field;
-    if let Some(grid) = grid {
-        field = offset_heights(&field, grid.offset)?;
-    }
+    let field = match grid {
+        Some(grid) => offset_heights(sampled.field, grid.offset)?,
+        None => sampled.field,
+    };
     let png_range = (grid.is_some() && !is_raw_heightfield_path(path)).then(|| field.range());
     let written = match png_range {
         Some(range) => write_heightfield(path, &stretched(&field, range)?)?,
@@ -152,9 +152,9 @@ pub fn write_sheet_heights(
 
 /// `field` with `offset` added to every height (in double precision, so a georeferenced
 /// height keeps what `f32` can hold of it).
-fn offset_heights(field: &HeightField, offset: f64) -> CliResult<HeightField> {
+fn offset_heights(field: HeightField, offset: f64) -> CliResult<HeightField> {
     if offset == 0.0 {
-        return Ok(field.clone());
+        return Ok(field);
     }
     let heights = field
         .heights()
@@ -200,12 +200,12 @@ mod tests {
     #[test]
     fn offsets_are_added_in_double_precision() {
         let field = HeightField::new(2, 2, vec![0.25, -1.5, 0.0, 1.0]).unwrap();
-        let moved = offset_heights(&field, 4096.0).unwrap();
+        let moved = offset_heights(field.clone(), 4096.0).unwrap();
         assert_eq!(moved.heights(), &[4096.25, 4094.5, 4096.0, 4097.0]);
         // 2²⁴ + 1 has no single-precision value: rounded first, then added, 1 more would
         // give 2²⁴ (a tie, to even); added first, 2²⁴ + 2.
-        let far = offset_heights(&field, 16_777_217.0).unwrap();
+        let far = offset_heights(field.clone(), 16_777_217.0).unwrap();
         assert_eq!(far.heights()[3], 16_777_218.0);
-        assert_eq!(offset_heights(&field, 0.0).unwrap(), field);
+        assert_eq!(offset_heights(field.clone(), 0.0).unwrap(), field);
     }
 }
