@@ -105,8 +105,9 @@ pub fn write_sheet_heights(
     let (width, height) = (field.width(), field.height());
     let mut notes = Vec::new();
     if sampled.filled > 0 {
+        let share = 100.0 * sampled.filled as f64 / (width * height) as f64;
         notes.push(format!(
-            "{} over holes filled from the heights around them",
+            "{} ({share:.1}%) over holes filled from the heights around them",
             sampled.filled
         ));
     }
