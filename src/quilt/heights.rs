@@ -195,10 +195,10 @@ impl Stage for SampleHeights {
 /// whose up axis is `frame.up`, as a quilt outputs them) as a height field over the
 /// footprint of `bounds`, on the grid of `frame` starting at `bounds`' lower corner in the
 /// canonical frame, with heights divided by `frame.scale` ([`MlsSurface::top_heights`] on
-/// the points' MLS surface with the default parameters). Samples over holes are filled from those around
-/// them: the smooth (harmonic) surface their heights bound, the way height maps are
-/// commonly inpainted. Across a gap that a warp opened at a cliff, that is a ramp from the
-/// cliff's foot to its top.
+/// the points' MLS surface with the default parameters). Samples over holes are filled
+/// from those around them: the smooth (harmonic) surface their heights bound, the way
+/// height maps are commonly inpainted. Across a gap that a warp opened at a cliff, that is
+/// a ramp from the cliff's foot to its top.
 ///
 /// Errors: a frame whose spacing is not positive or whose scale is zero or not finite, a
 /// footprint with fewer than 2 × 2 samples or more than [`MAX_HEIGHT_SAMPLES`], points
