@@ -220,7 +220,8 @@ impl Stage for SampleHeights {
 /// let n = Vec3::new(-0.1, 0.0, 1.0).normalize();
 /// let points = PointSet::new(p)?.with_normals(vec![n; 1600])?;
 /// let bounds = Aabb::new(Vec3::new(1.0, 1.0, 0.0), Vec3::new(3.0, 2.0, 0.4));
-/// let sampled = sample_heights(&points, &bounds, HeightFieldFrame { spacing: 0.1, scale: 0.1, up: UpAxis::Z })?;
+/// let frame = HeightFieldFrame { spacing: 0.1, scale: 0.1, up: UpAxis::Z };
+/// let sampled = sample_heights(&points, &bounds, frame)?;
 /// assert_eq!((sampled.field.width(), sampled.field.height()), (21, 11));
 /// // Column c lies at x = 1 + 0.1 c, where the ramp is 1 + 0.1 c units high.
 /// let h = sampled.field.get(5, 0).ok_or("no sample")?;
@@ -447,6 +448,25 @@ mod tests {
             sampled.by_ray + sampled.by_projection + sampled.filled,
             81 * 81
         );
+        // The same sheet stood up as an X-up texture holds it in world coordinates
+        // (canonical x, y, z are world y, z, x): the same map.
+        let stood = |v: &Vec3| Vec3::new(v.z, v.x, v.y);
+        let standing = PointSet::new(points.positions().iter().map(stood).collect())
+            .unwrap()
+            .with_normals(vec![Vec3::X; count])
+            .unwrap();
+        let standing_box = Aabb::new(stood(&bounds.min), stood(&bounds.max));
+        let up_x = HeightFieldFrame {
+            up: UpAxis::X,
+            ..frame
+        };
+        assert_eq!(
+            sample_heights(&standing, &standing_box, up_x).unwrap(),
+            sampled
+        );
+        // Read with the wrong up axis it is a wall, not a map of this sheet.
+        let wrong = sample_heights(&standing, &standing_box, frame);
+        assert!(wrong.map_or(true, |w| w != sampled));
     }
 
     /// The texture read from the height field file at `path` sampled back over its own
