@@ -10,7 +10,11 @@
    and detached headers) into DIR/foreign, and checks that `geosynth info --json` reads
    the same counts, box, attributes and value range;
 3. reads the demo's 16-bit height maps with Pillow and has `geosynth info --json` read a
-   16-bit grey PNG Pillow wrote, comparing mode, size and channels.
+   16-bit grey PNG Pillow wrote, comparing mode, size and channels;
+4. quilts the bumpy fixture with `--heightfield-out` into a PNG and a raw map, reads them
+   with Pillow and numpy and the output with plyfile, and checks that the PNG's grey
+   levels give the raw heights through the report's `png_range` and that the samples,
+   placed by the report's grid, lie on the output's points.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -185,5 +189,39 @@ Image.fromarray(ramp).save(theirs)
 ok, note = check_height_map(theirs, (53, 37))
 bad += not ok
 print(('ok  ' if ok else 'BAD ') + str(theirs.relative_to(root)) + ': ' + note)
+# 4. A point-set quilt's height map: its PNG read by Pillow and its raw twin by numpy agree
+#    through the report's `png_range`, and its samples, placed by the report's grid, lie
+#    on the quilt's points as plyfile reads them.
+fixture = pathlib.Path(__file__).resolve().parent.parent / 'fixtures' / 'quilt_bumpy.ply'
+mapped = root / 'pointmap'
+mapped.mkdir(exist_ok=True)
+entries = {}
+for name in ['map.png', 'map.f32le']:
+    subprocess.run([G, 'quilt', str(fixture), '-o', str(mapped / 'out.ply'), '--scale', '1.2',
+                    '--resolution', '24', '--no-quality', '-q', '--heightfield-out',
+                    str(mapped / name), '--report', str(mapped / 'report.json')], check=True)
+    entries[name] = json.loads((mapped / 'report.json').read_text())['heightfield_out']
+png, raw = entries['map.png'], entries['map.f32le']
+w, h = raw['width'], raw['height']
+heights = np.fromfile(raw['path'], dtype='<f4').reshape(h, w)
+with Image.open(png['path']) as image:
+    mode, levels = image.mode, np.asarray(image).astype(np.float64) / 65535.0
+lo, hi = png['png_range']
+from_png = lo + levels * (hi - lo)
+vertex = plyfile.PlyData.read(str(mapped / 'out.ply'))['vertex']
+points = np.stack([vertex['x'], vertex['y'], vertex['z']], axis=1).astype(np.float64)
+rows, cols = np.divmod(np.arange(w * h)[::37], w)
+placed = (np.array(raw['lower_corner'])
+          + raw['spacing'] * (cols[:, None] * np.array(raw['columns_axis'])
+                              + (h - 1 - rows)[:, None] * np.array(raw['rows_axis']))
+          + heights[rows, cols][:, None] * np.array(raw['up_axis']))
+nearest = np.sqrt(((placed[:, None, :] - points[None, :, :]) ** 2).sum(-1).min(1))
+ok = (mode.startswith('I;16') and levels.shape == (h, w)
+      and np.abs(from_png - heights).max() <= (hi - lo) / 65535 + 1e-5
+      and np.median(nearest) < 0.75 * raw['spacing'])
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"pointmap/map.png: Pillow {mode} {w}x{h}, grey to height "
+      f"within {np.abs(from_png - heights).max():.2g}, samples {np.median(nearest):.3g} "
+      f"from the points (median; spacing {raw['spacing']:.3g})")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)
