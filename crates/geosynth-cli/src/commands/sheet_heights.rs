@@ -157,28 +157,22 @@ fn offset_heights(field: HeightField, offset: f64) -> CliResult<HeightField> {
     if offset == 0.0 {
         return Ok(field);
     }
-    let heights = field
-        .heights()
-        .iter()
-        .map(|&h| (f64::from(h) + offset) as f32)
-        .collect();
-    Ok(HeightField::new(field.width(), field.height(), heights)?)
+    mapped_heights(&field, |h| h + offset)
 }
 
 /// `field` mapped linearly from `lo..hi` onto `0..1` (a flat field onto 0), the way a
 /// PNG's grey levels hold it.
 fn stretched(field: &HeightField, (lo, hi): (f32, f32)) -> CliResult<HeightField> {
-    let span = f64::from(hi) - f64::from(lo);
+    let (lo, span) = (f64::from(lo), f64::from(hi) - f64::from(lo));
+    mapped_heights(field, |h| if span > 0.0 { (h - lo) / span } else { 0.0 })
+}
+
+/// `field` with every height `h` replaced by `map(h)`, computed in double precision.
+fn mapped_heights(field: &HeightField, map: impl Fn(f64) -> f64) -> CliResult<HeightField> {
     let heights = field
         .heights()
         .iter()
-        .map(|&h| {
-            if span > 0.0 {
-                ((f64::from(h) - f64::from(lo)) / span) as f32
-            } else {
-                0.0
-            }
-        })
+        .map(|&h| map(f64::from(h)) as f32)
         .collect();
     Ok(HeightField::new(field.width(), field.height(), heights)?)
 }
