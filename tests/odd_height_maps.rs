@@ -65,8 +65,9 @@ fn case() -> impl Strategy<Value = Case> {
         1 => Just(Layout::Line),
     ];
     let up = prop_oneof![Just(UpAxis::X), Just(UpAxis::Y), Just(UpAxis::Z)];
+    let power_of_ten = |e: f32| 10f32.powf(e);
     let spacing = prop_oneof![
-        6 => (-1.0f32..1.5).prop_map(|e| Spacing::Relative(10f32.powf(e))),
+        6 => (-1.0f32..1.5).prop_map(move |e| Spacing::Relative(power_of_ten(e))),
         1 => prop_oneof![
             Just(0.0f32),
             Just(-0.1),
@@ -78,39 +79,25 @@ fn case() -> impl Strategy<Value = Case> {
     ];
     let scale = prop_oneof![
         4 => Just(1.0f32),
-        2 => (-2.0f32..2.0).prop_map(|e| 10f32.powf(e)),
+        2 => (-2.0f32..2.0).prop_map(power_of_ten),
         1 => prop_oneof![Just(-2.0f32), Just(0.0), Just(f32::NAN)],
     ];
+    let size = (-2.0f32..2.0).prop_map(power_of_ten);
+    let offset = prop_oneof![Just(0.0f32), (-1.0f32..4.0).prop_map(power_of_ten)];
     (
-        (
-            layout,
-            1usize..600,
-            -2.0f32..2.0,
-            prop_oneof![Just(0.0f32), -1.0f32..4.0],
-        ),
-        (
-            any::<bool>(),
-            up,
-            spacing,
-            scale,
-            any::<bool>(),
-            any::<u64>(),
-        ),
+        (layout, 1usize..600, size, offset, any::<bool>()),
+        (up, spacing, scale, any::<bool>(), any::<u64>()),
     )
         .prop_map(
             |(
-                (layout, samples, size, offset),
-                (unoriented, up, spacing, scale, wide_box, seed),
+                (layout, samples, size, offset, unoriented),
+                (up, spacing, scale, wide_box, seed),
             )| {
                 Case {
                     layout,
                     samples,
-                    size: 10f32.powf(size),
-                    offset: if offset == 0.0 {
-                        0.0
-                    } else {
-                        10f32.powf(offset)
-                    },
+                    size,
+                    offset,
                     unoriented,
                     up,
                     spacing,
