@@ -41,18 +41,18 @@ impl MapPlacement {
 }
 
 /// Where a point-set quilt's map lies in the file: sample `(c, r)` with height `h` is at
-/// `lower_corner + spacing·(c·columns + (rows − 1 − r)·rows_axis) + h·up`.
+/// `lower_corner + spacing·(c·columns_axis + (rows − 1 − r)·rows_axis) + h·up_axis`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct FileGrid {
     /// File coordinates of the bottom row's first sample at height 0.
     lower_corner: DVec3,
     /// Along the columns (file directions, unit length).
-    columns: DVec3,
+    columns_axis: DVec3,
     /// Along the rows, bottom to top.
     rows_axis: DVec3,
     /// The direction heights grow in.
-    up: DVec3,
-    /// Added to every height: the origin's coordinate along `up`.
+    up_axis: DVec3,
+    /// Added to every height: the origin's coordinate along `up_axis`.
     offset: f64,
 }
 
@@ -60,16 +60,16 @@ impl FileGrid {
     /// The grid of a map over `output`'s box in the texture frame `frame`, whose origin
     /// and axes in the file are `origin` and `axes`.
     fn new(output: &QuiltOutput, frame: HeightFieldFrame, origin: DVec3, axes: DMat3) -> Self {
-        let up_axis = frame.up;
-        let lo = up_axis.canonical_box(&output.bounds).min;
-        let world = |v: Vec3| axes * up_axis.to_world(v).as_dvec3();
-        let up = world(Vec3::Z);
-        let offset = origin.dot(up);
+        let texture_up = frame.up;
+        let lo = texture_up.canonical_box(&output.bounds).min;
+        let in_file = |v: Vec3| axes * texture_up.to_world(v).as_dvec3();
+        let up_axis = in_file(Vec3::Z);
+        let offset = origin.dot(up_axis);
         Self {
-            lower_corner: origin - offset * up + world(Vec3::new(lo.x, lo.y, 0.0)),
-            columns: world(Vec3::X),
-            rows_axis: world(Vec3::Y),
-            up,
+            lower_corner: origin - offset * up_axis + in_file(Vec3::new(lo.x, lo.y, 0.0)),
+            columns_axis: in_file(Vec3::X),
+            rows_axis: in_file(Vec3::Y),
+            up_axis,
             offset,
         }
     }
@@ -144,9 +144,9 @@ pub fn write_sheet_heights(
         "seconds": seconds,
         "spacing": grid.map(|_| frame.spacing),
         "lower_corner": grid.map(|g| vector(g.lower_corner)),
-        "columns_axis": grid.map(|g| vector(g.columns)),
+        "columns_axis": grid.map(|g| vector(g.columns_axis)),
         "rows_axis": grid.map(|g| vector(g.rows_axis)),
-        "up_axis": grid.map(|g| vector(g.up)),
+        "up_axis": grid.map(|g| vector(g.up_axis)),
         "png_range": png_range.map(|(lo, hi)| [lo, hi]),
     }))
 }
