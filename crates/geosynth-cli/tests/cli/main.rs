@@ -27,6 +27,14 @@ fn ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// Runs `geosynth` with `args`, which it must refuse with `message` in its error.
+fn refused(args: &[&str], message: &str) {
+    let bad = geosynth(args);
+    assert!(!bad.status.success(), "{args:?}");
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(stderr.contains(message), "{args:?}: {stderr}");
+}
+
 /// Writes `geometry` to `path` with the default options (the format from the extension).
 fn write_with_defaults(path: &Path, geometry: &geosynth::core::io::Geometry) {
     geosynth::core::io::write_geometry(
@@ -1183,10 +1191,7 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
             out.to_str().unwrap(),
         ];
         args.extend_from_slice(extra);
-        let bad = geosynth(&args);
-        assert!(!bad.status.success(), "{extra:?}");
-        let stderr = String::from_utf8_lossy(&bad.stderr);
-        assert!(stderr.contains(message), "{extra:?}: {stderr}");
+        refused(&args, message);
     }
 }
 
@@ -1279,10 +1284,7 @@ fn quilt_writes_a_height_field_back_as_one() {
             ".f32le",
         ),
     ] {
-        let bad = geosynth(&args);
-        assert!(!bad.status.success(), "{args:?}");
-        let stderr = String::from_utf8_lossy(&bad.stderr);
-        assert!(stderr.contains(message), "{args:?}: {stderr}");
+        refused(&args, message);
         assert!(!point_set.exists());
     }
 }
@@ -1481,10 +1483,7 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
             unwritten.to_str().unwrap(),
         ];
         args.extend_from_slice(extra);
-        let bad = geosynth(&args);
-        assert!(!bad.status.success(), "{extra:?}");
-        let stderr = String::from_utf8_lossy(&bad.stderr);
-        assert!(stderr.contains(message), "{extra:?}: {stderr}");
+        refused(&args, message);
         assert!(!unwritten.exists());
     }
 }
