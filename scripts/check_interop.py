@@ -14,12 +14,15 @@
 4. quilts the bumpy fixture with `--heightfield-out` into a PNG and a raw map, reads them
    with Pillow and numpy and the output with plyfile, and checks that the PNG's grey
    levels give the raw heights through the report's `png_range` and that the samples,
-   placed by the report's grid, lie on the output's points.
+   placed by the report's grid, lie on the output's points;
+5. opens the same two maps with GDAL (through rasterio), which finds them through their
+   sidecars alone (the raw map's ENVI header, the PNG's world file and aux.xml), and
+   checks the size, the grid against the report's and the heights against the raw file.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
 
-    pip install --user plyfile trimesh pynrrd pillow
+    pip install --user plyfile trimesh pynrrd pillow rasterio
     geosynth demo --quick --out /tmp/demo
     python3 scripts/check_interop.py target/release/geosynth /tmp/demo
 
@@ -28,7 +31,7 @@ Measured 2026-12-03 (plyfile 1.1.5, trimesh 5.2.0, pynrrd 1.1.3): 0 mismatches o
 our files (42 of them STL) and 40 of theirs (2 STL, 3 int64 NRRD, 3 detached NRRD).
 """
 import json, subprocess, sys, pathlib
-import numpy as np, plyfile, trimesh, nrrd
+import numpy as np, plyfile, trimesh, nrrd, rasterio
 from PIL import Image
 
 G = sys.argv[1]
@@ -223,5 +226,23 @@ bad += not ok
 print(('ok  ' if ok else 'BAD ') + f"pointmap/map.png: Pillow {mode} {w}x{h}, grey to height "
       f"within {np.abs(from_png - heights).max():.2g}, samples {np.median(nearest):.3g} "
       f"from the points (median; spacing {raw['spacing']:.3g})")
+# 5. GDAL reads both maps through their sidecars: its transform puts the top-left sample's
+#    centre half a pixel in from the corner, where the report's grid puts it.
+spacing = raw['spacing']
+top_left = np.array(raw['lower_corner'][:2]) + [0.0, spacing * (h - 1)]
+for name, entry in entries.items():
+    with rasterio.open(entry['path']) as dataset:
+        driver, shape, transform = dataset.driver, dataset.shape, dataset.transform
+        values = dataset.read(1).astype(np.float64) * dataset.scales[0] + dataset.offsets[0]
+    step = [transform.a, transform.b, transform.d, transform.e]
+    centre = np.array(transform * (0.5, 0.5))
+    worst = np.abs(values - heights).max()
+    tolerance = 0.0 if name.endswith('.f32le') else (hi - lo) / 65535 + 1e-5
+    ok = (shape == (h, w) and np.allclose(step, [spacing, 0, 0, -spacing], atol=1e-9)
+          and np.allclose(centre, top_left, atol=1e-9) and worst <= tolerance)
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + f"pointmap/{name}: GDAL {driver} {shape[1]}x{shape[0]}, "
+          f"top-left centre {centre.round(6).tolist()} (report {top_left.round(6).tolist()}), "
+          f"heights within {worst:.2g}")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

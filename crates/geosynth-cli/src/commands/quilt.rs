@@ -228,6 +228,9 @@ pub struct QuiltArgs {
     /// on a grid as dense as its points (or `--map-spacing`), heights in the file's
     /// coordinates along the up axis, a PNG's grey levels spanning the map's own range;
     /// the report says where the grid lies in the file and what the grey levels mean.
+    /// Beside it, for GDAL and QGIS: a raw map's ENVI header (MAP.f32le.hdr); a point
+    /// set's PNG's grey scale (MAP.png.aux.xml); and where the grid runs along x and y
+    /// with z up (`--up z`), its place in the file (the header's map info, MAP.pgw).
     #[arg(long, value_name = "MAP")]
     heightfield_out: Option<PathBuf>,
     /// The grid spacing of a point-set exemplar's `--heightfield-out` map, in the file's

@@ -1,7 +1,8 @@
 //! `geosynth quilt --heightfield-out`: a quilted sheet written as a height map. A quilted
 //! height field goes back on the input's grid spacing and in its height units; a quilted
 //! point set on a grid of its own spacing (or `--map-spacing`), with heights in the file's
-//! length units and the map's place in the file's coordinates in the report.
+//! length units and the map's place in the file's coordinates in the report. Files for
+//! GIS tools go beside the map ([`super::map_sidecars`]).
 
 use std::path::Path;
 use std::time::Instant;
@@ -12,6 +13,7 @@ use geosynth::quilt::{HeightFieldFrame, QuiltOutput, TextureFile, sample_heights
 use glam::{DMat3, DVec3, Vec3};
 use serde_json::{Value, json};
 
+use super::map_sidecars::{MapDescription, PlanPlacement, write_map_sidecars};
 use crate::output::{spinner, status};
 use crate::{CliResult, Globals};
 
@@ -96,13 +98,24 @@ pub fn write_sheet_heights(
         Some(grid) => offset_heights(sampled.field, grid.offset)?,
         None => sampled.field,
     };
-    let png_range = (grid.is_some() && !is_raw_heightfield_path(path)).then(|| field.range());
+    let raw = is_raw_heightfield_path(path);
+    let png_range = (grid.is_some() && !raw).then(|| field.range());
     let written = match png_range {
         Some(range) => write_heightfield(path, &stretched(&field, range)?)?,
         None => write_heightfield(path, &field)?,
     };
-    let seconds = start.elapsed().as_secs_f64();
     let (width, height) = (field.width(), field.height());
+    let description = MapDescription {
+        width,
+        height,
+        placement: grid.and_then(|g| {
+            let axes = [g.columns_axis, g.rows_axis, g.up_axis];
+            PlanPlacement::of_grid(g.lower_corner, axes, f64::from(frame.spacing), height)
+        }),
+        grey_range: png_range,
+    };
+    let sidecars = write_map_sidecars(&written.path, raw, &description)?;
+    let seconds = start.elapsed().as_secs_f64();
     let mut notes = Vec::new();
     if sampled.filled > 0 {
         let share = 100.0 * sampled.filled as f64 / (width * height) as f64;
@@ -119,6 +132,14 @@ pub fn write_sheet_heights(
     }
     if let Some((lo, hi)) = png_range {
         notes.push(format!("grey 0..65535 is height {lo}..{hi}"));
+    }
+    if !sidecars.is_empty() {
+        let names: Vec<_> = sidecars
+            .iter()
+            .filter_map(|p| p.file_name())
+            .map(|n| n.to_string_lossy())
+            .collect();
+        notes.push(format!("GIS sidecars {}", names.join(", ")));
     }
     let notes = if notes.is_empty() {
         String::new()
@@ -148,6 +169,8 @@ pub fn write_sheet_heights(
         "rows_axis": grid.map(|g| vector(g.rows_axis)),
         "up_axis": grid.map(|g| vector(g.up_axis)),
         "png_range": png_range.map(|(lo, hi)| [lo, hi]),
+        "georeferenced": description.placement.is_some(),
+        "sidecars": sidecars.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
     }))
 }
 

@@ -1331,6 +1331,39 @@ fn map_misses(entry: &serde_json::Value, output: &Path, upside_down: bool) -> (f
     (misses[misses.len() / 2], misses[misses.len() * 9 / 10])
 }
 
+/// The text of the `index`th sidecar file a report's height map `entry` lists, after
+/// checking that its name is the map's with `suffix` in place of the extension.
+fn sidecar_text(entry: &serde_json::Value, index: usize, suffix: &str) -> String {
+    let map = Path::new(entry["path"].as_str().unwrap());
+    let path = entry["sidecars"][index].as_str().unwrap();
+    assert_eq!(
+        Path::new(path),
+        map.with_extension("").with_extension(&suffix[1..])
+    );
+    std::fs::read_to_string(path).unwrap()
+}
+
+/// The numbers in `text`, split at `separator`.
+fn numbers(text: &str, separator: char) -> Vec<f64> {
+    text.split(separator)
+        .filter(|t| !t.trim().is_empty())
+        .map(|t| t.trim().parse().unwrap())
+        .collect()
+}
+
+/// Asserts that `got` equals `expected` to within `tolerance` (the report writes
+/// single-precision numbers as their shortest decimals, the sidecars their exact values).
+fn assert_close(got: &[f64], expected: &[f64], tolerance: f64) {
+    assert!(
+        got.len() == expected.len()
+            && got
+                .iter()
+                .zip(expected)
+                .all(|(g, e)| (g - e).abs() <= tolerance),
+        "{got:?} against {expected:?}"
+    );
+}
+
 /// The report's `heightfield_out` entry of a quilt run.
 fn height_map_entry(report: &Path) -> serde_json::Value {
     let r: serde_json::Value =
@@ -1413,6 +1446,21 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
     );
     let (_, flipped_tail) = map_misses(&entry, &out, true);
     assert!(flipped_tail > 2.0 * spacing, "{flipped_tail}");
+    // Its ENVI header gives GIS tools the raw file's layout and, ENVI's pixel (1.5, 1.5)
+    // being the top-left sample's centre, the report's grid.
+    let corner = json_vector(&entry["lower_corner"]);
+    let top_left = [corner.x, corner.y + spacing * (h - 1) as f64];
+    let header = sidecar_text(&entry, 0, ".f32le.hdr");
+    for line in [format!("samples = {w}"), format!("lines = {h}")] {
+        assert!(header.lines().any(|l| l == line), "{line} in {header}");
+    }
+    let map_info = header
+        .lines()
+        .find_map(|l| l.strip_prefix("map info = {Arbitrary, 1.5, 1.5, "))
+        .unwrap();
+    let placed = numbers(map_info.trim_end_matches('}'), ',');
+    let expected = [top_left[0], top_left[1], spacing, spacing];
+    assert_close(&placed, &expected, 1e-6);
     // Tilted by 35° about (1, 1, 0) and moved: quilted in its fitted plane (`--up auto`),
     // mapped along that plane's normal, and placed back where its points are.
     let turn = glam::Quat::from_axis_angle(Vec3::new(1.0, 1.0, 0.0).normalize(), 0.61);
@@ -1429,6 +1477,9 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
         median < 0.75 * spacing && tail < 1.5 * spacing,
         "{median}, {tail}"
     );
+    // A tilted grid has no place in the file's x–y plane: its header says only the layout.
+    assert_eq!(entry["georeferenced"], false);
+    assert!(!sidecar_text(&entry, 0, ".f32le.hdr").contains("map info"));
     // The same run into a PNG: grey levels span the map's range, which the report gives.
     let entry = quilt(&far, &dir.path("far.png"), &[]);
     let range = &entry["png_range"];
@@ -1443,6 +1494,19 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
         .fold(0.0, f64::max);
     assert!(worst < (b - a) / 65535.0 + 1e-3, "{worst}");
     assert_eq!(entry["clamped"], 0);
+    // Beside it, a world file with the same grid, and GDAL's scale and offset from grey
+    // levels to the report's range.
+    let world = numbers(&sidecar_text(&entry, 0, ".pgw"), '\n');
+    let expected = [spacing, 0.0, 0.0, -spacing, top_left[0], top_left[1]];
+    assert_close(&world, &expected, 1e-6);
+    let aux = sidecar_text(&entry, 1, ".png.aux.xml");
+    let tag = |name: &str| -> f64 {
+        let (_, rest) = aux.split_once(&format!("<{name}>")).unwrap();
+        rest.split_once('<').unwrap().0.parse().unwrap()
+    };
+    // At 1000 units up, single precision's step is 6e-5.
+    let ends = [tag("Offset"), tag("Offset") + 65535.0 * tag("Scale")];
+    assert_close(&ends, &[a, b], 1e-4);
     // Stood up as a Y-up tool writes it (up is y, the plane's axes z and x): the same
     // quilt, so the same map, and the report's axes say where it lies.
     let z_up = write_mapped("z_up.ply", &|v| v, DVec3::ZERO);
