@@ -1553,6 +1553,35 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
 }
 
 #[test]
+fn a_map_mostly_over_gaps_says_so() {
+    let dir = Scratch::new();
+    let (out, map, report) = (dir.path("out.ply"), dir.path("m.f32le"), dir.path("r.json"));
+    let note = "of the map lies over gaps";
+    for (fixture, gaps) in [("quilt_chain_mail.ply", true), ("quilt_bumpy.ply", false)] {
+        let exemplar = geosynth::fixtures::bundled_dir().join(fixture);
+        let printed = ok(&[
+            "quilt",
+            &arg(&exemplar),
+            "-o",
+            &arg(&out),
+            "--resolution",
+            "24",
+            "--no-quality",
+            "--heightfield-out",
+            &arg(&map),
+            "--report",
+            &arg(&report),
+        ]);
+        let entry = height_map_entry(&report);
+        let samples = entry["width"].as_f64().unwrap() * entry["height"].as_f64().unwrap();
+        let share = entry["filled"].as_f64().unwrap() / samples;
+        // Measured at the default scale and seed: 39% of the chain mail's, 11% of bumpy's.
+        assert_eq!(share > 0.2, gaps, "{fixture}: {share}");
+        assert_eq!(printed.contains(note), gaps, "{fixture}: {printed}");
+    }
+}
+
+#[test]
 fn a_height_fields_points_quilt_to_its_own_map_in_world_units() {
     use geosynth::core::io::{Geometry, WriteOptions, write_geometry};
     use geosynth::quilt::{read_heightfield_texture_framed, texture_comments};
