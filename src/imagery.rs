@@ -1,5 +1,6 @@
 //! Images and height fields from files: textures (PNG, JPEG) and height fields (raw
-//! `*_WxH.f32le` or grey PNG, 8 or 16 bit).
+//! `*_WxH.f32le` or grey PNG, 8 or 16 bit), and the files GIS tools read beside a height
+//! map.
 
 use std::path::{Path, PathBuf};
 
@@ -7,6 +8,10 @@ use image::DynamicImage;
 use pointset_core::{HeightField, TriMesh};
 
 use crate::{Error, Result};
+
+mod sidecars;
+
+pub use sidecars::{MapDescription, PlanPlacement, write_map_sidecars};
 
 /// Whether a path names an image the workspace reads (`.png`, `.jpg`, `.jpeg`).
 pub fn is_image_path(path: &Path) -> bool {
@@ -133,6 +138,37 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
         path: path.to_path_buf(),
         clamped,
     })
+}
+
+/// `field` mapped linearly from `lo..hi` onto `0..1` (a flat range onto 0), the way a PNG's
+/// grey levels hold it: written with [`write_heightfield`], grey level `g` of 65535 is the
+/// height `lo + g·(hi − lo)`. Computed in double precision. Errors if a mapped height is
+/// not finite (a range that is).
+///
+/// ```
+/// use geosynth::core::HeightField;
+/// use geosynth::imagery::stretch_to_unit;
+///
+/// let field = HeightField::new(2, 2, vec![1000.5, 1002.5, 1001.0, 1000.5])?;
+/// let unit = stretch_to_unit(&field, field.range())?;
+/// assert_eq!(unit.heights(), &[0.0, 1.0, 0.25, 0.0]);
+/// let flat = HeightField::new(2, 2, vec![7.0; 4])?;
+/// assert_eq!(stretch_to_unit(&flat, flat.range())?.heights(), &[0.0; 4]);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn stretch_to_unit(field: &HeightField, (lo, hi): (f32, f32)) -> Result<HeightField> {
+    let (lo, span) = (f64::from(lo), f64::from(hi) - f64::from(lo));
+    mapped_heights(field, |h| if span > 0.0 { (h - lo) / span } else { 0.0 })
+}
+
+/// `field` with every height `h` replaced by `map(h)`, computed in double precision.
+pub(crate) fn mapped_heights(field: &HeightField, map: impl Fn(f64) -> f64) -> Result<HeightField> {
+    let heights = field
+        .heights()
+        .iter()
+        .map(|&h| map(f64::from(h)) as f32)
+        .collect();
+    Ok(HeightField::new(field.width(), field.height(), heights)?)
 }
 
 /// Whether [`write_heightfield`] can write `path` (`.png` or `.f32le`); the error says

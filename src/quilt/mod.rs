@@ -37,6 +37,7 @@ use crate::{Error, Result};
 mod files;
 mod fitted;
 mod heights;
+mod map_grid;
 
 pub(crate) use files::single_precision_step;
 pub use files::{
@@ -47,6 +48,7 @@ pub use fitted::{MAX_PLANE_SPREAD, read_texture_file_fitted};
 pub use heights::{
     HeightFieldFrame, MAX_HEIGHT_SAMPLES, SampleHeights, SampledHeights, sample_heights,
 };
+pub use map_grid::MapGrid;
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a
 /// fraction of the samples' longer extent.

@@ -5,7 +5,6 @@ pub mod demo;
 pub mod demo_terrain;
 pub mod fixtures;
 pub mod info;
-pub mod map_sidecars;
 pub mod normals;
 pub mod quilt;
 pub mod reconstruct;

@@ -2,18 +2,18 @@
 //! height field goes back on the input's grid spacing and in its height units; a quilted
 //! point set on a grid of its own spacing (or `--map-spacing`), with heights in the file's
 //! length units and the map's place in the file's coordinates in the report. Files for
-//! GIS tools go beside the map ([`super::map_sidecars`]).
+//! GIS tools go beside the map ([`geosynth::imagery::write_map_sidecars`]).
 
 use std::path::Path;
 use std::time::Instant;
 
-use geosynth::core::HeightField;
-use geosynth::imagery::{is_raw_heightfield_path, write_heightfield};
-use geosynth::quilt::{HeightFieldFrame, QuiltOutput, TextureFile, sample_heights};
-use glam::{DMat3, DVec3, Vec3};
+use geosynth::imagery::{
+    MapDescription, is_raw_heightfield_path, stretch_to_unit, write_heightfield, write_map_sidecars,
+};
+use geosynth::quilt::{HeightFieldFrame, MapGrid, QuiltOutput, TextureFile, sample_heights};
+use glam::{DMat3, DVec3};
 use serde_json::{Value, json};
 
-use super::map_sidecars::{MapDescription, PlanPlacement, write_map_sidecars};
 use crate::output::{spinner, status};
 use crate::{CliResult, Globals};
 
@@ -47,41 +47,6 @@ impl MapPlacement {
     }
 }
 
-/// Where a point-set quilt's map lies in the file: sample `(c, r)` with height `h` is at
-/// `lower_corner + spacing·(c·columns_axis + (rows − 1 − r)·rows_axis) + h·up_axis`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct FileGrid {
-    /// File coordinates of the bottom row's first sample at height 0.
-    lower_corner: DVec3,
-    /// Along the columns (file directions, unit length).
-    columns_axis: DVec3,
-    /// Along the rows, bottom to top.
-    rows_axis: DVec3,
-    /// The direction heights grow in.
-    up_axis: DVec3,
-    /// Added to every height: the origin's coordinate along `up_axis`.
-    offset: f64,
-}
-
-impl FileGrid {
-    /// The grid of a map over `output`'s box in the texture frame `frame`, whose origin
-    /// and axes in the file are `origin` and `axes`.
-    fn new(output: &QuiltOutput, frame: HeightFieldFrame, origin: DVec3, axes: DMat3) -> Self {
-        let texture_up = frame.up;
-        let lo = texture_up.canonical_box(&output.bounds).min;
-        let in_file = |v: Vec3| axes * texture_up.to_world(v).as_dvec3();
-        let up_axis = in_file(Vec3::Z);
-        let offset = origin.dot(up_axis);
-        Self {
-            lower_corner: origin - offset * up_axis + in_file(Vec3::new(lo.x, lo.y, 0.0)),
-            columns_axis: in_file(Vec3::X),
-            rows_axis: in_file(Vec3::Y),
-            up_axis,
-            offset,
-        }
-    }
-}
-
 /// Samples the top of `output`'s sheet on the grid of `placement` over the output box
 /// ([`sample_heights`]), writes it to `path` ([`write_heightfield`]) and returns the
 /// report's `heightfield_out` entry.
@@ -98,25 +63,22 @@ pub fn write_sheet_heights(
     bar.finish_and_clear();
     let grid = placement
         .file
-        .map(|(origin, axes)| FileGrid::new(output, frame, origin, axes));
+        .map(|(origin, axes)| MapGrid::new(&output.bounds, frame, origin, axes));
     let field = match grid {
-        Some(grid) => offset_heights(sampled.field, grid.offset)?,
+        Some(grid) => grid.file_heights(sampled.field)?,
         None => sampled.field,
     };
     let raw = is_raw_heightfield_path(path);
     let png_range = (grid.is_some() && !raw).then(|| field.range());
     let written = match png_range {
-        Some(range) => write_heightfield(path, &stretched(&field, range)?)?,
+        Some(range) => write_heightfield(path, &stretch_to_unit(&field, range)?)?,
         None => write_heightfield(path, &field)?,
     };
     let (width, height) = (field.width(), field.height());
     let description = MapDescription {
         width,
         height,
-        placement: grid.and_then(|g| {
-            let axes = [g.columns_axis, g.rows_axis, g.up_axis];
-            PlanPlacement::of_grid(g.lower_corner, axes, f64::from(frame.spacing), height)
-        }),
+        placement: grid.and_then(|g| g.plan_placement(height)),
         grey_range: png_range,
     };
     let sidecars = write_map_sidecars(&written.path, raw, &description)?;
@@ -180,7 +142,7 @@ pub fn write_sheet_heights(
         "filled": sampled.filled,
         "clamped": written.clamped,
         "seconds": seconds,
-        "spacing": grid.map(|_| frame.spacing),
+        "spacing": grid.map(|g| g.spacing),
         "lower_corner": grid.map(|g| vector(g.lower_corner)),
         "columns_axis": grid.map(|g| vector(g.columns_axis)),
         "rows_axis": grid.map(|g| vector(g.rows_axis)),
@@ -189,58 +151,4 @@ pub fn write_sheet_heights(
         "georeferenced": description.placement.is_some(),
         "sidecars": sidecars.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
     }))
-}
-
-/// `field` with `offset` added to every height (in double precision, so a georeferenced
-/// height keeps what `f32` can hold of it).
-fn offset_heights(field: HeightField, offset: f64) -> CliResult<HeightField> {
-    if offset == 0.0 {
-        return Ok(field);
-    }
-    mapped_heights(&field, |h| h + offset)
-}
-
-/// `field` mapped linearly from `lo..hi` onto `0..1` (a flat field onto 0), the way a
-/// PNG's grey levels hold it.
-fn stretched(field: &HeightField, (lo, hi): (f32, f32)) -> CliResult<HeightField> {
-    let (lo, span) = (f64::from(lo), f64::from(hi) - f64::from(lo));
-    mapped_heights(field, |h| if span > 0.0 { (h - lo) / span } else { 0.0 })
-}
-
-/// `field` with every height `h` replaced by `map(h)`, computed in double precision.
-fn mapped_heights(field: &HeightField, map: impl Fn(f64) -> f64) -> CliResult<HeightField> {
-    let heights = field
-        .heights()
-        .iter()
-        .map(|&h| map(f64::from(h)) as f32)
-        .collect();
-    Ok(HeightField::new(field.width(), field.height(), heights)?)
-}
-
-#[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used)]
-
-    use super::*;
-
-    #[test]
-    fn a_stretched_map_spans_zero_to_one_and_a_flat_one_is_zero() {
-        let field = HeightField::new(2, 2, vec![1000.5, 1002.5, 1001.0, 1000.5]).unwrap();
-        let unit = stretched(&field, field.range()).unwrap();
-        assert_eq!(unit.heights(), &[0.0, 1.0, 0.25, 0.0]);
-        let flat = HeightField::new(2, 2, vec![7.0; 4]).unwrap();
-        assert_eq!(stretched(&flat, flat.range()).unwrap().heights(), &[0.0; 4]);
-    }
-
-    #[test]
-    fn offsets_are_added_in_double_precision() {
-        let field = HeightField::new(2, 2, vec![0.25, -1.5, 0.0, 1.0]).unwrap();
-        let moved = offset_heights(field.clone(), 4096.0).unwrap();
-        assert_eq!(moved.heights(), &[4096.25, 4094.5, 4096.0, 4097.0]);
-        // 2²⁴ + 1 has no single-precision value: rounded first, then added, 1 more would
-        // give 2²⁴ (a tie, to even); added first, 2²⁴ + 2.
-        let far = offset_heights(field.clone(), 16_777_217.0).unwrap();
-        assert_eq!(far.heights()[3], 16_777_218.0);
-        assert_eq!(offset_heights(field.clone(), 0.0).unwrap(), field);
-    }
 }

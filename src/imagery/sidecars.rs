@@ -1,21 +1,21 @@
-//! Files written beside a `--heightfield-out` map so that GIS tools (GDAL and so QGIS)
-//! read it without the run report:
+//! Files written beside a height map so that GIS tools (GDAL, and QGIS through it) read
+//! it without the run's report ([`write_map_sidecars`]):
 //! - a raw `.f32le` map gets an ENVI header (`MAP.f32le.hdr`): its size, sample type and
 //!   byte order, which a raw file cannot say;
-//! - a point-set quilt's map whose grid runs along the file's x and y axes with heights
-//!   along z (`--up z`, the default) is placed in the file's coordinates: by the header's
-//!   `map info` for a raw map, by a world file (`MAP.pgw`) for a PNG;
-//! - a point-set quilt's PNG, whose grey levels span the map's own range, gets a GDAL
-//!   `MAP.png.aux.xml` with the band's scale and offset, so that `grey · scale + offset`
-//!   is the height.
+//! - a map with a [`PlanPlacement`] (its grid along a file's x and y axes, heights along
+//!   z) is placed in the file's coordinates: by the header's `map info` for a raw map, by
+//!   a world file (`MAP.pgw`) for a PNG;
+//! - a PNG whose grey levels were stretched over a range gets a GDAL `MAP.png.aux.xml`
+//!   with the band's scale and offset, so that `grey · scale + offset` is the height.
 //!
-//! None of them names a coordinate reference system: a PLY file does not say one.
+//! None of them names a coordinate reference system: the point-set formats do not carry
+//! one, and GDAL calls the plane `LOCAL_CS["Arbitrary"]`.
 
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
-use crate::CliResult;
+use crate::Result;
 
 /// Where a map's samples lie in the file's x–y plane: the centre of its top-left sample
 /// (row 0, column 0) and the distance between neighbouring samples along both axes; rows
@@ -64,13 +64,33 @@ pub struct MapDescription {
     pub grey_range: Option<(f32, f32)>,
 }
 
-/// Writes the sidecars of the map written to `map` (a raw map when `raw`) and returns
-/// their paths, in the order written.
+/// Writes the sidecars of the map written to `map` (a raw map when `raw`: the path
+/// [`super::write_heightfield`] returns, `_WxH` included) and returns their paths, in the
+/// order written. Errors on I/O.
+///
+/// ```
+/// use geosynth::imagery::{MapDescription, PlanPlacement, write_map_sidecars};
+///
+/// let dir = std::env::temp_dir();
+/// let map = MapDescription {
+///     width: 4,
+///     height: 3,
+///     placement: Some(PlanPlacement { top_left: [500_000.0, 4_000_002.0], spacing: 1.0 }),
+///     grey_range: Some((120.0, 131.5)),
+/// };
+/// let written = write_map_sidecars(&dir.join("geosynth_doc_dem.png"), false, &map)?;
+/// assert!(written[0].ends_with("geosynth_doc_dem.pgw"));
+/// let world = std::fs::read_to_string(&written[0])?;
+/// assert_eq!(world, "1\n0\n0\n-1\n500000\n4000002\n");
+/// assert!(written[1].ends_with("geosynth_doc_dem.png.aux.xml"));
+/// # for file in written { std::fs::remove_file(file)?; }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_map_sidecars(
     map: &Path,
     raw: bool,
     description: &MapDescription,
-) -> CliResult<Vec<PathBuf>> {
+) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     if raw {
         files.push((
@@ -87,10 +107,9 @@ pub fn write_map_sidecars(
     }
     files
         .into_iter()
-        .map(|(path, text)| {
-            std::fs::write(&path, text)
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-            Ok(path)
+        .map(|(path, text)| match std::fs::write(&path, text) {
+            Ok(()) => Ok(path),
+            Err(source) => Err(pointset_core::Error::Io { path, source }.into()),
         })
         .collect()
 }
