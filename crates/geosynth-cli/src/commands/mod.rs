@@ -25,6 +25,20 @@ use serde::{Deserialize, Serialize};
 use crate::CliResult;
 use crate::params_file::{ParamsFile, RecordedInput};
 
+/// The `N` comma-separated values of a flag such as `--size W,H`, each parsed as a `T`;
+/// the error names the expected `form` (`"W,H"`).
+pub(crate) fn comma_values<T: std::str::FromStr, const N: usize>(
+    s: &str,
+    form: &str,
+) -> Result<[T; N], String> {
+    let values: Vec<T> = s
+        .split(',')
+        .map(|p| p.trim().parse::<T>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{s}` is not {form}"))?;
+    <[T; N]>::try_from(values).map_err(|_| format!("`{s}` needs {N} values, {form}"))
+}
+
 /// Triangles probed for intersecting parts before a mesh is signed by pseudo-normals
 /// (about 0.1 s on 2 cores).
 const PROBED_TRIANGLES: usize = 4096;
@@ -216,4 +230,23 @@ pub fn single_precision_note(
             step / scale
         )
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::comma_values;
+
+    #[test]
+    fn comma_values_take_exactly_their_count_of_numbers() {
+        assert_eq!(comma_values::<f32, 2>(" 2.5, -1", "W,H"), Ok([2.5, -1.0]));
+        assert_eq!(comma_values::<usize, 3>("4,5,6", "X,Y,Z"), Ok([4, 5, 6]));
+        assert_eq!(
+            comma_values::<f32, 2>("1,2,3", "W,H"),
+            Err("`1,2,3` needs 2 values, W,H".to_string())
+        );
+        assert_eq!(
+            comma_values::<usize, 3>("4,x,6", "X,Y,Z"),
+            Err("`4,x,6` is not X,Y,Z".to_string())
+        );
+    }
 }

@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{KdIndex, PointSet};
-use geosynth::imagery::check_heightfield_output;
+use geosynth::imagery::{check_heightfield_output, is_raw_heightfield_path};
 use geosynth::mls::Covariance;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
@@ -238,6 +238,11 @@ pub struct QuiltArgs {
     /// spacing of a grid with as many samples).
     #[arg(long, value_name = "S")]
     map_spacing: Option<f32>,
+    /// The heights a point-set exemplar's `--heightfield-out` PNG stores as grey 0 and
+    /// 65535, in the file's length units (default: the map's own range). Fixed, several
+    /// runs' PNGs share one scale; heights beyond are clamped and counted.
+    #[arg(long, value_name = "LO,HI", value_parser = parse_height_range)]
+    map_range: Option<(f32, f32)>,
     /// Skip the quality measure: it builds distance fields of the exemplar and of every
     /// output and can take longer than the synthesis (a 70k → 200k chain mail takes about
     /// 6 s with it, 3 s without). The report then says why its quality is missing.
@@ -251,14 +256,16 @@ pub struct QuiltArgs {
 }
 
 fn parse_size(s: &str) -> Result<(f32, f32), String> {
-    let parts: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("`{s}` is not W,H"))?;
-    match parts[..] {
+    match super::comma_values(s, "W,H")? {
         [w, h] if w > 0.0 && h > 0.0 => Ok((w, h)),
         _ => Err(format!("`{s}` needs two positive numbers W,H")),
+    }
+}
+
+fn parse_height_range(s: &str) -> Result<(f32, f32), String> {
+    match super::comma_values(s, "LO,HI")? {
+        [lo, hi] if f32::is_finite(lo) && f32::is_finite(hi) && lo < hi => Ok((lo, hi)),
+        _ => Err(format!("`{s}` needs two finite heights LO,HI with LO < HI")),
     }
 }
 
@@ -686,6 +693,20 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         )
         .into());
     }
+    let png_map = args
+        .heightfield_out
+        .as_deref()
+        .is_some_and(|map| !is_raw_heightfield_path(map));
+    if let Some((lo, hi)) = args.map_range
+        && !(png_map && args.heightfield.is_none())
+    {
+        return Err(format!(
+            "--map-range {lo},{hi} sets the grey scale of a point-set exemplar's \
+             --heightfield-out PNG (a .f32le map keeps every height; a height field's PNG \
+             keeps the input's grey levels)"
+        )
+        .into());
+    }
     if let Some(mesh) = &args.mesh {
         check_geometry_output(mesh, true, DVec3::ZERO)?;
     }
@@ -704,8 +725,16 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     // field is read at the origin, so the output's points are in its frame.
     let map_placement = match (&args.heightfield_out, heightfield_frame) {
         (None, _) => None,
-        (Some(_), Some(frame)) => Some(MapPlacement { frame, file: None }),
-        (Some(_), None) => Some(MapPlacement::of_points(&file, args.map_spacing)?),
+        (Some(_), Some(frame)) => Some(MapPlacement {
+            frame,
+            file: None,
+            grey_range: None,
+        }),
+        (Some(_), None) => Some(MapPlacement::of_points(
+            &file,
+            args.map_spacing,
+            args.map_range,
+        )?),
     };
     if let Some(placement) = &map_placement {
         let extent = file.texture.output_extent(params.output);

@@ -76,14 +76,11 @@ fn parse_color(s: &str) -> Result<[f32; 3], String> {
         }
         return Ok([16, 8, 0].map(|shift| ((v >> shift) & 0xff) as f32 / 255.0));
     }
-    let parts: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("`{s}` is not R,G,B"))?;
-    match parts[..] {
-        [r, g, b] if [r, g, b].iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
-        _ => Err(format!("`{s}` needs three components in 0..1")),
+    let rgb: [f32; 3] = super::comma_values(s, "R,G,B")?;
+    if rgb.iter().all(|c| (0.0..=1.0).contains(c)) {
+        Ok(rgb)
+    } else {
+        Err(format!("`{s}` needs three components in 0..1"))
     }
 }
 

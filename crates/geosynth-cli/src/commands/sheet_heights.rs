@@ -33,16 +33,25 @@ pub struct MapPlacement {
     /// the file's coordinates and a PNG spans the map's own range. `None` for a height
     /// field, whose map keeps the input's units.
     pub file: Option<(DVec3, DMat3)>,
+    /// For a point-set exemplar's PNG, the heights of grey 0 and 65535 (`None`: the
+    /// map's own range).
+    pub grey_range: Option<(f32, f32)>,
 }
 
 impl MapPlacement {
     /// The placement of a height map of a quilt of the point-set exemplar `file`, on a
     /// grid `spacing` apart (without one, a grid with as many samples as the exemplar
-    /// has points: [`HeightFieldFrame::of_points`]).
-    pub fn of_points(file: &TextureFile, spacing: Option<f32>) -> CliResult<Self> {
+    /// has points: [`HeightFieldFrame::of_points`]), a PNG's grey levels spanning
+    /// `grey_range` (or the map's own range).
+    pub fn of_points(
+        file: &TextureFile,
+        spacing: Option<f32>,
+        grey_range: Option<(f32, f32)>,
+    ) -> CliResult<Self> {
         Ok(Self {
             frame: HeightFieldFrame::of_points(&file.texture, spacing)?,
             file: Some((file.origin, file.frame)),
+            grey_range,
         })
     }
 }
@@ -69,7 +78,8 @@ pub fn write_sheet_heights(
         None => sampled.field,
     };
     let raw = is_raw_heightfield_path(path);
-    let png_range = (grid.is_some() && !raw).then(|| field.range());
+    let png_range =
+        (grid.is_some() && !raw).then(|| placement.grey_range.unwrap_or_else(|| field.range()));
     let written = match png_range {
         Some(range) => write_heightfield(path, &stretch_to_unit(&field, range)?)?,
         None => write_heightfield(path, &field)?,
@@ -93,8 +103,9 @@ pub fn write_sheet_heights(
         ));
     }
     if written.clamped > 0 {
+        let (lo, hi) = png_range.unwrap_or((0.0, 1.0));
         notes.push(format!(
-            "{} outside 0..1 clamped (.f32le keeps them)",
+            "{} outside {lo}..{hi} clamped (.f32le keeps them)",
             written.clamped
         ));
     }

@@ -105,15 +105,7 @@ pub struct VoxelArgs {
 }
 
 fn parse_dims(s: &str) -> Result<[usize; 3], String> {
-    let v: Vec<usize> = s
-        .split(',')
-        .map(|p| p.trim().parse::<usize>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("`{s}` is not X,Y,Z"))?;
-    match v[..] {
-        [x, y, z] => Ok([x, y, z]),
-        _ => Err(format!("`{s}` needs three sizes X,Y,Z")),
-    }
+    super::comma_values(s, "X,Y,Z")
 }
 
 /// One measured run of the stage.

@@ -1253,37 +1253,25 @@ fn quilt_writes_a_height_field_back_as_one() {
     assert!(said.contains("clamped"), "{said}");
     let map = geosynth::imagery::read_heightfield(&png).unwrap();
     assert_eq!((map.width() as u64, map.height() as u64), (w, h));
-    // A grid spacing for a height field's map, and a format it cannot write: errors, and
-    // nothing written.
+    // A grid spacing or a grey scale for a height field's map, and a format it cannot
+    // write: errors, and nothing written.
     let point_set = dir.path("sheet.ply");
-    for (args, message) in [
+    let (hf, point_set_arg, png) = (arg(&hf), arg(&point_set), arg(&png));
+    let tif = arg(&dir.path("map.tif"));
+    for (extra, message) in [
         (
-            vec![
-                "quilt",
-                "--heightfield",
-                &arg(&hf),
-                "-o",
-                &arg(&point_set),
-                "--heightfield-out",
-                &arg(&png),
-                "--map-spacing",
-                "0.1",
-            ],
+            [&png, "--map-spacing", "0.1"].as_slice(),
             "input's own grid",
         ),
         (
-            vec![
-                "quilt",
-                "--heightfield",
-                &arg(&hf),
-                "-o",
-                &arg(&point_set),
-                "--heightfield-out",
-                &arg(&dir.path("map.tif")),
-            ],
-            ".f32le",
+            &[&png, "--map-range", "0,2"],
+            "keeps the input's grey levels",
         ),
+        (&[&tif], ".f32le"),
     ] {
+        let mut args = vec!["quilt", "--heightfield", &hf, "-o", &point_set_arg];
+        args.push("--heightfield-out");
+        args.extend_from_slice(extra);
         refused(&args, message);
         assert!(!point_set.exists());
     }
@@ -1507,6 +1495,26 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
     // At 1000 units up, single precision's step is 6e-5.
     let ends = [tag("Offset"), tag("Offset") + 65535.0 * tag("Scale")];
     assert_close(&ends, &[a, b], 1e-4);
+    // A grey scale of one's own, which several runs' PNGs can share: the heights beyond
+    // it are clamped and counted, and the report and the aux.xml give it.
+    let (lo_given, hi_given) = (999.95f32, 1000.3f32);
+    let entry = quilt(
+        &far,
+        &dir.path("fixed.png"),
+        &["--map-range", "999.95,1000.3"],
+    );
+    assert_eq!(entry["png_range"], serde_json::json!([999.95, 1000.3]));
+    let beyond = map
+        .heights()
+        .iter()
+        .filter(|h| !(lo_given..=hi_given).contains(*h))
+        .count();
+    assert!(
+        beyond > 0 && entry["clamped"] == beyond,
+        "{beyond}: {entry}"
+    );
+    let aux = sidecar_text(&entry, 1, ".png.aux.xml");
+    assert!(aux.contains("<Offset>999.95</Offset>"), "{aux}");
     // Stood up as a Y-up tool writes it (up is y, the plane's axes z and x): the same
     // quilt, so the same map, and the report's axes say where it lies.
     let z_up = write_mapped("z_up.ply", &|v| v, DVec3::ZERO);
@@ -1539,6 +1547,14 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
             "at least 2 × 2 samples",
         ),
         (&["--map-spacing", "0.25"][..], "--heightfield-out"),
+        (
+            &["--heightfield-out", "m.f32le", "--map-range", "0,1"][..],
+            "a .f32le map keeps every height",
+        ),
+        (
+            &["--heightfield-out", "m.png", "--map-range", "1,0"][..],
+            "LO < HI",
+        ),
     ] {
         let mut args = vec![
             "quilt",
