@@ -17,7 +17,9 @@
    placed by the report's grid, lie on the output's points;
 5. opens the same two maps with GDAL (through rasterio), which finds them through their
    sidecars alone (the raw map's ENVI header, the PNG's world file and aux.xml), and
-   checks the size, the grid against the report's and the heights against the raw file.
+   checks the size, the grid against the report's and the heights against the raw file;
+   then has GDAL write a raw Float32 terrain with its ENVI header (no size in its name)
+   and checks that `geosynth info --json` reads its size and height range.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -244,5 +246,18 @@ for name, entry in entries.items():
     print(('ok  ' if ok else 'BAD ') + f"pointmap/{name}: GDAL {driver} {shape[1]}x{shape[0]}, "
           f"top-left centre {centre.round(6).tolist()} (report {top_left.round(6).tolist()}), "
           f"heights within {worst:.2g}")
+terrain = (100 + np.add.outer(np.arange(37) * 0.5, np.sin(np.arange(53) * 0.3))).astype('<f4')
+theirs = foreign / 'terrain.f32le'
+with rasterio.open(theirs, 'w', driver='ENVI', width=53, height=37, count=1, dtype='float32',
+                   transform=rasterio.transform.from_origin(5e5, 4e6, 1.0, 1.0)) as dataset:
+    dataset.write(terrain, 1)
+result = subprocess.run([G, 'info', '--json', str(theirs)], capture_output=True, text=True)
+ours = json.loads(result.stdout) if result.returncode == 0 else {}
+ok = (ours.get('kind') == 'heightfield' and [ours['width'], ours['height']] == [53, 37]
+      and np.isclose(ours['min'], terrain.min()) and np.isclose(ours['max'], terrain.max()))
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/terrain.f32le (GDAL ENVI): "
+      + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}" if ours
+         else result.stderr.strip()))
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

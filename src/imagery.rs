@@ -9,6 +9,7 @@ use pointset_core::{HeightField, TriMesh};
 
 use crate::{Error, Result};
 
+mod envi;
 mod sidecars;
 
 pub use sidecars::{MapDescription, PlanPlacement, write_map_sidecars};
@@ -38,11 +39,44 @@ pub fn read_image(path: &Path) -> Result<DynamicImage> {
     })
 }
 
-/// Reads a height field: raw `f32le` (size from the `_WxH` name suffix, heights as stored) or
-/// an image, whose grey level in `0..=1` (16-bit precision kept) is the height.
+/// Reads a height field: raw `.f32le` (heights as stored; the size from a `_WxH` name
+/// suffix, or else from an ENVI header beside the file, `NAME.hdr` or `NAME.f32le.hdr`,
+/// as `gdal_translate -of ENVI -ot Float32 dem.tif dem.f32le` writes one) or an image,
+/// whose grey level in `0..=1` (16-bit precision kept) is the height.
+///
+/// ```
+/// use geosynth::imagery::read_heightfield;
+///
+/// let dir = std::env::temp_dir();
+/// let raw = dir.join("geosynth_doc_dem.f32le");
+/// let big_endian: Vec<u8> = (0..6).flat_map(|i| (i as f32 * 0.5).to_be_bytes()).collect();
+/// std::fs::write(&raw, big_endian)?;
+/// let header = "ENVI\nsamples = 3\nlines = 2\nbands = 1\ndata type = 4\nbyte order = 1\n";
+/// std::fs::write(dir.join("geosynth_doc_dem.hdr"), header)?;
+/// let field = read_heightfield(&raw)?;
+/// assert_eq!((field.width(), field.height()), (3, 2));
+/// assert_eq!(field.get(2, 1), Some(2.5));
+/// # std::fs::remove_file(&raw)?;
+/// # std::fs::remove_file(dir.join("geosynth_doc_dem.hdr"))?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn read_heightfield(path: &Path) -> Result<HeightField> {
     if is_raw_heightfield_path(path) {
-        return Ok(HeightField::read_f32le(path)?);
+        let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+        if pointset_core::dims_from_name(stem).is_some() {
+            return Ok(HeightField::read_f32le(path)?);
+        }
+        let Some(header) = envi::header_beside(path) else {
+            return Err(pointset_core::Error::UnknownFormat {
+                path: path.to_path_buf(),
+                reason: "a raw height field needs its size: a name like \
+                         `name_WIDTHxHEIGHT.f32le`, or an ENVI header beside it (NAME.hdr \
+                         or NAME.f32le.hdr)"
+                    .into(),
+            }
+            .into());
+        };
+        return envi::read_with_header(path, &header);
     }
     let grey = read_image(path)?.into_luma16();
     let (w, h) = grey.dimensions();

@@ -115,7 +115,7 @@ pub fn write_map_sidecars(
 }
 
 /// `path` with `.suffix` appended to its whole name (`map.png` → `map.png.aux.xml`).
-fn appended(path: &Path, suffix: &str) -> PathBuf {
+pub(super) fn appended(path: &Path, suffix: &str) -> PathBuf {
     let mut name = path.as_os_str().to_owned();
     name.push(".");
     name.push(suffix);

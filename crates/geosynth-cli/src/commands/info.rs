@@ -17,8 +17,8 @@ use crate::{CliResult, Globals};
 #[derive(Debug, Args)]
 pub struct InfoArgs {
     /// The file to describe: .ply, .obj, .off, .stl, a picture (.png, .jpg), a raw height
-    /// field (`name_WxH.f32le`) or an NRRD volume (.nrrd as `sdf` and `voxel --field`
-    /// write, or a detached .nhdr header).
+    /// field (`name_WxH.f32le`, or `.f32le` with an ENVI header beside it) or an NRRD
+    /// volume (.nrrd as `sdf` and `voxel --field` write, or a detached .nhdr header).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -278,7 +278,7 @@ impl GridInfo {
             let (lo, hi) = field.range();
             return Ok(Self {
                 path: path.display().to_string(),
-                format: "raw little-endian f32".into(),
+                format: "raw f32".into(),
                 kind: "heightfield",
                 width: field.width(),
                 height: field.height(),

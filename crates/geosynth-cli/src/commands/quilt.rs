@@ -123,9 +123,10 @@ pub struct QuiltArgs {
     /// normals needs them first (`geosynth normals`).
     #[arg(required_unless_present = "heightfield")]
     exemplar: Option<PathBuf>,
-    /// Use a height field instead (PNG 8/16-bit or raw `name_WxH.f32le`): sampled as points
-    /// spanning 4 units along its longer side, the outer sixth of the samples on every side
-    /// as padding (so the box is about two thirds of that), heights scaled by `--relief`.
+    /// Use a height field instead (PNG 8/16-bit, raw `name_WxH.f32le`, or `.f32le` with an
+    /// ENVI header beside it, as GDAL writes one): sampled as points spanning 4 units along
+    /// its longer side, the outer sixth of the samples on every side as padding (so the
+    /// box is about two thirds of that), heights scaled by `--relief`.
     #[arg(long, conflicts_with = "exemplar")]
     heightfield: Option<PathBuf>,
     /// With `--heightfield`: the height range as a fraction of the samples' longer extent

@@ -88,9 +88,10 @@ fn parse_color(s: &str) -> Result<[f32; 3], String> {
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     /// Files to render, each a panel, left to right: point sets and meshes (.ply, .obj,
-    /// .off, .stl), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`, drawn as
-    /// shaded terrain) and NRRD volumes (.nrrd or .nhdr, drawn as the zero level set of
-    /// their first channel: the surface of a signed distance field).
+    /// .off, .stl), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`, or `.f32le`
+    /// with an ENVI header, drawn as shaded terrain) and NRRD volumes (.nrrd or .nhdr,
+    /// drawn as the zero level set of their first channel: the surface of a signed
+    /// distance field).
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Output PNG.
