@@ -1,6 +1,6 @@
 //! Images and height fields from files: textures (PNG, JPEG) and height fields (raw
-//! `*_WxH.f32le` or grey PNG, 8 or 16 bit), and the files GIS tools read beside a height
-//! map.
+//! `.f32le`, sized by a `_WxH` name or an ENVI header beside it, or grey PNG, 8 or 16
+//! bit), and the files GIS tools read beside a height map.
 
 use std::path::{Path, PathBuf};
 

@@ -9,10 +9,9 @@ use super::HeightFieldFrame;
 use crate::Result;
 use crate::imagery::{PlanPlacement, mapped_heights};
 
-/// The place in a file of a height map sampled by [`super::sample_heights`] on the frame
-/// `spacing` of a quilt of a texture read from that file ([`super::TextureFile`]):
-/// sample `(c, r)` of height `h` (in a map of `rows` rows, after
-/// [`Self::file_heights`]) lies at
+/// Where in a file lies the height map that [`super::sample_heights`] samples from a
+/// quilt of a texture read from that file ([`super::TextureFile`]): sample `(c, r)` of
+/// height `h` (in a map of `rows` rows, after [`Self::file_heights`]) lies at
 /// `lower_corner + spacing·(c·columns_axis + (rows − 1 − r)·rows_axis) + h·up_axis`.
 ///
 /// ```
