@@ -133,10 +133,7 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
             .iter()
             .flat_map(|h| h.to_le_bytes())
             .collect();
-        std::fs::write(&path, bytes).map_err(|source| pointset_core::Error::Io {
-            path: path.clone(),
-            source,
-        })?;
+        std::fs::write(&path, bytes).map_err(io_error(&path))?;
         return Ok(WrittenHeightField { path, clamped: 0 });
     }
     if extension(path) != "png" {
@@ -203,6 +200,12 @@ pub(crate) fn mapped_heights(field: &HeightField, map: impl Fn(f64) -> f64) -> R
         .map(|&h| map(f64::from(h)) as f32)
         .collect();
     Ok(HeightField::new(field.width(), field.height(), heights)?)
+}
+
+/// The error for an I/O failure `source` on the file `path`, as a `map_err` argument.
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
+    let path = path.to_path_buf();
+    move |source| pointset_core::Error::Io { path, source }.into()
 }
 
 /// Whether [`write_heightfield`] can write `path` (`.png` or `.f32le`); the error says

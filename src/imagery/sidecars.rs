@@ -107,9 +107,9 @@ pub fn write_map_sidecars(
     }
     files
         .into_iter()
-        .map(|(path, text)| match std::fs::write(&path, text) {
-            Ok(()) => Ok(path),
-            Err(source) => Err(pointset_core::Error::Io { path, source }.into()),
+        .map(|(path, text)| {
+            std::fs::write(&path, text).map_err(super::io_error(&path))?;
+            Ok(path)
         })
         .collect()
 }
