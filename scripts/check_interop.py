@@ -20,6 +20,11 @@
    checks the size, the grid against the report's and the heights against the raw file;
    then has GDAL write a raw Float32 terrain with its ENVI header (no size in its name)
    and checks that `geosynth info --json` reads its size and height range.
+6. has GDAL write that terrain as GeoTIFF DEMs (Int16 deflated tiles, Float32 LZW with the
+   floating-point predictor, big-endian Float64 BigTIFF, UInt16 PackBits tiles with
+   overviews) and checks that `geosynth info --json` reads their sizes and ranges, that
+   `geosynth render` draws each byte for byte as it draws a raw Float32 twin, and that a
+   DEM with voids on its no-data value is refused.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -259,5 +264,55 @@ bad += not ok
 print(('ok  ' if ok else 'BAD ') + f"foreign/terrain.f32le (GDAL ENVI): "
       + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}" if ours
          else result.stderr.strip()))
+# 6. GDAL writes the same terrain, in centimetres, as GeoTIFF DEMs the way they are shipped
+#    (16-bit integers in deflated tiles, 32-bit floats with LZW and the floating-point
+#    predictor, big-endian 64-bit floats in a BigTIFF, tiles with overviews): `geosynth
+#    info` reads each one's size and range, and `geosynth render` draws each exactly as it
+#    draws a raw Float32 twin (the same PNG bytes, so every sample is in its place).
+centimetres = np.round(terrain * 100)
+twin = foreign / 'terrain_cm.f32le'
+with rasterio.open(twin, 'w', driver='ENVI', width=53, height=37, count=1, dtype='float32',
+                   transform=rasterio.transform.from_origin(5e5, 4e6, 30.0, 30.0)) as dataset:
+    dataset.write(centimetres.astype('float32'), 1)
+def rendered(path):
+    picture = foreign / (path.name + '.render.png')
+    result = subprocess.run([G, '--quiet', 'render', str(path), '-o', str(picture)],
+                            capture_output=True, text=True)
+    return picture.read_bytes() if result.returncode == 0 else result.stderr.strip()
+expected = rendered(twin)
+placed = dict(driver='GTiff', width=53, height=37, count=1, crs='EPSG:32610',
+              transform=rasterio.transform.from_origin(5e5, 4e6, 30.0, 30.0))
+for name, options in [
+        ('dem_int16_tiled.tif', dict(dtype='int16', tiled=True, blockxsize=16, blockysize=16,
+                                     compress='deflate', predictor=2)),
+        ('dem_float32_lzw.tif', dict(dtype='float32', compress='lzw', predictor=3)),
+        ('dem_float64_big.tif', dict(dtype='float64', BIGTIFF='YES', ENDIANNESS='BIG')),
+        ('dem_uint16_overviews.tif', dict(dtype='uint16', tiled=True, blockxsize=16,
+                                          blockysize=16, compress='packbits'))]:
+    path = foreign / name
+    with rasterio.open(path, 'w', **placed, **options) as dataset:
+        dataset.write(centimetres.astype(options['dtype']), 1)
+        if 'overviews' in name:
+            dataset.build_overviews([2, 4])
+    result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
+    ours = json.loads(result.stdout) if result.returncode == 0 else {}
+    same = isinstance(expected, bytes) and rendered(path) == expected
+    ok = (ours.get('format') == 'TIFF' and [ours['width'], ours['height']] == [53, 37]
+          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same)
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (GDAL GTiff): "
+          + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
+             f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
+             else result.stderr.strip()))
+voided = centimetres.astype('int16')
+voided[5:8, 9:13] = -32768
+path = foreign / 'dem_void.tif'
+with rasterio.open(path, 'w', **placed, dtype='int16', nodata=-32768) as dataset:
+    dataset.write(voided, 1)
+result = subprocess.run([G, 'info', str(path)], capture_output=True, text=True)
+ok = result.returncode != 0 and '12 samples hold the no-data value -32768' in result.stderr
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/dem_void.tif (GDAL GTiff, no-data -32768): "
+      f"{result.stderr.strip() or 'read without complaint'}")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

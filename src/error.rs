@@ -50,6 +50,16 @@ pub enum Error {
         #[source]
         source: image::ImageError,
     },
+    /// Decoding a TIFF height field failed (not a TIFF, truncated, an unsupported
+    /// compression or sample layout).
+    #[error("cannot read TIFF {path}: {source}")]
+    TiffRead {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: tiff::TiffError,
+    },
     /// A stage found no surface to produce (its distance field never crosses zero).
     #[error("no surface: {reason}")]
     NoSurface {

@@ -1,6 +1,7 @@
 //! Images and height fields from files: textures (PNG, JPEG) and height fields (raw
-//! `.f32le`, sized by a `_WxH` name or an ENVI header beside it, or grey PNG, 8 or 16
-//! bit), and the files GIS tools read beside a height map.
+//! `.f32le`, sized by a `_WxH` name or an ENVI header beside it; one-band TIFF, as DEMs
+//! are shipped; or grey PNG, 8 or 16 bit), and the files GIS tools read beside a height
+//! map.
 
 use std::path::{Path, PathBuf};
 
@@ -10,6 +11,7 @@ use pointset_core::{HeightField, TriMesh};
 use crate::{Error, Result};
 
 mod envi;
+mod geotiff;
 mod sidecars;
 
 pub use sidecars::{MapDescription, PlanPlacement, write_map_sidecars};
@@ -22,6 +24,17 @@ pub fn is_image_path(path: &Path) -> bool {
 /// Whether a path names a raw height field (`.f32le`).
 pub fn is_raw_heightfield_path(path: &Path) -> bool {
     extension(path) == "f32le"
+}
+
+/// Whether a path names a TIFF file (`.tif`, `.tiff`), read as a height field.
+pub fn is_tiff_path(path: &Path) -> bool {
+    matches!(extension(path).as_str(), "tif" | "tiff")
+}
+
+/// Whether a path names a file that only ever holds a height field: raw (`.f32le`) or
+/// TIFF. A PNG may hold either a picture or a height field.
+pub fn is_heightfield_path(path: &Path) -> bool {
+    is_raw_heightfield_path(path) || is_tiff_path(path)
 }
 
 fn extension(path: &Path) -> String {
@@ -41,8 +54,10 @@ pub fn read_image(path: &Path) -> Result<DynamicImage> {
 
 /// Reads a height field: raw `.f32le` (heights as stored; the size from a `_WxH` name
 /// suffix, or else from an ENVI header beside the file, `NAME.hdr` or `NAME.f32le.hdr`,
-/// as `gdal_translate -of ENVI -ot Float32 dem.tif dem.f32le` writes one) or an image,
-/// whose grey level in `0..=1` (16-bit precision kept) is the height.
+/// as `gdal_translate -of ENVI -ot Float32 dem.tif dem.f32le` writes one), a one-band
+/// `.tif`/`.tiff` (a GeoTIFF DEM: integer or float samples as stored, in strips or
+/// tiles, Deflate, LZW or PackBits; samples on GDAL's no-data value refused) or an
+/// image, whose grey level in `0..=1` (16-bit precision kept) is the height.
 ///
 /// ```
 /// use geosynth::imagery::read_heightfield;
@@ -77,6 +92,9 @@ pub fn read_heightfield(path: &Path) -> Result<HeightField> {
             .into());
         };
         return envi::read_with_header(path, &header);
+    }
+    if is_tiff_path(path) {
+        return geotiff::read(path);
     }
     let grey = read_image(path)?.into_luma16();
     let (w, h) = grey.dimensions();
@@ -200,6 +218,26 @@ pub(crate) fn mapped_heights(field: &HeightField, map: impl Fn(f64) -> f64) -> R
         .map(|&h| map(f64::from(h)) as f32)
         .collect();
     Ok(HeightField::new(field.width(), field.height(), heights)?)
+}
+
+/// Refuses `heights` read from `path` if any equals the file's no-data value `no_data`
+/// (or is NaN when that is NaN): a height field has no holes.
+fn refuse_no_data(path: &Path, heights: &[f32], no_data: f32) -> Result<()> {
+    let marked = heights
+        .iter()
+        .filter(|&&h| h == no_data || (h.is_nan() && no_data.is_nan()))
+        .count();
+    if marked == 0 {
+        return Ok(());
+    }
+    Err(pointset_core::Error::UnknownFormat {
+        path: path.to_path_buf(),
+        reason: format!(
+            "{marked} samples hold the no-data value {no_data}; a height field has no \
+             holes (fill them first, e.g. with gdal_fillnodata)"
+        ),
+    }
+    .into())
 }
 
 /// The error for an I/O failure `source` on the file `path`, as a `map_err` argument.

@@ -57,17 +57,7 @@ pub(super) fn read_with_header(raw: &Path, header: &Path) -> Result<HeightField>
         HeightField::from_f32le(samples, layout.width, layout.height)?
     };
     if let Some(no_data) = layout.no_data {
-        let marked = field.heights().iter().filter(|&&h| h == no_data).count();
-        if marked > 0 {
-            return Err(pointset_core::Error::UnknownFormat {
-                path: raw.to_path_buf(),
-                reason: format!(
-                    "{marked} samples hold the header's no-data value {no_data}; a height \
-                     field has no holes (fill them first, e.g. with gdal_fillnodata)"
-                ),
-            }
-            .into());
-        }
+        super::refuse_no_data(raw, field.heights(), no_data)?;
     }
     Ok(field)
 }

@@ -17,8 +17,8 @@ use crate::{CliResult, Globals};
 #[derive(Debug, Args)]
 pub struct InfoArgs {
     /// The file to describe: .ply, .obj, .off, .stl, a picture (.png, .jpg), a raw height
-    /// field (`name_WxH.f32le`, or `.f32le` with an ENVI header beside it) or an NRRD
-    /// volume (.nrrd as `sdf` and `voxel --field` write, or a detached .nhdr header).
+    /// field (`name_WxH.f32le`, or `.f32le` with an ENVI header beside it), a one-band
+    /// TIFF height field (.tif, .tiff: a GeoTIFF DEM) or an NRRD volume (.nrrd as `sdf` and `voxel --field` write, or a detached .nhdr header).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -273,12 +273,17 @@ impl GridInfo {
             .and_then(|e| e.to_str())
             .unwrap_or("")
             .to_ascii_uppercase();
-        if imagery::is_raw_heightfield_path(path) {
+        if imagery::is_heightfield_path(path) {
             let field = imagery::read_heightfield(path)?;
             let (lo, hi) = field.range();
+            let format = if imagery::is_tiff_path(path) {
+                "TIFF"
+            } else {
+                "raw f32"
+            };
             return Ok(Self {
                 path: path.display().to_string(),
-                format: "raw f32".into(),
+                format: format.into(),
                 kind: "heightfield",
                 width: field.width(),
                 height: field.height(),
@@ -412,7 +417,7 @@ pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
         let text = info.text();
         return print(globals, args.json, &info, text);
     }
-    if imagery::is_image_path(path) || imagery::is_raw_heightfield_path(path) {
+    if imagery::is_image_path(path) || imagery::is_heightfield_path(path) {
         let info = GridInfo::load(path)?;
         let text = info.text();
         return print(globals, args.json, &info, text);

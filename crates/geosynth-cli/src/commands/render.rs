@@ -89,9 +89,9 @@ fn parse_color(s: &str) -> Result<[f32; 3], String> {
 pub struct RenderArgs {
     /// Files to render, each a panel, left to right: point sets and meshes (.ply, .obj,
     /// .off, .stl), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`, or `.f32le`
-    /// with an ENVI header, drawn as shaded terrain) and NRRD volumes (.nrrd or .nhdr,
-    /// drawn as the zero level set of their first channel: the surface of a signed
-    /// distance field).
+    /// with an ENVI header) and one-band TIFFs (GeoTIFF DEMs), drawn as shaded terrain,
+    /// and NRRD volumes (.nrrd or .nhdr, drawn as the zero level set of their first
+    /// channel: the surface of a signed distance field).
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Output PNG.
@@ -114,8 +114,8 @@ enum Input {
 }
 
 fn load(path: &Path, args: &RenderArgs, globals: Globals) -> CliResult<Input> {
-    let as_heightfield = imagery::is_raw_heightfield_path(path)
-        || (args.heightfield && imagery::is_image_path(path));
+    let as_heightfield =
+        imagery::is_heightfield_path(path) || (args.heightfield && imagery::is_image_path(path));
     if as_heightfield {
         let field = imagery::read_heightfield(path)?;
         let mesh = imagery::heightfield_mesh(&field, args.relief)?;

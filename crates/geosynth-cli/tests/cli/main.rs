@@ -8,6 +8,7 @@ use std::process::{Command, Output};
 
 use geosynth::core::testdata::shared_data;
 
+mod height_files;
 mod params;
 
 fn geosynth(args: &[&str]) -> Output {
@@ -1565,71 +1566,6 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
         args.extend_from_slice(extra);
         refused(&args, message);
         assert!(!unwritten.exists());
-    }
-}
-
-#[test]
-fn a_raw_height_field_with_an_envi_header_needs_no_size_in_its_name() {
-    let dir = Scratch::new();
-    // A 40 × 30 terrain in the layout `gdal_translate -of ENVI -ot Float32` writes.
-    let (w, h) = (40usize, 30usize);
-    let heights: Vec<f32> = (0..w * h)
-        .map(|i| 120.0 + 8.0 * (0.3 * (i % w) as f32).sin() * (0.2 * (i / w) as f32).cos())
-        .collect();
-    let bytes: Vec<u8> = heights.iter().flat_map(|v| v.to_le_bytes()).collect();
-    let header = format!(
-        "ENVI\ndescription = {{\ndem.f32le}}\nsamples = {w}\nlines = {h}\nbands = 1\n\
-         header offset = 0\nfile type = ENVI Standard\ndata type = 4\ninterleave = bsq\n\
-         byte order = 0\nmap info = {{UTM, 1, 1, 500000, 4000030, 1, 1, 10, North,WGS-84}}\n"
-    );
-    // `name` with `data` and, when given, `header` beside it as `name`'s stem + `.hdr`.
-    let write = |name: &str, data: &[u8], header: Option<&str>| {
-        let raw = dir.path(name);
-        std::fs::write(&raw, data).unwrap();
-        if let Some(header) = header {
-            std::fs::write(raw.with_extension("hdr"), header).unwrap();
-        }
-        arg(&raw)
-    };
-    let dem = write("dem.f32le", &bytes, Some(&header));
-    let info = info_json(Path::new(&dem));
-    assert_eq!(
-        (info["width"].as_u64(), info["height"].as_u64()),
-        (Some(40), Some(30))
-    );
-    let (lo, hi) = (info["min"].as_f64().unwrap(), info["max"].as_f64().unwrap());
-    assert!(
-        lo > 111.9 && lo < 113.0 && hi > 127.0 && hi < 128.1,
-        "{lo}..{hi}"
-    );
-    let (out, map) = (arg(&dir.path("out.ply")), arg(&dir.path("map.f32le")));
-    ok(&[
-        "quilt",
-        "--heightfield",
-        &dem,
-        "-o",
-        &out,
-        "--resolution",
-        "20",
-        "--no-quality",
-        "--heightfield-out",
-        &map,
-    ]);
-    // A header that promises more samples than the file has, a no-data marker among the
-    // samples, and no size at all: errors that say which.
-    let short = write("short.f32le", &bytes[..bytes.len() - 4], Some(&header));
-    let mut marked = heights.clone();
-    marked[17] = -9999.0;
-    let marked: Vec<u8> = marked.iter().flat_map(|v| v.to_le_bytes()).collect();
-    let no_data = format!("{header}data ignore value = -9999\n");
-    let holed = write("holed.f32le", &marked, Some(&no_data));
-    let bare = write("bare.f32le", &bytes, None);
-    for (file, message) in [
-        (&short, "needs 4800 bytes"),
-        (&holed, "1 samples hold the header's no-data value -9999"),
-        (&bare, "or an ENVI header beside it"),
-    ] {
-        refused(&["info", file], message);
     }
 }
 

@@ -1,0 +1,207 @@
+//! Height fields in the files GIS tools write: raw `.f32le` sized by an ENVI header, and
+//! one-band TIFFs (GeoTIFF DEMs), read by `info` and quilted with `--heightfield`.
+
+use std::path::Path;
+
+use crate::{Scratch, arg, info_json, ok, refused};
+
+/// A terrain of 40 × 30 heights between about 112 and 128, varying along both axes.
+fn terrain() -> (usize, usize, Vec<f32>) {
+    let (w, h) = (40usize, 30usize);
+    let heights = (0..w * h)
+        .map(|i| 120.0 + 8.0 * (0.3 * (i % w) as f32).sin() * (0.2 * (i / w) as f32).cos())
+        .collect();
+    (w, h, heights)
+}
+
+#[test]
+fn a_raw_height_field_with_an_envi_header_needs_no_size_in_its_name() {
+    let dir = Scratch::new();
+    // The terrain in the layout `gdal_translate -of ENVI -ot Float32` writes.
+    let (w, h, heights) = terrain();
+    let bytes: Vec<u8> = heights.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let header = format!(
+        "ENVI\ndescription = {{\ndem.f32le}}\nsamples = {w}\nlines = {h}\nbands = 1\n\
+         header offset = 0\nfile type = ENVI Standard\ndata type = 4\ninterleave = bsq\n\
+         byte order = 0\nmap info = {{UTM, 1, 1, 500000, 4000030, 1, 1, 10, North,WGS-84}}\n"
+    );
+    // `name` with `data` and, when given, `header` beside it as `name`'s stem + `.hdr`.
+    let write = |name: &str, data: &[u8], header: Option<&str>| {
+        let raw = dir.path(name);
+        std::fs::write(&raw, data).unwrap();
+        if let Some(header) = header {
+            std::fs::write(raw.with_extension("hdr"), header).unwrap();
+        }
+        arg(&raw)
+    };
+    let dem = write("dem.f32le", &bytes, Some(&header));
+    let info = info_json(Path::new(&dem));
+    assert_eq!(
+        (info["width"].as_u64(), info["height"].as_u64()),
+        (Some(40), Some(30))
+    );
+    let (lo, hi) = (info["min"].as_f64().unwrap(), info["max"].as_f64().unwrap());
+    assert!(
+        lo > 111.9 && lo < 113.0 && hi > 127.0 && hi < 128.1,
+        "{lo}..{hi}"
+    );
+    let (out, map) = (arg(&dir.path("out.ply")), arg(&dir.path("map.f32le")));
+    ok(&[
+        "quilt",
+        "--heightfield",
+        &dem,
+        "-o",
+        &out,
+        "--resolution",
+        "20",
+        "--no-quality",
+        "--heightfield-out",
+        &map,
+    ]);
+    // A header that promises more samples than the file has, a no-data marker among the
+    // samples, and no size at all: errors that say which.
+    let short = write("short.f32le", &bytes[..bytes.len() - 4], Some(&header));
+    let mut marked = heights.clone();
+    marked[17] = -9999.0;
+    let marked: Vec<u8> = marked.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let no_data = format!("{header}data ignore value = -9999\n");
+    let holed = write("holed.f32le", &marked, Some(&no_data));
+    let bare = write("bare.f32le", &bytes, None);
+    for (file, message) in [
+        (&short, "needs 4800 bytes"),
+        (&holed, "1 samples hold the no-data value -9999"),
+        (&bare, "or an ENVI header beside it"),
+    ] {
+        refused(&["info", file], message);
+    }
+}
+
+/// A big-endian TIFF of one band of `i16` samples, `width` × `height` in strips of
+/// `rows_per_strip` rows, uncompressed, with `no_data` in GDAL's tag when given: built
+/// byte by byte from the TIFF 6.0 layout, so that the reader is checked against the
+/// format rather than against the library it uses.
+fn int16_tiff(
+    width: u16,
+    height: u16,
+    rows_per_strip: u16,
+    samples: &[i16],
+    no_data: Option<&str>,
+) -> Vec<u8> {
+    const SHORT: u16 = 3;
+    const LONG: u16 = 4;
+    const ASCII: u16 = 2;
+    let mut file = b"MM\0\x2a\0\0\0\0".to_vec();
+    let strip_samples = usize::from(width) * usize::from(rows_per_strip);
+    let (mut offsets, mut counts) = (Vec::new(), Vec::new());
+    for strip in samples.chunks(strip_samples) {
+        offsets.push(file.len() as u32);
+        counts.push(2 * strip.len() as u32);
+        file.extend(strip.iter().flat_map(|s| s.to_be_bytes()));
+    }
+    // Values longer than four bytes lie outside the directory, at an offset.
+    let outside = |file: &mut Vec<u8>, bytes: Vec<u8>| {
+        let at = file.len() as u32;
+        file.extend(bytes);
+        file.extend(std::iter::repeat_n(0, file.len() % 2));
+        at
+    };
+    let longs = |values: &[u32]| values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    let offsets_at = outside(&mut file, longs(&offsets));
+    let counts_at = outside(&mut file, longs(&counts));
+    let short = |v: u16| [v.to_be_bytes(), [0, 0]].concat();
+    let mut entries: Vec<(u16, u16, u32, Vec<u8>)> = vec![
+        (256, SHORT, 1, short(width)),
+        (257, SHORT, 1, short(height)),
+        (258, SHORT, 1, short(16)),
+        (259, SHORT, 1, short(1)),
+        (262, SHORT, 1, short(1)),
+        (
+            273,
+            LONG,
+            offsets.len() as u32,
+            offsets_at.to_be_bytes().to_vec(),
+        ),
+        (277, SHORT, 1, short(1)),
+        (278, SHORT, 1, short(rows_per_strip)),
+        (
+            279,
+            LONG,
+            counts.len() as u32,
+            counts_at.to_be_bytes().to_vec(),
+        ),
+        (339, SHORT, 1, short(2)),
+    ];
+    if let Some(text) = no_data {
+        let ascii = [text.as_bytes(), &[0]].concat();
+        let at = outside(&mut file, ascii.clone());
+        entries.push((42113, ASCII, ascii.len() as u32, at.to_be_bytes().to_vec()));
+    }
+    let directory = file.len() as u32;
+    file[4..8].copy_from_slice(&directory.to_be_bytes());
+    file.extend((entries.len() as u16).to_be_bytes());
+    for (tag, kind, count, value) in entries {
+        file.extend(tag.to_be_bytes());
+        file.extend(kind.to_be_bytes());
+        file.extend(count.to_be_bytes());
+        file.extend(value);
+    }
+    file.extend(0u32.to_be_bytes());
+    file
+}
+
+#[test]
+fn a_tiff_dem_reads_and_quilts_as_its_raw_twin_does() {
+    let dir = Scratch::new();
+    // The terrain in centimetres as a 16-bit integer DEM, in three strips of ten rows,
+    // and the same heights as a raw float file.
+    let (w, h, heights) = terrain();
+    let centimetres: Vec<i16> = heights.iter().map(|v| (v * 100.0).round() as i16).collect();
+    let tiff = dir.path("dem.tif");
+    std::fs::write(&tiff, int16_tiff(40, 30, 10, &centimetres, None)).unwrap();
+    let raw = dir.path(&format!("dem_{w}x{h}.f32le"));
+    let floats: Vec<u8> = centimetres
+        .iter()
+        .flat_map(|&c| f32::from(c).to_le_bytes())
+        .collect();
+    std::fs::write(&raw, floats).unwrap();
+    let info = info_json(&tiff);
+    assert_eq!(info["format"], "TIFF");
+    let lowest = f64::from(*centimetres.iter().min().unwrap());
+    let highest = f64::from(*centimetres.iter().max().unwrap());
+    assert_eq!(
+        [&info["width"], &info["height"], &info["min"], &info["max"]].map(|v| v.as_f64()),
+        [Some(40.0), Some(30.0), Some(lowest), Some(highest)]
+    );
+    // Read sample for sample as the raw file is, the two quilt to the same bytes.
+    let quilted = |input: &Path, name: &str| {
+        let out = dir.path(name);
+        ok(&[
+            "quilt",
+            "--heightfield",
+            &arg(input),
+            "-o",
+            &arg(&out),
+            "--resolution",
+            "20",
+            "--no-quality",
+            "--seed",
+            "3",
+        ]);
+        std::fs::read(out).unwrap()
+    };
+    assert!(quilted(&tiff, "from_tiff.ply") == quilted(&raw, "from_raw.ply"));
+    // A void on GDAL's no-data value, and a header that promises 30 rows over two strips
+    // of 10.
+    let mut voided = centimetres.clone();
+    voided[123] = -32768;
+    let holed = dir.path("holed.tif");
+    std::fs::write(&holed, int16_tiff(40, 30, 10, &voided, Some("-32768"))).unwrap();
+    let short = dir.path("short.tif");
+    std::fs::write(&short, int16_tiff(40, 30, 10, &centimetres[..800], None)).unwrap();
+    for (file, message) in [
+        (&holed, "1 samples hold the no-data value -32768"),
+        (&short, "cannot read TIFF"),
+    ] {
+        refused(&["info", &arg(file)], message);
+    }
+}

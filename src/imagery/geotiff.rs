@@ -1,0 +1,177 @@
+//! Height fields in TIFF files, the format DEMs are shipped in (GeoTIFF): one band of
+//! signed or unsigned integers of 8 to 64 bits or floats of 16, 32 or 64 bits, in strips
+//! or tiles, uncompressed or compressed with Deflate, LZW or PackBits (with or without a
+//! predictor), as GDAL writes them. The heights are the samples as stored (an `Int16`
+//! DEM's metres stay metres), cast to `f32`; the first image of the file is read, which is
+//! the full-resolution one where overviews follow it.
+//!
+//! GDAL's no-data tag (`GDAL_NODATA`, 42113) is read: samples equal to it (or NaN when it
+//! is `nan`) are refused, since a height field has no holes. The GeoTIFF placement tags are
+//! not read: a height field read for quilting is normalised to its own box
+//! (docs/patch-quilt.md).
+
+use std::path::Path;
+
+use ::tiff::ColorType;
+use ::tiff::decoder::{Decoder, DecodingResult};
+use ::tiff::tags::Tag;
+use pointset_core::HeightField;
+
+use crate::{Error, Result};
+
+/// Reads the first image of the TIFF file `path` as a height field. Errors: a file TIFF
+/// cannot decode (truncated, an unsupported compression), more than one sample per pixel,
+/// samples on the no-data value or not finite, fewer than 2 × 2 samples.
+pub(super) fn read(path: &Path) -> Result<HeightField> {
+    let file = std::fs::File::open(path).map_err(super::io_error(path))?;
+    let decoding = |source| Error::TiffRead {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(decoding)?;
+    let colour = decoder.colortype().map_err(decoding)?;
+    if !matches!(colour, ColorType::Gray(_)) {
+        return Err(format_error(
+            path,
+            format!("its pixels are {colour:?}; a height field has one grey sample per pixel"),
+        ));
+    }
+    let (width, height) = decoder.dimensions().map_err(decoding)?;
+    let no_data = match decoder.find_tag(Tag::GdalNodata).map_err(decoding)? {
+        Some(value) => Some(no_data_value(path, value)?),
+        None => None,
+    };
+    let heights = as_f32(decoder.read_image().map_err(decoding)?);
+    if let Some(no_data) = no_data {
+        super::refuse_no_data(path, &heights, no_data)?;
+    }
+    Ok(HeightField::new(width as usize, height as usize, heights)?)
+}
+
+/// The no-data value GDAL's tag holds: an ASCII number, `nan` included.
+fn no_data_value(path: &Path, value: ::tiff::decoder::ifd::Value) -> Result<f32> {
+    let text = value.into_string().unwrap_or_default();
+    let text = text.trim_matches(|c: char| c == '\0' || c.is_whitespace());
+    text.parse::<f32>().map_err(|_| {
+        format_error(
+            path,
+            format!("its GDAL_NODATA tag `{text}` is not a number"),
+        )
+    })
+}
+
+/// The samples as `f32`: integers and wider floats cast to the nearest value.
+fn as_f32(samples: DecodingResult) -> Vec<f32> {
+    fn cast<T: Copy>(values: Vec<T>, to: impl Fn(T) -> f32) -> Vec<f32> {
+        values.into_iter().map(to).collect()
+    }
+    match samples {
+        DecodingResult::U8(v) => cast(v, f32::from),
+        DecodingResult::I8(v) => cast(v, f32::from),
+        DecodingResult::U16(v) => cast(v, f32::from),
+        DecodingResult::I16(v) => cast(v, f32::from),
+        DecodingResult::U32(v) => cast(v, |s| s as f32),
+        DecodingResult::I32(v) => cast(v, |s| s as f32),
+        DecodingResult::U64(v) => cast(v, |s| s as f32),
+        DecodingResult::I64(v) => cast(v, |s| s as f32),
+        DecodingResult::F16(v) => cast(v, f32::from),
+        DecodingResult::F32(v) => v,
+        DecodingResult::F64(v) => cast(v, |s| s as f32),
+    }
+}
+
+fn format_error(path: &Path, reason: String) -> Error {
+    pointset_core::Error::UnknownFormat {
+        path: path.to_path_buf(),
+        reason,
+    }
+    .into()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use ::tiff::encoder::{TiffEncoder, colortype};
+
+    use super::*;
+
+    fn temp(name: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!("geosynth_geotiff_{}_{name}", std::process::id()))
+    }
+
+    /// Writes a 3 × 2 grey TIFF of samples `values`, with `no_data` in GDAL's tag.
+    fn write<C: colortype::ColorType>(
+        name: &str,
+        values: &[C::Inner],
+        no_data: Option<&str>,
+    ) -> std::path::PathBuf
+    where
+        [C::Inner]: ::tiff::encoder::TiffValue,
+    {
+        let path = temp(name);
+        let file = std::fs::File::create(&path).unwrap();
+        let mut encoder = TiffEncoder::new(file).unwrap();
+        let mut image = encoder.new_image::<C>(3, 2).unwrap();
+        if let Some(text) = no_data {
+            image.encoder().write_tag(Tag::GdalNodata, text).unwrap();
+        }
+        image.write_data(values).unwrap();
+        path
+    }
+
+    #[test]
+    fn every_sample_type_reads_as_stored() {
+        let expected = [-2.0, 0.0, 1.0, 3.0, 250.0, -125.0];
+        let cases = [
+            write::<colortype::GrayI16>("i16.tif", &[-2, 0, 1, 3, 250, -125], None),
+            write::<colortype::GrayI32>("i32.tif", &[-2, 0, 1, 3, 250, -125], None),
+            write::<colortype::Gray32Float>("f32.tif", &expected, None),
+            write::<colortype::Gray64Float>("f64.tif", &expected.map(f64::from), None),
+        ];
+        for path in cases {
+            let field = read(&path).unwrap();
+            assert_eq!((field.width(), field.height()), (3, 2));
+            assert_eq!(field.heights(), &expected, "{}", path.display());
+            std::fs::remove_file(path).unwrap();
+        }
+        let path = write::<colortype::Gray16>("u16.tif", &[0, 1, 2, 3, 4, 65535], None);
+        assert_eq!(read(&path).unwrap().get(2, 1), Some(65535.0));
+        std::fs::remove_file(path).unwrap();
+    }
+
+    /// Asserts that reading `path` fails saying `reason`.
+    fn assert_refused(path: &Path, reason: &str) {
+        let error = read(path).unwrap_err().to_string();
+        assert!(error.contains(reason), "{reason}: {error}");
+    }
+
+    #[test]
+    fn no_data_samples_are_refused_and_other_values_pass() {
+        let values = [7, -32768, 8, 9, 10, 11];
+        let path = write::<colortype::GrayI16>("void.tif", &values, Some("-32768"));
+        assert_refused(&path, "1 samples hold the no-data value -32768");
+        let path = write::<colortype::GrayI16>("void.tif", &values, Some("-9999"));
+        assert_eq!(read(&path).unwrap().get(1, 0), Some(-32768.0));
+        let nan = [1.0, f32::NAN, 2.0, 3.0, 4.0, f32::NAN];
+        let path = write::<colortype::Gray32Float>("void.tif", &nan, Some("nan"));
+        assert_refused(&path, "2 samples hold the no-data value NaN");
+        std::fs::remove_file(path).unwrap();
+    }
+
+    #[test]
+    fn files_that_are_not_height_fields_say_why() {
+        let path = write::<colortype::RGB8>("bad.tif", &[0; 18], None);
+        assert_refused(&path, "one grey sample per pixel");
+        let path = write::<colortype::GrayI16>("bad.tif", &[0; 6], Some("none"));
+        assert_refused(&path, "GDAL_NODATA tag `none` is not a number");
+        let whole = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &whole[..whole.len() / 2]).unwrap();
+        assert!(matches!(read(&path), Err(Error::TiffRead { .. })));
+        std::fs::write(&path, b"II*\0").unwrap();
+        assert!(matches!(read(&path), Err(Error::TiffRead { .. })));
+        std::fs::remove_file(&path).unwrap();
+        let missing = temp("missing.tif");
+        assert!(matches!(read(&missing), Err(Error::Core(_))));
+    }
+}
