@@ -16,8 +16,9 @@
    levels give the raw heights through the report's `png_range` and that the samples,
    placed by the report's grid, lie on the output's points;
 5. opens the same two maps with GDAL (through rasterio), which finds them through their
-   sidecars alone (the raw map's ENVI header, the PNG's world file and aux.xml), and
-   checks the size, the grid against the report's and the heights against the raw file;
+   sidecars alone (the raw map's ENVI header, the PNG's world file and aux.xml), and a
+   third, GeoTIFF, map through its own tags, and checks the size, the grid against the
+   report's and the heights against the raw file;
    then has GDAL write a raw Float32 terrain with its ENVI header (no size in its name)
    and checks that `geosynth info --json` reads its size and height range.
 6. has GDAL write that terrain as GeoTIFF DEMs (Int16 deflated tiles, Float32 LZW with the
@@ -206,7 +207,7 @@ fixture = pathlib.Path(__file__).resolve().parent.parent / 'fixtures' / 'quilt_b
 mapped = root / 'pointmap'
 mapped.mkdir(exist_ok=True)
 entries = {}
-for name in ['map.png', 'map.f32le']:
+for name in ['map.png', 'map.f32le', 'map.tif']:
     subprocess.run([G, 'quilt', str(fixture), '-o', str(mapped / 'out.ply'), '--scale', '1.2',
                     '--resolution', '24', '--no-quality', '-q', '--heightfield-out',
                     str(mapped / name), '--report', str(mapped / 'report.json')], check=True)
@@ -233,8 +234,9 @@ bad += not ok
 print(('ok  ' if ok else 'BAD ') + f"pointmap/map.png: Pillow {mode} {w}x{h}, grey to height "
       f"within {np.abs(from_png - heights).max():.2g}, samples {np.median(nearest):.3g} "
       f"from the points (median; spacing {raw['spacing']:.3g})")
-# 5. GDAL reads both maps through their sidecars: its transform puts the top-left sample's
-#    centre half a pixel in from the corner, where the report's grid puts it.
+# 5. GDAL reads the PNG and raw maps through their sidecars, and the GeoTIFF map through
+#    its own tags: its transform puts the top-left sample's centre half a pixel in from
+#    the corner, where the report's grid puts it.
 spacing = raw['spacing']
 top_left = np.array(raw['lower_corner'][:2]) + [0.0, spacing * (h - 1)]
 for name, entry in entries.items():
@@ -244,7 +246,7 @@ for name, entry in entries.items():
     step = [transform.a, transform.b, transform.d, transform.e]
     centre = np.array(transform * (0.5, 0.5))
     worst = np.abs(values - heights).max()
-    tolerance = 0.0 if name.endswith('.f32le') else (hi - lo) / 65535 + 1e-5
+    tolerance = 0.0 if not name.endswith('.png') else (hi - lo) / 65535 + 1e-5
     ok = (shape == (h, w) and np.allclose(step, [spacing, 0, 0, -spacing], atol=1e-9)
           and np.allclose(centre, top_left, atol=1e-9) and worst <= tolerance)
     bad += not ok

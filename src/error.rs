@@ -60,6 +60,15 @@ pub enum Error {
         #[source]
         source: tiff::TiffError,
     },
+    /// Encoding a TIFF height map failed.
+    #[error("cannot write TIFF {path}: {source}")]
+    TiffWrite {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: tiff::TiffError,
+    },
     /// A stage found no surface to produce (its distance field never crosses zero).
     #[error("no surface: {reason}")]
     NoSurface {

@@ -116,14 +116,15 @@ pub fn heightfield_mesh(field: &HeightField, relief: f32) -> Result<TriMesh> {
 pub struct WrittenHeightField {
     /// The file written (a raw file's name carries its size).
     pub path: PathBuf,
-    /// Heights outside `0..=1` stored as 0 or 1 in a PNG (none in a raw file).
+    /// Heights outside `0..=1` stored as 0 or 1 in a PNG (none in a raw or TIFF file).
     pub clamped: usize,
 }
 
 /// Writes a height field the way [`read_heightfield`] reads it back: a `.png` as 16-bit
 /// grey with the height as the grey level in `0..=1` (heights beyond are clamped and
 /// counted), a `.f32le` as raw little-endian samples under a name that ends in the
-/// field's `_WxH` ([`raw_heightfield_path`]). Errors on any other extension and on I/O.
+/// field's `_WxH` ([`raw_heightfield_path`]), a `.tif`/`.tiff` as 32-bit floats, unplaced
+/// ([`write_geotiff`] places one). Errors on any other extension and on I/O.
 ///
 /// ```
 /// use geosynth::core::HeightField;
@@ -138,8 +139,11 @@ pub struct WrittenHeightField {
 /// let raw = write_heightfield(&dir.join("geosynth_doc_written.f32le"), &field)?;
 /// assert!(raw.path.ends_with("geosynth_doc_written_3x2.f32le"));
 /// assert_eq!(read_heightfield(&raw.path)?, field);
+/// let tiff = write_heightfield(&dir.join("geosynth_doc_written.tif"), &field)?;
+/// assert_eq!(read_heightfield(&tiff.path)?, field);
 /// # std::fs::remove_file(&png.path)?;
 /// # std::fs::remove_file(&raw.path)?;
+/// # std::fs::remove_file(&tiff.path)?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeightField> {
@@ -154,6 +158,9 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
         std::fs::write(&path, bytes).map_err(io_error(&path))?;
         return Ok(WrittenHeightField { path, clamped: 0 });
     }
+    if is_tiff_path(path) {
+        return write_geotiff(path, field, None);
+    }
     if extension(path) != "png" {
         return Err(heightfield_format_error(path));
     }
@@ -167,18 +174,10 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
         .iter()
         .map(|h| (h.clamp(0.0, 1.0) * 65535.0).round() as u16)
         .collect();
-    let too_large = || Error::InvalidParameter {
-        name: "height field size",
-        value: format!("{width} × {height}"),
-        expected: "a PNG's at most 4294967295 samples a side".into(),
-    };
-    let (w, h) = (
-        u32::try_from(width).map_err(|_| too_large())?,
-        u32::try_from(height).map_err(|_| too_large())?,
-    );
+    let (w, h) = image_sides(field, "PNG")?;
     // The buffer holds exactly `w × h` samples, so this cannot fail.
-    let image =
-        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, grey).ok_or_else(too_large)?;
+    let image = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, grey)
+        .ok_or_else(|| sides_error(field, "PNG"))?;
     image.save(path).map_err(|source| Error::Image {
         path: path.to_path_buf(),
         source,
@@ -186,6 +185,52 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
     Ok(WrittenHeightField {
         path: path.to_path_buf(),
         clamped,
+    })
+}
+
+/// The width and height of `field` as an image file's `u32` sides; `format` names the
+/// file kind in the error for a longer side.
+fn image_sides(field: &HeightField, format: &str) -> Result<(u32, u32)> {
+    let side = |n: usize| u32::try_from(n).map_err(|_| sides_error(field, format));
+    Ok((side(field.width())?, side(field.height())?))
+}
+
+fn sides_error(field: &HeightField, format: &str) -> Error {
+    Error::InvalidParameter {
+        name: "height field size",
+        value: format!("{} × {}", field.width(), field.height()),
+        expected: format!("a {format}'s at most 4294967295 samples a side"),
+    }
+}
+
+/// Writes a height map as one file that GIS tools open and place: a one-band 32-bit float
+/// TIFF (Deflate) holding every height, and with `placement` a GeoTIFF whose tie point
+/// and pixel scale put the samples where `placement` says (the coordinate system left
+/// unnamed: GDAL reads it as a user-defined one). Errors on I/O and for a side longer
+/// than 2³² − 1 samples.
+///
+/// ```
+/// use geosynth::core::HeightField;
+/// use geosynth::imagery::{PlanPlacement, read_heightfield, write_geotiff};
+///
+/// let field = HeightField::new(3, 2, vec![1000.0, 1000.5, 1001.0, 999.0, 999.5, 1002.25])?;
+/// let placement = PlanPlacement { top_left: [500_000.0, 4_000_002.0], spacing: 2.0 };
+/// let path = std::env::temp_dir().join("geosynth_doc_placed.tif");
+/// let written = write_geotiff(&path, &field, Some(placement))?;
+/// assert_eq!((written.path, written.clamped), (path.clone(), 0));
+/// assert_eq!(read_heightfield(&path)?, field);
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn write_geotiff(
+    path: &Path,
+    field: &HeightField,
+    placement: Option<PlanPlacement>,
+) -> Result<WrittenHeightField> {
+    geotiff::write(path, field, placement)?;
+    Ok(WrittenHeightField {
+        path: path.to_path_buf(),
+        clamped: 0,
     })
 }
 
@@ -246,10 +291,10 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
     move |source| pointset_core::Error::Io { path, source }.into()
 }
 
-/// Whether [`write_heightfield`] can write `path` (`.png` or `.f32le`); the error says
-/// what it takes.
+/// Whether [`write_heightfield`] can write `path` (`.png`, `.f32le`, `.tif` or `.tiff`);
+/// the error says what it takes.
 pub fn check_heightfield_output(path: &Path) -> Result<()> {
-    if is_raw_heightfield_path(path) || extension(path) == "png" {
+    if is_heightfield_path(path) || extension(path) == "png" {
         Ok(())
     } else {
         Err(heightfield_format_error(path))
@@ -260,7 +305,9 @@ fn heightfield_format_error(path: &Path) -> Error {
     Error::InvalidParameter {
         name: "height field output",
         value: path.display().to_string(),
-        expected: "a .png (16-bit grey, heights 0..1) or .f32le (raw) file".into(),
+        expected: "a .png (16-bit grey, heights 0..1), .f32le (raw) or .tif (32-bit float) \
+                   file"
+            .into(),
     }
 }
 

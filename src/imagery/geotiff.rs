@@ -12,8 +12,12 @@
 
 use std::path::Path;
 
+use std::io::Write;
+
 use ::tiff::ColorType;
 use ::tiff::decoder::{Decoder, DecodingResult};
+use ::tiff::encoder::compression::DeflateLevel;
+use ::tiff::encoder::{Compression, TiffEncoder, colortype};
 use ::tiff::tags::Tag;
 use pointset_core::HeightField;
 
@@ -46,6 +50,49 @@ pub(super) fn read(path: &Path) -> Result<HeightField> {
         super::refuse_no_data(path, &heights, no_data)?;
     }
     Ok(HeightField::new(width as usize, height as usize, heights)?)
+}
+
+/// GeoTIFF's key directory for a placed map: version 1.1.0, two keys; the model type
+/// user-defined (32767: the plane's coordinate system is unknown, as a PLY file names
+/// none) and the raster type pixel-is-area (1: the tie point is a sample's corner).
+const PLACED_KEYS: [u16; 12] = [1, 1, 0, 2, 1024, 0, 1, 32767, 1025, 0, 1, 1];
+
+/// Writes `field` to `path` as a one-band 32-bit float TIFF, Deflate-compressed, every
+/// height kept. With `placement` it is a GeoTIFF: the tie point puts the top-left
+/// sample's corner half a spacing up and left of its centre, the pixel scale is the
+/// spacing, and the coordinate system is left unnamed. Errors: a side longer than
+/// 2³² − 1 samples, I/O and encoding failures.
+pub(super) fn write(
+    path: &Path,
+    field: &HeightField,
+    placement: Option<super::PlanPlacement>,
+) -> Result<()> {
+    let (width, height) = super::image_sides(field, "TIFF")?;
+    let encoding = |source| Error::TiffWrite {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::create(path).map_err(super::io_error(path))?;
+    let mut writer = std::io::BufWriter::new(file);
+    let mut encoder = TiffEncoder::new(&mut writer)
+        .map_err(encoding)?
+        .with_compression(Compression::Deflate(DeflateLevel::Balanced));
+    let mut image = encoder
+        .new_image::<colortype::Gray32Float>(width, height)
+        .map_err(encoding)?;
+    if let Some(super::PlanPlacement { top_left, spacing }) = placement {
+        let [x, y] = top_left;
+        let tags = image.encoder();
+        tags.write_tag(Tag::ModelPixelScaleTag, &[spacing, spacing, 0.0][..])
+            .map_err(encoding)?;
+        let corner = [0.0, 0.0, 0.0, x - spacing / 2.0, y + spacing / 2.0, 0.0];
+        tags.write_tag(Tag::ModelTiepointTag, &corner[..])
+            .map_err(encoding)?;
+        tags.write_tag(Tag::GeoKeyDirectoryTag, &PLACED_KEYS[..])
+            .map_err(encoding)?;
+    }
+    image.write_data(field.heights()).map_err(encoding)?;
+    writer.flush().map_err(super::io_error(path))
 }
 
 /// The no-data value GDAL's tag holds: an ASCII number, `nan` included.
@@ -92,8 +139,6 @@ fn format_error(path: &Path, reason: String) -> Error {
 mod tests {
     #![allow(clippy::unwrap_used)]
 
-    use ::tiff::encoder::{TiffEncoder, colortype};
-
     use super::*;
 
     fn temp(name: &str) -> std::path::PathBuf {
@@ -137,6 +182,48 @@ mod tests {
         }
         let path = write::<colortype::Gray16>("u16.tif", &[0, 1, 2, 3, 4, 65535], None);
         assert_eq!(read(&path).unwrap().get(2, 1), Some(65535.0));
+        std::fs::remove_file(path).unwrap();
+    }
+
+    /// GeoTIFF's pixel scale, tie point and key directory, where a file has them.
+    type GeoTags = (Option<Vec<f64>>, Option<Vec<f64>>, Option<Vec<u16>>);
+
+    /// The GeoTIFF tags of the TIFF file `path`.
+    fn geotags(path: &Path) -> GeoTags {
+        let file = std::fs::File::open(path).unwrap();
+        let mut decoder = Decoder::new(std::io::BufReader::new(file)).unwrap();
+        let mut numbers = |tag| {
+            let value = decoder.find_tag(tag).unwrap()?;
+            Some(value.into_f64_vec().unwrap())
+        };
+        let (scale, tie) = (
+            numbers(Tag::ModelPixelScaleTag),
+            numbers(Tag::ModelTiepointTag),
+        );
+        let keys = decoder
+            .find_tag_unsigned_vec(Tag::GeoKeyDirectoryTag)
+            .unwrap();
+        (scale, tie, keys)
+    }
+
+    #[test]
+    fn a_placed_map_ties_its_top_left_corner_half_a_spacing_from_the_first_centre() {
+        let field = HeightField::new(3, 2, vec![1000.0, 1000.5, 1001.0, 999.0, -2.5, 1e6]).unwrap();
+        let path = temp("placed.tif");
+        let placement = super::super::PlanPlacement {
+            top_left: [500_000.25, 4_000_002.0],
+            spacing: 0.5,
+        };
+        super::write(&path, &field, Some(placement)).unwrap();
+        assert_eq!(read(&path).unwrap(), field);
+        let (scale, tie, keys) = geotags(&path);
+        assert_eq!(scale, Some(vec![0.5, 0.5, 0.0]));
+        let corner = vec![0.0, 0.0, 0.0, 500_000.0, 4_000_002.25, 0.0];
+        assert_eq!(tie, Some(corner));
+        assert_eq!(keys, Some(PLACED_KEYS.to_vec()));
+        super::write(&path, &field, None).unwrap();
+        assert_eq!(read(&path).unwrap(), field);
+        assert_eq!(geotags(&path), (None, None, None));
         std::fs::remove_file(path).unwrap();
     }
 

@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{KdIndex, PointSet};
-use geosynth::imagery::{check_heightfield_output, is_raw_heightfield_path};
+use geosynth::imagery::{check_heightfield_output, is_heightfield_path};
 use geosynth::mls::Covariance;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
@@ -223,8 +223,9 @@ pub struct QuiltArgs {
     /// spacings (32 to 512 along the longest side), cut back to the points.
     #[arg(long, value_name = "MESH")]
     mesh: Option<PathBuf>,
-    /// Also write the output as a height map (.png or .f32le): its top surface sampled
-    /// straight down. A raw file keeps every height and gets `_WxH` in its name. With
+    /// Also write the output as a height map (.png, .f32le or .tif): its top surface
+    /// sampled straight down. A raw file keeps every height and gets `_WxH` in its name;
+    /// a .tif keeps every height as 32-bit floats. With
     /// `--heightfield`, on the input's sample spacing and in its height units, a PNG's
     /// grey levels 0..1 as the input's were read (beyond that clamped). From a point set,
     /// on a grid as dense as its points (or `--map-spacing`), heights in the file's
@@ -232,7 +233,8 @@ pub struct QuiltArgs {
     /// the report says where the grid lies in the file and what the grey levels mean.
     /// Beside it, for GDAL and QGIS: a raw map's ENVI header (MAP.f32le.hdr); a point
     /// set's PNG's grey scale (MAP.png.aux.xml); and where the grid runs along x and y
-    /// with z up (`--up z`), its place in the file (the header's map info, MAP.pgw).
+    /// with z up (`--up z`), its place in the file (the header's map info, MAP.pgw). A
+    /// .tif is a GeoTIFF holding that place itself.
     #[arg(long, value_name = "MAP")]
     heightfield_out: Option<PathBuf>,
     /// The grid spacing of a point-set exemplar's `--heightfield-out` map, in the file's
@@ -698,14 +700,14 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let png_map = args
         .heightfield_out
         .as_deref()
-        .is_some_and(|map| !is_raw_heightfield_path(map));
+        .is_some_and(|map| !is_heightfield_path(map));
     if let Some((lo, hi)) = args.map_range
         && !(png_map && args.heightfield.is_none())
     {
         return Err(format!(
             "--map-range {lo},{hi} sets the grey scale of a point-set exemplar's \
-             --heightfield-out PNG (a .f32le map keeps every height; a height field's PNG \
-             keeps the input's grey levels)"
+             --heightfield-out PNG (a .f32le or .tif map keeps every height; a height \
+             field's PNG keeps the input's grey levels)"
         )
         .into());
     }

@@ -1,14 +1,16 @@
 //! `geosynth quilt --heightfield-out`: a quilted sheet written as a height map. A quilted
 //! height field goes back on the input's grid spacing and in its height units; a quilted
 //! point set on a grid of its own spacing (or `--map-spacing`), with heights in the file's
-//! length units and the map's place in the file's coordinates in the report. Files for
-//! GIS tools go beside the map ([`geosynth::imagery::write_map_sidecars`]).
+//! length units and the map's place in the file's coordinates in the report. A GeoTIFF
+//! map holds its place itself ([`geosynth::imagery::write_geotiff`]); files for GIS tools
+//! go beside the others ([`geosynth::imagery::write_map_sidecars`]).
 
 use std::path::Path;
 use std::time::Instant;
 
 use geosynth::imagery::{
-    MapDescription, is_raw_heightfield_path, stretch_to_unit, write_heightfield, write_map_sidecars,
+    MapDescription, is_heightfield_path, is_raw_heightfield_path, is_tiff_path, stretch_to_unit,
+    write_geotiff, write_heightfield, write_map_sidecars,
 };
 use geosynth::quilt::{HeightFieldFrame, MapGrid, QuiltOutput, TextureFile, sample_heights};
 use glam::{DMat3, DVec3};
@@ -77,13 +79,9 @@ pub fn write_sheet_heights(
         Some(grid) => grid.file_heights(sampled.field)?,
         None => sampled.field,
     };
-    let raw = is_raw_heightfield_path(path);
-    let png_range =
-        (grid.is_some() && !raw).then(|| placement.grey_range.unwrap_or_else(|| field.range()));
-    let written = match png_range {
-        Some(range) => write_heightfield(path, &stretch_to_unit(&field, range)?)?,
-        None => write_heightfield(path, &field)?,
-    };
+    // A raw or TIFF map keeps every height; a point set's PNG spans a range of them.
+    let png_range = (grid.is_some() && !is_heightfield_path(path))
+        .then(|| placement.grey_range.unwrap_or_else(|| field.range()));
     let (width, height) = (field.width(), field.height());
     let description = MapDescription {
         width,
@@ -91,7 +89,21 @@ pub fn write_sheet_heights(
         placement: grid.and_then(|g| g.plan_placement(height)),
         grey_range: png_range,
     };
-    let sidecars = write_map_sidecars(&written.path, raw, &description)?;
+    // A GeoTIFF holds its placement; the other maps get files beside them.
+    let (written, sidecars) = if is_tiff_path(path) {
+        (
+            write_geotiff(path, &field, description.placement)?,
+            Vec::new(),
+        )
+    } else {
+        let written = match png_range {
+            Some(range) => write_heightfield(path, &stretch_to_unit(&field, range)?)?,
+            None => write_heightfield(path, &field)?,
+        };
+        let raw = is_raw_heightfield_path(path);
+        let sidecars = write_map_sidecars(&written.path, raw, &description)?;
+        (written, sidecars)
+    };
     let seconds = start.elapsed().as_secs_f64();
     let mut notes = Vec::new();
     let filled_share = sampled.filled as f64 / (width * height) as f64;
@@ -105,12 +117,15 @@ pub fn write_sheet_heights(
     if written.clamped > 0 {
         let (lo, hi) = png_range.unwrap_or((0.0, 1.0));
         notes.push(format!(
-            "{} outside {lo}..{hi} clamped (.f32le keeps them)",
+            "{} outside {lo}..{hi} clamped (.f32le and .tif keep them)",
             written.clamped
         ));
     }
     if let Some((lo, hi)) = png_range {
         notes.push(format!("grey 0..65535 is height {lo}..{hi}"));
+    }
+    if is_tiff_path(path) && description.placement.is_some() {
+        notes.push("placed in the file's x–y plane (GeoTIFF)".to_string());
     }
     if !sidecars.is_empty() {
         let names: Vec<_> = sidecars

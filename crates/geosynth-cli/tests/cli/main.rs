@@ -1258,7 +1258,7 @@ fn quilt_writes_a_height_field_back_as_one() {
     // write: errors, and nothing written.
     let point_set = dir.path("sheet.ply");
     let (hf, point_set_arg, png) = (arg(&hf), arg(&point_set), arg(&png));
-    let tif = arg(&dir.path("map.tif"));
+    let jpeg = arg(&dir.path("map.jpg"));
     for (extra, message) in [
         (
             [&png, "--map-spacing", "0.1"].as_slice(),
@@ -1268,7 +1268,7 @@ fn quilt_writes_a_height_field_back_as_one() {
             &[&png, "--map-range", "0,2"],
             "keeps the input's grey levels",
         ),
-        (&[&tif], ".f32le"),
+        (&[&jpeg], ".f32le"),
     ] {
         let mut args = vec!["quilt", "--heightfield", &hf, "-o", &point_set_arg];
         args.push("--heightfield-out");
@@ -1450,6 +1450,13 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
     let placed = numbers(map_info.trim_end_matches('}'), ',');
     let expected = [top_left[0], top_left[1], spacing, spacing];
     assert_close(&placed, &expected, 1e-6);
+    // The same run into a GeoTIFF: every height of the raw map, its place inside the file
+    // (CI's interop check has GDAL read it), nothing beside it.
+    let entry = quilt(&far, &dir.path("far.tif"), &[]);
+    let tiff = geosynth::imagery::read_heightfield(&dir.path("far.tif")).unwrap();
+    assert_eq!(tiff, map);
+    assert_eq!(entry["georeferenced"], true);
+    assert_eq!(entry["sidecars"], serde_json::json!([]));
     // Tilted by 35° about (1, 1, 0) and moved: quilted in its fitted plane (`--up auto`),
     // mapped along that plane's normal, and placed back where its points are.
     let turn = glam::Quat::from_axis_angle(Vec3::new(1.0, 1.0, 0.0).normalize(), 0.61);
@@ -1550,7 +1557,11 @@ fn quilt_writes_a_point_sets_height_map_where_its_points_are() {
         (&["--map-spacing", "0.25"][..], "--heightfield-out"),
         (
             &["--heightfield-out", "m.f32le", "--map-range", "0,1"][..],
-            "a .f32le map keeps every height",
+            "a .f32le or .tif map keeps every height",
+        ),
+        (
+            &["--heightfield-out", "m.tif", "--map-range", "0,1"][..],
+            "a .f32le or .tif map keeps every height",
         ),
         (
             &["--heightfield-out", "m.png", "--map-range", "1,0"][..],
