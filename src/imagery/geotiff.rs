@@ -1,4 +1,7 @@
-//! Height fields in TIFF files, the format DEMs are shipped in (GeoTIFF): one band of
+//! Height fields in TIFF files, the format DEMs are shipped in (GeoTIFF), read and
+//! written.
+//!
+//! Read: one band of
 //! signed or unsigned integers of 8 to 64 bits or floats of 16, 32 or 64 bits, in strips
 //! or tiles, uncompressed or compressed with Deflate, LZW or PackBits (with or without a
 //! predictor), as GDAL writes them. The heights are the samples as stored (an `Int16`
@@ -9,10 +12,12 @@
 //! is `nan`) are refused, since a height field has no holes. The GeoTIFF placement tags are
 //! not read: a height field read for quilting is normalised to its own box
 //! (docs/patch-quilt.md).
-
-use std::path::Path;
+//!
+//! Written: one band of 32-bit floats, Deflate-compressed, placed by GeoTIFF's tie point
+//! and pixel scale when the map has a place in its file's x–y plane.
 
 use std::io::Write;
+use std::path::Path;
 
 use ::tiff::ColorType;
 use ::tiff::decoder::{Decoder, DecodingResult};

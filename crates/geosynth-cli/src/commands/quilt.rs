@@ -125,9 +125,9 @@ pub struct QuiltArgs {
     exemplar: Option<PathBuf>,
     /// Use a height field instead (PNG 8/16-bit, raw `name_WxH.f32le`, `.f32le` with an
     /// ENVI header beside it, as GDAL writes one, or a one-band TIFF such as a GeoTIFF
-    /// DEM): sampled as points spanning 4 units along
-    /// its longer side, the outer sixth of the samples on every side as padding (so the
-    /// box is about two thirds of that), heights scaled by `--relief`.
+    /// DEM): sampled as points spanning 4 units along its longer side, the outer sixth of
+    /// the samples on every side as padding (so the box is about two thirds of that),
+    /// heights scaled by `--relief`.
     #[arg(long, conflicts_with = "exemplar")]
     heightfield: Option<PathBuf>,
     /// With `--heightfield`: the height range as a fraction of the samples' longer extent
@@ -225,9 +225,9 @@ pub struct QuiltArgs {
     mesh: Option<PathBuf>,
     /// Also write the output as a height map (.png, .f32le or .tif): its top surface
     /// sampled straight down. A raw file keeps every height and gets `_WxH` in its name;
-    /// a .tif keeps every height as 32-bit floats. With
-    /// `--heightfield`, on the input's sample spacing and in its height units, a PNG's
-    /// grey levels 0..1 as the input's were read (beyond that clamped). From a point set,
+    /// a .tif keeps every height as 32-bit floats. With `--heightfield`, on the input's
+    /// sample spacing and in its height units, a PNG's grey levels 0..1 as the input's
+    /// were read (beyond that clamped). From a point set,
     /// on a grid as dense as its points (or `--map-spacing`), heights in the file's
     /// coordinates along the up axis, a PNG's grey levels spanning the map's own range;
     /// the report says where the grid lies in the file and what the grey levels mean.

@@ -90,7 +90,8 @@ pub fn write_sheet_heights(
         grey_range: png_range,
     };
     // A GeoTIFF holds its placement; the other maps get files beside them.
-    let (written, sidecars) = if is_tiff_path(path) {
+    let tiff = is_tiff_path(path);
+    let (written, sidecars) = if tiff {
         (
             write_geotiff(path, &field, description.placement)?,
             Vec::new(),
@@ -124,7 +125,7 @@ pub fn write_sheet_heights(
     if let Some((lo, hi)) = png_range {
         notes.push(format!("grey 0..65535 is height {lo}..{hi}"));
     }
-    if is_tiff_path(path) && description.placement.is_some() {
+    if tiff && description.placement.is_some() {
         notes.push("placed in the file's x–y plane (GeoTIFF)".to_string());
     }
     if !sidecars.is_empty() {
