@@ -24,8 +24,9 @@
 6. has GDAL write that terrain as GeoTIFF DEMs (Int16 deflated tiles, Float32 LZW with the
    floating-point predictor, big-endian Float64 BigTIFF, UInt16 PackBits tiles with
    overviews) and checks that `geosynth info --json` reads their sizes and ranges, that
-   `geosynth render` draws each byte for byte as it draws a raw Float32 twin, and that a
-   DEM with voids on its no-data value is refused.
+   `geosynth render` draws each byte for byte as it draws a raw Float32 twin, that a quilt
+   of the Int16 one written as a GeoTIFF map keeps its coordinate system and grid, and
+   that a DEM with voids on its no-data value is refused.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -306,6 +307,21 @@ for name, options in [
           + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
              f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
              else result.stderr.strip()))
+# A quilt of the Int16 DEM written as a GeoTIFF map keeps the DEM's coordinate system and
+# 30 m grid, from its top-left corner on.
+dem, quilted = foreign / 'dem_int16_tiled.tif', foreign / 'dem_quilt.tif'
+subprocess.run([G, 'quilt', '--heightfield', str(dem), '-o', str(foreign / 'dem_quilt.ply'),
+                '--resolution', '20', '--no-quality', '-q', '--heightfield-out', str(quilted)],
+               check=True)
+with rasterio.open(dem) as theirs, rasterio.open(quilted) as ours:
+    crs, transform = ours.crs, ours.transform
+    ok = (crs == theirs.crs and transform == theirs.transform
+          and ours.shape[0] > theirs.shape[0] and ours.dtypes[0] == 'float32')
+    heights = ours.read(1)
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/dem_quilt.tif (ours, read by GDAL): {crs}, "
+      f"pixel {transform.a}, top-left corner ({transform.c}, {transform.f}), "
+      f"{ours.shape[1]}x{ours.shape[0]} heights {heights.min():.0f}..{heights.max():.0f}")
 voided = centimetres.astype('int16')
 voided[5:8, 9:13] = -32768
 path = foreign / 'dem_void.tif'

@@ -11,9 +11,11 @@ use pointset_core::{HeightField, TriMesh};
 use crate::{Error, Result};
 
 mod envi;
+mod georeference;
 mod geotiff;
 mod sidecars;
 
+pub use georeference::GeoReference;
 pub use sidecars::{MapDescription, PlanPlacement, write_map_sidecars};
 
 /// Whether a path names an image the workspace reads (`.png`, `.jpg`, `.jpeg`).
@@ -204,19 +206,19 @@ fn sides_error(field: &HeightField, format: &str) -> Error {
 }
 
 /// Writes a height map as one file that GIS tools open and place: a one-band 32-bit float
-/// TIFF (Deflate) holding every height, and with `placement` a GeoTIFF whose tie point
-/// and pixel scale put the samples where `placement` says (the coordinate system left
-/// unnamed: GDAL reads it as a user-defined one). Errors on I/O and for a side longer
-/// than 2³² − 1 samples.
+/// TIFF (Deflate) holding every height, and with `reference` a GeoTIFF whose tags put the
+/// samples where it says: a point set's plan placement (`GeoReference::from`, the
+/// coordinate system left unnamed) or an input DEM's own ([`GeoReference::read`]).
+/// Errors on I/O and for a side longer than 2³² − 1 samples.
 ///
 /// ```
 /// use geosynth::core::HeightField;
-/// use geosynth::imagery::{PlanPlacement, read_heightfield, write_geotiff};
+/// use geosynth::imagery::{GeoReference, PlanPlacement, read_heightfield, write_geotiff};
 ///
 /// let field = HeightField::new(3, 2, vec![1000.0, 1000.5, 1001.0, 999.0, 999.5, 1002.25])?;
 /// let placement = PlanPlacement { top_left: [500_000.0, 4_000_002.0], spacing: 2.0 };
 /// let path = std::env::temp_dir().join("geosynth_doc_placed.tif");
-/// let written = write_geotiff(&path, &field, Some(placement))?;
+/// let written = write_geotiff(&path, &field, Some(&GeoReference::from(placement)))?;
 /// assert_eq!((written.path, written.clamped), (path.clone(), 0));
 /// assert_eq!(read_heightfield(&path)?, field);
 /// # std::fs::remove_file(&path)?;
@@ -225,9 +227,9 @@ fn sides_error(field: &HeightField, format: &str) -> Error {
 pub fn write_geotiff(
     path: &Path,
     field: &HeightField,
-    placement: Option<PlanPlacement>,
+    reference: Option<&GeoReference>,
 ) -> Result<WrittenHeightField> {
-    geotiff::write(path, field, placement)?;
+    geotiff::write(path, field, reference)?;
     Ok(WrittenHeightField {
         path: path.to_path_buf(),
         clamped: 0,

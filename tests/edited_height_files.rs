@@ -1,7 +1,7 @@
 //! Edited or cut-short height-field files: raw `.f32le` with an ENVI header (the data or
 //! the header edited), TIFF (Deflate-compressed and placed as `write_geotiff` writes it,
 //! or uncompressed 16-bit integers in strips) and 16-bit PNG. Each is read as a valid
-//! height field or refused with an error, never a panic.
+//! height field or refused with an error, never a panic; so are the TIFFs' GeoTIFF tags.
 
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -9,7 +9,9 @@
 use std::path::{Path, PathBuf};
 
 use geosynth::core::HeightField;
-use geosynth::imagery::{PlanPlacement, read_heightfield, write_geotiff, write_heightfield};
+use geosynth::imagery::{
+    GeoReference, PlanPlacement, read_heightfield, write_geotiff, write_heightfield,
+};
 use proptest::prelude::*;
 
 /// The files edited.
@@ -71,7 +73,7 @@ fn write(kind: Kind, field: &HeightField, dir: &Path) -> (PathBuf, PathBuf) {
                 top_left: [500_000.0, 4_000_000.0],
                 spacing: 30.0,
             };
-            write_geotiff(&path, field, Some(placement)).unwrap();
+            write_geotiff(&path, field, Some(&GeoReference::from(placement))).unwrap();
             (path.clone(), path)
         }
         Kind::Int16Tiff => {
@@ -115,6 +117,9 @@ proptest! {
             bytes.truncate(len - cut % len);
         }
         std::fs::write(&edited, bytes).unwrap();
+        if let Ok(Some(reference)) = GeoReference::read(&read_path) {
+            prop_assert!(reference.keys.len() >= 4);
+        }
         if let Ok(field) = read_heightfield(&read_path) {
             prop_assert_eq!(field.heights().len(), field.width() * field.height());
             prop_assert!(field.width() >= 2 && field.height() >= 2);

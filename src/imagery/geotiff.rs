@@ -10,8 +10,7 @@
 //!
 //! GDAL's no-data tag (`GDAL_NODATA`, 42113) is read: samples equal to it (or NaN when it
 //! is `nan`) are refused, since a height field has no holes. The GeoTIFF placement tags are
-//! not read: a height field read for quilting is normalised to its own box
-//! (docs/patch-quilt.md).
+//! read apart ([`super::GeoReference::read`]).
 //!
 //! Written: one band of 32-bit floats, Deflate-compressed, placed by GeoTIFF's tie point
 //! and pixel scale when the map has a place in its file's x–y plane.
@@ -57,20 +56,13 @@ pub(super) fn read(path: &Path) -> Result<HeightField> {
     Ok(HeightField::new(width as usize, height as usize, heights)?)
 }
 
-/// GeoTIFF's key directory for a placed map: version 1.1.0, two keys; the model type
-/// user-defined (32767: the plane's coordinate system is unknown, as a PLY file names
-/// none) and the raster type pixel-is-area (1: the tie point is a sample's corner).
-const PLACED_KEYS: [u16; 12] = [1, 1, 0, 2, 1024, 0, 1, 32767, 1025, 0, 1, 1];
-
 /// Writes `field` to `path` as a one-band 32-bit float TIFF, Deflate-compressed, every
-/// height kept. With `placement` it is a GeoTIFF: the tie point puts the top-left
-/// sample's corner half a spacing up and left of its centre, the pixel scale is the
-/// spacing, and the coordinate system is left unnamed. Errors: a side longer than
-/// 2³² − 1 samples, I/O and encoding failures.
+/// height kept; with `reference`, a GeoTIFF placed by its tags. Errors: a side longer
+/// than 2³² − 1 samples, I/O and encoding failures.
 pub(super) fn write(
     path: &Path,
     field: &HeightField,
-    placement: Option<super::PlanPlacement>,
+    reference: Option<&super::GeoReference>,
 ) -> Result<()> {
     let (width, height) = super::image_sides(field, "TIFF")?;
     let encoding = |source| Error::TiffWrite {
@@ -85,16 +77,8 @@ pub(super) fn write(
     let mut image = encoder
         .new_image::<colortype::Gray32Float>(width, height)
         .map_err(encoding)?;
-    if let Some(super::PlanPlacement { top_left, spacing }) = placement {
-        let [x, y] = top_left;
-        let tags = image.encoder();
-        tags.write_tag(Tag::ModelPixelScaleTag, &[spacing, spacing, 0.0][..])
-            .map_err(encoding)?;
-        let corner = [0.0, 0.0, 0.0, x - spacing / 2.0, y + spacing / 2.0, 0.0];
-        tags.write_tag(Tag::ModelTiepointTag, &corner[..])
-            .map_err(encoding)?;
-        tags.write_tag(Tag::GeoKeyDirectoryTag, &PLACED_KEYS[..])
-            .map_err(encoding)?;
+    if let Some(reference) = reference {
+        reference.write_tags(image.encoder()).map_err(encoding)?;
     }
     image.write_data(field.heights()).map_err(encoding)?;
     writer.flush().map_err(super::io_error(path))
@@ -219,13 +203,16 @@ mod tests {
             top_left: [500_000.25, 4_000_002.0],
             spacing: 0.5,
         };
-        super::write(&path, &field, Some(placement)).unwrap();
+        let reference = super::super::GeoReference::from(placement);
+        super::write(&path, &field, Some(&reference)).unwrap();
         assert_eq!(read(&path).unwrap(), field);
         let (scale, tie, keys) = geotags(&path);
         assert_eq!(scale, Some(vec![0.5, 0.5, 0.0]));
         let corner = vec![0.0, 0.0, 0.0, 500_000.0, 4_000_002.25, 0.0];
         assert_eq!(tie, Some(corner));
-        assert_eq!(keys, Some(PLACED_KEYS.to_vec()));
+        // Model type user-defined, raster type pixel-is-area.
+        let plan_keys = vec![1, 1, 0, 2, 1024, 0, 1, 32767, 1025, 0, 1, 1];
+        assert_eq!(keys, Some(plan_keys));
         super::write(&path, &field, None).unwrap();
         assert_eq!(read(&path).unwrap(), field);
         assert_eq!(geotags(&path), (None, None, None));

@@ -6,7 +6,9 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{KdIndex, PointSet};
-use geosynth::imagery::{check_heightfield_output, is_heightfield_path};
+use geosynth::imagery::{
+    GeoReference, check_heightfield_output, is_heightfield_path, is_tiff_path,
+};
 use geosynth::mls::Covariance;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
@@ -234,7 +236,8 @@ pub struct QuiltArgs {
     /// Beside it, for GDAL and QGIS: a raw map's ENVI header (MAP.f32le.hdr); a point
     /// set's PNG's grey scale (MAP.png.aux.xml); and where the grid runs along x and y
     /// with z up (`--up z`), its place in the file (the header's map info, MAP.pgw). A
-    /// .tif is a GeoTIFF holding that place itself.
+    /// .tif is a GeoTIFF holding that place itself; from a GeoTIFF DEM, it lies on the
+    /// DEM's grid and in its coordinate system, from the DEM's top-left corner on.
     #[arg(long, value_name = "MAP")]
     heightfield_out: Option<PathBuf>,
     /// The grid spacing of a point-set exemplar's `--heightfield-out` map, in the file's
@@ -733,6 +736,10 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             frame,
             file: None,
             grey_range: None,
+            input_reference: match &args.heightfield {
+                Some(input) if is_tiff_path(input) => GeoReference::read(input)?,
+                _ => None,
+            },
         }),
         (Some(_), None) => Some(MapPlacement::of_points(
             &file,

@@ -9,8 +9,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use geosynth::imagery::{
-    MapDescription, is_heightfield_path, is_raw_heightfield_path, is_tiff_path, stretch_to_unit,
-    write_geotiff, write_heightfield, write_map_sidecars,
+    GeoReference, MapDescription, is_heightfield_path, is_raw_heightfield_path, is_tiff_path,
+    stretch_to_unit, write_geotiff, write_heightfield, write_map_sidecars,
 };
 use geosynth::quilt::{HeightFieldFrame, MapGrid, QuiltOutput, TextureFile, sample_heights};
 use glam::{DMat3, DVec3};
@@ -26,7 +26,7 @@ const MANY_FILLED: f64 = 0.2;
 
 /// Where a quilt's height map lies: the grid and height axis of the texture's frame, and
 /// for a point-set exemplar where that frame lies in the file.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct MapPlacement {
     /// The map's grid and height axis in the texture's frame.
     pub frame: HeightFieldFrame,
@@ -38,6 +38,10 @@ pub struct MapPlacement {
     /// For a point-set exemplar's PNG, the heights of grey 0 and 65535 (`None`: the
     /// map's own range).
     pub grey_range: Option<(f32, f32)>,
+    /// For a height field read from a GeoTIFF, its reference: a `.tif` map, on the
+    /// input's grid spacing, gets it, so that its top-left sample lies where the input's
+    /// does, in the input's coordinate system.
+    pub input_reference: Option<GeoReference>,
 }
 
 impl MapPlacement {
@@ -54,6 +58,7 @@ impl MapPlacement {
             frame: HeightFieldFrame::of_points(&file.texture, spacing)?,
             file: Some((file.origin, file.frame)),
             grey_range,
+            input_reference: None,
         })
     }
 }
@@ -91,11 +96,13 @@ pub fn write_sheet_heights(
     };
     // A GeoTIFF holds its placement; the other maps get files beside them.
     let tiff = is_tiff_path(path);
+    let reference = match placement.input_reference {
+        Some(reference) => Some(reference),
+        None => description.placement.map(GeoReference::from),
+    }
+    .filter(|_| tiff);
     let (written, sidecars) = if tiff {
-        (
-            write_geotiff(path, &field, description.placement)?,
-            Vec::new(),
-        )
+        (write_geotiff(path, &field, reference.as_ref())?, Vec::new())
     } else {
         let written = match png_range {
             Some(range) => write_heightfield(path, &stretch_to_unit(&field, range)?)?,
@@ -125,8 +132,15 @@ pub fn write_sheet_heights(
     if let Some((lo, hi)) = png_range {
         notes.push(format!("grey 0..65535 is height {lo}..{hi}"));
     }
-    if tiff && description.placement.is_some() {
-        notes.push("placed in the file's x–y plane (GeoTIFF)".to_string());
+    if reference.is_some() {
+        notes.push(
+            if description.placement.is_some() {
+                "placed in the file's x–y plane (GeoTIFF)"
+            } else {
+                "placed at the input DEM's top-left corner, in its coordinate system (GeoTIFF)"
+            }
+            .to_string(),
+        );
     }
     if !sidecars.is_empty() {
         let names: Vec<_> = sidecars
@@ -175,7 +189,7 @@ pub fn write_sheet_heights(
         "rows_axis": grid.map(|g| vector(g.rows_axis)),
         "up_axis": grid.map(|g| vector(g.up_axis)),
         "png_range": png_range.map(|(lo, hi)| [lo, hi]),
-        "georeferenced": description.placement.is_some(),
+        "georeferenced": description.placement.is_some() || reference.is_some(),
         "sidecars": sidecars.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
     }))
 }

@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
-use crate::{Scratch, arg, info_json, ok, refused};
+use geosynth::imagery::{GeoReference, write_geotiff};
+
+use crate::{Scratch, arg, height_map_entry, info_json, ok, quilt_height_field_into, refused};
 
 /// A terrain of 40 × 30 heights between about 112 and 128, varying along both axes.
 fn terrain() -> (usize, usize, Vec<f32>) {
@@ -204,4 +206,37 @@ fn a_tiff_dem_reads_and_quilts_as_its_raw_twin_does() {
     ] {
         refused(&["info", &arg(file)], message);
     }
+}
+
+#[test]
+fn a_geotiff_dems_quilt_keeps_its_coordinate_system_and_spacing() {
+    let dir = Scratch::new();
+    // The terrain as a Float32 GeoTIFF in UTM zone 10N, 30 m samples.
+    let (w, h, heights) = terrain();
+    let field = geosynth::core::HeightField::new(w, h, heights).unwrap();
+    let reference = GeoReference {
+        scale: [30.0, 30.0, 0.0],
+        origin: [562_000.0, 5_125_000.0, 0.0],
+        keys: vec![1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32610],
+        doubles: None,
+        ascii: Some("WGS 84 / UTM zone 10N|".into()),
+    };
+    let dem = dir.path("dem.tif");
+    write_geotiff(&dem, &field, Some(&reference)).unwrap();
+    let (out, map, report) = (dir.path("out.ply"), dir.path("map.tif"), dir.path("r.json"));
+    let quilt = |map: &Path| quilt_height_field_into(&dem, map, &out, &report);
+    let printed = quilt(&map);
+    assert!(
+        printed.contains("placed at the input DEM's top-left corner"),
+        "{printed}"
+    );
+    // The map lies on the DEM's grid from its top-left corner on, in its units.
+    assert_eq!(GeoReference::read(&map).unwrap(), Some(reference));
+    assert_eq!(height_map_entry(&report)["georeferenced"], true);
+    let quilted = geosynth::imagery::read_heightfield(&map).unwrap();
+    let (lo, hi) = quilted.range();
+    assert!(lo > 110.0 && hi < 130.0, "{lo}..{hi}");
+    // A raw map of the same run has no coordinate system to give: not placed.
+    quilt(&dir.path("map.f32le"));
+    assert_eq!(height_map_entry(&report)["georeferenced"], false);
 }

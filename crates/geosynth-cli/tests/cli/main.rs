@@ -1206,22 +1206,7 @@ fn quilt_writes_a_height_field_back_as_one() {
         .collect();
     std::fs::write(&hf, heights).unwrap();
     let (out, report) = (dir.path("out.ply"), dir.path("r.json"));
-    let quilt_into = |map: &Path| {
-        ok(&[
-            "quilt",
-            "--heightfield",
-            &arg(&hf),
-            "-o",
-            &arg(&out),
-            "--resolution",
-            "20",
-            "--no-quality",
-            "--heightfield-out",
-            &arg(map),
-            "--report",
-            &arg(&report),
-        ])
-    };
+    let quilt_into = |map: &Path| quilt_height_field_into(&hf, map, &out, &report);
     let said = quilt_into(&dir.path("map.f32le"));
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
@@ -1351,6 +1336,25 @@ fn assert_close(got: &[f64], expected: &[f64], tolerance: f64) {
                 .all(|(g, e)| (g - e).abs() <= tolerance),
         "{got:?} against {expected:?}"
     );
+}
+
+/// Quilts the height field `input` (resolution 20, no quality measure) into `out`, its
+/// map into `map` and its report into `report`; returns what the command printed.
+fn quilt_height_field_into(input: &Path, map: &Path, out: &Path, report: &Path) -> String {
+    ok(&[
+        "quilt",
+        "--heightfield",
+        &arg(input),
+        "-o",
+        &arg(out),
+        "--resolution",
+        "20",
+        "--no-quality",
+        "--heightfield-out",
+        &arg(map),
+        "--report",
+        &arg(report),
+    ])
 }
 
 /// The report's `heightfield_out` entry of a quilt run.

@@ -1,0 +1,198 @@
+//! Where a GeoTIFF's samples lie, as its tags say: the pixel scale, the model coordinates
+//! of raster point (0, 0), and the coordinate system's keys, carried from an input DEM
+//! to a map written from it, or made for a point set's map from its plan placement.
+
+use std::io::{Seek, Write};
+use std::path::Path;
+
+use ::tiff::decoder::Decoder;
+use ::tiff::encoder::{DirectoryEncoder, TiffKind};
+use ::tiff::tags::Tag;
+
+use super::PlanPlacement;
+use crate::{Error, Result};
+
+/// GeoTIFF's key directory for a map placed in a plane with no named coordinate system:
+/// version 1.1.0, two keys; the model type user-defined (32767) and the raster type
+/// pixel-is-area (1: raster point (0, 0) is the top-left sample's outer corner).
+const PLAN_KEYS: [u16; 12] = [1, 1, 0, 2, 1024, 0, 1, 32767, 1025, 0, 1, 1];
+
+/// A GeoTIFF's placement of its samples without rotation: column `c`, row `r` (raster
+/// point `(c, r)`) lies at model `origin + (c·scale[0], −r·scale[1], 0)`, and the key
+/// directory with its parameters names the coordinate system and whether a raster point
+/// is a sample's corner or its centre. A map written on the same grid spacing with the
+/// same reference lies on the same grid, in the same coordinate system.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeoReference {
+    /// Model units per sample along x and y (and z, usually 0).
+    pub scale: [f64; 3],
+    /// Model coordinates of raster point (0, 0).
+    pub origin: [f64; 3],
+    /// The GeoKeyDirectory (tag 34735), as stored.
+    pub keys: Vec<u16>,
+    /// The GeoDoubleParams the keys point into (tag 34736), as stored.
+    pub doubles: Option<Vec<f64>>,
+    /// The GeoAsciiParams the keys point into (tag 34737), as stored.
+    pub ascii: Option<String>,
+}
+
+impl From<PlanPlacement> for GeoReference {
+    /// The reference of a map placed in a plane whose coordinate system is unknown (a
+    /// point set's file names none): pixel-is-area, so raster point (0, 0) lies half a
+    /// spacing up and left of the top-left sample's centre.
+    fn from(PlanPlacement { top_left, spacing }: PlanPlacement) -> Self {
+        let [x, y] = top_left;
+        Self {
+            scale: [spacing, spacing, 0.0],
+            origin: [x - spacing / 2.0, y + spacing / 2.0, 0.0],
+            keys: PLAN_KEYS.to_vec(),
+            doubles: None,
+            ascii: None,
+        }
+    }
+}
+
+impl GeoReference {
+    /// The reference of the TIFF file `path`, if it has one this type can hold: a pixel
+    /// scale, a tie point and a key directory (`None` for a plain TIFF, and for a
+    /// rotated or sheared one, which GeoTIFF places with a transformation matrix).
+    /// Errors: a file TIFF cannot open, tags of the wrong type or length.
+    ///
+    /// ```
+    /// use geosynth::core::HeightField;
+    /// use geosynth::imagery::{GeoReference, PlanPlacement, write_geotiff};
+    ///
+    /// let field = HeightField::new(2, 2, vec![1.0, 2.0, 3.0, 4.0])?;
+    /// let placed = PlanPlacement { top_left: [100.0, 200.0], spacing: 10.0 };
+    /// let path = std::env::temp_dir().join("geosynth_doc_reference.tif");
+    /// write_geotiff(&path, &field, Some(&GeoReference::from(placed)))?;
+    /// let reference = GeoReference::read(&path)?.ok_or("not placed")?;
+    /// assert_eq!(reference.origin, [95.0, 205.0, 0.0]);
+    /// assert_eq!(reference.scale, [10.0, 10.0, 0.0]);
+    /// # std::fs::remove_file(&path)?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn read(path: &Path) -> Result<Option<Self>> {
+        let file = std::fs::File::open(path).map_err(super::io_error(path))?;
+        let failed = |source| Error::TiffRead {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(failed)?;
+        let mut numbers = |tag| -> Result<Option<Vec<f64>>> {
+            match decoder.find_tag(tag).map_err(failed)? {
+                Some(value) => Ok(Some(value.into_f64_vec().map_err(failed)?)),
+                None => Ok(None),
+            }
+        };
+        let (scale, tie) = (
+            numbers(Tag::ModelPixelScaleTag)?,
+            numbers(Tag::ModelTiepointTag)?,
+        );
+        let doubles = numbers(Tag::GeoDoubleParamsTag)?;
+        let keys = decoder
+            .find_tag_unsigned_vec::<u16>(Tag::GeoKeyDirectoryTag)
+            .map_err(failed)?;
+        let ascii = match decoder.find_tag(Tag::GeoAsciiParamsTag).map_err(failed)? {
+            Some(value) => Some(value.into_string().map_err(failed)?),
+            None => None,
+        };
+        let (Some(scale), Some(tie), Some(keys)) = (scale, tie, keys) else {
+            return Ok(None);
+        };
+        let (Ok(scale), Some(tie)) = (<[f64; 3]>::try_from(scale), tie.get(..6)) else {
+            return Err(pointset_core::Error::UnknownFormat {
+                path: path.to_path_buf(),
+                reason: "a GeoTIFF pixel scale has 3 numbers and a tie point 6".into(),
+            }
+            .into());
+        };
+        // The tie point pins raster point (i, j) to model (x, y, z); (0, 0) follows.
+        let [i, j, _, x, y, z] = [tie[0], tie[1], tie[2], tie[3], tie[4], tie[5]];
+        Ok(Some(Self {
+            scale,
+            origin: [x - i * scale[0], y + j * scale[1], z],
+            keys,
+            doubles,
+            ascii,
+        }))
+    }
+
+    /// Writes the reference's tags into the TIFF directory being encoded.
+    pub(super) fn write_tags<W: Write + Seek, K: TiffKind>(
+        &self,
+        tags: &mut DirectoryEncoder<'_, W, K>,
+    ) -> ::tiff::TiffResult<()> {
+        tags.write_tag(Tag::ModelPixelScaleTag, &self.scale[..])?;
+        let [x, y, z] = self.origin;
+        tags.write_tag(Tag::ModelTiepointTag, &[0.0, 0.0, 0.0, x, y, z][..])?;
+        tags.write_tag(Tag::GeoKeyDirectoryTag, &self.keys[..])?;
+        if let Some(doubles) = &self.doubles {
+            tags.write_tag(Tag::GeoDoubleParamsTag, &doubles[..])?;
+        }
+        if let Some(ascii) = &self.ascii {
+            tags.write_tag(Tag::GeoAsciiParamsTag, ascii.as_str())?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use ::tiff::encoder::{TiffEncoder, colortype};
+
+    use super::*;
+
+    fn temp(name: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!("geosynth_georef_{}_{name}", std::process::id()))
+    }
+
+    /// A 4 × 3 float TIFF at `path` with the GeoTIFF tags of a UTM DEM whose tie point
+    /// pins raster point (2, 1) (or, with `short_tie`, a tie point of 4 numbers).
+    fn write_dem(path: &Path, short_tie: bool) {
+        let file = std::fs::File::create(path).unwrap();
+        let mut encoder = TiffEncoder::new(file).unwrap();
+        let mut image = encoder.new_image::<colortype::Gray32Float>(4, 3).unwrap();
+        let tags = image.encoder();
+        tags.write_tag(Tag::ModelPixelScaleTag, &[30.0, 20.0, 0.0][..])
+            .unwrap();
+        let tie = [2.0, 1.0, 0.0, 562_060.0, 5_124_980.0, 0.0];
+        let tie = if short_tie { &tie[..4] } else { &tie[..] };
+        tags.write_tag(Tag::ModelTiepointTag, tie).unwrap();
+        let keys: [u16; 16] = [1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32610];
+        tags.write_tag(Tag::GeoKeyDirectoryTag, &keys[..]).unwrap();
+        tags.write_tag(Tag::GeoDoubleParamsTag, &[6378137.0][..])
+            .unwrap();
+        tags.write_tag(Tag::GeoAsciiParamsTag, "WGS 84 / UTM zone 10N|")
+            .unwrap();
+        image.write_data(&[0.0; 12]).unwrap();
+    }
+
+    #[test]
+    fn the_origin_is_raster_point_zero_whichever_point_the_tie_pins() {
+        let path = temp("dem.tif");
+        write_dem(&path, false);
+        let reference = GeoReference::read(&path).unwrap().unwrap();
+        // Raster (2, 1) at (562060, 5124980): (0, 0) two columns west, one row north.
+        assert_eq!(reference.origin, [562_000.0, 5_125_000.0, 0.0]);
+        assert_eq!(reference.scale, [30.0, 20.0, 0.0]);
+        assert_eq!(reference.keys[15], 32610);
+        assert_eq!(reference.doubles, Some(vec![6378137.0]));
+        assert_eq!(reference.ascii.as_deref(), Some("WGS 84 / UTM zone 10N|"));
+        // Written into another file and read back, it is the same reference.
+        let copy = temp("copy.tif");
+        let field = pointset_core::HeightField::new(2, 2, vec![0.0; 4]).unwrap();
+        super::super::write_geotiff(&copy, &field, Some(&reference)).unwrap();
+        assert_eq!(GeoReference::read(&copy).unwrap(), Some(reference));
+        // Without a tie point of 6 numbers it is refused; a plain TIFF has none.
+        write_dem(&path, true);
+        let error = GeoReference::read(&path).unwrap_err().to_string();
+        assert!(error.contains("a tie point 6"), "{error}");
+        super::super::write_geotiff(&copy, &field, None).unwrap();
+        assert_eq!(GeoReference::read(&copy).unwrap(), None);
+        std::fs::remove_file(path).unwrap();
+        std::fs::remove_file(copy).unwrap();
+    }
+}
