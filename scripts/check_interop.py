@@ -23,7 +23,8 @@
    and checks that `geosynth info --json` reads its size and height range.
 6. has GDAL write that terrain as GeoTIFF DEMs (Int16 deflated tiles, Float32 LZW with the
    floating-point predictor, big-endian Float64 BigTIFF, UInt16 PackBits tiles with
-   overviews) and checks that `geosynth info --json` reads their sizes and ranges, that
+   overviews) and checks that `geosynth info --json` reads their sizes, ranges and
+   placement (EPSG code, pixel size, corner), that
    `geosynth render` draws each byte for byte as it draws a raw Float32 twin, that a quilt
    of the Int16 one written as a GeoTIFF map keeps its coordinate system and grid, and
    that a DEM with voids on its no-data value is refused.
@@ -300,11 +301,15 @@ for name, options in [
     result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
     ours = json.loads(result.stdout) if result.returncode == 0 else {}
     same = isinstance(expected, bytes) and rendered(path) == expected
+    located = (ours.get('epsg') == 32610 and ours.get('pixel_size') == [30.0, 30.0]
+               and ours.get('raster_origin') == [5e5, 4e6])
     ok = (ours.get('format') == 'TIFF' and [ours['width'], ours['height']] == [53, 37]
-          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same)
+          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same
+          and located)
     bad += not ok
     print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (GDAL GTiff): "
           + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
+             f"EPSG:{ours['epsg']} from {ours['raster_origin']}, "
              f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
              else result.stderr.strip()))
 # A quilt of the Int16 DEM written as a GeoTIFF map keeps the DEM's coordinate system and

@@ -118,6 +118,32 @@ impl GeoReference {
         }))
     }
 
+    /// The EPSG code of the coordinate system the keys name, if they name one by code:
+    /// the projected system's (key 3072) or else the geographic one's (key 2048); `None`
+    /// for user-defined systems (32767) and for keys that give none.
+    ///
+    /// ```
+    /// use geosynth::imagery::{GeoReference, PlanPlacement};
+    ///
+    /// let mut reference = GeoReference::from(PlanPlacement { top_left: [0.0, 0.0], spacing: 1.0 });
+    /// assert_eq!(reference.epsg(), None);
+    /// reference.keys = vec![1, 1, 0, 2, 1024, 0, 1, 1, 3072, 0, 1, 32610];
+    /// assert_eq!(reference.epsg(), Some(32610));
+    /// ```
+    pub fn epsg(&self) -> Option<u16> {
+        // After the 4-number header, each key is (id, location, count, value); location 0
+        // holds the value itself.
+        let inline = |id: u16| {
+            self.keys
+                .get(4..)?
+                .chunks_exact(4)
+                .find(|key| key[0] == id && key[1] == 0)
+                .map(|key| key[3])
+                .filter(|&code| code != 0 && code != 32767)
+        };
+        inline(3072).or_else(|| inline(2048))
+    }
+
     /// Writes the reference's tags into the TIFF directory being encoded.
     pub(super) fn write_tags<W: Write + Seek, K: TiffKind>(
         &self,

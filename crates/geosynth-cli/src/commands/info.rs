@@ -265,6 +265,12 @@ pub struct GridInfo {
     channels: Option<String>,
     min: Option<f32>,
     max: Option<f32>,
+    /// A GeoTIFF's placement: model units per sample along x and y.
+    pixel_size: Option<[f64; 2]>,
+    /// A GeoTIFF's placement: model x and y of raster point (0, 0).
+    raster_origin: Option<[f64; 2]>,
+    /// A GeoTIFF's coordinate system, when its keys name one by EPSG code.
+    epsg: Option<u16>,
 }
 
 impl GridInfo {
@@ -277,10 +283,10 @@ impl GridInfo {
         if imagery::is_heightfield_path(path) {
             let field = imagery::read_heightfield(path)?;
             let (lo, hi) = field.range();
-            let format = if imagery::is_tiff_path(path) {
-                "TIFF"
+            let (format, reference) = if imagery::is_tiff_path(path) {
+                ("TIFF", imagery::GeoReference::read(path)?)
             } else {
-                "raw f32"
+                ("raw f32", None)
             };
             return Ok(Self {
                 path: path.display().to_string(),
@@ -291,6 +297,9 @@ impl GridInfo {
                 channels: None,
                 min: Some(lo),
                 max: Some(hi),
+                pixel_size: reference.as_ref().map(|r| [r.scale[0], r.scale[1]]),
+                raster_origin: reference.as_ref().map(|r| [r.origin[0], r.origin[1]]),
+                epsg: reference.as_ref().and_then(|r| r.epsg()),
             });
         }
         let img = imagery::read_image(path)?;
@@ -303,6 +312,9 @@ impl GridInfo {
             channels: Some(format!("{:?}", img.color())),
             min: None,
             max: None,
+            pixel_size: None,
+            raster_origin: None,
+            epsg: None,
         })
     }
 
@@ -316,6 +328,16 @@ impl GridInfo {
         }
         if let (Some(lo), Some(hi)) = (self.min, self.max) {
             s.push_str(&format!("\nheights:     {lo} .. {hi}"));
+        }
+        if let (Some([dx, dy]), Some([x, y])) = (self.pixel_size, self.raster_origin) {
+            let system = self
+                .epsg
+                .map_or("a coordinate system without an EPSG code".into(), |code| {
+                    format!("EPSG:{code}")
+                });
+            s.push_str(&format!(
+                "\nplaced:      {dx} x {dy} per sample from ({x}, {y}), {system}"
+            ));
         }
         s
     }

@@ -230,8 +230,14 @@ fn a_geotiff_dems_quilt_keeps_its_coordinate_system_and_spacing() {
         printed.contains("placed at the input DEM's top-left corner"),
         "{printed}"
     );
-    // The map lies on the DEM's grid from its top-left corner on, in its units.
+    // The map lies on the DEM's grid from its top-left corner on, in its units, and
+    // `info` says where both lie.
     assert_eq!(GeoReference::read(&map).unwrap(), Some(reference));
+    for file in [&dem, &map] {
+        let info = info_json(file);
+        let placed = ["pixel_size", "raster_origin", "epsg"].map(|k| info[k].to_string());
+        assert_eq!(placed, ["[30.0,30.0]", "[562000.0,5125000.0]", "32610"]);
+    }
     assert_eq!(height_map_entry(&report)["georeferenced"], true);
     let quilted = geosynth::imagery::read_heightfield(&map).unwrap();
     let (lo, hi) = quilted.range();
