@@ -96,11 +96,10 @@ pub fn write_sheet_heights(
     };
     // A GeoTIFF holds its placement; the other maps get files beside them.
     let tiff = is_tiff_path(path);
-    let reference = match placement.input_reference {
-        Some(reference) => Some(reference),
-        None => description.placement.map(GeoReference::from),
-    }
-    .filter(|_| tiff);
+    let reference = placement
+        .input_reference
+        .or_else(|| description.placement.map(GeoReference::from))
+        .filter(|_| tiff);
     let (written, sidecars) = if tiff {
         (write_geotiff(path, &field, reference.as_ref())?, Vec::new())
     } else {
