@@ -84,14 +84,10 @@ pub fn read_heightfield(path: &Path) -> Result<HeightField> {
             return Ok(HeightField::read_f32le(path)?);
         }
         let Some(header) = envi::header_beside(path) else {
-            return Err(pointset_core::Error::UnknownFormat {
-                path: path.to_path_buf(),
-                reason: "a raw height field needs its size: a name like \
-                         `name_WIDTHxHEIGHT.f32le`, or an ENVI header beside it (NAME.hdr \
-                         or NAME.f32le.hdr)"
-                    .into(),
-            }
-            .into());
+            let reason = "a raw height field needs its size: a name like \
+                          `name_WIDTHxHEIGHT.f32le`, or an ENVI header beside it (NAME.hdr \
+                          or NAME.f32le.hdr)";
+            return Err(format_error(path, reason.into()));
         };
         return envi::read_with_header(path, &header);
     }
@@ -277,14 +273,20 @@ fn refuse_no_data(path: &Path, heights: &[f32], no_data: f32) -> Result<()> {
     if marked == 0 {
         return Ok(());
     }
-    Err(pointset_core::Error::UnknownFormat {
+    let reason = format!(
+        "{marked} samples hold the no-data value {no_data}; a height field has no holes \
+         (fill them first, e.g. with gdal_fillnodata)"
+    );
+    Err(format_error(path, reason))
+}
+
+/// The error for the file `path`, whose content is not what its kind needs: `reason`.
+fn format_error(path: &Path, reason: String) -> Error {
+    pointset_core::Error::UnknownFormat {
         path: path.to_path_buf(),
-        reason: format!(
-            "{marked} samples hold the no-data value {no_data}; a height field has no \
-             holes (fill them first, e.g. with gdal_fillnodata)"
-        ),
+        reason,
     }
-    .into())
+    .into()
 }
 
 /// The error for an I/O failure `source` on the file `path`, as a `map_err` argument.

@@ -41,10 +41,7 @@ struct RawLayout {
 /// `4 · samples · lines` bytes; samples equal to the no-data value, or not finite.
 pub(super) fn read_with_header(raw: &Path, header: &Path) -> Result<HeightField> {
     let text = std::fs::read_to_string(header).map_err(super::io_error(header))?;
-    let layout = parse_header(&text).map_err(|reason| pointset_core::Error::UnknownFormat {
-        path: header.to_path_buf(),
-        reason,
-    })?;
+    let layout = parse_header(&text).map_err(|reason| super::format_error(header, reason))?;
     let bytes = std::fs::read(raw).map_err(super::io_error(raw))?;
     let samples = bytes.get(layout.offset..).unwrap_or_default();
     let field = if layout.big_endian {

@@ -5,12 +5,11 @@
 use std::io::{Seek, Write};
 use std::path::Path;
 
-use ::tiff::decoder::Decoder;
 use ::tiff::encoder::{DirectoryEncoder, TiffKind};
 use ::tiff::tags::Tag;
 
 use super::PlanPlacement;
-use crate::{Error, Result};
+use crate::Result;
 
 /// GeoTIFF's key directory for a map placed in a plane with no named coordinate system:
 /// version 1.1.0, two keys; the model type user-defined (32767) and the raster type
@@ -73,15 +72,11 @@ impl GeoReference {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn read(path: &Path) -> Result<Option<Self>> {
-        let file = std::fs::File::open(path).map_err(super::io_error(path))?;
-        let failed = |source| Error::TiffRead {
-            path: path.to_path_buf(),
-            source,
-        };
-        let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(failed)?;
+        let failed = super::geotiff::decoding_error(path);
+        let mut decoder = super::geotiff::open(path)?;
         let mut numbers = |tag| -> Result<Option<Vec<f64>>> {
-            match decoder.find_tag(tag).map_err(failed)? {
-                Some(value) => Ok(Some(value.into_f64_vec().map_err(failed)?)),
+            match decoder.find_tag(tag).map_err(&failed)? {
+                Some(value) => Ok(Some(value.into_f64_vec().map_err(&failed)?)),
                 None => Ok(None),
             }
         };
@@ -92,20 +87,17 @@ impl GeoReference {
         let doubles = numbers(Tag::GeoDoubleParamsTag)?;
         let keys = decoder
             .find_tag_unsigned_vec::<u16>(Tag::GeoKeyDirectoryTag)
-            .map_err(failed)?;
-        let ascii = match decoder.find_tag(Tag::GeoAsciiParamsTag).map_err(failed)? {
-            Some(value) => Some(value.into_string().map_err(failed)?),
+            .map_err(&failed)?;
+        let ascii = match decoder.find_tag(Tag::GeoAsciiParamsTag).map_err(&failed)? {
+            Some(value) => Some(value.into_string().map_err(&failed)?),
             None => None,
         };
         let (Some(scale), Some(tie), Some(keys)) = (scale, tie, keys) else {
             return Ok(None);
         };
         let (Ok(scale), Some(tie)) = (<[f64; 3]>::try_from(scale), tie.get(..6)) else {
-            return Err(pointset_core::Error::UnknownFormat {
-                path: path.to_path_buf(),
-                reason: "a GeoTIFF pixel scale has 3 numbers and a tie point 6".into(),
-            }
-            .into());
+            let reason = "a GeoTIFF pixel scale has 3 numbers and a tie point 6";
+            return Err(super::format_error(path, reason.into()));
         };
         // The tie point pins raster point (i, j) to model (x, y, z); (0, 0) follows.
         let [i, j, _, x, y, z] = [tie[0], tie[1], tie[2], tie[3], tie[4], tie[5]];

@@ -15,7 +15,8 @@
 //! Written: one band of 32-bit floats, Deflate-compressed, placed by GeoTIFF's tie point
 //! and pixel scale when the map has a place in its file's x–y plane.
 
-use std::io::Write;
+use std::fs::File;
+use std::io::{BufReader, Write};
 use std::path::Path;
 
 use ::tiff::ColorType;
@@ -31,29 +32,40 @@ use crate::{Error, Result};
 /// cannot decode (truncated, an unsupported compression), more than one sample per pixel,
 /// samples on the no-data value or not finite, fewer than 2 × 2 samples.
 pub(super) fn read(path: &Path) -> Result<HeightField> {
-    let file = std::fs::File::open(path).map_err(super::io_error(path))?;
-    let decoding = |source| Error::TiffRead {
-        path: path.to_path_buf(),
-        source,
-    };
-    let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(decoding)?;
-    let colour = decoder.colortype().map_err(decoding)?;
+    let decoding = decoding_error(path);
+    let mut decoder = open(path)?;
+    let colour = decoder.colortype().map_err(&decoding)?;
     if !matches!(colour, ColorType::Gray(_)) {
-        return Err(format_error(
+        return Err(super::format_error(
             path,
             format!("its pixels are {colour:?}; a height field has one grey sample per pixel"),
         ));
     }
-    let (width, height) = decoder.dimensions().map_err(decoding)?;
-    let no_data = match decoder.find_tag(Tag::GdalNodata).map_err(decoding)? {
+    let (width, height) = decoder.dimensions().map_err(&decoding)?;
+    let no_data = match decoder.find_tag(Tag::GdalNodata).map_err(&decoding)? {
         Some(value) => Some(no_data_value(path, value)?),
         None => None,
     };
-    let heights = as_f32(decoder.read_image().map_err(decoding)?);
+    let heights = as_f32(decoder.read_image().map_err(&decoding)?);
     if let Some(no_data) = no_data {
         super::refuse_no_data(path, &heights, no_data)?;
     }
     Ok(HeightField::new(width as usize, height as usize, heights)?)
+}
+
+/// A decoder of the TIFF file `path`, its first directory read. Errors: I/O, and a file
+/// that is not TIFF.
+pub(super) fn open(path: &Path) -> Result<Decoder<BufReader<File>>> {
+    let file = File::open(path).map_err(super::io_error(path))?;
+    Decoder::new(BufReader::new(file)).map_err(decoding_error(path))
+}
+
+/// The error for a decoding failure on the TIFF file `path`, as a `map_err` argument.
+pub(super) fn decoding_error(path: &Path) -> impl Fn(::tiff::TiffError) -> Error {
+    move |source| Error::TiffRead {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// Writes `field` to `path` as a one-band 32-bit float TIFF, Deflate-compressed, every
@@ -89,7 +101,7 @@ fn no_data_value(path: &Path, value: ::tiff::decoder::ifd::Value) -> Result<f32>
     let text = value.into_string().unwrap_or_default();
     let text = text.trim_matches(|c: char| c == '\0' || c.is_whitespace());
     text.parse::<f32>().map_err(|_| {
-        format_error(
+        super::format_error(
             path,
             format!("its GDAL_NODATA tag `{text}` is not a number"),
         )
@@ -114,14 +126,6 @@ fn as_f32(samples: DecodingResult) -> Vec<f32> {
         DecodingResult::F32(v) => v,
         DecodingResult::F64(v) => cast(v, |s| s as f32),
     }
-}
-
-fn format_error(path: &Path, reason: String) -> Error {
-    pointset_core::Error::UnknownFormat {
-        path: path.to_path_buf(),
-        reason,
-    }
-    .into()
 }
 
 #[cfg(test)]
@@ -179,8 +183,7 @@ mod tests {
 
     /// The GeoTIFF tags of the TIFF file `path`.
     fn geotags(path: &Path) -> GeoTags {
-        let file = std::fs::File::open(path).unwrap();
-        let mut decoder = Decoder::new(std::io::BufReader::new(file)).unwrap();
+        let mut decoder = open(path).unwrap();
         let mut numbers = |tag| {
             let value = decoder.find_tag(tag).unwrap()?;
             Some(value.into_f64_vec().unwrap())
