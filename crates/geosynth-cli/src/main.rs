@@ -1,6 +1,7 @@
 //! `geosynth`: run geosynth's synthesis algorithms on real files and look at the results.
 
 mod commands;
+mod input_file;
 mod json_report;
 mod memory;
 mod output;

@@ -4,9 +4,10 @@ use std::path::PathBuf;
 
 use clap::Args;
 use geosynth::core::io::ply::PlyEncoding;
-use geosynth::core::io::{self, FileFormat, Geometry, ReadOptions, StlEncoding, WriteOptions};
+use geosynth::core::io::{self, FileFormat, Geometry, StlEncoding, WriteOptions};
 
 use super::orient_faces;
+use crate::input_file::read_geometry;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
 use crate::{CliResult, Globals};
 
@@ -32,7 +33,7 @@ pub struct ConvertArgs {
 /// Runs `geosynth convert`.
 pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
-    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let loaded = read_geometry(&args.input)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     let is_mesh = loaded.geometry.mesh().is_some();
     check_geometry_output(&args.output, is_mesh, loaded.origin)?;

@@ -4,12 +4,13 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use geosynth::core::MeshTopology;
-use geosynth::core::io::{self, Geometry, LoadedGeometry, ReadOptions};
+use geosynth::core::io::{Geometry, LoadedGeometry};
 use geosynth::imagery;
 use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
 use geosynth::sdf::nrrd;
 use serde::Serialize;
 
+use crate::input_file::{named, read_geometry};
 use crate::output::{print_line, status};
 use crate::{CliResult, Globals};
 
@@ -436,16 +437,16 @@ fn print(globals: Globals, json: bool, value: &impl Serialize, text: String) -> 
 pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
     let path = args.file.as_path();
     if nrrd::is_nrrd_path(path) {
-        let info = VolumeInfo::load(path)?;
+        let info = VolumeInfo::load(path).map_err(named(path))?;
         let text = info.text();
         return print(globals, args.json, &info, text);
     }
     if imagery::is_image_path(path) || imagery::is_heightfield_path(path) {
-        let info = GridInfo::load(path)?;
+        let info = GridInfo::load(path).map_err(named(path))?;
         let text = info.text();
         return print(globals, args.json, &info, text);
     }
-    let loaded = io::read_geometry_with(path, &ReadOptions::default().recentre_far(true))?;
+    let loaded = read_geometry(path)?;
     let info = FileInfo::new(path, &loaded);
     let text = info.text();
     print(globals, args.json, &info, text)

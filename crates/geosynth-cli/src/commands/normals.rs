@@ -3,12 +3,13 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
+use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::mls::{
     NORMAL_NEIGHBOURS, estimate_normals, orient_normals, orientation_disagreement,
 };
 use glam::{DVec3, Vec3};
 
+use crate::input_file::read_geometry;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
 use crate::{CliResult, Globals};
 
@@ -54,7 +55,7 @@ pub struct NormalsArgs {
 pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
-    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let loaded = read_geometry(&args.input)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     let points = match &loaded.geometry {
         Geometry::Points(points) => points,

@@ -25,6 +25,7 @@ use serde_json::{Value, json};
 
 use super::sheet_heights::{MapPlacement, write_sheet_heights};
 use super::sheet_mesh::sheet_mesh;
+use crate::input_file::named;
 use crate::json_report::write_json_report;
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
@@ -454,7 +455,8 @@ fn read_texture(
 ) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
     if let Some(path) = &args.heightfield {
         let relief = options.relief.unwrap_or(DEFAULT_RELIEF);
-        let (texture, frame) = read_heightfield_texture_framed(path, relief)?;
+        let (texture, frame) =
+            read_heightfield_texture_framed(path, relief).map_err(named(path))?;
         return Ok((texture.into(), Some(frame)));
     }
     let path = args
@@ -462,9 +464,10 @@ fn read_texture(
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
     let file = match options.up {
-        Some(TextureUpArg::Auto) => read_texture_file_fitted(path)?,
-        up => read_texture_file(path, up.and_then(TextureUpArg::axis))?,
-    };
+        Some(TextureUpArg::Auto) => read_texture_file_fitted(path),
+        up => read_texture_file(path, up.and_then(TextureUpArg::axis)),
+    }
+    .map_err(named(path))?;
     Ok((file, None))
 }
 

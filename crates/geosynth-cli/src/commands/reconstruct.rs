@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use clap::Args;
 use geosynth::core::KdIndex;
-use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
+use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::mls::{MlsParams, orient_normals};
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, drop_small_pieces, signed_distance,
@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::SignArgs;
+use crate::input_file::read_geometry;
 use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
 use crate::params_file::{
@@ -183,7 +184,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     let options = ReconstructInputOptions::of(args, &file)?;
     let winding = params.point_sign == PointSign::WindingNumber;
     // Georeferenced points are reconstructed relative to an origin and written back there.
-    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let loaded = read_geometry(&args.input)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
     let mut points = loaded.geometry.points().clone();
@@ -371,8 +372,7 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     let params = args.grid.params(&file, &args.sign, given)?;
     let (sign, options) = args.sign.with_recorded(&file)?;
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
-    let mut loaded =
-        io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let mut loaded = read_geometry(&args.input)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     if let io::Geometry::Mesh(mesh) = loaded.geometry {
         let (mesh, change) = sign.oriented(mesh)?;

@@ -4,11 +4,12 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use geosynth::core::TriMesh;
-use geosynth::core::io::{self, Geometry, ReadOptions};
+use geosynth::core::io::Geometry;
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::{isosurface, nrrd};
 
+use crate::input_file::{named, read_geometry};
 use crate::output::{check_output_paths, report_not_kept, status};
 use crate::{CliResult, Globals};
 
@@ -132,8 +133,7 @@ fn load(path: &Path, args: &RenderArgs, globals: Globals) -> CliResult<Input> {
     }
     // A picture does not depend on where the data lies, so georeferenced files are read
     // relative to an origin, at full precision.
-    let recentred = ReadOptions::default().recentre_far(true);
-    let loaded = io::read_geometry_with(path, &recentred)?;
+    let loaded = read_geometry(path)?;
     report_not_kept(globals, path, &loaded.notes);
     Ok(Input::Geometry(loaded.geometry, args.view.up.into()))
 }
@@ -173,7 +173,7 @@ pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
     let inputs = args
         .files
         .iter()
-        .map(|p| load(p, args, globals))
+        .map(|p| load(p, args, globals).map_err(named(p)))
         .collect::<CliResult<Vec<_>>>()?;
     let panels: Vec<Panel<'_>> = inputs
         .iter()

@@ -15,6 +15,7 @@ use geosynth::voxel::{
 use serde_json::{Value, json};
 
 use super::SignArgs;
+use crate::input_file::named;
 use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, progress_context, status};
 use crate::params_file::{GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, VOXEL_REPORTS};
@@ -302,7 +303,7 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let file = ParamsFile::read(args.params.as_deref(), VOXEL_REPORTS)?;
     let stage = run_stage(args, &file, given)?;
     let (sign, input_options) = args.sign.with_recorded(&file)?;
-    let mut exemplar = read_exemplar(&args.exemplar)?;
+    let mut exemplar = read_exemplar(&args.exemplar).map_err(named(&args.exemplar))?;
     for path in std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()) {
         check_geometry_output(path, true, exemplar.origin)?;
     }

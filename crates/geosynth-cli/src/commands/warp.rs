@@ -3,11 +3,12 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use geosynth::core::io::{self, Geometry, ReadOptions, WriteOptions};
+use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::tps::{ThinPlateSpline, TpsParams};
 use glam::{DVec3, Vec3};
 
+use crate::input_file::read_geometry;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
 use crate::{CliResult, Globals};
 
@@ -31,7 +32,7 @@ pub struct WarpArgs {
 
 /// Parses a pairs file into sources and targets, naming the line of any error. The
 /// coordinates are read in double precision and stored relative to `origin` (that of the
-/// point set they warp, see [`ReadOptions::recentre_far`]).
+/// point set they warp, see [`geosynth::core::io::ReadOptions::recentre_far`]).
 pub fn parse_pairs(text: &str, path: &Path, origin: DVec3) -> CliResult<(Vec<Vec3>, Vec<Vec3>)> {
     let (mut from, mut to) = (Vec::new(), Vec::new());
     for (i, line) in text.lines().enumerate() {
@@ -90,7 +91,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     let text = std::fs::read_to_string(&args.pairs)
         .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
     // Georeferenced inputs are warped relative to an origin and written back there.
-    let loaded = io::read_geometry_with(&args.input, &ReadOptions::default().recentre_far(true))?;
+    let loaded = read_geometry(&args.input)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(
         &args.output,

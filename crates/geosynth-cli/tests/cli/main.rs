@@ -308,6 +308,72 @@ fn bad_input_fails_with_a_message_not_a_panic() {
 }
 
 #[test]
+fn a_bad_input_file_is_named_in_its_error_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.ply");
+    write_with_defaults(
+        &good,
+        &geosynth::core::io::Geometry::Points(geosynth::fixtures::sphere_points(50).unwrap()),
+    );
+    let nan = dir.path().join("nan.ply");
+    let header = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+                  property float z\nend_header\n";
+    std::fs::write(&nan, format!("{header}0 0 0\n1 nan 0\n")).unwrap();
+    let short_raw = dir.path().join("short_4x4.f32le");
+    std::fs::write(&short_raw, [0u8; 40]).unwrap();
+    let volume = dir.path().join("volume.nrrd");
+    std::fs::write(
+        &volume,
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nendian: little\n\n",
+    )
+    .unwrap();
+    let png = dir.path().join("out.png");
+    let ply_out = dir.path().join("out.ply");
+    let (nan, short_raw, volume) = (arg(&nan), arg(&short_raw), arg(&volume));
+    let (png, ply_out, good) = (arg(&png), arg(&ply_out), arg(&good));
+    for (args, file, what) in [
+        // Of two panels, the second cannot be read: the message says which.
+        (
+            vec!["render", &good, &nan, "-o", &png],
+            &nan,
+            "position 1 is not finite",
+        ),
+        (vec!["info", &short_raw], &short_raw, "needs 64 bytes"),
+        (vec!["info", &volume], &volume, "spacings"),
+        (vec!["voxel", &volume, "-o", &ply_out], &volume, "spacings"),
+        (vec!["quilt", &nan, "-o", &ply_out], &nan, "not finite"),
+        (
+            vec!["quilt", "--heightfield", &short_raw, "-o", &ply_out],
+            &short_raw,
+            "64 bytes",
+        ),
+        (vec!["convert", &nan, "-o", &ply_out], &nan, "not finite"),
+        (vec!["normals", &nan, "-o", &ply_out], &nan, "not finite"),
+        (
+            vec!["reconstruct", &nan, "-o", &ply_out],
+            &nan,
+            "not finite",
+        ),
+    ] {
+        let out = geosynth(&args);
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.starts_with(&format!("error: {file}: ")),
+            "{args:?}: {err}"
+        );
+        assert!(err.contains(what), "{args:?}: {err}");
+        // The cause is the message itself: it is not printed a second time.
+        assert_eq!(err.matches(what).count(), 1, "{args:?}: {err}");
+    }
+    // A message that names the file already is left as it is.
+    let missing = dir.path().join("missing.ply");
+    let out = geosynth(&["info", &arg(&missing)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.matches("missing.ply").count(), 1, "{err}");
+}
+
+#[test]
 fn demo_quick_writes_report_geometry_and_previews() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
