@@ -75,14 +75,25 @@ pub fn parse_texture_comments_at(
 
 /// The samples of a texture file: its points as stored, or for a mesh without vertex
 /// normals, its vertices with normals averaged from the faces (angle-weighted), leaving out
-/// vertices no face orients (unreferenced, or on degenerate faces only).
-pub(super) fn oriented_samples(geometry: &Geometry) -> Result<PointSet> {
+/// vertices no face orients (unreferenced, or on degenerate faces only). A mesh whose
+/// vertices no face orients is refused, naming `path`.
+pub(super) fn oriented_samples(path: &Path, geometry: &Geometry) -> Result<PointSet> {
     match geometry {
         Geometry::Mesh(mesh) if mesh.vertices().normals().is_none() => {
             let normals = mesh.vertex_normals(NormalWeighting::Angle);
             let oriented: Vec<usize> = (0..normals.len())
                 .filter(|&i| normals[i] != Vec3::ZERO)
                 .collect();
+            if oriented.is_empty() && !normals.is_empty() {
+                return Err(Error::TextureFile {
+                    path: path.to_path_buf(),
+                    message: format!(
+                        "none of the mesh's {} vertices lies on a face with area, so none \
+                         has a normal to quilt with",
+                        normals.len()
+                    ),
+                });
+            }
             let with_normals = mesh.vertices().clone().with_normals(normals)?;
             Ok(with_normals.subset(&oriented)?)
         }
@@ -257,7 +268,7 @@ fn read_texture_from(
     };
     let loaded = io::read_geometry_with(path, options)?;
     let origin = loaded.origin;
-    let points = oriented_samples(&loaded.geometry)?;
+    let points = oriented_samples(path, &loaded.geometry)?;
     let described = parse_texture_comments_at(&loaded.comments, origin).map_err(file_error)?;
     let (bounds, file_up) = match described {
         Some(described) => described,
@@ -283,7 +294,7 @@ fn read_texture_from(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::quilt::{OutputSize, QuiltParams, quilt};
+    use crate::quilt::{OutputSize, QuiltParams, quilt, read_texture_file_fitted};
     use pointset_core::RunContext;
 
     fn parse(lines: &[&str]) -> std::result::Result<Option<(Aabb, UpAxis)>, String> {
@@ -367,6 +378,27 @@ mod tests {
         assert!(out.points.len() > points.len() / 2);
     }
 
+    #[test]
+    fn a_mesh_of_degenerate_faces_is_refused_naming_why() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sliver.obj");
+        // Two faces whose corners lie on one line: no face has area, so no normal.
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 3 2 1\n").unwrap();
+        let refused = read_texture_file(&path, None).err().map(|e| e.to_string());
+        let message = refused.unwrap_or_default();
+        assert!(
+            message.starts_with(&path.display().to_string()),
+            "{message}"
+        );
+        assert!(
+            message.contains("none of the mesh's 3 vertices"),
+            "{message}"
+        );
+        assert!(
+            read_texture_file_fitted(&path).is_err_and(|e| e.to_string() == message),
+            "the fitted reader refuses it alike"
+        );
+    }
     #[test]
     fn what_the_reader_could_not_keep_travels_with_the_texture() {
         let dir = tempfile::tempdir().unwrap();

@@ -80,7 +80,7 @@ pub fn read_texture_file_fitted(path: &Path) -> Result<TextureFile> {
                 .into(),
         ));
     }
-    let points = oriented_samples(&loaded.geometry)?;
+    let points = oriented_samples(path, &loaded.geometry)?;
     let normals = points.normals().ok_or_else(|| {
         file_error("the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into())
     })?;

@@ -36,9 +36,13 @@ pub struct MeshTopology {
 
 impl MeshTopology {
     /// Whether the mesh is a closed, consistently oriented 2-manifold (every edge in exactly
-    /// two faces, traversed once in each direction).
+    /// two faces, traversed once in each direction). A mesh without faces is not: it
+    /// bounds nothing.
     pub fn is_closed_manifold(&self) -> bool {
-        self.boundary_edges == 0 && self.non_manifold_edges == 0 && self.misoriented_edges == 0
+        self.edges > 0
+            && self.boundary_edges == 0
+            && self.non_manifold_edges == 0
+            && self.misoriented_edges == 0
     }
 }
 
@@ -441,6 +445,19 @@ impl TriMesh {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    #[test]
+    fn a_mesh_without_faces_is_not_a_closed_manifold() {
+        let corners = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+        let points = PointSet::new(corners).unwrap();
+        let empty = TriMesh::new(points.clone(), Vec::new()).unwrap().topology();
+        assert_eq!((empty.edges, empty.components), (0, 0));
+        assert!(!empty.is_closed_manifold());
+        let faces = vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+        let tetrahedron = TriMesh::new(points, faces).unwrap().topology();
+        assert!(tetrahedron.is_closed_manifold());
+        assert_eq!(tetrahedron.euler_characteristic, 2);
+    }
 
     #[test]
     fn dropping_unreferenced_vertices_keeps_the_rest_with_their_data() {

@@ -104,6 +104,8 @@ impl TopologyInfo {
              misoriented edges",
             if self.closed_manifold {
                 "closed manifold"
+            } else if self.components == 0 {
+                "no faces"
             } else {
                 "open or non-manifold"
             },

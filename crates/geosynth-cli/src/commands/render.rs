@@ -135,6 +135,15 @@ fn load(path: &Path, args: &RenderArgs, globals: Globals) -> CliResult<Input> {
     // relative to an origin, at full precision.
     let loaded = read_geometry(path)?;
     report_not_kept(globals, path, &loaded.notes);
+    if loaded.geometry.points().is_empty() {
+        status(
+            globals,
+            format!(
+                "note: {} holds no points; its panel is empty",
+                path.display()
+            ),
+        );
+    }
     Ok(Input::Geometry(loaded.geometry, args.view.up.into()))
 }
 

@@ -374,6 +374,27 @@ fn a_bad_input_file_is_named_in_its_error_once() {
 }
 
 #[test]
+fn an_empty_mesh_is_described_and_drawn_as_empty() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.stl");
+    std::fs::write(&empty, "solid nothing\nendsolid nothing\n").unwrap();
+    let text = ok(&["info", &arg(&empty)]);
+    assert!(
+        text.contains("topology:    no faces, 0 component(s)"),
+        "{text}"
+    );
+    assert_eq!(info_json(&empty)["topology"]["closed_manifold"], false);
+    let png = dir.path().join("empty.png");
+    let out = geosynth(&["render", &arg(&empty), "-o", &arg(&png)]);
+    assert!(out.status.success() && png.exists());
+    let said = String::from_utf8_lossy(&out.stdout) + String::from_utf8_lossy(&out.stderr);
+    assert!(
+        said.contains("empty.stl holds no points; its panel is empty"),
+        "{said}"
+    );
+}
+
+#[test]
 fn demo_quick_writes_report_geometry_and_previews() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("demo");
