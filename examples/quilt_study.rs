@@ -1,7 +1,7 @@
 //! Mean quality of patch quilting over several seeds: the full method, both baselines and the
 //! same-layout control (the full run's patches pasted without warp or blend). This is the
-//! driver behind the multi-seed tables in `docs/patch-quilt.md`; one seed is too noisy to
-//! compare methods on.
+//! driver behind the multi-seed tables in `docs/patch-quilt-studies.md`; one seed is too
+//! noisy to compare methods on.
 //!
 //! ```text
 //! cargo run --release --example quilt_study -- [--seeds N] [--windows W] [--resampled DIR]

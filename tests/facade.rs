@@ -482,9 +482,9 @@ fn figure_6_solids_are_closed_manifolds_filling_their_boxes() {
 
 #[test]
 fn with_small_target_clusters_the_full_method_beats_search_only_on_bumpy() {
-    // docs/patch-quilt.md, "Cluster size": clusters of at most 4 points give the warp
-    // about three times as many targets as the default 12, and on the bumpy fixture the
-    // full method then beats pasting searched patches (over 8 seeds and 128 windows:
+    // docs/patch-quilt-studies.md, "Cluster size": clusters of at most 4 points give the
+    // warp about three times as many targets as the default 12, and on the bumpy fixture
+    // the full method then beats pasting searched patches (over 8 seeds and 128 windows:
     // −0.0137 ± 0.0066 neighbourhood, −0.0181 ± 0.0033 seam). Here seeds 1–4 and 32
     // windows, compared on the means; with the default 12 the seam error is lost
     // (measured 0.084 against 0.077).

@@ -53,8 +53,8 @@ pub const BASE_SIDE: f32 = 4.0;
 
 /// MLS parameters of every surface over a geometry texture's points: the defaults, with a
 /// query out of the kernel's reach signed by its nearest sample's plane alone
-/// (`fallback_sign_samples` 1), the rule every quality number in docs/patch-quilt.md was
-/// measured with. Like [`texture_field`]'s far signs, the textures keep it.
+/// (`fallback_sign_samples` 1), the rule every quality number in
+/// docs/patch-quilt-studies.md was measured with. Like [`texture_field`]'s far signs, the textures keep it.
 pub(crate) fn texture_mls_params() -> MlsParams {
     MlsParams::default().fallback_sign_samples(1)
 }
@@ -64,7 +64,7 @@ pub(crate) fn texture_mls_params() -> MlsParams {
 /// [`FarSigns::RegionVote`]. Geometry textures are open sheets, with no inside that a hole
 /// in the band could flip, and a few wrong-signed nodes at a petal's rim cannot sign
 /// anything with the region vote. It was the only rule until the nineteenth session, and
-/// every quality number in docs/patch-quilt.md was measured with it.
+/// every quality number in docs/patch-quilt-studies.md was measured with it.
 pub(crate) fn texture_field(
     surface: &(impl Surface + ?Sized),
     spec: &GridSpec,

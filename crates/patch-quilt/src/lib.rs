@@ -48,7 +48,7 @@
 //! | `relaxation_rounds` | 0 | §6 post-process |
 //! | `seed`, `method`, `seed_patch`, `layout` | 0, full, random, searched | |
 //!
-//! The measurements behind the choices are in `docs/patch-quilt.md`.
+//! The measurements behind the choices are in `docs/patch-quilt-studies.md`.
 //!
 //! ## The algorithm (paper 000 §4 steps 1–8, §5), as implemented
 //!
@@ -109,27 +109,27 @@
 //!   they are spread through the corner's height, one from each of 4 layers, nearest the
 //!   corner's centre ([`tps_warp::anchors_in_regions`]). Anchors at one height left the
 //!   spline's stretch along the normal free, and rough height fields' far corners were
-//!   squashed (docs/patch-quilt.md, "Anchors through the height"). A corner region is read
-//!   as a column through the patch's height: where the patch reaches farther below (above)
-//!   the spline's control points than both their own height span and an eighth of the
-//!   corner's side, each free corner's centre at the patch's lowest (highest) z is an
+//!   squashed (docs/patch-quilt-studies.md, "Anchors through the height"). A corner region
+//!   is read as a column through the patch's height: where the patch reaches farther below
+//!   (above) the spline's control points than both their own height span and an eighth of
+//!   the corner's side, each free corner's centre at the patch's lowest (highest) z is an
 //!   anchor too. Without them, a patch whose pairs and corners all lay on one plateau was
 //!   stretched along z by the pairs' noise: on a 1024² height map one warp moved a pit's
 //!   points by 11 times its longest pair. Pinned always, the ends took most of the full
-//!   method's lead on Mount St. Helens (docs/patch-quilt.md, "Column ends"). A warp that
-//!   still moves a point that may land in `B_k` by more than 3 times its longest pair is
-//!   fitted again with each free corner's column pinned wherever the patch reaches beyond
-//!   the pairs alone by more than an eighth of the corner, and the fit whose landing
-//!   points move less is kept ([`QuiltStats::warps_restrained`]; docs/patch-quilt.md, "Stretch
-//!   limit").
+//!   method's lead on Mount St. Helens (docs/patch-quilt-studies.md, "Column ends"). A warp
+//!   that still moves a point that may land in `B_k` by more than 3 times its longest pair
+//!   is fitted again with each free corner's column pinned wherever the patch reaches
+//!   beyond the pairs alone by more than an eighth of the corner, and the fit whose landing
+//!   points move less is kept ([`QuiltStats::warps_restrained`];
+//!   docs/patch-quilt-studies.md, "Stretch limit").
 //! - The first patch of each later row overlaps only the row below; the first row only its
 //!   left neighbour.
 //! - Each paired source goes onto its target `q` ([`WarpTargets::Exact`], the default). The
 //!   option [`WarpTargets::SurfaceGap`] (not in the paper) moves it instead by the gap
 //!   between the exemplar's and `N_k`'s MLS surfaces along its normal, which ignores the
 //!   tangential sampling offset between the two samples of a pair. After the 2026-12-01
-//!   distance-field fix it scores lower than exact targets on all four demo fixtures
-//!   (means over 8–16 seeds in `docs/patch-quilt.md`); the default stays the paper's.
+//!   distance-field fix it scores lower than exact targets on all four demo fixtures (means
+//!   over 8–16 seeds in `docs/patch-quilt-studies.md`); the default stays the paper's.
 //! - Step 5 closes *gaps*, which "should be small" (§5.3): a point whose target lies
 //!   farther than [`QuiltParams::blend_reach`], or on a surface whose normal is further
 //!   from the point's than [`QuiltParams::normal_agreement`] allows (another petal, a

@@ -41,15 +41,16 @@ pub enum WarpTargets {
     /// `s`'s own foot point on the exemplar's MLS surface and `g` the closer hit of the
     /// two rays from `f` along `±n_s` on `N_k`'s MLS surface (else its projection), so the
     /// spline closes exactly the gap that makes `W(S)` disagree with `N_k`'s surface — the
-    /// paper's stated aim — and is the identity where the two surfaces already agree
-    /// (the MLS operator's own offset on curved features cancels, both feet being measured
-    /// with it). A pair with no surface of `N_k` within the pair distance limit along its
-    /// normal is dropped. Not in the paper. Measured in `docs/patch-quilt.md` ("Surface-gap
-    /// targets after the fix", means over 8–16 seeds): lower neighbourhood and seam errors
-    /// than [`WarpTargets::Exact`] on all four demo fixtures — bumpy 0.065 / 0.081 against
-    /// 0.077 / 0.092, chain mail 0.022 / 0.029 against 0.024 / 0.031, weave 0.019 / 0.025
-    /// against 0.024 / 0.032, flowers 0.257 / 0.350 against 0.270 / 0.364. (Before the
-    /// distance-field sign fix of 2026-12-01 the flowers had measured the other way.)
+    /// paper's stated aim — and is the identity where the two surfaces already agree (the
+    /// MLS operator's own offset on curved features cancels, both feet being measured with
+    /// it). A pair with no surface of `N_k` within the pair distance limit along its normal
+    /// is dropped. Not in the paper. Measured in `docs/patch-quilt-studies.md`
+    /// ("Surface-gap targets after the fix", means over 8–16 seeds): lower neighbourhood
+    /// and seam errors than [`WarpTargets::Exact`] on all four demo fixtures — bumpy 0.065
+    /// / 0.081 against 0.077 / 0.092, chain mail 0.022 / 0.029 against 0.024 / 0.031, weave
+    /// 0.019 / 0.025 against 0.024 / 0.032, flowers 0.257 / 0.350 against 0.270 / 0.364.
+    /// (Before the distance-field sign fix of 2026-12-01 the flowers had measured the other
+    /// way.)
     SurfaceGap,
 }
 
@@ -103,7 +104,7 @@ pub struct QuiltParams {
     /// radius; default 0.25. A point whose target on `N_k` is farther away faces different
     /// geometry rather than a gap (§5.3: the gaps "should be small") and is left as it is.
     /// Measured over 8 seeds: lower neighbourhood and seam error than unlimited reach on
-    /// bumpy, chain mail and flowers, equal on the weave (`docs/patch-quilt.md`).
+    /// bumpy, chain mail and flowers, equal on the weave (`docs/patch-quilt-studies.md`).
     pub blend_reach: f32,
     /// Smallest cosine between a point's normal and the normal of the neighbourhood's
     /// surface where its gap ends, for the blend to close that gap (and, with
@@ -112,7 +113,7 @@ pub struct QuiltParams {
     /// crossing thread — not the far side of a small gap, so the point is left as it is.
     /// `-1` turns the test off. Measured over 8 seeds on the flowers (surface gaps, the
     /// run's own patches): what steps 4–5 cost fell from 0.035 to 0.013; nothing
-    /// measurable changed on the other fixtures (`docs/patch-quilt.md`).
+    /// measurable changed on the other fixtures (`docs/patch-quilt-studies.md`).
     pub normal_agreement: f32,
     /// Adaptive clustering limits for the target set `Q`; default `n_max` 12, `σ_max` 0.1.
     /// The paper gives no cluster size. Smaller clusters give more targets, so the spline
@@ -120,7 +121,7 @@ pub struct QuiltParams {
     /// method's errors on the bumpy fixture and on Mount St. Helens read at three
     /// samplings (enough to beat search-only on bumpy), changed the tubes little, and
     /// raised them on a flatter reading of St. Helens at 1.6 times its size
-    /// (`docs/patch-quilt.md`, "Cluster size"); so 12 stays the default.
+    /// (`docs/patch-quilt-studies.md`, "Cluster size"); so 12 stays the default.
     pub clusters: ClusterParams,
     /// Anchor points mapped to themselves per free corner of `F_k`; default 4, spread
     /// through the corner's height ([`tps_warp::anchors_in_regions`]). Unless it is 0, a

@@ -485,8 +485,8 @@ fn the_shared_height_fields_quilt() {
 #[test]
 fn on_a_real_terrain_the_full_method_beats_pasting() {
     // Mount St. Helens (every second sample): not periodic, so pasted patches meet with
-    // steps in height, and the warp and blend close them (docs/patch-quilt.md, "Real
-    // height fields"). One seed is noisy, so the means over seeds 1–8 are compared.
+    // steps in height, and the warp and blend close them (docs/patch-quilt-studies.md,
+    // "Real height fields"). One seed is noisy, so the means over seeds 1–8 are compared.
     // Measured (anchors through the height, twenty-ninth session): neighbourhood 0.044
     // against 0.058, seam 0.044 against 0.060. At every fourth sample search-only led
     // (fourteenth session: 0.037 against 0.050 and 0.039 against 0.048): too few samples

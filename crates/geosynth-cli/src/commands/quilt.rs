@@ -90,7 +90,7 @@ pub enum WarpTargetsArg {
     Exact,
     /// By the gap between the exemplar's and the neighbourhood's surfaces at the source
     /// (not in the paper): lower errors than exact targets on all four demo fixtures,
-    /// most on thin tubes (docs/patch-quilt.md).
+    /// most on thin tubes (docs/patch-quilt-studies.md).
     SurfaceGap,
 }
 
@@ -181,7 +181,7 @@ pub struct QuiltArgs {
     epsilon: f32,
     /// Largest pair length of the warp, in distance-field spacings (0.25 measured better on
     /// rough, noisy images read as height fields, such as bark or brick photographs, and
-    /// worse on smooth terrain: docs/patch-quilt.md).
+    /// worse on smooth terrain: docs/patch-quilt-studies.md).
     #[arg(long, default_value_t = QuiltParams::default().pair_distance)]
     pair_distance: f32,
     /// Where the warp sends paired points.

@@ -33,8 +33,8 @@ pub(super) struct Controls<'a> {
 /// The first rule leaves the ends free where the controls span the patch's height, which
 /// keeps the warp's freedom on terrain like Mount St. Helens; on a dense height map it
 /// still let one patch stretch a pit by about 3.9 times its longest pair, with one corner's
-/// samples as deep as the pit and every pair on the plateau above it (docs/patch-quilt.md,
-/// "Stretch limit"). `None` when the first fit fails.
+/// samples as deep as the pit and every pair on the plateau above it
+/// (docs/patch-quilt-studies.md, "Stretch limit"). `None` when the first fit fails.
 pub(super) fn fit_restrained(
     points: &[Vec3],
     controls: &Controls<'_>,
@@ -125,8 +125,8 @@ impl FittedWarp {
 /// one warp moved a pit's points by 11 times its longest pair (0.31 box units). Pinning
 /// the column's far end bounds that extrapolation ([`warp_patch`]). Where the controls
 /// already span the patch's height, the ends are left free at first: pinned there too,
-/// they took most of the full method's lead on Mount St. Helens (docs/patch-quilt.md,
-/// "Column ends").
+/// they took most of the full method's lead on Mount St. Helens
+/// (docs/patch-quilt-studies.md, "Column ends").
 #[derive(Default)]
 pub(super) struct ColumnEnds {
     /// Where the patch reaches beyond the spline's other control points (pairs and corner
