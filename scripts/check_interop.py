@@ -26,8 +26,9 @@
    overviews) and checks that `geosynth info --json` reads their sizes, ranges and
    placement (EPSG code, pixel size, corner), that
    `geosynth render` draws each byte for byte as it draws a raw Float32 twin, that a quilt
-   of the Int16 one written as a GeoTIFF map keeps its coordinate system and grid, and
-   that a DEM with voids on its no-data value is refused.
+   of the Int16 one written as a GeoTIFF map keeps its coordinate system and grid, that a
+   DEM placed without a coordinate system (no GeoTIFF keys) is placed and so is its
+   quilt's map, and that a DEM with voids on its no-data value is refused.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -327,6 +328,26 @@ bad += not ok
 print(('ok  ' if ok else 'BAD ') + f"foreign/dem_quilt.tif (ours, read by GDAL): {crs}, "
       f"pixel {transform.a}, top-left corner ({transform.c}, {transform.f}), "
       f"{ours.shape[1]}x{ours.shape[0]} heights {heights.min():.0f}..{heights.max():.0f}")
+# A DEM placed by a transform alone, with no coordinate system (GDAL then writes a tie
+# point and a pixel scale but no GeoKeyDirectory): placed all the same, and its quilt's map
+# keeps that placement and names no system either.
+unnamed = foreign / 'dem_no_crs.tif'
+with rasterio.open(unnamed, 'w', **{**placed, 'crs': None}, dtype='float32') as dataset:
+    dataset.write(centimetres.astype('float32'), 1)
+result = subprocess.run([G, 'info', '--json', str(unnamed)], capture_output=True, text=True)
+ours = json.loads(result.stdout) if result.returncode == 0 else {}
+unnamed_quilt = foreign / 'dem_no_crs_quilt.tif'
+subprocess.run([G, 'quilt', '--heightfield', str(unnamed), '-o',
+                str(foreign / 'dem_no_crs_quilt.ply'), '--resolution', '20', '--no-quality',
+                '-q', '--heightfield-out', str(unnamed_quilt)], check=True)
+with rasterio.open(unnamed) as theirs, rasterio.open(unnamed_quilt) as quilt_map:
+    kept = quilt_map.crs is None and quilt_map.transform == theirs.transform
+ok = (ours.get('raster_origin') == [5e5, 4e6] and ours.get('pixel_size') == [30.0, 30.0]
+      and ours.get('geo_keys') is False and kept)
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/dem_no_crs.tif (GDAL GTiff, no CRS): placed from "
+      f"{ours.get('raster_origin')}, keys {ours.get('geo_keys')}; its quilt's map "
+      f"{'keeps' if kept else 'LOSES'} the transform")
 voided = centimetres.astype('int16')
 voided[5:8, 9:13] = -32768
 path = foreign / 'dem_void.tif'

@@ -50,6 +50,16 @@ pub enum Error {
         #[source]
         source: image::ImageError,
     },
+    /// A height field file whose content its reader refuses: a raw file of the wrong
+    /// size, an ENVI header it cannot read, samples on the no-data value, GeoTIFF tags
+    /// of the wrong length.
+    #[error("{path}: {reason}")]
+    HeightFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
     /// Decoding a TIFF height field failed (not a TIFF, truncated, an unsupported
     /// compression or sample layout).
     #[error("cannot read TIFF {path}: {source}")]

@@ -282,11 +282,10 @@ fn refuse_no_data(path: &Path, heights: &[f32], no_data: f32) -> Result<()> {
 
 /// The error for the file `path`, whose content is not what its kind needs: `reason`.
 fn format_error(path: &Path, reason: String) -> Error {
-    pointset_core::Error::UnknownFormat {
+    Error::HeightFile {
         path: path.to_path_buf(),
         reason,
     }
-    .into()
 }
 
 /// The error for an I/O failure `source` on the file `path`, as a `map_err` argument.

@@ -16,6 +16,10 @@ use crate::Result;
 /// pixel-is-area (1: raster point (0, 0) is the top-left sample's outer corner).
 const PLAN_KEYS: [u16; 12] = [1, 1, 0, 2, 1024, 0, 1, 32767, 1025, 0, 1, 1];
 
+/// Numbers before the first key of a GeoKeyDirectory: version, revision, minor revision
+/// and the number of keys.
+const KEY_DIRECTORY_HEADER: usize = 4;
+
 /// A GeoTIFF's placement of its samples without rotation: column `c`, row `r` (raster
 /// point `(c, r)`) lies at model `origin + (c·scale[0], −r·scale[1], 0)`, and the key
 /// directory with its parameters names the coordinate system and whether a raster point
@@ -27,7 +31,9 @@ pub struct GeoReference {
     pub scale: [f64; 3],
     /// Model coordinates of raster point (0, 0).
     pub origin: [f64; 3],
-    /// The GeoKeyDirectory (tag 34735), as stored.
+    /// The GeoKeyDirectory (tag 34735), as stored; empty when the file has none (it is
+    /// then placed in an unnamed coordinate system, as GDAL reads it, and a map written
+    /// with this reference has no key directory either).
     pub keys: Vec<u16>,
     /// The GeoDoubleParams the keys point into (tag 34736), as stored.
     pub doubles: Option<Vec<f64>>,
@@ -53,8 +59,9 @@ impl From<PlanPlacement> for GeoReference {
 
 impl GeoReference {
     /// The reference of the TIFF file `path`, if it has one this type can hold: a pixel
-    /// scale, a tie point and a key directory (`None` for a plain TIFF, and for a
-    /// rotated or sheared one, which GeoTIFF places with a transformation matrix).
+    /// scale and a tie point, with the key directory if there is one (`None` for a plain
+    /// TIFF, and for a rotated or sheared one, which GeoTIFF places with a
+    /// transformation matrix).
     /// Errors: a file TIFF cannot open, tags of the wrong type or length.
     ///
     /// ```
@@ -92,13 +99,18 @@ impl GeoReference {
             Some(value) => Some(value.into_string().map_err(&failed)?),
             None => None,
         };
-        let (Some(scale), Some(tie), Some(keys)) = (scale, tie, keys) else {
+        let (Some(scale), Some(tie)) = (scale, tie) else {
             return Ok(None);
         };
         let (Ok(scale), Some(tie)) = (<[f64; 3]>::try_from(scale), tie.get(..6)) else {
             let reason = "a GeoTIFF pixel scale has 3 numbers and a tie point 6";
             return Err(super::format_error(path, reason.into()));
         };
+        let keys = keys.unwrap_or_default();
+        if !keys.is_empty() && keys.len() < KEY_DIRECTORY_HEADER + 4 * usize::from(keys[3]) {
+            let reason = "a GeoTIFF key directory holds a 4-number header and 4 numbers per key";
+            return Err(super::format_error(path, reason.into()));
+        }
         // The tie point pins raster point (i, j) to model (x, y, z); (0, 0) follows.
         let [i, j, _, x, y, z] = [tie[0], tie[1], tie[2], tie[3], tie[4], tie[5]];
         Ok(Some(Self {
@@ -127,7 +139,7 @@ impl GeoReference {
         // holds the value itself.
         let inline = |id: u16| {
             self.keys
-                .get(4..)?
+                .get(KEY_DIRECTORY_HEADER..)?
                 .chunks_exact(4)
                 .find(|key| key[0] == id && key[1] == 0)
                 .map(|key| key[3])
@@ -144,7 +156,9 @@ impl GeoReference {
         tags.write_tag(Tag::ModelPixelScaleTag, &self.scale[..])?;
         let [x, y, z] = self.origin;
         tags.write_tag(Tag::ModelTiepointTag, &[0.0, 0.0, 0.0, x, y, z][..])?;
-        tags.write_tag(Tag::GeoKeyDirectoryTag, &self.keys[..])?;
+        if !self.keys.is_empty() {
+            tags.write_tag(Tag::GeoKeyDirectoryTag, &self.keys[..])?;
+        }
         if let Some(doubles) = &self.doubles {
             tags.write_tag(Tag::GeoDoubleParamsTag, &doubles[..])?;
         }
@@ -168,8 +182,9 @@ mod tests {
     }
 
     /// A 4 × 3 float TIFF at `path` with the GeoTIFF tags of a UTM DEM whose tie point
-    /// pins raster point (2, 1) (or, with `short_tie`, a tie point of 4 numbers).
-    fn write_dem(path: &Path, short_tie: bool) {
+    /// pins raster point (2, 1) (or, with `short_tie`, a tie point of 4 numbers), its
+    /// key directory and parameters unless `bare`.
+    fn write_dem(path: &Path, short_tie: bool, bare: bool) {
         let file = std::fs::File::create(path).unwrap();
         let mut encoder = TiffEncoder::new(file).unwrap();
         let mut image = encoder.new_image::<colortype::Gray32Float>(4, 3).unwrap();
@@ -179,6 +194,10 @@ mod tests {
         let tie = [2.0, 1.0, 0.0, 562_060.0, 5_124_980.0, 0.0];
         let tie = if short_tie { &tie[..4] } else { &tie[..] };
         tags.write_tag(Tag::ModelTiepointTag, tie).unwrap();
+        if bare {
+            image.write_data(&[0.0; 12]).unwrap();
+            return;
+        }
         let keys: [u16; 16] = [1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32610];
         tags.write_tag(Tag::GeoKeyDirectoryTag, &keys[..]).unwrap();
         tags.write_tag(Tag::GeoDoubleParamsTag, &[6378137.0][..])
@@ -189,9 +208,29 @@ mod tests {
     }
 
     #[test]
+    fn a_key_directory_shorter_than_its_count_is_refused() {
+        let path = temp("short_keys.tif");
+        let file = std::fs::File::create(&path).unwrap();
+        let mut encoder = TiffEncoder::new(file).unwrap();
+        let mut image = encoder.new_image::<colortype::Gray32Float>(2, 2).unwrap();
+        let tags = image.encoder();
+        tags.write_tag(Tag::ModelPixelScaleTag, &[1.0, 1.0, 0.0][..])
+            .unwrap();
+        tags.write_tag(Tag::ModelTiepointTag, &[0.0; 6][..])
+            .unwrap();
+        // The header counts 3 keys; one follows.
+        let keys: [u16; 8] = [1, 1, 0, 3, 1024, 0, 1, 1];
+        tags.write_tag(Tag::GeoKeyDirectoryTag, &keys[..]).unwrap();
+        image.write_data(&[0.0; 4]).unwrap();
+        let error = GeoReference::read(&path).unwrap_err().to_string();
+        assert!(error.contains("4 numbers per key"), "{error}");
+        std::fs::remove_file(path).unwrap();
+    }
+
+    #[test]
     fn the_origin_is_raster_point_zero_whichever_point_the_tie_pins() {
         let path = temp("dem.tif");
-        write_dem(&path, false);
+        write_dem(&path, false, false);
         let reference = GeoReference::read(&path).unwrap().unwrap();
         // Raster (2, 1) at (562060, 5124980): (0, 0) two columns west, one row north.
         assert_eq!(reference.origin, [562_000.0, 5_125_000.0, 0.0]);
@@ -203,13 +242,26 @@ mod tests {
         let copy = temp("copy.tif");
         let field = pointset_core::HeightField::new(2, 2, vec![0.0; 4]).unwrap();
         super::super::write_geotiff(&copy, &field, Some(&reference)).unwrap();
-        assert_eq!(GeoReference::read(&copy).unwrap(), Some(reference));
+        assert_eq!(
+            GeoReference::read(&copy).unwrap().as_ref(),
+            Some(&reference)
+        );
         // Without a tie point of 6 numbers it is refused; a plain TIFF has none.
-        write_dem(&path, true);
+        write_dem(&path, true, false);
         let error = GeoReference::read(&path).unwrap_err().to_string();
         assert!(error.contains("a tie point 6"), "{error}");
         super::super::write_geotiff(&copy, &field, None).unwrap();
         assert_eq!(GeoReference::read(&copy).unwrap(), None);
+        // A tie point and scale without keys place the samples in an unnamed system (as
+        // GDAL reads them); a map written with that reference has no keys either.
+        write_dem(&path, false, true);
+        let bare = GeoReference::read(&path).unwrap().unwrap();
+        assert_eq!(
+            (bare.origin, bare.keys.len(), bare.epsg()),
+            (reference.origin, 0, None)
+        );
+        super::super::write_geotiff(&copy, &field, Some(&bare)).unwrap();
+        assert_eq!(GeoReference::read(&copy).unwrap(), Some(bare));
         std::fs::remove_file(path).unwrap();
         std::fs::remove_file(copy).unwrap();
     }

@@ -274,6 +274,9 @@ pub struct GridInfo {
     raster_origin: Option<[f64; 2]>,
     /// A GeoTIFF's coordinate system, when its keys name one by EPSG code.
     epsg: Option<u16>,
+    /// Whether a placed GeoTIFF has a key directory (without one it names no coordinate
+    /// system).
+    geo_keys: Option<bool>,
 }
 
 impl GridInfo {
@@ -303,6 +306,7 @@ impl GridInfo {
                 pixel_size: reference.as_ref().map(|r| [r.scale[0], r.scale[1]]),
                 raster_origin: reference.as_ref().map(|r| [r.origin[0], r.origin[1]]),
                 epsg: reference.as_ref().and_then(|r| r.epsg()),
+                geo_keys: reference.as_ref().map(|r| !r.keys.is_empty()),
             });
         }
         let img = imagery::read_image(path)?;
@@ -318,6 +322,7 @@ impl GridInfo {
             pixel_size: None,
             raster_origin: None,
             epsg: None,
+            geo_keys: None,
         })
     }
 
@@ -333,11 +338,11 @@ impl GridInfo {
             s.push_str(&format!("\nheights:     {lo} .. {hi}"));
         }
         if let (Some([dx, dy]), Some([x, y])) = (self.pixel_size, self.raster_origin) {
-            let system = self
-                .epsg
-                .map_or("a coordinate system without an EPSG code".into(), |code| {
-                    format!("EPSG:{code}")
-                });
+            let system = match (self.epsg, self.geo_keys) {
+                (Some(code), _) => format!("EPSG:{code}"),
+                (None, Some(true)) => "a coordinate system without an EPSG code".into(),
+                _ => "no coordinate system named (no GeoTIFF keys)".into(),
+            };
             s.push_str(&format!(
                 "\nplaced:      {dx} x {dy} per sample from ({x}, {y}), {system}"
             ));
