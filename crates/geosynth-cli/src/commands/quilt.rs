@@ -755,11 +755,18 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         placement.frame.map_size(extent)?;
     }
     let texture = &file.texture;
+    // The hints about a file's up axis and its normals' orientation are for point-set
+    // files: a height field's up axis is its own, its relief the one asked for, and its
+    // normals its surface's, all facing up (rough terrain whose neighbouring normals tilt
+    // apart is no sign of unoriented data).
+    let from_points = heightfield_frame.is_none();
     for note in [
-        orientation_note(texture),
+        from_points.then(|| orientation_note(texture)).flatten(),
         tilt_note(&file),
         precision_note(&file),
-        super::unoriented_normals_note(texture.canonical_points()),
+        from_points
+            .then(|| super::unoriented_normals_note(texture.canonical_points()))
+            .flatten(),
         size_note(texture, &params),
     ]
     .into_iter()

@@ -246,3 +246,35 @@ fn a_geotiff_dems_quilt_keeps_its_coordinate_system_and_spacing() {
     quilt(&dir.path("map.f32le"));
     assert_eq!(height_map_entry(&report)["georeferenced"], false);
 }
+
+#[test]
+fn rough_terrain_gets_no_notes_meant_for_point_set_files() {
+    let dir = Scratch::new();
+    // White noise: neighbouring normals tilt apart, but a height field's all face up.
+    let mut state = 12345u32;
+    let heights: Vec<u8> = (0..48 * 48)
+        .flat_map(|_| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (f32::from((state >> 16) as u16) / 65535.0).to_le_bytes()
+        })
+        .collect();
+    let noise = dir.path("noise_48x48.f32le");
+    std::fs::write(&noise, heights).unwrap();
+    let out = dir.path("noise.ply");
+    let said = ok(&[
+        "quilt",
+        "--heightfield",
+        &arg(&noise),
+        "--relief",
+        "1",
+        "-o",
+        &arg(&out),
+        "--no-quality",
+        "--resolution",
+        "16",
+    ]);
+    assert!(said.contains("wrote"), "{said}");
+    // Neither that its normals look unoriented nor, at a relief as tall as it is wide,
+    // that it might have been written with another up axis.
+    assert!(!said.contains("note"), "{said}");
+}
