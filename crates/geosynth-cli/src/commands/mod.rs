@@ -19,7 +19,7 @@ use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disagreement};
 use geosynth::reconstruct::FieldParams;
 use geosynth::sdf::{MeshSign, MeshSurface, PointSign};
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::CliResult;
@@ -195,9 +195,17 @@ impl SignArgs {
 
 /// A note when a point set's normals look unoriented (signs flipping from point to point,
 /// as local PCA estimates come): the MLS surface averages them, so they cancel and leave
-/// holes or a wrong surface without an error. `None` when they look consistent or there
-/// are none.
-pub fn unoriented_normals_note(points: &PointSet) -> Option<String> {
+/// holes or a wrong surface without an error. `None` when they look consistent, when there
+/// are none, and when nearly all face the side of `up` (a sheet seen from above, such as
+/// a rough terrain scan, whose neighbouring normals may tilt apart but are oriented).
+pub fn unoriented_normals_note(points: &PointSet, up: Option<Vec3>) -> Option<String> {
+    let normals = points.normals()?;
+    if let Some(up) = up {
+        let facing_up = normals.iter().filter(|n| n.dot(up) > 0.0).count();
+        if facing_up as f32 >= FACING_UP_ORIENTED * normals.len() as f32 {
+            return None;
+        }
+    }
     let share = orientation_disagreement(points).ok()?;
     (share > LIKELY_UNORIENTED).then(|| {
         format!(
@@ -209,6 +217,10 @@ pub fn unoriented_normals_note(points: &PointSet) -> Option<String> {
         )
     })
 }
+
+/// The share of normals on the up side above which a sheet's normals count as oriented
+/// in [`unoriented_normals_note`] (a few steep or overhanging samples allowed).
+const FACING_UP_ORIENTED: f32 = 0.99;
 
 /// A note when an input file stored coordinates far from its origin in single precision
 /// (`step` apart there, around `origin`), coarser than a hundredth of `scale` (the length

@@ -18,7 +18,7 @@ use geosynth::quilt::{
     read_texture_file_fitted,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DVec3, Vec3};
 
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
@@ -765,7 +765,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         tilt_note(&file),
         precision_note(&file),
         from_points
-            .then(|| super::unoriented_normals_note(texture.canonical_points()))
+            .then(|| super::unoriented_normals_note(texture.canonical_points(), Some(Vec3::Z)))
             .flatten(),
         size_note(texture, &params),
     ]

@@ -191,7 +191,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     if options.orient_normals {
         points = orient_normals(&points, Vec3::Z)?;
     }
-    if let Some(note) = super::unoriented_normals_note(&points) {
+    if let Some(note) = super::unoriented_normals_note(&points, None) {
         status(globals, note);
     }
     if options.trim.is_some() && winding {

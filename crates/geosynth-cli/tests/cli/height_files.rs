@@ -277,4 +277,23 @@ fn rough_terrain_gets_no_notes_meant_for_point_set_files() {
     // Neither that its normals look unoriented nor, at a relief as tall as it is wide,
     // that it might have been written with another up axis.
     assert!(!said.contains("note"), "{said}");
+    // Its quilt, a rough sheet whose normals all face up, is oriented as a point set too;
+    // with every other normal turned over it is not, and the note says so.
+    let quilt_again = |path: &std::path::Path| {
+        let again = dir.path("again.ply");
+        let args = ["quilt", &arg(path), "-o", &arg(&again), "--no-quality"];
+        ok(&[&args[..], &["--resolution", "16"]].concat())
+    };
+    assert!(!quilt_again(&out).contains("unoriented"));
+    let sheet = geosynth::core::io::read_geometry(&out).unwrap().geometry;
+    let normals: Vec<_> = sheet.points().normals().unwrap().to_vec();
+    let flipped: Vec<_> = normals
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| if i % 2 == 0 { -n } else { n })
+        .collect();
+    let points = sheet.points().clone().with_normals(flipped).unwrap();
+    let unoriented = dir.path("unoriented.ply");
+    crate::write_with_defaults(&unoriented, &geosynth::core::io::Geometry::Points(points));
+    assert!(quilt_again(&unoriented).contains("the normals look unoriented"));
 }
