@@ -26,7 +26,9 @@
    overviews) and checks that `geosynth info --json` reads their sizes, ranges and
    placement (EPSG code, pixel size, corner), that
    `geosynth render` draws each byte for byte as it draws a raw Float32 twin, that a quilt
-   of the Int16 one written as a GeoTIFF map keeps its coordinate system and grid, that a
+   of the Int16 one written as a GeoTIFF map keeps its coordinate system and grid; that
+   the same DEM written by GDAL's ENVI driver in its own types (Int16 `.bil`, UInt16
+   `.img`, Float64 `.dat`) reads and renders as its raw twin does; that a
    DEM placed without a coordinate system (no GeoTIFF keys) is placed and so is its
    quilt's map, and that a DEM with voids on its no-data value is refused.
 
@@ -311,6 +313,25 @@ for name, options in [
     print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (GDAL GTiff): "
           + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
              f"EPSG:{ours['epsg']} from {ours['raster_origin']}, "
+             f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
+             else result.stderr.strip()))
+# The same terrain as raw files with ENVI headers, as `gdal_translate -of ENVI` writes a
+# DEM in its own type (Int16 and UInt16 integers, Float64) under the names GIS tools use.
+for name, dtype in [('dem_int16.bil', 'int16'), ('dem_uint16.img', 'uint16'),
+                    ('dem_float64.dat', 'float64')]:
+    path = foreign / name
+    with rasterio.open(path, 'w', driver='ENVI', width=53, height=37, count=1, dtype=dtype,
+                       transform=rasterio.transform.from_origin(5e5, 4e6, 30.0, 30.0),
+                       INTERLEAVE='BIL') as dataset:
+        dataset.write(centimetres.astype(dtype), 1)
+    result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
+    ours = json.loads(result.stdout) if result.returncode == 0 else {}
+    same = isinstance(expected, bytes) and rendered(path) == expected
+    ok = (ours.get('kind') == 'heightfield' and [ours['width'], ours['height']] == [53, 37]
+          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same)
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (GDAL ENVI {dtype}): "
+          + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
              f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
              else result.stderr.strip()))
 # A quilt of the Int16 DEM written as a GeoTIFF map keeps the DEM's coordinate system and

@@ -1,7 +1,7 @@
 //! Images and height fields from files: textures (PNG, JPEG) and height fields (raw
-//! `.f32le`, sized by a `_WxH` name or an ENVI header beside it; one-band TIFF, as DEMs
-//! are shipped; or grey PNG, 8 or 16 bit), and the files GIS tools read beside a height
-//! map.
+//! `.f32le`, sized by a `_WxH` name or an ENVI header beside it, and other raw files an
+//! ENVI header describes; one-band TIFF, as DEMs are shipped; or grey PNG, 8 or 16 bit),
+//! and the files GIS tools read beside a height map.
 
 use std::path::{Path, PathBuf};
 
@@ -28,13 +28,26 @@ pub fn is_raw_heightfield_path(path: &Path) -> bool {
     extension(path) == "f32le"
 }
 
+/// Whether a path names a raw file that an ENVI header beside it describes (`NAME.hdr` or
+/// `NAME.EXT.hdr`), under a name GIS tools give such files: `.bil`, `.bsq`, `.bip`,
+/// `.img`, `.dat`, `.raw` or `.bin` (as `gdal_translate -of ENVI dem.tif dem.bil` writes
+/// one). A `.f32le` is a raw height field with or without a header
+/// ([`is_raw_heightfield_path`]).
+pub fn is_envi_raw_path(path: &Path) -> bool {
+    matches!(
+        extension(path).as_str(),
+        "bil" | "bsq" | "bip" | "img" | "dat" | "raw" | "bin"
+    ) && envi::header_beside(path).is_some()
+}
+
 /// Whether a path names a TIFF file (`.tif`, `.tiff`), read as a height field.
 pub fn is_tiff_path(path: &Path) -> bool {
     matches!(extension(path).as_str(), "tif" | "tiff")
 }
 
 /// Whether a path names a file that only ever holds a height field: raw (`.f32le`) or
-/// TIFF. A PNG may hold either a picture or a height field.
+/// TIFF. A PNG may hold either a picture or a height field. (Other raw files with an
+/// ENVI header beside them are height fields too, for reading: [`is_envi_raw_path`].)
 pub fn is_heightfield_path(path: &Path) -> bool {
     is_raw_heightfield_path(path) || is_tiff_path(path)
 }
@@ -56,7 +69,10 @@ pub fn read_image(path: &Path) -> Result<DynamicImage> {
 
 /// Reads a height field: raw `.f32le` (heights as stored; the size from a `_WxH` name
 /// suffix, or else from an ENVI header beside the file, `NAME.hdr` or `NAME.f32le.hdr`,
-/// as `gdal_translate -of ENVI -ot Float32 dem.tif dem.f32le` writes one), a one-band
+/// as `gdal_translate -of ENVI -ot Float32 dem.tif dem.f32le` writes one), any other raw
+/// file an ENVI header describes ([`is_envi_raw_path`]: `dem.bil` beside `dem.hdr`, as
+/// `gdal_translate -of ENVI dem.tif dem.bil` writes them; a header's data type may be
+/// any of ENVI's integer or float types, in either byte order), a one-band
 /// `.tif`/`.tiff` (a GeoTIFF DEM: integer or float samples as stored, in strips or
 /// tiles, Deflate, LZW or PackBits; samples on GDAL's no-data value refused) or an
 /// image, whose grey level in `0..=1` (16-bit precision kept) is the height.
@@ -78,6 +94,11 @@ pub fn read_image(path: &Path) -> Result<DynamicImage> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_heightfield(path: &Path) -> Result<HeightField> {
+    if is_envi_raw_path(path)
+        && let Some(header) = envi::header_beside(path)
+    {
+        return envi::read_with_header(path, &header);
+    }
     if is_raw_heightfield_path(path) {
         let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("");
         if pointset_core::dims_from_name(stem).is_some() {

@@ -1,12 +1,15 @@
-//! ENVI headers beside raw height fields: the layout GDAL (`gdal_translate -of ENVI -ot
-//! Float32 dem.tif dem.f32le`) and other GIS tools write next to a raw file, read so that
-//! a raw height field needs no `_WxH` in its name.
+//! ENVI headers beside raw height fields: the layout GDAL (`gdal_translate -of ENVI
+//! dem.tif dem.bil`) and other GIS tools write next to a raw file, read so that a raw
+//! height field needs no `_WxH` in its name and may hold any of ENVI's numeric types.
 //!
-//! Read: `samples` and `lines` (the size), `data type` (4, 32-bit float, is the one a
-//! `.f32le` holds), `byte order` (0 little-endian, 1 big-endian; default 0), `header
-//! offset` (bytes before the samples; default 0), `bands` (1) and `data ignore value` (a
-//! no-data marker: samples equal to it are refused, since a height field has no holes).
-//! Other keys (`map info`, `description`, …) are skipped. Values in braces may span lines.
+//! Read: `samples` and `lines` (the size), `data type` (1 bytes, 2 and 3 signed 16- and
+//! 32-bit integers, 4 and 5 32- and 64-bit floats, 12 and 13 unsigned 16- and 32-bit
+//! integers, 14 and 15 signed and unsigned 64-bit integers: heights as stored, cast to
+//! `f32` as the TIFF reader casts them), `byte order` (0 little-endian, 1 big-endian;
+//! default 0), `header offset` (bytes before the samples; default 0), `bands` (1) and
+//! `data ignore value` (a no-data marker: samples equal to it are refused, since a height
+//! field has no holes). Other keys (`map info`, `interleave`, which one band does not
+//! need, `description`, …) are skipped. Values in braces may span lines.
 
 use std::path::{Path, PathBuf};
 
@@ -30,33 +33,127 @@ pub(super) fn header_beside(raw: &Path) -> Option<PathBuf> {
 struct RawLayout {
     width: usize,
     height: usize,
+    sample: SampleType,
     big_endian: bool,
     offset: usize,
     no_data: Option<f32>,
 }
 
+/// The numeric types of ENVI's `data type` (its complex types hold no heights).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SampleType {
+    U8,
+    I16,
+    I32,
+    F32,
+    F64,
+    U16,
+    U32,
+    I64,
+    U64,
+}
+
+impl SampleType {
+    /// The type of ENVI's `data type` code, if it is a real number.
+    fn of_code(code: usize) -> Option<Self> {
+        Some(match code {
+            1 => Self::U8,
+            2 => Self::I16,
+            3 => Self::I32,
+            4 => Self::F32,
+            5 => Self::F64,
+            12 => Self::U16,
+            13 => Self::U32,
+            14 => Self::I64,
+            15 => Self::U64,
+            _ => return None,
+        })
+    }
+
+    /// Bytes per sample.
+    fn size(self) -> usize {
+        match self {
+            Self::U8 => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::I32 | Self::U32 | Self::F32 => 4,
+            Self::F64 | Self::I64 | Self::U64 => 8,
+        }
+    }
+
+    /// What the samples are, for messages.
+    fn name(self) -> &'static str {
+        match self {
+            Self::U8 => "bytes",
+            Self::I16 => "16-bit integers",
+            Self::U16 => "unsigned 16-bit integers",
+            Self::I32 => "32-bit integers",
+            Self::U32 => "unsigned 32-bit integers",
+            Self::F32 => "32-bit floats",
+            Self::F64 => "64-bit floats",
+            Self::I64 => "64-bit integers",
+            Self::U64 => "unsigned 64-bit integers",
+        }
+    }
+
+    /// The sample stored in `bytes` (exactly [`Self::size`] of them) in the given byte
+    /// order, cast to `f32`.
+    fn decode(self, bytes: &[u8], big_endian: bool) -> f32 {
+        // The bytes in little-endian order, widened to 64 bits and cut back per type.
+        let mut little = [0u8; 8];
+        for (k, &byte) in bytes.iter().enumerate() {
+            little[if big_endian { bytes.len() - 1 - k } else { k }] = byte;
+        }
+        let bits = u64::from_le_bytes(little);
+        match self {
+            Self::U8 => f32::from(bits as u8),
+            Self::I16 => f32::from(bits as u16 as i16),
+            Self::U16 => f32::from(bits as u16),
+            Self::I32 => bits as u32 as i32 as f32,
+            Self::U32 => bits as u32 as f32,
+            Self::F32 => f32::from_bits(bits as u32),
+            Self::F64 => f64::from_bits(bits) as f32,
+            Self::I64 => bits as i64 as f32,
+            Self::U64 => bits as f32,
+        }
+    }
+}
+
 /// Reads the height field `raw` as the ENVI header `header` lays it out. Errors: a header
-/// that is not ENVI, lacks the size, has more than one band, a data type other than 4 or
-/// an unknown byte order; a file whose length is not the header offset plus
-/// `4 · samples · lines` bytes; samples equal to the no-data value, or not finite.
+/// that is not ENVI, lacks the size, has more than one band, a data type that is not a
+/// real number or an unknown byte order; a file whose length is not the header offset
+/// plus `samples · lines` samples of the data type; samples equal to the no-data value,
+/// or not finite (as `f32`).
 pub(super) fn read_with_header(raw: &Path, header: &Path) -> Result<HeightField> {
     let text = std::fs::read_to_string(header).map_err(super::io_error(header))?;
     let layout = parse_header(&text).map_err(|reason| super::format_error(header, reason))?;
     let bytes = std::fs::read(raw).map_err(super::io_error(raw))?;
     let samples = bytes.get(layout.offset..).unwrap_or_default();
-    let field = if layout.big_endian {
-        let swapped: Vec<u8> = samples
-            .chunks(4)
-            .flat_map(|c| c.iter().rev().copied())
-            .collect();
-        HeightField::from_f32le(&swapped, layout.width, layout.height)?
-    } else {
-        HeightField::from_f32le(samples, layout.width, layout.height)?
-    };
-    if let Some(no_data) = layout.no_data {
-        super::refuse_no_data(raw, field.heights(), no_data)?;
+    let size = layout.sample.size();
+    let needed = layout
+        .width
+        .checked_mul(layout.height)
+        .and_then(|n| n.checked_mul(size));
+    if needed != Some(samples.len()) {
+        let needed = needed.map_or("more than any file holds".into(), |n| format!("{n}"));
+        let reason = format!(
+            "a {}x{} height field of {} needs {needed} bytes after the header offset of {}, \
+             but the data has {}",
+            layout.width,
+            layout.height,
+            layout.sample.name(),
+            layout.offset,
+            samples.len()
+        );
+        return Err(super::format_error(raw, reason));
     }
-    Ok(field)
+    let heights: Vec<f32> = samples
+        .chunks_exact(size)
+        .map(|c| layout.sample.decode(c, layout.big_endian))
+        .collect();
+    if let Some(no_data) = layout.no_data {
+        super::refuse_no_data(raw, &heights, no_data)?;
+    }
+    Ok(HeightField::new(layout.width, layout.height, heights)?)
 }
 
 /// The layout `text`, an ENVI header, gives; the error says what is missing or unread.
@@ -85,12 +182,12 @@ fn parse_header(text: &str) -> std::result::Result<RawLayout, String> {
         return Err(format!("{bands} bands; a height field has 1"));
     }
     let data_type = number("data type", None)?;
-    if data_type != 4 {
-        return Err(format!(
-            "data type {data_type}; a .f32le height field is 32-bit float, ENVI data type 4 \
-             (gdal_translate -ot Float32)"
-        ));
-    }
+    let sample = SampleType::of_code(data_type).ok_or_else(|| {
+        format!(
+            "data type {data_type}; a height field holds real numbers, ENVI data type 1 to 5 \
+             or 12 to 15"
+        )
+    })?;
     let big_endian = match number("byte order", Some(0))? {
         0 => false,
         1 => true,
@@ -105,6 +202,7 @@ fn parse_header(text: &str) -> std::result::Result<RawLayout, String> {
     Ok(RawLayout {
         width,
         height,
+        sample,
         big_endian,
         offset: number("header offset", Some(0))?,
         no_data,
@@ -157,6 +255,7 @@ mod tests {
         let expected = RawLayout {
             width: 5,
             height: 3,
+            sample: SampleType::F32,
             big_endian: false,
             offset: 0,
             no_data: None,
@@ -169,12 +268,41 @@ mod tests {
     }
 
     #[test]
+    fn every_real_data_type_is_read_as_stored_in_either_byte_order() {
+        let cases: [(usize, Vec<u8>, f32); 9] = [
+            (1, vec![200], 200.0),
+            (2, (-1234i16).to_le_bytes().to_vec(), -1234.0),
+            (3, (-70_000i32).to_le_bytes().to_vec(), -70_000.0),
+            (4, (-12.5f32).to_le_bytes().to_vec(), -12.5),
+            (5, 1000.25f64.to_le_bytes().to_vec(), 1000.25),
+            (12, 65_535u16.to_le_bytes().to_vec(), 65_535.0),
+            (13, 4_000_000_000u32.to_le_bytes().to_vec(), 4.0e9),
+            (14, (-5_000_000_000i64).to_le_bytes().to_vec(), -5.0e9),
+            (15, 1_000_000_000_000u64.to_le_bytes().to_vec(), 1.0e12),
+        ];
+        for (code, little, expected) in cases {
+            let sample = SampleType::of_code(code).unwrap();
+            assert_eq!(sample.size(), little.len(), "data type {code}");
+            assert_eq!(sample.decode(&little, false), expected, "data type {code}");
+            let big: Vec<u8> = little.iter().rev().copied().collect();
+            assert_eq!(
+                sample.decode(&big, true),
+                expected,
+                "data type {code}, big-endian"
+            );
+        }
+        for complex_or_unknown in [0, 6, 9, 16] {
+            assert_eq!(SampleType::of_code(complex_or_unknown), None);
+        }
+    }
+
+    #[test]
     fn headers_it_cannot_read_say_why() {
         for (from, to, reason) in [
             ("ENVI\n", "PLY\n", "starts with `ENVI`"),
             ("samples = 5\n", "", "no `samples`"),
             ("bands = 1", "bands = 3", "3 bands"),
-            ("data type = 4", "data type = 2", "data type 2"),
+            ("data type = 4", "data type = 6", "data type 6"),
             ("byte order = 0", "byte order = 7", "byte order 7"),
             ("lines = 3", "lines = three", "not a whole number"),
         ] {

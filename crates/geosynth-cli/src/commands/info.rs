@@ -18,7 +18,8 @@ use crate::{CliResult, Globals};
 #[derive(Debug, Args)]
 pub struct InfoArgs {
     /// The file to describe: .ply, .obj, .off, .stl, a picture (.png, .jpg), a raw height
-    /// field (`name_WxH.f32le`, or `.f32le` with an ENVI header beside it), a one-band
+    /// field (`name_WxH.f32le`, or a raw file with an ENVI header beside it: `.f32le`,
+    /// `.bil`, `.bsq`, `.bip`, `.img`, `.dat`, `.raw`, `.bin`), a one-band
     /// TIFF height field (.tif, .tiff: a GeoTIFF DEM) or an NRRD volume (.nrrd as `sdf`
     /// and `voxel --field` write, or a detached .nhdr header).
     file: PathBuf,
@@ -286,11 +287,14 @@ impl GridInfo {
             .and_then(|e| e.to_str())
             .unwrap_or("")
             .to_ascii_uppercase();
-        if imagery::is_heightfield_path(path) {
+        let envi_raw = imagery::is_envi_raw_path(path);
+        if imagery::is_heightfield_path(path) || envi_raw {
             let field = imagery::read_heightfield(path)?;
             let (lo, hi) = field.range();
             let (format, reference) = if imagery::is_tiff_path(path) {
                 ("TIFF", imagery::GeoReference::read(path)?)
+            } else if envi_raw {
+                ("raw (ENVI header)", None)
             } else {
                 ("raw f32", None)
             };
@@ -448,7 +452,10 @@ pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
         let text = info.text();
         return print(globals, args.json, &info, text);
     }
-    if imagery::is_image_path(path) || imagery::is_heightfield_path(path) {
+    if imagery::is_image_path(path)
+        || imagery::is_heightfield_path(path)
+        || imagery::is_envi_raw_path(path)
+    {
         let info = GridInfo::load(path).map_err(named(path))?;
         let text = info.text();
         return print(globals, args.json, &info, text);

@@ -89,8 +89,9 @@ fn parse_color(s: &str) -> Result<[f32; 3], String> {
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     /// Files to render, each a panel, left to right: point sets and meshes (.ply, .obj,
-    /// .off, .stl), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`, or `.f32le`
-    /// with an ENVI header) and one-band TIFFs (GeoTIFF DEMs), drawn as shaded terrain,
+    /// .off, .stl), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`, or raw
+    /// files with an ENVI header: `.f32le`, `.bil`, `.img`, …) and one-band TIFFs (GeoTIFF
+    /// DEMs), drawn as shaded terrain,
     /// and NRRD volumes (.nrrd or .nhdr, drawn as the zero level set of their first
     /// channel: the surface of a signed distance field).
     #[arg(required = true)]
@@ -115,8 +116,9 @@ enum Input {
 }
 
 fn load(path: &Path, args: &RenderArgs, globals: Globals) -> CliResult<Input> {
-    let as_heightfield =
-        imagery::is_heightfield_path(path) || (args.heightfield && imagery::is_image_path(path));
+    let as_heightfield = imagery::is_heightfield_path(path)
+        || imagery::is_envi_raw_path(path)
+        || (args.heightfield && imagery::is_image_path(path));
     if as_heightfield {
         let field = imagery::read_heightfield(path)?;
         let mesh = imagery::heightfield_mesh(&field, args.relief)?;

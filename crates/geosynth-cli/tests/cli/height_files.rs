@@ -192,6 +192,30 @@ fn a_tiff_dem_reads_and_quilts_as_its_raw_twin_does() {
         std::fs::read(out).unwrap()
     };
     assert!(quilted(&tiff, "from_tiff.ply") == quilted(&raw, "from_raw.ply"));
+    // The same centimetres as big-endian 16-bit integers after 12 bytes of preamble, in a
+    // `.bil` an ENVI header describes: read sample for sample like the others.
+    let bil = dir.path("dem.bil");
+    let mut data = vec![0xAB; 12];
+    data.extend(centimetres.iter().flat_map(|c| c.to_be_bytes()));
+    std::fs::write(&bil, &data).unwrap();
+    let header = format!(
+        "ENVI\nsamples = {w}\nlines = {h}\nbands = 1\nheader offset = 12\n\
+         data type = 2\ninterleave = bil\nbyte order = 1\n"
+    );
+    std::fs::write(dir.path("dem.hdr"), header).unwrap();
+    let info = info_json(&bil);
+    assert_eq!(info["format"], "raw (ENVI header)");
+    assert_eq!(
+        [&info["min"], &info["max"]].map(|v| v.as_f64()),
+        [Some(lowest), Some(highest)]
+    );
+    assert!(quilted(&bil, "from_bil.ply") == quilted(&raw, "from_raw.ply"));
+    // One sample short of what the header promises.
+    std::fs::write(&bil, &data[..data.len() - 2]).unwrap();
+    refused(
+        &["info", &arg(&bil)],
+        "16-bit integers needs 2400 bytes after the header offset of 12",
+    );
     // A void on GDAL's no-data value, and a header that promises 30 rows over two strips
     // of 10.
     let mut voided = centimetres.clone();
