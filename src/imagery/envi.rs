@@ -2,14 +2,14 @@
 //! dem.tif dem.bil`) and other GIS tools write next to a raw file, read so that a raw
 //! height field needs no `_WxH` in its name and may hold any of ENVI's numeric types.
 //!
-//! Read: `samples` and `lines` (the size), `data type` (1 bytes, 2 and 3 signed 16- and
-//! 32-bit integers, 4 and 5 32- and 64-bit floats, 12 and 13 unsigned 16- and 32-bit
-//! integers, 14 and 15 signed and unsigned 64-bit integers: heights as stored, cast to
-//! `f32` as the TIFF reader casts them), `byte order` (0 little-endian, 1 big-endian;
-//! default 0), `header offset` (bytes before the samples; default 0), `bands` (1) and
-//! `data ignore value` (a no-data marker: samples equal to it are refused, since a height
-//! field has no holes). Other keys (`map info`, `interleave`, which one band does not
-//! need, `description`, …) are skipped. Values in braces may span lines.
+//! Read: `samples` and `lines` (the size), `data type` (1 unsigned bytes, 2 and 3 signed
+//! 16- and 32-bit integers, 4 and 5 32- and 64-bit floats, 12 and 13 unsigned 16- and
+//! 32-bit integers, 14 and 15 signed and unsigned 64-bit integers: heights as stored, cast
+//! to `f32` as the TIFF reader casts them), `byte order` (0 little-endian, 1 big-endian;
+//! default 0), `header offset` (bytes before the samples; default 0), `bands` (1) and `data
+//! ignore value` (a no-data marker: samples equal to it are refused, since a height field
+//! has no holes). Other keys (`map info`, `interleave`, which one band does not need,
+//! `description`, …) are skipped. Values in braces may span lines.
 
 use std::path::{Path, PathBuf};
 
