@@ -288,22 +288,15 @@ fn bad_input_fails_with_a_message_not_a_panic() {
             "does not exist",
         ),
     ] {
-        let out = geosynth(&args);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?} should fail");
-        assert!(err.contains(message), "{args:?}: {err}");
+        refused(&args, message);
     }
     // The quilt whose report had nowhere to go never ran: its output was not written either.
     assert!(!dir.path().join("q.ply").exists());
     // Thread counts out of range are refused before anything starts (100,000 threads had
     // not started after a minute).
     for threads in ["0", "100000"] {
-        let out = geosynth(&["--threads", threads, "fixtures", "--out", &arg(dir.path())]);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            !out.status.success() && err.contains("--threads must be 1 to"),
-            "{err}"
-        );
+        let args = ["--threads", threads, "fixtures", "--out", &arg(dir.path())];
+        refused(&args, "--threads must be 1 to");
     }
 }
 
@@ -699,8 +692,10 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
     assert!(worst > 0.95, "least agreement {worst}");
     // Without normals reconstruct refuses and names the remedy; with them it closes.
     let mesh = dir.path().join("mesh.ply");
-    let refused = geosynth(&["reconstruct", bare.to_str().unwrap(), "-o", "x.ply"]);
-    assert!(String::from_utf8_lossy(&refused.stderr).contains("geosynth normals"));
+    refused(
+        &["reconstruct", &arg(&bare), "-o", "x.ply"],
+        "geosynth normals",
+    );
     let said = ok(&[
         "reconstruct",
         with_normals.to_str().unwrap(),
@@ -740,9 +735,7 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
     let (untrimmed, trimmed) = (reach(&[]), reach(&["--trim"]));
     assert!(untrimmed > 0.4 && trimmed < 0.15, "{untrimmed} / {trimmed}");
     // A mesh is not estimated: its faces give its normals.
-    let refused = geosynth(&["normals", mesh.to_str().unwrap(), "-o", "x.ply"]);
-    assert!(!refused.status.success());
-    assert!(String::from_utf8_lossy(&refused.stderr).contains("is a mesh"));
+    refused(&["normals", &arg(&mesh), "-o", "x.ply"], "is a mesh");
 }
 
 #[test]
@@ -940,16 +933,15 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
     assert_eq!(json["faces"], 48 * 24 * 2);
     // Bad pairs files fail with the line.
     std::fs::write(&pairs, "1 0 0 0 1 0\n1 2 3\n").unwrap();
-    let bad = geosynth(&[
+    let args = [
         "warp",
-        input.to_str().unwrap(),
+        &arg(&input),
         "--pairs",
-        pairs.to_str().unwrap(),
+        &arg(&pairs),
         "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("pairs.txt:2"));
+        &arg(&out),
+    ];
+    refused(&args, "pairs.txt:2");
 }
 
 #[test]
@@ -1028,9 +1020,10 @@ fn quilt_also_writes_the_sheet_as_a_mesh() {
     // No command writes two of its outputs to one path.
     let torus = arg(&geosynth::fixtures::bundled_dir().join("torus_mesh.ply"));
     let same = arg(&dir.path(".").join("q_mesh.obj"));
-    let refused = geosynth(&["voxel", &torus, "-o", &mesh, "--isosurface", &same]);
-    let err = String::from_utf8_lossy(&refused.stderr);
-    assert!(!refused.status.success() && err.contains("twice"), "{err}");
+    refused(
+        &["voxel", &torus, "-o", &mesh, "--isosurface", &same],
+        "twice",
+    );
 }
 
 #[test]
@@ -1822,16 +1815,8 @@ fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     assert!(extent.y < 0.25 * extent.x.min(extent.z), "extent {extent}");
     // A file whose comments give its up axis is not re-read with another one.
     let committed = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
-    let refused = geosynth(&[
-        "quilt",
-        committed.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--up",
-        "y",
-    ]);
-    assert!(!refused.status.success());
-    assert!(String::from_utf8_lossy(&refused.stderr).contains("texture comments give up axis Z"));
+    let args = ["quilt", &arg(&committed), "-o", &arg(&out), "--up", "y"];
+    refused(&args, "texture comments give up axis Z");
     // A sheet tilted by 35° about (1, 1, 0): `--up auto` quilts it in its fitted plane and
     // writes the output tilted the same way.
     let turn = glam::Quat::from_axis_angle(glam::Vec3::new(1.0, 1.0, 0.0).normalize(), 0.61);
@@ -2157,17 +2142,15 @@ fn reconstruct_drops_small_pieces_when_asked_and_says_so_when_not() {
     // A limit below the small sphere's width keeps it; a bad one is refused by name.
     let (_, json) = reconstruct(&["--drop-pieces", "1"]);
     assert_eq!(json["pieces_dropped"].as_u64(), Some(0));
-    let out = geosynth(&[
-        "reconstruct",
-        &arg(&points),
-        "-o",
-        &arg(&dir.path("bad.ply")),
-        "--drop-pieces=-1",
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("--drop-pieces"),
-        "{err}"
+    refused(
+        &[
+            "reconstruct",
+            &arg(&points),
+            "-o",
+            &arg(&dir.path("bad.ply")),
+            "--drop-pieces=-1",
+        ],
+        "--drop-pieces",
     );
 }
 
