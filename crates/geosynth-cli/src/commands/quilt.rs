@@ -128,9 +128,9 @@ pub struct QuiltArgs {
     exemplar: Option<PathBuf>,
     /// Use a height field instead (PNG 8/16-bit, raw `name_WxH.f32le`, a raw file with an
     /// ENVI header beside it, as GDAL writes them: `.f32le`, `.bil`, `.img`, … of any
-    /// numeric type, or a one-band TIFF such as a GeoTIFF DEM): sampled as points spanning 4 units along its longer side, the outer sixth of
-    /// the samples on every side as padding (so the box is about two thirds of that),
-    /// heights scaled by `--relief`.
+    /// numeric type, or a one-band TIFF such as a GeoTIFF DEM): sampled as points spanning
+    /// 4 units along its longer side, the outer sixth of the samples on every side as
+    /// padding (so the box is about two thirds of that), heights scaled by `--relief`.
     #[arg(long, conflicts_with = "exemplar")]
     heightfield: Option<PathBuf>,
     /// With `--heightfield`: the height range as a fraction of the samples' longer extent

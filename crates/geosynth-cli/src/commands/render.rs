@@ -91,9 +91,8 @@ pub struct RenderArgs {
     /// Files to render, each a panel, left to right: point sets and meshes (.ply, .obj,
     /// .off, .stl), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`, or raw
     /// files with an ENVI header: `.f32le`, `.bil`, `.img`, …) and one-band TIFFs (GeoTIFF
-    /// DEMs), drawn as shaded terrain,
-    /// and NRRD volumes (.nrrd or .nhdr, drawn as the zero level set of their first
-    /// channel: the surface of a signed distance field).
+    /// DEMs), drawn as shaded terrain, and NRRD volumes (.nrrd or .nhdr, drawn as the zero
+    /// level set of their first channel: the surface of a signed distance field).
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Output PNG.
