@@ -54,7 +54,8 @@ pub const BASE_SIDE: f32 = 4.0;
 /// MLS parameters of every surface over a geometry texture's points: the defaults, with a
 /// query out of the kernel's reach signed by its nearest sample's plane alone
 /// (`fallback_sign_samples` 1), the rule every quality number in
-/// docs/patch-quilt-studies.md was measured with. Like [`texture_field`]'s far signs, the textures keep it.
+/// docs/patch-quilt-studies.md was measured with. Like [`texture_field`]'s far signs, the
+/// textures keep it.
 pub(crate) fn texture_mls_params() -> MlsParams {
     MlsParams::default().fallback_sign_samples(1)
 }
