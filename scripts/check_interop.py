@@ -28,7 +28,8 @@
    `geosynth render` draws each byte for byte as it draws a raw Float32 twin, that a quilt
    of the Int16 one written as a GeoTIFF map keeps its coordinate system and grid; that
    the same DEM written by GDAL's ENVI driver in its own types (Int16 `.bil`, UInt16
-   `.img`, Float64 `.dat`) reads and renders as its raw twin does; that a
+   `.img`, Float64 `.dat`) reads, is placed and renders as its raw twin does, and its
+   quilt's GeoTIFF map keeps the header's coordinate system and grid; that a
    DEM placed without a coordinate system (no GeoTIFF keys) is placed and so is its
    quilt's map, and that a DEM with voids on its no-data value is refused.
 
@@ -316,24 +317,38 @@ for name, options in [
              f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
              else result.stderr.strip()))
 # The same terrain as raw files with ENVI headers, as `gdal_translate -of ENVI` writes a
-# DEM in its own type (Int16 and UInt16 integers, Float64) under the names GIS tools use.
+# DEM in its own type (Int16 and UInt16 integers, Float64) under the names GIS tools use,
+# placed by the header's `map info` in UTM zone 10N.
 for name, dtype in [('dem_int16.bil', 'int16'), ('dem_uint16.img', 'uint16'),
                     ('dem_float64.dat', 'float64')]:
     path = foreign / name
-    with rasterio.open(path, 'w', driver='ENVI', width=53, height=37, count=1, dtype=dtype,
-                       transform=rasterio.transform.from_origin(5e5, 4e6, 30.0, 30.0),
+    with rasterio.open(path, 'w', **{**placed, 'driver': 'ENVI'}, dtype=dtype,
                        INTERLEAVE='BIL') as dataset:
         dataset.write(centimetres.astype(dtype), 1)
     result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
     ours = json.loads(result.stdout) if result.returncode == 0 else {}
     same = isinstance(expected, bytes) and rendered(path) == expected
+    located = ours.get('epsg') == 32610 and ours.get('raster_origin') == [5e5, 4e6]
     ok = (ours.get('kind') == 'heightfield' and [ours['width'], ours['height']] == [53, 37]
-          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same)
+          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same
+          and located)
     bad += not ok
     print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (GDAL ENVI {dtype}): "
           + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
+             f"EPSG:{ours.get('epsg')} from {ours.get('raster_origin')}, "
              f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
              else result.stderr.strip()))
+# The Int16 ENVI DEM's quilt written as a GeoTIFF map is placed by the header's map info.
+envi_quilt = foreign / 'dem_int16_bil_quilt.tif'
+subprocess.run([G, 'quilt', '--heightfield', str(foreign / 'dem_int16.bil'), '-o',
+                str(foreign / 'dem_int16_bil_quilt.ply'), '--resolution', '20', '--no-quality',
+                '-q', '--heightfield-out', str(envi_quilt)], check=True)
+with rasterio.open(foreign / 'dem_int16.bil') as theirs, rasterio.open(envi_quilt) as ours:
+    ok = ours.crs == theirs.crs and ours.transform == theirs.transform
+    crs, transform = ours.crs, ours.transform
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/dem_int16_bil_quilt.tif (ours, read by GDAL): {crs}, "
+      f"pixel {transform.a}, top-left corner ({transform.c}, {transform.f})")
 # A quilt of the Int16 DEM written as a GeoTIFF map keeps the DEM's coordinate system and
 # 30 m grid, from its top-left corner on.
 dem, quilted = foreign / 'dem_int16_tiled.tif', foreign / 'dem_quilt.tif'

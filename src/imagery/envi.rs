@@ -15,6 +15,8 @@ use std::path::{Path, PathBuf};
 
 use pointset_core::HeightField;
 
+use super::GeoReference;
+use super::georeference::NamedSystem;
 use crate::Result;
 
 /// The header of the raw file `raw`, if one lies beside it: `NAME.hdr` (the name GDAL
@@ -162,12 +164,7 @@ fn parse_header(text: &str) -> std::result::Result<RawLayout, String> {
         return Err("an ENVI header starts with `ENVI`".into());
     }
     let fields = header_fields(text);
-    let value = |key: &str| {
-        fields
-            .iter()
-            .find(|(k, _)| k.eq_ignore_ascii_case(key))
-            .map(|(_, v)| v.as_str())
-    };
+    let value = |key: &str| field(&fields, key);
     let number = |key: &str, default: Option<usize>| -> std::result::Result<usize, String> {
         match value(key) {
             Some(v) => v
@@ -207,6 +204,124 @@ fn parse_header(text: &str) -> std::result::Result<RawLayout, String> {
         offset: number("header offset", Some(0))?,
         no_data,
     })
+}
+
+/// The placement the ENVI header beside `raw` gives its samples, if there is a header
+/// with a `map info` ([`GeoReference::of_heightfield`]). Errors: an unreadable header, a
+/// `map info` without its six numbers or with a pixel size that is not positive.
+pub(super) fn reference_beside(raw: &Path) -> Result<Option<GeoReference>> {
+    let Some(header) = header_beside(raw) else {
+        return Ok(None);
+    };
+    let text = std::fs::read_to_string(&header).map_err(super::io_error(&header))?;
+    parse_placement(&text).map_err(|reason| super::format_error(&header, reason))
+}
+
+/// The placement `text`, an ENVI header, gives: from `map info = {projection, reference
+/// pixel x, y (1-based; (1, 1) is the top-left sample's outer corner), its easting and
+/// northing, pixel size x, y, [UTM zone, hemisphere], datum, …}`. `None` without a `map
+/// info`, and for a rotated one (`rotation=` other than 0), which a scale and origin
+/// cannot hold.
+fn parse_placement(text: &str) -> std::result::Result<Option<GeoReference>, String> {
+    let fields = header_fields(text);
+    let value = |key: &str| field(&fields, key);
+    let Some(map_info) = value("map info") else {
+        return Ok(None);
+    };
+    let parts: Vec<&str> = map_info.split(',').map(str::trim).collect();
+    let rotated = parts.iter().any(|p| {
+        p.to_ascii_lowercase()
+            .strip_prefix("rotation=")
+            .is_some_and(|angle| angle.trim().parse::<f64>() != Ok(0.0))
+    });
+    if rotated {
+        return Ok(None);
+    }
+    let numbers: Option<Vec<f64>> = parts
+        .get(1..7)
+        .and_then(|p| p.iter().map(|v| v.parse::<f64>().ok()).collect());
+    let Some([ref_x, ref_y, easting, northing, dx, dy]) =
+        numbers.and_then(|v| <[f64; 6]>::try_from(v).ok())
+    else {
+        return Err(format!(
+            "`map info = {{{map_info}}}` needs a projection and six numbers: the reference \
+             pixel, its easting and northing, and the pixel size"
+        ));
+    };
+    let finite = [ref_x, ref_y, easting, northing]
+        .iter()
+        .all(|v| v.is_finite());
+    if !(finite && dx.is_finite() && dy.is_finite() && dx > 0.0 && dy > 0.0) {
+        return Err(format!(
+            "`map info = {{{map_info}}}` gives no usable pixel size"
+        ));
+    }
+    let origin = [
+        easting - (ref_x - 1.0) * dx,
+        northing + (ref_y - 1.0) * dy,
+        0.0,
+    ];
+    let system = value("coordinate system string")
+        .and_then(epsg_of_wkt)
+        .or_else(|| system_of_map_info(&parts));
+    Ok(Some(GeoReference::naming([dx, dy, 0.0], origin, system)))
+}
+
+/// The coordinate system a WKT string names by its own (outermost, so last) EPSG
+/// authority, if it has one that fits a GeoTIFF key (ESRI's WKT, which GDAL's ENVI
+/// driver writes, has none).
+fn epsg_of_wkt(wkt: &str) -> Option<NamedSystem> {
+    let authority = wkt
+        .rsplit("AUTHORITY[")
+        .next()
+        .filter(|_| wkt.contains("AUTHORITY["))?;
+    let quoted: Vec<&str> = authority.split('"').collect();
+    let code = match quoted.as_slice() {
+        [_, "EPSG", _, code, ..] => code.parse::<u16>().ok().filter(|&c| c < 32767)?,
+        _ => return None,
+    };
+    if wkt.trim_start().starts_with("PROJCS") {
+        Some(NamedSystem::Projected(code))
+    } else if wkt.trim_start().starts_with("GEOGCS") {
+        Some(NamedSystem::Geographic(code))
+    } else {
+        None
+    }
+}
+
+/// The coordinate system of a `map info` that names it in ENVI's own terms: UTM on
+/// WGS-84 by zone and hemisphere (EPSG 326zz north, 327zz south), and WGS-84 latitude
+/// and longitude (EPSG 4326).
+fn system_of_map_info(parts: &[&str]) -> Option<NamedSystem> {
+    let wgs84 = |p: &&str| p.eq_ignore_ascii_case("WGS-84");
+    match parts.first().map(|p| p.to_ascii_lowercase()).as_deref() {
+        Some("utm") if parts.get(9).is_some_and(wgs84) => {
+            let zone = parts
+                .get(7)?
+                .parse::<u16>()
+                .ok()
+                .filter(|z| (1..=60).contains(z))?;
+            let hemisphere = parts.get(8)?.to_ascii_lowercase();
+            let base = match hemisphere.as_str() {
+                "north" => 32600,
+                "south" => 32700,
+                _ => return None,
+            };
+            Some(NamedSystem::Projected(base + zone))
+        }
+        Some("geographic lat/lon") if parts.get(7).is_some_and(wgs84) => {
+            Some(NamedSystem::Geographic(4326))
+        }
+        _ => None,
+    }
+}
+
+/// The value of `key` (any case) among an ENVI header's `fields`.
+fn field<'a>(fields: &'a [(String, String)], key: &str) -> Option<&'a str> {
+    fields
+        .iter()
+        .find(|(k, _)| k.eq_ignore_ascii_case(key))
+        .map(|(_, v)| v.as_str())
 }
 
 /// The `key = value` pairs of an ENVI header after its first line, keys trimmed and
@@ -309,6 +424,59 @@ mod tests {
             let broken = GDAL_HEADER.replacen(from, to, 1);
             let error = parse_header(&broken).unwrap_err();
             assert!(error.contains(reason), "{reason}: {error}");
+        }
+    }
+
+    #[test]
+    fn map_info_places_the_samples_and_names_what_it_can() {
+        // The UTM header GDAL 3.10 writes, with its ESRI WKT (no EPSG authority).
+        let wkt = "PROJCS[\"WGS_1984_UTM_Zone_10N\",GEOGCS[\"GCS_WGS_1984\"],\
+                   UNIT[\"Meter\",1.0]]";
+        let utm = format!(
+            "ENVI\nmap info = {{UTM, 1, 1, 562000, 5125000, 30, 20, 10, North,WGS-84}}\n\
+             coordinate system string = {{{wkt}}}\n"
+        );
+        let placed = parse_placement(&utm).unwrap().unwrap();
+        assert_eq!(
+            (placed.scale, placed.origin),
+            ([30.0, 20.0, 0.0], [562000.0, 5125000.0, 0.0])
+        );
+        assert_eq!(placed.epsg(), Some(32610));
+        // A reference pixel inside the grid: (3, 2) is two columns east, one row south.
+        let inside = utm.replace("1, 1, 562000", "3, 2, 562060");
+        let placed = parse_placement(&inside).unwrap().unwrap();
+        assert_eq!(placed.origin, [562000.0, 5125020.0, 0.0]);
+        let south = utm.replace("10, North", "33, South");
+        assert_eq!(
+            parse_placement(&south).unwrap().unwrap().epsg(),
+            Some(32733)
+        );
+        let geographic =
+            "ENVI\nmap info = {Geographic Lat/Lon, 1, 1, -122.5, 46.5, 0.01, 0.01,WGS-84}\n";
+        let placed = parse_placement(geographic).unwrap().unwrap();
+        assert_eq!((placed.epsg(), placed.keys[7]), (Some(4326), 2));
+        // A WKT with an EPSG authority names its own system, whatever map info says.
+        let authority = "ENVI\nmap info = {Mercator_1SP, 1, 1, 0, 0, 5, 5}\ncoordinate system \
+                         string = {PROJCS[\"x\",GEOGCS[\"y\",AUTHORITY[\"EPSG\",\"4326\"]],\
+                         AUTHORITY[\"EPSG\",\"3857\"]]}\n";
+        assert_eq!(
+            parse_placement(authority).unwrap().unwrap().epsg(),
+            Some(3857)
+        );
+        // Other systems are placed but not named; rotated ones and headers without map
+        // info are not placed; a map info without its numbers is refused.
+        let mercator = "ENVI\nmap info = {Mercator_1SP, 1, 1, 0, 0, 5, 5}\n";
+        let placed = parse_placement(mercator).unwrap().unwrap();
+        assert!(placed.keys.is_empty() && placed.epsg().is_none());
+        let rotated = utm.replace("WGS-84}", "WGS-84, rotation=12}");
+        assert_eq!(parse_placement(&rotated).unwrap(), None);
+        assert_eq!(
+            parse_placement(GDAL_HEADER.split("map info").next().unwrap()).unwrap(),
+            None
+        );
+        for broken in ["{UTM, 1, 1, 562000}", "{UTM, 1, 1, 562000, 5125000, 0, 30}"] {
+            let text = format!("ENVI\nmap info = {broken}\n");
+            assert!(parse_placement(&text).is_err(), "{broken}");
         }
     }
 

@@ -57,7 +57,73 @@ impl From<PlanPlacement> for GeoReference {
     }
 }
 
+/// A coordinate system named by its EPSG code: projected (key 3072) or geographic (key
+/// 2048).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum NamedSystem {
+    /// A projected system's code.
+    Projected(u16),
+    /// A geographic system's code.
+    Geographic(u16),
+}
+
 impl GeoReference {
+    /// The reference of the height field file `path`, if its format places it: a TIFF's
+    /// GeoTIFF tags ([`Self::read`]) or the `map info` of an ENVI header beside a raw
+    /// file (`None` for other files, and for headers without one). The ENVI placement's
+    /// reference pixel is taken as ENVI defines it (pixel (1, 1) is the top-left corner of
+    /// the top-left sample); its coordinate system is named by the EPSG code of the
+    /// header's `coordinate system string` (as GDAL writes one) or, for `UTM` on
+    /// `WGS-84`, by its zone and hemisphere, and left unnamed otherwise.
+    ///
+    /// ```
+    /// use geosynth::imagery::GeoReference;
+    ///
+    /// let dir = std::env::temp_dir();
+    /// let raw = dir.join("geosynth_doc_placed_dem.bil");
+    /// std::fs::write(&raw, [0u8; 8])?;
+    /// let header = "ENVI\nsamples = 2\nlines = 2\nbands = 1\ndata type = 2\n\
+    ///               map info = {UTM, 1, 1, 562000, 5125000, 30, 30, 10, North, WGS-84}\n";
+    /// std::fs::write(dir.join("geosynth_doc_placed_dem.hdr"), header)?;
+    /// let reference = GeoReference::of_heightfield(&raw)?.ok_or("not placed")?;
+    /// assert_eq!(reference.origin, [562000.0, 5125000.0, 0.0]);
+    /// assert_eq!((reference.scale, reference.epsg()), ([30.0, 30.0, 0.0], Some(32610)));
+    /// # std::fs::remove_file(&raw)?;
+    /// # std::fs::remove_file(dir.join("geosynth_doc_placed_dem.hdr"))?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn of_heightfield(path: &Path) -> Result<Option<Self>> {
+        if super::is_tiff_path(path) {
+            return Self::read(path);
+        }
+        if super::is_envi_raw_path(path) || super::is_raw_heightfield_path(path) {
+            return super::envi::reference_beside(path);
+        }
+        Ok(None)
+    }
+
+    /// A reference with `scale` and raster point (0, 0) at `origin` whose key directory
+    /// names `system` (pixel-is-area), or has no keys when it is `None`.
+    pub(super) fn naming(scale: [f64; 3], origin: [f64; 3], system: Option<NamedSystem>) -> Self {
+        let keys = match system {
+            // Version 1.1.0 and three keys: the model type, pixel-is-area, the system.
+            Some(NamedSystem::Projected(code)) => {
+                vec![1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, code]
+            }
+            Some(NamedSystem::Geographic(code)) => {
+                vec![1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, code]
+            }
+            None => Vec::new(),
+        };
+        Self {
+            scale,
+            origin,
+            keys,
+            doubles: None,
+            ascii: None,
+        }
+    }
+
     /// The reference of the TIFF file `path`, if it has one this type can hold: a pixel
     /// scale and a tie point, with the key directory if there is one (`None` for a plain
     /// TIFF, and for a rotated or sheared one, which GeoTIFF places with a

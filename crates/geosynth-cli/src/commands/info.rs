@@ -269,14 +269,16 @@ pub struct GridInfo {
     channels: Option<String>,
     min: Option<f32>,
     max: Option<f32>,
-    /// A GeoTIFF's placement: model units per sample along x and y.
+    /// A placed height field's (GeoTIFF tags or ENVI `map info`): model units per sample
+    /// along x and y.
     pixel_size: Option<[f64; 2]>,
-    /// A GeoTIFF's placement: model x and y of raster point (0, 0).
+    /// A placed height field's model x and y of raster point (0, 0), the top-left
+    /// sample's outer corner for pixel-is-area.
     raster_origin: Option<[f64; 2]>,
-    /// A GeoTIFF's coordinate system, when its keys name one by EPSG code.
+    /// Its coordinate system, when one is named by EPSG code.
     epsg: Option<u16>,
-    /// Whether a placed GeoTIFF has a key directory (without one it names no coordinate
-    /// system).
+    /// Whether its placement carries GeoTIFF keys (a TIFF's own, or those made for an
+    /// ENVI header's system); without them no coordinate system is named.
     geo_keys: Option<bool>,
 }
 
@@ -291,13 +293,14 @@ impl GridInfo {
         if imagery::is_heightfield_path(path) || envi_raw {
             let field = imagery::read_heightfield(path)?;
             let (lo, hi) = field.range();
-            let (format, reference) = if imagery::is_tiff_path(path) {
-                ("TIFF", imagery::GeoReference::read(path)?)
+            let format = if imagery::is_tiff_path(path) {
+                "TIFF"
             } else if envi_raw {
-                ("raw (ENVI header)", None)
+                "raw (ENVI header)"
             } else {
-                ("raw f32", None)
+                "raw f32"
             };
+            let reference = imagery::GeoReference::of_heightfield(path)?;
             return Ok(Self {
                 path: path.display().to_string(),
                 format: format.into(),
@@ -345,7 +348,7 @@ impl GridInfo {
             let system = match (self.epsg, self.geo_keys) {
                 (Some(code), _) => format!("EPSG:{code}"),
                 (None, Some(true)) => "a coordinate system without an EPSG code".into(),
-                _ => "no coordinate system named (no GeoTIFF keys)".into(),
+                _ => "no coordinate system it can name (no EPSG code or GeoTIFF keys)".into(),
             };
             s.push_str(&format!(
                 "\nplaced:      {dx} x {dy} per sample from ({x}, {y}), {system}"

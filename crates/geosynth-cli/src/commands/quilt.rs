@@ -6,9 +6,7 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{KdIndex, PointSet};
-use geosynth::imagery::{
-    GeoReference, check_heightfield_output, is_heightfield_path, is_tiff_path,
-};
+use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_path};
 use geosynth::mls::Covariance;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
@@ -740,8 +738,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             file: None,
             grey_range: None,
             input_reference: match &args.heightfield {
-                Some(input) if is_tiff_path(input) => GeoReference::read(input)?,
-                _ => None,
+                Some(input) => GeoReference::of_heightfield(input).map_err(named(input))?,
+                None => None,
             },
         }),
         (Some(_), None) => Some(MapPlacement::of_points(

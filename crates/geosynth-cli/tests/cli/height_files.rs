@@ -321,3 +321,40 @@ fn rough_terrain_gets_no_notes_meant_for_point_set_files() {
     crate::write_with_defaults(&unoriented, &geosynth::core::io::Geometry::Points(points));
     assert!(quilt_again(&unoriented).contains("the normals look unoriented"));
 }
+
+#[test]
+fn an_envi_dems_map_info_places_its_quilts_geotiff_map() {
+    let dir = Scratch::new();
+    // The terrain as 32-bit floats in a `.bil`, placed in UTM zone 10N at 30 m by its
+    // header's `map info` as GDAL's ENVI driver writes one (ESRI WKT, no EPSG code).
+    let (w, h, heights) = terrain();
+    let dem = dir.path("dem.bil");
+    std::fs::write(
+        &dem,
+        heights
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    )
+    .unwrap();
+    let header = format!(
+        "ENVI\nsamples = {w}\nlines = {h}\nbands = 1\ndata type = 4\nbyte order = 0\n\
+         map info = {{UTM, 1, 1, 562000, 5125000, 30, 30, 10, North,WGS-84}}\n\
+         coordinate system string = {{PROJCS[\"WGS_1984_UTM_Zone_10N\",UNIT[\"Meter\",1.0]]}}\n"
+    );
+    std::fs::write(dir.path("dem.hdr"), header).unwrap();
+    let info = info_json(&dem);
+    assert_eq!(info["epsg"], 32610);
+    assert_eq!(
+        info["raster_origin"],
+        serde_json::json!([562000.0, 5125000.0])
+    );
+    let (map, out, report) = (dir.path("map.tif"), dir.path("q.ply"), dir.path("r.json"));
+    quilt_height_field_into(&dem, &map, &out, &report);
+    let placed = GeoReference::read(&map).unwrap().unwrap();
+    assert_eq!(
+        (placed.scale, placed.origin),
+        ([30.0, 30.0, 0.0], [562000.0, 5125000.0, 0.0])
+    );
+    assert_eq!(placed.epsg(), Some(32610));
+}
