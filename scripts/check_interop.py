@@ -290,6 +290,32 @@ def rendered(path):
 expected = rendered(twin)
 placed = dict(driver='GTiff', width=53, height=37, count=1, crs='EPSG:32610',
               transform=rasterio.transform.from_origin(5e5, 4e6, 30.0, 30.0))
+def info_json(path):
+    result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
+    return (json.loads(result.stdout) if result.returncode == 0 else {}), result.stderr.strip()
+def check_dem(path, label, file_format):
+    # Its format, size, exact range, EPSG code and corner as `info` reads them, and its
+    # picture byte for byte the raw twin's; returns whether all hold, and prints the line.
+    ours, error = info_json(path)
+    same = isinstance(expected, bytes) and rendered(path) == expected
+    ok = (ours.get('format') == file_format and [ours['width'], ours['height']] == [53, 37]
+          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same
+          and ours.get('epsg') == 32610 and ours.get('pixel_size') == [30.0, 30.0]
+          and ours.get('raster_origin') == [5e5, 4e6])
+    print(('ok  ' if ok else 'BAD ') + f"foreign/{path.name} ({label}): "
+          + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
+             f"EPSG:{ours.get('epsg')} from {ours.get('raster_origin')}, "
+             f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
+             else error))
+    return ok
+def quilt_map(dem):
+    # The DEM quilted into a GeoTIFF map beside it.
+    stem = dem.name.replace('.', '_')
+    quilted = foreign / f'{stem}_quilt.tif'
+    subprocess.run([G, 'quilt', '--heightfield', str(dem), '-o',
+                    str(foreign / f'{stem}_quilt.ply'), '--resolution', '20', '--no-quality',
+                    '-q', '--heightfield-out', str(quilted)], check=True)
+    return quilted
 for name, options in [
         ('dem_int16_tiled.tif', dict(dtype='int16', tiled=True, blockxsize=16, blockysize=16,
                                      compress='deflate', predictor=2)),
@@ -302,20 +328,7 @@ for name, options in [
         dataset.write(centimetres.astype(options['dtype']), 1)
         if 'overviews' in name:
             dataset.build_overviews([2, 4])
-    result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
-    ours = json.loads(result.stdout) if result.returncode == 0 else {}
-    same = isinstance(expected, bytes) and rendered(path) == expected
-    located = (ours.get('epsg') == 32610 and ours.get('pixel_size') == [30.0, 30.0]
-               and ours.get('raster_origin') == [5e5, 4e6])
-    ok = (ours.get('format') == 'TIFF' and [ours['width'], ours['height']] == [53, 37]
-          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same
-          and located)
-    bad += not ok
-    print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (GDAL GTiff): "
-          + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
-             f"EPSG:{ours['epsg']} from {ours['raster_origin']}, "
-             f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
-             else result.stderr.strip()))
+    bad += not check_dem(path, 'GDAL GTiff', 'TIFF')
 # The same terrain as raw files with ENVI headers, as `gdal_translate -of ENVI` writes a
 # DEM in its own type (Int16 and UInt16 integers, Float64) under the names GIS tools use,
 # placed by the header's `map info` in UTM zone 10N.
@@ -325,43 +338,26 @@ for name, dtype in [('dem_int16.bil', 'int16'), ('dem_uint16.img', 'uint16'),
     with rasterio.open(path, 'w', **{**placed, 'driver': 'ENVI'}, dtype=dtype,
                        INTERLEAVE='BIL') as dataset:
         dataset.write(centimetres.astype(dtype), 1)
-    result = subprocess.run([G, 'info', '--json', str(path)], capture_output=True, text=True)
-    ours = json.loads(result.stdout) if result.returncode == 0 else {}
-    same = isinstance(expected, bytes) and rendered(path) == expected
-    located = ours.get('epsg') == 32610 and ours.get('raster_origin') == [5e5, 4e6]
-    ok = (ours.get('kind') == 'heightfield' and [ours['width'], ours['height']] == [53, 37]
-          and ours['min'] == centimetres.min() and ours['max'] == centimetres.max() and same
-          and located)
-    bad += not ok
-    print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (GDAL ENVI {dtype}): "
-          + (f"{ours['width']}x{ours['height']} heights {ours['min']}..{ours['max']}, "
-             f"EPSG:{ours.get('epsg')} from {ours.get('raster_origin')}, "
-             f"render {'the same as' if same else 'DIFFERENT from'} its raw twin's" if ours
-             else result.stderr.strip()))
+    bad += not check_dem(path, f'GDAL ENVI {dtype}', 'raw (ENVI header)')
 # The Int16 ENVI DEM's quilt written as a GeoTIFF map is placed by the header's map info.
-envi_quilt = foreign / 'dem_int16_bil_quilt.tif'
-subprocess.run([G, 'quilt', '--heightfield', str(foreign / 'dem_int16.bil'), '-o',
-                str(foreign / 'dem_int16_bil_quilt.ply'), '--resolution', '20', '--no-quality',
-                '-q', '--heightfield-out', str(envi_quilt)], check=True)
+envi_quilt = quilt_map(foreign / 'dem_int16.bil')
 with rasterio.open(foreign / 'dem_int16.bil') as theirs, rasterio.open(envi_quilt) as ours:
     ok = ours.crs == theirs.crs and ours.transform == theirs.transform
     crs, transform = ours.crs, ours.transform
 bad += not ok
-print(('ok  ' if ok else 'BAD ') + f"foreign/dem_int16_bil_quilt.tif (ours, read by GDAL): {crs}, "
+print(('ok  ' if ok else 'BAD ') + f"foreign/{envi_quilt.name} (ours, read by GDAL): {crs}, "
       f"pixel {transform.a}, top-left corner ({transform.c}, {transform.f})")
 # A quilt of the Int16 DEM written as a GeoTIFF map keeps the DEM's coordinate system and
 # 30 m grid, from its top-left corner on.
-dem, quilted = foreign / 'dem_int16_tiled.tif', foreign / 'dem_quilt.tif'
-subprocess.run([G, 'quilt', '--heightfield', str(dem), '-o', str(foreign / 'dem_quilt.ply'),
-                '--resolution', '20', '--no-quality', '-q', '--heightfield-out', str(quilted)],
-               check=True)
+dem = foreign / 'dem_int16_tiled.tif'
+quilted = quilt_map(dem)
 with rasterio.open(dem) as theirs, rasterio.open(quilted) as ours:
     crs, transform = ours.crs, ours.transform
     ok = (crs == theirs.crs and transform == theirs.transform
           and ours.shape[0] > theirs.shape[0] and ours.dtypes[0] == 'float32')
     heights = ours.read(1)
 bad += not ok
-print(('ok  ' if ok else 'BAD ') + f"foreign/dem_quilt.tif (ours, read by GDAL): {crs}, "
+print(('ok  ' if ok else 'BAD ') + f"foreign/{quilted.name} (ours, read by GDAL): {crs}, "
       f"pixel {transform.a}, top-left corner ({transform.c}, {transform.f}), "
       f"{ours.shape[1]}x{ours.shape[0]} heights {heights.min():.0f}..{heights.max():.0f}")
 # A DEM placed by a transform alone, with no coordinate system (GDAL then writes a tie
@@ -370,12 +366,8 @@ print(('ok  ' if ok else 'BAD ') + f"foreign/dem_quilt.tif (ours, read by GDAL):
 unnamed = foreign / 'dem_no_crs.tif'
 with rasterio.open(unnamed, 'w', **{**placed, 'crs': None}, dtype='float32') as dataset:
     dataset.write(centimetres.astype('float32'), 1)
-result = subprocess.run([G, 'info', '--json', str(unnamed)], capture_output=True, text=True)
-ours = json.loads(result.stdout) if result.returncode == 0 else {}
-unnamed_quilt = foreign / 'dem_no_crs_quilt.tif'
-subprocess.run([G, 'quilt', '--heightfield', str(unnamed), '-o',
-                str(foreign / 'dem_no_crs_quilt.ply'), '--resolution', '20', '--no-quality',
-                '-q', '--heightfield-out', str(unnamed_quilt)], check=True)
+ours, _ = info_json(unnamed)
+unnamed_quilt = quilt_map(unnamed)
 with rasterio.open(unnamed) as theirs, rasterio.open(unnamed_quilt) as quilt_map:
     kept = quilt_map.crs is None and quilt_map.transform == theirs.transform
 ok = (ours.get('raster_origin') == [5e5, 4e6] and ours.get('pixel_size') == [30.0, 30.0]
