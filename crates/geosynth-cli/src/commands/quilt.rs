@@ -210,11 +210,11 @@ pub struct QuiltArgs {
     /// Write a JSON report (timings, counts, quality).
     #[arg(long)]
     report: Option<PathBuf>,
-    /// Also run and measure the random-placement and search-only baselines for the report,
-    /// and (for the full method) its own patches pasted without warp or blend; their errors
-    /// are summarised under the run's own. Needs `--report`: their outputs and counts are
-    /// written nowhere else.
-    #[arg(long, requires = "report")]
+    /// Also run and measure the random-placement and search-only baselines, and (for the
+    /// full method) its own patches pasted without warp or blend. Their errors are
+    /// summarised under the run's own line; `--report` also gets their counts and timings.
+    /// Without `--report` they need the summary: refused with `--no-quality` or `--quiet`.
+    #[arg(long)]
     baselines: bool,
     /// Render exemplar | output to a PNG.
     #[arg(long)]
@@ -718,6 +718,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(mesh) = &args.mesh {
         check_geometry_output(mesh, true, DVec3::ZERO)?;
     }
+    check_baselines_land(args, globals)?;
     let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
     let params = run_params(args, &params_file, given)?;
     let input_options = InputOptions::of(args, &params_file)?;
@@ -809,8 +810,32 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         measure_for(texture, &params, globals)
     };
     let main = main.measured(&measure, globals, "quilt");
-    // The baselines' qualities, summarised after the run's own line.
+    // The baselines: their report entries, and their qualities for the summary lines.
     let mut compared = Vec::new();
+    if args.baselines {
+        for (key, label, method) in [
+            ("search_only", "search only", Method::SearchOnly),
+            (
+                "random_placement",
+                "random placement",
+                Method::RandomPlacement,
+            ),
+        ] {
+            let params = params.clone().method(method);
+            compared.push((
+                key,
+                label,
+                measured_run(texture, &params, &measure, globals, key)?,
+            ));
+        }
+        if params.method == Method::Full {
+            // The control: the same patches pasted, so only the warp and blend differ.
+            let pasted = params.same_layout_control(&main.output);
+            let label = "full's layout, pasted";
+            let control = measured_run(texture, &pasted, &measure, globals, label)?;
+            compared.push(("same_layout_pasted", label, control));
+        }
+    }
     if let Some(path) = &args.report {
         let mut report = json!({
             "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref())
@@ -821,33 +846,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "mesh": mesh,
             "heightfield_out": heightfield_out,
         });
-        if args.baselines {
-            for (key, label, method) in [
-                ("search_only", "search only", Method::SearchOnly),
-                (
-                    "random_placement",
-                    "random placement",
-                    Method::RandomPlacement,
-                ),
-            ] {
-                let baseline = measured_run(
-                    texture,
-                    &params.clone().method(method),
-                    &measure,
-                    globals,
-                    key,
-                )?;
-                report[key] = run_json(&baseline);
-                compared.push((label, baseline.quality));
-            }
-            if params.method == Method::Full {
-                // The control: the same patches pasted, so only the warp and blend differ.
-                let pasted = params.same_layout_control(&main.output);
-                let label = "full's layout, pasted";
-                let control = measured_run(texture, &pasted, &measure, globals, label)?;
-                report["same_layout_pasted"] = run_json(&control);
-                compared.push((label, control.quality));
-            }
+        for (key, _, run) in &compared {
+            report[*key] = run_json(run);
         }
         write_json_report(path, "quilt", &report)?;
     }
@@ -862,10 +862,34 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             quality_summary(&main.quality),
         ),
     );
-    for (label, quality) in &compared {
-        status(globals, format!("  {label}: {}", quality_summary(quality)));
+    for (_, label, run) in &compared {
+        status(
+            globals,
+            format!("  {label}: {}", quality_summary(&run.quality)),
+        );
     }
     Ok(())
+}
+
+/// Refuses `--baselines` where its results would land nowhere: without `--report` only
+/// their errors are printed, which `--no-quality` skips and `--quiet` hides.
+fn check_baselines_land(args: &QuiltArgs, globals: Globals) -> CliResult<()> {
+    if !args.baselines || args.report.is_some() {
+        return Ok(());
+    }
+    let fix = if args.no_quality {
+        "--no-quality skips them: add --report R.json for their counts and timings, or drop \
+         --no-quality"
+    } else if globals.quiet {
+        "--quiet hides them: add --report R.json"
+    } else {
+        return Ok(());
+    };
+    Err(format!(
+        "without --report, --baselines only prints the baselines' neighbourhood and seam \
+         errors, and {fix}"
+    )
+    .into())
 }
 
 /// The quality part of a run's summary line: its two errors, or why there are none.

@@ -1035,7 +1035,7 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         dir.path().join("q.json"),
         dir.path().join("q.png"),
     );
-    let summary = ok(&[
+    let args = [
         "quilt",
         exemplar.to_str().unwrap(),
         "-o",
@@ -1044,8 +1044,6 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         "1.3",
         "--resolution",
         "24",
-        "--report",
-        report.to_str().unwrap(),
         "--baselines",
         "--preview",
         preview.to_str().unwrap(),
@@ -1053,7 +1051,10 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         "3",
         "--epsilon",
         "0.2",
-    ]);
+    ];
+    let summary = ok(&[&args[..], &["--report", report.to_str().unwrap()]].concat());
+    // Without a report the baselines still run, and the summary is the same.
+    assert_eq!(ok(&args), summary);
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     // The summary gives every run's errors, as the report has them, one line each.
@@ -1256,13 +1257,18 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         "{}",
         r["run"]
     );
-    // Bad parameters, and baselines without a report (they land only in the report: an
+    // Bad parameters, and baselines whose results would land nowhere: without a report
+    // only their errors are printed, which --no-quality skips and --quiet hides (an
     // error, not minutes of work thrown away).
     for (extra, message) in [
         (&["--patch", "2"][..], "patch_size"),
         (&["--epsilon=-0.5"][..], "epsilon"),
         (&["--cluster-points", "0"][..], "max_points"),
-        (&["--baselines"][..], "--report"),
+        (
+            &["--baselines", "--no-quality"][..],
+            "--no-quality skips them",
+        ),
+        (&["--baselines", "-q"][..], "--quiet hides them"),
         (&["--relief", "0.3"][..], "--relief"),
     ] {
         let mut args = vec![
