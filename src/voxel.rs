@@ -89,7 +89,10 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
         io::Geometry::Points(_) => {
             return Err(Error::TextureFile {
                 path: path.to_path_buf(),
-                message: "distance-field synthesis needs a mesh, not a point set".into(),
+                message: "distance-field synthesis needs a mesh, not a point set: sample an \
+                          oriented point set's distance field into a volume first (`geosynth \
+                          sdf POINTS.ply -o FIELD.nrrd`) and synthesize from that"
+                    .into(),
             });
         }
     };
