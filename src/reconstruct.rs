@@ -2,7 +2,9 @@
 //!
 //! [`Reconstruct`] turns an oriented point set into a closed mesh: MLS point-set surface
 //! ([`crate::mls`]) → signed distance grid over the points' box ([`crate::sdf`]) → zero
-//! iso-surface. [`SignedDistance`] samples a point set (through its MLS surface) or a mesh
+//! iso-surface. [`Remesh`] does the same for a mesh through its own exact distance: a
+//! closed remesh at the grid's resolution (an open or holed mesh closed where its sign rule
+//! closes it). [`SignedDistance`] samples a point set (through its MLS surface) or a mesh
 //! (exactly) into an [`SdfGrid`].
 
 use distance_field::{
@@ -269,13 +271,78 @@ impl Stage for Reconstruct {
     }
 
     fn run(&self, input: PointSet, ctx: &mut RunContext) -> Result<TriMesh> {
-        ctx.check_cancelled()?;
-        let sdf = ctx.timed("reconstruct: distance field", |_| {
-            signed_distance(&Geometry::Points(input), &self.params)
-        })?;
-        ctx.check_cancelled()?;
-        ctx.timed("reconstruct: iso-surface", |_| surface_of(&sdf))
+        zero_set("reconstruct", &Geometry::Points(input), &self.params, ctx)
     }
+}
+
+/// Stage: a mesh → a closed mesh: the zero set of the mesh's own signed distance (exact,
+/// signed by [`FieldParams::mesh_sign`]) on a grid over its box, as [`Reconstruct`] does
+/// for points. The result is closed at the grid's resolution: a watertight copy of a
+/// closed mesh; an open or holed one closed where its sign rule closes it. With
+/// [`MeshSign::PseudoNormal`] an open sheet keeps a side, and its zero set runs on past
+/// the border to the grid's sides ([`trim_to_mesh`] cuts it back); with
+/// [`MeshSign::WindingNumber`] a nearly closed solid (a scan with holes) comes out whole.
+/// [`FieldParams::kernel`] and [`FieldParams::point_sign`] are for point sets and unused.
+///
+/// Errors: those of [`signed_distance`], and [`Error::NoSurface`] when the field never
+/// crosses zero.
+///
+/// ```
+/// use geosynth::reconstruct::{FieldParams, Remesh};
+/// use geosynth::{fixtures, RunContext, Stage};
+///
+/// // An icosphere of 80 flat faces comes back closed, its vertices on the faces.
+/// let coarse = fixtures::icosphere_mesh(1)?;
+/// let stage = Remesh { params: FieldParams::default().resolution(40) };
+/// let remeshed = stage.run(coarse, &mut RunContext::new(0))?;
+/// assert!(remeshed.topology().is_closed_manifold());
+/// assert!(remeshed.vertex_count() > 1000);
+/// let r = |p: &glam::Vec3| p.length();
+/// assert!(remeshed.positions().iter().all(|p| (0.78..1.01).contains(&r(p))));
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct Remesh {
+    /// The parameters used.
+    pub params: FieldParams,
+}
+
+impl Stage for Remesh {
+    type Input = TriMesh;
+    type Output = TriMesh;
+    type Error = Error;
+
+    fn name(&self) -> &str {
+        "remesh"
+    }
+
+    fn run(&self, input: TriMesh, ctx: &mut RunContext) -> Result<TriMesh> {
+        zero_set("remesh", &Geometry::Mesh(input), &self.params, ctx)
+    }
+}
+
+/// The zero set of `geometry`'s signed distance on the grid `params` describe, timed as
+/// `stage: distance field` and `stage: iso-surface`.
+fn zero_set(
+    stage: &str,
+    geometry: &Geometry,
+    params: &FieldParams,
+    ctx: &mut RunContext,
+) -> Result<TriMesh> {
+    ctx.check_cancelled()?;
+    let sdf = ctx.timed(&format!("{stage}: distance field"), |_| {
+        signed_distance(geometry, params)
+    })?;
+    ctx.check_cancelled()?;
+    let source = match geometry {
+        Geometry::Mesh(_) => "the mesh",
+        Geometry::Points(_) => "the MLS surface of the points",
+    };
+    ctx.timed(&format!("{stage}: iso-surface"), |_| {
+        surface_of(&sdf, source)
+    })
 }
 
 /// Median sample spacings from every point beyond which [`ReconstructOpen`] cuts by
@@ -352,8 +419,8 @@ impl Stage for ReconstructOpen {
 }
 
 /// The zero set of `sdf`, or [`Error::NoSurface`] when the field never crosses zero (an
-/// empty mesh is not a reconstruction).
-fn surface_of(sdf: &SdfGrid) -> Result<TriMesh> {
+/// empty mesh is not a reconstruction); `source` names what was sampled.
+fn surface_of(sdf: &SdfGrid, source: &str) -> Result<TriMesh> {
     let mesh = sdf_isosurface(sdf)?;
     if mesh.face_count() == 0 {
         let (lo, hi) = sdf.distances()?.value_range();
@@ -361,7 +428,7 @@ fn surface_of(sdf: &SdfGrid) -> Result<TriMesh> {
         return Err(Error::NoSurface {
             reason: format!(
                 "the signed distance on the {x}x{y}x{z} grid never crosses zero (values \
-                 {lo} to {hi}); the MLS surface of the points could not be sampled there"
+                 {lo} to {hi}); {source} could not be sampled there"
             ),
         });
     }
@@ -400,16 +467,8 @@ pub fn trim_to_samples(mesh: &TriMesh, samples: &[Vec3], max_distance: f32) -> R
 
 /// [`trim_to_samples`] with the samples already indexed.
 fn trim_to_indexed_samples(mesh: &TriMesh, index: &KdIndex, max_distance: f32) -> Result<TriMesh> {
-    if !(max_distance.is_finite() && max_distance > 0.0) {
-        return Error::invalid(
-            "max_distance",
-            max_distance.to_string(),
-            "a positive length",
-        );
-    }
-    // A region that leaves the samples' box (by more than `max_distance`) runs on past
-    // the scan; one that stays inside it fills a gap between samples.
-    let Some(reach) = Aabb::from_points(index.points()).map(|b| b.inflated(max_distance)) else {
+    check_trim_distance(max_distance)?;
+    let Some(samples_box) = Aabb::from_points(index.points()) else {
         return Error::invalid("samples", "none", "at least one sample");
     };
     let limit = max_distance * max_distance;
@@ -422,6 +481,72 @@ fn trim_to_indexed_samples(mesh: &TriMesh, index: &KdIndex, max_distance: f32) -
                 .is_some_and(|n| n.distance_squared <= limit))
         })
         .collect::<Result<Vec<bool>>>()?;
+    cut_runaway_regions(mesh, &near, samples_box.inflated(max_distance))
+}
+
+/// `mesh` (a [`Remesh`] of `source`) without the parts that run away from `source`: what
+/// [`trim_to_samples`] does for samples, with the distance to `source`'s surface in place
+/// of the distance to the nearest sample. A face is far when all its corners lie farther
+/// than `max_distance` from `source`; far regions that leave `source`'s box (grown by
+/// `max_distance`) are cut, and those inside it (holes the remesh closed) stay.
+///
+/// Errors: `source` without faces, `max_distance` not positive.
+///
+/// ```
+/// use geosynth::reconstruct::{trim_to_mesh, FieldParams, Remesh};
+/// use geosynth::core::{PointSet, TriMesh};
+/// use geosynth::{RunContext, Stage};
+/// use glam::Vec3;
+///
+/// // A unit square of two triangles: its zero set runs on to the sides of a grid with
+/// // a margin of 8 spacings, about 0.42; the trim cuts it back to the faces with a corner
+/// // within 0.1 of the square (the grid's spacing is about 0.05).
+/// let corners = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+/// let square = TriMesh::new(PointSet::new(corners)?, vec![[0, 1, 2], [0, 2, 3]])?;
+/// let params = FieldParams::default().resolution(20).margin(8.0);
+/// let remeshed = Remesh { params }.run(square.clone(), &mut RunContext::new(0))?;
+/// let trimmed = trim_to_mesh(&remeshed, &square, 0.1)?;
+/// let width = |m: &TriMesh| m.bounding_box().map(|b| b.extent().x).unwrap_or(0.0);
+/// assert!(width(&remeshed) > 1.7, "{}", width(&remeshed));
+/// assert!((1.0..1.4).contains(&width(&trimmed)), "{}", width(&trimmed));
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn trim_to_mesh(mesh: &TriMesh, source: &TriMesh, max_distance: f32) -> Result<TriMesh> {
+    check_trim_distance(max_distance)?;
+    let surface = MeshSurface::new(source)?;
+    let Some(source_box) = source.bounding_box() else {
+        return Error::invalid("source", "no vertices", "a mesh with faces");
+    };
+    let near: Vec<bool> = mesh
+        .positions()
+        .par_iter()
+        .map(|&p| {
+            surface
+                .closest_point(p)
+                .is_some_and(|c| c.point.distance(p) <= max_distance)
+        })
+        .collect();
+    cut_runaway_regions(mesh, &near, source_box.inflated(max_distance))
+}
+
+/// Refuses a trim distance that is not a positive length.
+fn check_trim_distance(max_distance: f32) -> Result<()> {
+    if max_distance.is_finite() && max_distance > 0.0 {
+        Ok(())
+    } else {
+        Error::invalid(
+            "max_distance",
+            max_distance.to_string(),
+            "a positive length",
+        )
+    }
+}
+
+/// `mesh` without its far regions that leave `reach`. A face is far when none of its
+/// corners is `near`; far faces that share corners form a region. A region with a corner
+/// outside `reach` (the source's box, grown by the trim distance) runs on past the source;
+/// one that stays inside fills a gap in it and is kept.
+fn cut_runaway_regions(mesh: &TriMesh, near: &[bool], reach: Aabb) -> Result<TriMesh> {
     let triangles = mesh.triangles();
     let is_far = |t: &[u32; 3]| t.iter().all(|&v| !near[v as usize]);
     // Regions of far faces: their corners joined face by face.
@@ -541,6 +666,25 @@ mod tests {
     }
 
     #[test]
+    fn a_closed_remesh_loses_nothing_to_the_trim_and_a_trim_needs_a_length() {
+        let sphere = crate::fixtures::icosphere_mesh(2).unwrap();
+        let stage = Remesh {
+            params: FieldParams::default().resolution(24),
+        };
+        let closed = stage.run(sphere.clone(), &mut RunContext::new(0)).unwrap();
+        let spacing = KdIndex::new(sphere.positions())
+            .unwrap()
+            .median_spacing()
+            .unwrap();
+        let trimmed = trim_to_mesh(&closed, &sphere, 0.5 * spacing).unwrap();
+        assert_eq!(trimmed.triangles(), closed.triangles());
+        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let err = trim_to_mesh(&closed, &sphere, bad).unwrap_err();
+            assert!(err.to_string().contains("max_distance"), "{err}");
+        }
+    }
+
+    #[test]
     fn pieces_shorter_than_the_diagonal_go_with_their_vertices() {
         // A unit right triangle (diagonal √2), one ten times larger, an unused vertex.
         let positions = vec![
@@ -595,10 +739,10 @@ mod tests {
             grid.data_mut()[21].x = value;
             SdfGrid::from_grid(grid, 2.0).unwrap()
         };
-        let err = surface_of(&field(0.5)).unwrap_err();
+        let err = surface_of(&field(0.5), "the field").unwrap_err();
         assert!(matches!(err, Error::NoSurface { .. }), "{err}");
         assert!(err.to_string().contains("never crosses zero"), "{err}");
         // One node inside: a small closed surface around it.
-        assert!(surface_of(&field(-0.5)).unwrap().face_count() > 0);
+        assert!(surface_of(&field(-0.5), "the field").unwrap().face_count() > 0);
     }
 }

@@ -45,7 +45,7 @@ enum Command {
     /// Estimate a point set's normals by local PCA and orient them by propagation.
     Normals(commands::normals::NormalsArgs),
     /// Turn an oriented point set into a closed mesh (MLS surface → distance field →
-    /// iso-surface).
+    /// iso-surface), or remesh a mesh closed through its own distance field.
     Reconstruct(commands::reconstruct::ReconstructArgs),
     /// Sample the signed distance field of a mesh or oriented point set into an NRRD file.
     Sdf(commands::reconstruct::SdfArgs),

@@ -6,11 +6,13 @@ use std::time::Instant;
 use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{MlsParams, orient_normals};
 use geosynth::reconstruct::{
-    FieldParams, Reconstruct, ReconstructOpen, drop_small_pieces, signed_distance,
+    FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance,
+    trim_to_mesh,
 };
-use geosynth::sdf::{PointSign, PointWinding, nrrd};
+use geosynth::sdf::{MeshSign, PointSign, PointWinding, nrrd};
 use geosynth::{RunContext, Stage};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -108,7 +110,9 @@ fn timings_json(ctx: &RunContext) -> Value {
 /// Arguments of `geosynth reconstruct`.
 #[derive(Debug, Args)]
 pub struct ReconstructArgs {
-    /// Oriented point set (PLY/OBJ/OFF with normals).
+    /// An oriented point set (PLY/OBJ/OFF with normals), or a mesh: remeshed closed through
+    /// its own exact distance field (`--sign` and `--orient-faces` apply; `--kernel` does
+    /// not).
     input: PathBuf,
     /// Output mesh (.ply, .obj, .off or .stl).
     #[arg(short, long)]
@@ -122,8 +126,9 @@ pub struct ReconstructArgs {
     orient_normals: bool,
     /// For open scans (a façade, a terrain, a quilted sheet): cut the surface where it runs
     /// on past the scan's border, beyond this many median sample spacings from every point
-    /// (`--trim` alone: 2, `DEFAULT_TRIM_SPACINGS`). Gaps inside the scan stay bridged. Below about 2 the gaps of a
-    /// random sampling join up with the border and the sheet falls apart.
+    /// (`--trim` alone: 2, `DEFAULT_TRIM_SPACINGS`). Gaps inside the scan stay bridged.
+    /// Below about 2 the gaps of a random sampling join up with the border and the sheet
+    /// falls apart. For a mesh: this many median spacings of its vertices from its faces.
     #[arg(long, value_name = "SPACINGS", num_args = 0..=1, default_missing_value = "2")]
     trim: Option<f32>,
     /// Drop the pieces of the surface whose bounding box is less than this many median
@@ -153,6 +158,8 @@ struct ReconstructInputOptions {
     trim: Option<f32>,
     /// `--drop-pieces`, in median sample spacings (unset: every piece kept).
     drop_pieces: Option<f32>,
+    /// `--orient-faces` (meshes).
+    orient_faces: bool,
 }
 
 impl RecordedInput for ReconstructInputOptions {
@@ -172,8 +179,107 @@ impl ReconstructInputOptions {
             orient_normals: args.orient_normals || recorded.orient_normals,
             trim: args.trim.or(recorded.trim),
             drop_pieces: args.drop_pieces.or(recorded.drop_pieces),
+            orient_faces: args.sign.orient_faces || recorded.orient_faces,
         })
     }
+}
+
+/// What `reconstruct` was given: oriented points, or a mesh to remesh.
+enum ReconstructInput {
+    Points(PointSet),
+    Mesh(TriMesh),
+}
+
+impl ReconstructInput {
+    /// The input's samples: the points, or the mesh's vertices.
+    fn samples(&self) -> &PointSet {
+        match self {
+            Self::Points(points) => points,
+            Self::Mesh(mesh) => mesh.vertices(),
+        }
+    }
+}
+
+/// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's normals
+/// oriented, a mesh's faces turned to agree; prints the notes about it.
+fn prepared_input(
+    args: &ReconstructArgs,
+    geometry: Geometry,
+    options: &ReconstructInputOptions,
+    params: &FieldParams,
+    globals: Globals,
+) -> CliResult<ReconstructInput> {
+    match geometry {
+        Geometry::Mesh(mesh) => {
+            if options.orient_normals {
+                return Err(format!(
+                    "{} is a mesh: --orient-normals orients a point set's normals, and a                      mesh's sides come from its faces (--orient-faces turns them to agree)",
+                    args.input.display()
+                )
+                .into());
+            }
+            let sign = SignArgs {
+                orient_faces: options.orient_faces,
+                ..args.sign
+            };
+            let (mesh, change) = sign.oriented(mesh)?;
+            if let Some(line) = change {
+                status(globals, line);
+            }
+            // With --trim the mesh is taken as the open sheet the note would suggest.
+            if options.trim.is_none()
+                && let Some(note) = sign.note(&mesh, params.mesh_sign)?
+            {
+                status(globals, note);
+            }
+            Ok(ReconstructInput::Mesh(mesh))
+        }
+        Geometry::Points(mut points) => {
+            if points.normals().is_none() {
+                return Err(format!(
+                    "{}: the points have no normals, and their MLS surface needs oriented \
+                     points (`geosynth normals` estimates and orients them)",
+                    args.input.display()
+                )
+                .into());
+            }
+            if options.orient_normals {
+                points = orient_normals(&points, Vec3::Z)?;
+            }
+            if let Some(note) = super::unoriented_normals_note(&points, None) {
+                status(globals, note);
+            }
+            Ok(ReconstructInput::Points(points))
+        }
+    }
+}
+
+/// The closed (or, with `trim` in median sample spacings, trimmed) surface of `input`.
+fn reconstructed(
+    input: &ReconstructInput,
+    params: &FieldParams,
+    trim: Option<f32>,
+    ctx: &mut RunContext,
+) -> CliResult<TriMesh> {
+    let params = params.clone();
+    Ok(match (input, trim) {
+        (ReconstructInput::Points(points), Some(trim)) => {
+            ReconstructOpen { params, trim }.run(points.clone(), ctx)?
+        }
+        (ReconstructInput::Points(points), None) => {
+            Reconstruct { params }.run(points.clone(), ctx)?
+        }
+        (ReconstructInput::Mesh(mesh), trim) => {
+            let closed = Remesh { params }.run(mesh.clone(), ctx)?;
+            match trim {
+                Some(trim) => {
+                    let spacing = KdIndex::new(mesh.positions())?.median_spacing()?;
+                    ctx.timed("trim", |_| trim_to_mesh(&closed, mesh, trim * spacing))?
+                }
+                None => closed,
+            }
+        }
+    })
 }
 
 /// Runs `geosynth reconstruct`.
@@ -182,18 +288,17 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     let file = args.grid.params_file(RECONSTRUCT_REPORTS)?;
     let params = args.grid.params(&file, &args.sign, given)?;
     let options = ReconstructInputOptions::of(args, &file)?;
-    let winding = params.point_sign == PointSign::WindingNumber;
     // Georeferenced points are reconstructed relative to an origin and written back there.
     let loaded = read_geometry(&args.input)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
-    let mut points = loaded.geometry.points().clone();
-    if options.orient_normals {
-        points = orient_normals(&points, Vec3::Z)?;
-    }
-    if let Some(note) = super::unoriented_normals_note(&points, None) {
-        status(globals, note);
-    }
+    let input = prepared_input(args, loaded.geometry, &options, &params, globals)?;
+    let from_points = matches!(input, ReconstructInput::Points(_));
+    let winding = if from_points {
+        params.point_sign == PointSign::WindingNumber
+    } else {
+        params.mesh_sign == MeshSign::WindingNumber
+    };
     if options.trim.is_some() && winding {
         status(
             globals,
@@ -204,15 +309,8 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     }
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
-    let field = params.clone();
-    let mut mesh = match options.trim {
-        Some(trim) => ReconstructOpen {
-            params: field,
-            trim,
-        }
-        .run(points.clone(), &mut ctx)?,
-        None => Reconstruct { params: field }.run(points.clone(), &mut ctx)?,
-    };
+    let mut mesh = reconstructed(&input, &params, options.trim, &mut ctx)?;
+    let points = input.samples();
     // Measured only when a piece's size is asked about (`--drop-pieces`, the note).
     let spacing = || -> CliResult<f32> { Ok(KdIndex::new(points.positions())?.median_spacing()?) };
     let mut pieces_dropped = None;
@@ -259,6 +357,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
         &options,
         json!({
             "input": args.input.display().to_string(),
+            "input_kind": if from_points { "points" } else { "mesh" },
             "points": points.len(),
             "output": args.output.display().to_string(),
             "vertices": mesh.vertex_count(),
@@ -270,6 +369,12 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             "timings": timings_json(&ctx),
         }),
     )?;
+    if !from_points {
+        if options.trim.is_none() && topology.boundary_edges > 0 {
+            status(globals, mesh_grid_side_note(topology.boundary_edges));
+        }
+        return Ok(());
+    }
     if options.drop_pieces.is_none() && topology.components > 1 {
         let small = drop_small_pieces(&mesh, DROP_PIECES_SPACINGS * spacing()?)?.dropped;
         if small > 0 {
@@ -286,11 +391,11 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
         }
     }
     if options.trim.is_none() && topology.boundary_edges > 0 {
-        let note = grid_side_note(topology.boundary_edges, &points, params.kernel)?;
+        let note = grid_side_note(topology.boundary_edges, points, params.kernel)?;
         status(globals, note);
     }
     if options.trim.is_none() && !winding && topology.components > 1 {
-        let open_flux = PointWinding::new(&points)?.open_flux();
+        let open_flux = PointWinding::new(points)?.open_flux();
         if open_flux < CLOSED_FLUX {
             status(
                 globals,
@@ -337,6 +442,16 @@ fn grid_side_note(
         three_digits(h),
         three_digits(2.0 * h)
     ))
+}
+
+/// The note for an untrimmed remesh with `open` open edges: the zero set ran out to the
+/// grid's sides, past the border of an open mesh signed by its nearest piece.
+fn mesh_grid_side_note(open: usize) -> String {
+    format!(
+        "note: the surface runs out to the sides of the grid ({open} open edges): the mesh \
+         is open, and its distance keeps a side past its border. --trim cuts the surface \
+         back to the mesh; --sign winding closes it where the mesh nearly encloses a solid"
+    )
 }
 
 /// `x` rounded to three significant digits, printed without trailing noise (0.054, not

@@ -10,6 +10,7 @@ use geosynth::core::testdata::shared_data;
 
 mod height_files;
 mod params;
+mod remesh;
 
 fn geosynth(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_geosynth"))
