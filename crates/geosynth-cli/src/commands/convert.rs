@@ -6,7 +6,7 @@ use clap::Args;
 use geosynth::core::io::ply::PlyEncoding;
 use geosynth::core::io::{self, FileFormat, Geometry, StlEncoding, WriteOptions};
 
-use super::orient_faces;
+use super::{no_faces_to_orient, orient_faces};
 use crate::input_file::read_geometry;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
 use crate::{CliResult, Globals};
@@ -25,7 +25,8 @@ pub struct ConvertArgs {
     #[arg(long)]
     ascii: bool,
     /// Turn a mesh's triangles to agree with their neighbours (closed parts facing out,
-    /// open parts the way most of their triangles face) before writing.
+    /// open parts the way most of their triangles face) before writing. A point set is
+    /// written as it is, with a note.
     #[arg(long)]
     orient_faces: bool,
 }
@@ -42,6 +43,10 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
             let (oriented, line) = orient_faces(mesh)?;
             status(globals, line);
             Geometry::Mesh(oriented)
+        }
+        Geometry::Points(points) if args.orient_faces => {
+            status(globals, no_faces_to_orient(&args.input));
+            Geometry::Points(points)
         }
         other => other,
     };

@@ -14,6 +14,8 @@ pub mod sheet_mesh;
 pub mod voxel;
 pub mod warp;
 
+use std::path::Path;
+
 use clap::Args;
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disagreement};
@@ -58,7 +60,7 @@ pub struct SignArgs {
     /// Turn a mesh's triangles to agree with their neighbours before signing (closed parts
     /// facing out, open parts the way most of their triangles face): for meshes whose
     /// triangles disagree on which side is out (`info` counts misoriented edges), which
-    /// either sign rule gets wrong near them. Point sets are left as they are.
+    /// either sign rule gets wrong near them. Point sets are left as they are, with a note.
     #[arg(long)]
     orient_faces: bool,
 }
@@ -82,6 +84,16 @@ pub fn orient_faces(mesh: TriMesh) -> CliResult<(TriMesh, String)> {
         ));
     }
     Ok((oriented, line))
+}
+
+/// The note for `--orient-faces` given a point set, read from `path`: it has no triangles
+/// to turn and is left as it is.
+pub fn no_faces_to_orient(path: &Path) -> String {
+    format!(
+        "note: {} is a point set: --orient-faces turns a mesh's triangles, and it has none \
+         (`geosynth normals` orients a point set's normals)",
+        path.display()
+    )
 }
 
 /// `--sign` values.

@@ -18,7 +18,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use super::SignArgs;
+use super::{SignArgs, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::write_json_report;
 use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
@@ -242,6 +242,9 @@ fn prepared_input(
                     args.input.display()
                 )
                 .into());
+            }
+            if options.orient_faces {
+                status(globals, no_faces_to_orient(&args.input));
             }
             if options.orient_normals {
                 points = orient_normals(&points, Vec3::Z)?;
@@ -489,6 +492,9 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
     let mut loaded = read_geometry(&args.input)?;
     report_not_kept(globals, &args.input, &loaded.notes);
+    if sign.orient_faces && loaded.geometry.mesh().is_none() {
+        status(globals, no_faces_to_orient(&args.input));
+    }
     if let io::Geometry::Mesh(mesh) = loaded.geometry {
         let (mesh, change) = sign.oriented(mesh)?;
         if let Some(line) = change {

@@ -2409,6 +2409,18 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
         said.contains("STL cannot store the input's vertex normals"),
         "{said}"
     );
+    // A point set has no triangles to turn: written as it is, with a note saying so.
+    let points = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let copy = scratch.path("points.ply");
+    let said = ok(&[
+        "convert",
+        &arg(&points),
+        "-o",
+        &arg(&copy),
+        "--orient-faces",
+    ]);
+    assert!(said.contains("is a point set: --orient-faces"), "{said}");
+    assert_eq!(info_json(&copy)["vertices"], 2000);
     let said = ok(&[
         "convert",
         &arg(&scratch.path("s.stl")),

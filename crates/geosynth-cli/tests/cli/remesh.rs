@@ -1,5 +1,6 @@
 //! `reconstruct` given a mesh: remeshed closed through the mesh's own exact distance, with
-//! `--sign`, `--orient-faces` and `--trim` applying to it.
+//! `--sign`, `--orient-faces` and `--trim` applying to it; and `--orient-faces` given a
+//! point set, which has no triangles to turn.
 
 use geosynth::core::io::{Geometry, read_geometry};
 use geosynth::core::{PointSet, TriMesh};
@@ -154,4 +155,22 @@ fn an_open_mesh_is_cut_back_to_its_faces_by_trim() {
     let trimmed = mesh_in(&out);
     assert!((1.0..1.3).contains(&width(&trimmed)), "{}", width(&trimmed));
     assert_eq!(trimmed.topology().components, 1);
+}
+
+#[test]
+fn orient_faces_leaves_a_point_set_as_it_is_and_says_so() {
+    let dir = Scratch::new();
+    let points = arg(&geosynth::fixtures::bundled_dir().join("torus_points.ply"));
+    let note = "is a point set: --orient-faces turns a mesh's triangles";
+    let (plain, flagged) = (dir.path("plain.nrrd"), dir.path("flagged.nrrd"));
+    let sdf = ["sdf", &points, "--resolution", "16", "-o"];
+    assert!(!ok(&[&sdf[..], &[&arg(&plain)]].concat()).contains("note"));
+    let said = ok(&[&sdf[..], &[&arg(&flagged), "--orient-faces"]].concat());
+    assert!(said.contains(note), "{said}");
+    let bytes = |path| std::fs::read(path).unwrap();
+    assert_eq!(bytes(&plain), bytes(&flagged));
+    let out = arg(&dir.path("torus.ply"));
+    let reconstruct = ["reconstruct", &points, "-o", &out, "--resolution", "24"];
+    let said = ok(&[&reconstruct[..], &["--orient-faces"]].concat());
+    assert!(said.contains(note) && said.contains("closed"), "{said}");
 }
