@@ -2,7 +2,8 @@
 
 1. converts every mesh under a directory to binary and ASCII STL with `geosynth convert`,
    then loads every geometry file there with plyfile, trimesh and pynrrd and compares
-   counts, boxes and values with `geosynth info --json`;
+   counts, boxes and values with `geosynth info --json`, and checks that trimesh finds
+   every mesh `info` calls closed (with no two vertices at one position) watertight;
 2. writes PLY files with plyfile (ascii, binary little and big endian; float and double
    coordinates; three list-count/index type pairs; colours, a double and a short
    attribute; an extra element), OBJ/OFF/STL (binary and ASCII) files with trimesh and
@@ -99,6 +100,12 @@ for path in sorted(p for p in root.rglob('*') if 'foreign' not in p.parts):
             ok &= nf == ours['faces'] and (ext == '.obj' or nv == ours['vertices'])
             if nf:
                 ok &= np.allclose(tm.bounds, [ours['bbox_min'], ours['bbox_max']], rtol=1e-5, atol=1e-6)
+            # A mesh we call closed, with no two vertices at one position, is watertight for
+            # trimesh too, which welds vertices by position on loading.
+            topology = ours.get('topology') or {}
+            if nf and topology.get('closed_manifold') and ours.get('welded_topology') is None:
+                ok &= bool(tm.is_watertight)
+                notes.append(f"watertight {tm.is_watertight}")
     except Exception as e:
         ok = False
         notes.append(f"ERROR {e!r}")

@@ -8,7 +8,8 @@
 //! Vertices sit on grid edges (including cell diagonals) at the linearly interpolated zero
 //! crossing and are shared through an edge-keyed map, so the mesh is welded. Triangles face
 //! the positive side (outside, for signed distances). Samples exactly equal to the iso
-//! value count as outside.
+//! value count as outside; a crossing on or near a node is kept a thousandth of its edge
+//! off it, so that no two vertices share a position.
 
 use std::collections::HashMap;
 
@@ -27,6 +28,12 @@ const TETRAHEDRA: [[usize; 4]; 6] = [
     [0, 4, 5, 7],
     [0, 1, 5, 7],
 ];
+
+/// How far along its edge, as a fraction of it, every vertex is kept off the edge's nodes
+/// (see [`Builder::vertex`]): a thousandth of the spacing, far below the interpolation's
+/// own error and far above an `f32` step at any coordinates the grids are sampled at
+/// (georeferenced ones are read relative to an origin).
+const NODE_CLEARANCE: f32 = 1.0 / 1024.0;
 
 /// Builds the welded mesh while cells are visited.
 struct Builder<'a> {
@@ -54,8 +61,14 @@ impl Builder<'_> {
             return v;
         }
         let (va, vb) = (self.values[a], self.values[b]);
-        let t = (va / (va - vb)).clamp(0.0, 1.0);
-        let p = self.position(a).lerp(self.position(b), t);
+        let (pa, pb) = (self.position(a), self.position(b));
+        // A crossing on or very near a node (a sample equal to the iso value, or within a
+        // few ulps of it) would put the vertices of the edges through that node at one
+        // position once rounded to `f32`: distinct vertices at one point, which readers that
+        // weld by position see as a pinch. Each is kept `NODE_CLEARANCE` of its edge off
+        // the nodes, along its own edge.
+        let t = (va / (va - vb)).clamp(NODE_CLEARANCE, 1.0 - NODE_CLEARANCE);
+        let p = pa.lerp(pb, t);
         let n = self.gradients.map_or(Vec3::ZERO, |g| {
             let (ga, gb) = (g[a], g[b]);
             Vec3::new(ga.y, ga.z, ga.w).lerp(Vec3::new(gb.y, gb.z, gb.w), t)

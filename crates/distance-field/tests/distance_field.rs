@@ -577,6 +577,71 @@ fn torus_isosurface_has_euler_characteristic_zero() {
 }
 
 #[test]
+fn crossings_on_grid_nodes_give_no_two_vertices_one_position() {
+    // Spacing 0.125 from −1: the sphere of radius 0.5 passes exactly through six nodes
+    // (±0.5 on each axis) and the plane z = x through a whole diagonal sheet of them. Every
+    // edge into such a node crosses zero on it; those vertices once all sat on the node, so
+    // welding by position pinched the sphere there (found remeshing fertility.off).
+    // How far a vertex may sit off the surface: the sphere's linear interpolation across a
+    // cell (up to 3h² / 8r = 0.012 along a cell diagonal), the plane's a thousandth of an edge.
+    for (name, field, tolerance) in [
+        (
+            "sphere",
+            (|p: Vec3| p.length() - 0.5) as fn(Vec3) -> f32,
+            0.012,
+        ),
+        ("plane", |p: Vec3| p.z - p.x, 5e-4),
+    ] {
+        let mesh = isosurface(&analytic_grid(17, 1.0, field), 0.0).unwrap();
+        let welded = mesh.welded().unwrap();
+        assert_eq!(welded.vertex_count(), mesh.vertex_count(), "{name}");
+        let topology = welded.topology();
+        assert_eq!(topology.non_manifold_edges, 0, "{name}");
+        if name.ends_with("sphere") {
+            assert_eq!(euler_characteristic_of_closed_manifold(&welded), 2);
+        }
+        // Kept off the nodes by a thousandth of an edge, so still on the surface.
+        for p in mesh.positions() {
+            assert!(
+                field(*p).abs() < tolerance,
+                "{name}: {p} off by {}",
+                field(*p)
+            );
+        }
+    }
+}
+
+#[test]
+fn crossings_within_an_f32_step_of_a_node_give_no_two_vertices_one_position() {
+    // Far from the origin (x about 60, as in fertility.off, where this was found) an offset
+    // of a few millionths from a node rounds away on some axes and not on others, so two
+    // edges through one node could put their vertices at one position without either being
+    // on the node. Nodes whose values are within 1e-6 of zero, of either sign, make such
+    // crossings everywhere.
+    let n = 14;
+    let (origin, spacing) = (Vec3::new(-62.0, 30.5, 8.0), 0.2);
+    let centre = origin + Vec3::splat(1.3);
+    let mut g = rng::rng_from_seed(4);
+    let data = (0..n * n * n)
+        .map(|i| {
+            let p = origin
+                + Vec3::new((i % n) as f32, ((i / n) % n) as f32, (i / n / n) as f32) * spacing;
+            let value = (p - centre).length() - 0.9;
+            if g.random_bool(0.3) {
+                value * 1e-6
+            } else {
+                value
+            }
+        })
+        .collect();
+    let grid = Grid3::from_vec([n; 3], origin, spacing, data).unwrap();
+    let mesh = isosurface(&grid, 0.0).unwrap();
+    assert!(mesh.face_count() > 500);
+    let welded = mesh.welded().unwrap();
+    assert_eq!(welded.vertex_count(), mesh.vertex_count());
+}
+
+#[test]
 fn sdf_isosurface_uses_stored_gradients_for_normals() {
     let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 40, 0.2).unwrap();
     let sdf = SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, 0.5).unwrap();
