@@ -213,7 +213,8 @@ fn prepared_input(
         Geometry::Mesh(mesh) => {
             if options.orient_normals {
                 return Err(format!(
-                    "{} is a mesh: --orient-normals orients a point set's normals, and a                      mesh's sides come from its faces (--orient-faces turns them to agree)",
+                    "{} is a mesh: --orient-normals orients a point set's normals, and a \
+                     mesh's sides come from its faces (--orient-faces turns them to agree)",
                     args.input.display()
                 )
                 .into());

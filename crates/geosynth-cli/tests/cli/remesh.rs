@@ -50,7 +50,10 @@ fn a_mesh_is_remeshed_closed_on_its_own_surface() {
     assert_eq!(r["input_kind"], "mesh");
     assert_eq!(r["points"], 48 * 24);
     // A mesh has no normals to orient; a point set without normals is named in its refusal.
-    refused(&[&args[..], &["--orient-normals"]].concat(), "is a mesh");
+    refused(
+        &[&args[..], &["--orient-normals"]].concat(),
+        "is a mesh: --orient-normals orients a point set's normals, and a mesh's sides",
+    );
     let bare = dir.path("bare.ply");
     write_with_defaults(
         &bare,
