@@ -35,7 +35,10 @@
    quilt's map, and that a DEM with voids on its no-data value is refused;
 7. remeshes three closed meshes trimesh wrote (icosphere, torus, box) with `geosynth
    reconstruct` and checks that trimesh finds each result watertight and consistently
-   wound, of the input's Euler number and within 1% of its volume.
+   wound, of the input's Euler number and within 1% of its volume;
+8. has numpy write XYZ point clouds as CloudCompare, MeshLab and colour exporters do, and
+   checks `info --json` on them; converts a demo quilt to .xyz and checks that numpy reads
+   the positions and normals plyfile reads from its PLY.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -417,5 +420,39 @@ for name, solid in [('icosphere', trimesh.creation.icosphere(subdivisions=2)),
                 f"(input {solid.euler_number}), volume {ratio:.4f} of the input's")
     bad += not ok
     print(('ok  ' if ok else 'BAD ') + f"foreign/{remeshed.name} (ours, from trimesh's mesh): {note}")
+# 8. XYZ point clouds both ways: numpy writes them as other tools do (a `//` header and
+#    commas, as CloudCompare; spaces with normals, as MeshLab; integer colours), our `info`
+#    reads their counts, box and normals; our `convert` writes a demo quilt as .xyz and
+#    numpy reads back the positions and normals plyfile reads from its PLY.
+rng = np.random.default_rng(8)
+cloud = rng.normal(size=(300, 3)) * [3.0, 2.0, 1.0] + [1e3, -20.0, 5.0]
+normals = rng.normal(size=(300, 3))
+normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+rgb = rng.integers(0, 256, size=(300, 3))
+for name, table, options, with_normals in [
+        ('numpy_cloudcompare.xyz', np.hstack([cloud, normals]),
+         dict(delimiter=',', header='X,Y,Z,Nx,Ny,Nz', comments='//'), True),
+        ('numpy_meshlab.xyzn', np.hstack([cloud, normals]), dict(fmt='%.9g'), True),
+        ('numpy_colours.xyzrgb', np.hstack([cloud, rgb]), dict(fmt='%.9g'), False)]:
+    path = foreign / name
+    np.savetxt(path, table, **options)
+    ours, _ = info_json(path)
+    ok = (ours.get('vertices') == 300 and ours.get('normals') == with_normals
+          and np.allclose(ours.get('bbox_min'), cloud.min(0), rtol=1e-6)
+          and np.allclose(ours.get('bbox_max'), cloud.max(0), rtol=1e-6)
+          and (with_normals or ours.get('colors') is True))
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + f"foreign/{name} (numpy): {ours.get('format')} "
+          f"{ours.get('vertices')} points, normals {ours.get('normals')}")
+quilted = sorted(root.glob('geometry/quilt_*_quilted.ply'))[0]
+ours_xyz = foreign / f'{quilted.stem}.xyz'
+subprocess.run([G, 'convert', str(quilted), '-o', str(ours_xyz), '-q'], check=True)
+table = np.loadtxt(ours_xyz, comments='#')
+vertex = plyfile.PlyData.read(str(quilted))['vertex']
+expected = np.stack([vertex[k] for k in ('x', 'y', 'z', 'nx', 'ny', 'nz')], axis=1)
+ok = table.shape == expected.shape and np.array_equal(table.astype(np.float32), expected)
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/{ours_xyz.name} (ours, read by numpy): "
+      f"{table.shape[0]} rows of {table.shape[1]}, equal to plyfile's {expected.shape}")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

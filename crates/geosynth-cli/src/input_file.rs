@@ -53,7 +53,7 @@ pub(crate) fn named<E: Into<BoxedError>>(path: &Path) -> impl FnOnce(E) -> Boxed
     }
 }
 
-/// Reads a geometry file (PLY, OBJ, OFF, STL) as every command does: georeferenced
+/// Reads a geometry file (PLY, OBJ, OFF, STL, XYZ) as every command does: georeferenced
 /// coordinates relative to an origin, at full precision (see
 /// [`ReadOptions::recentre_far`]); errors name the file.
 pub(crate) fn read_geometry(path: &Path) -> CliResult<LoadedGeometry> {

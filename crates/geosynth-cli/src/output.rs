@@ -3,7 +3,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use geosynth::core::io::FileFormat;
+use geosynth::core::io::{FileFormat, GEOMETRY_EXTENSIONS};
 use geosynth::{ProgressUpdate, RunContext};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -12,8 +12,8 @@ use crate::{CliResult, Globals};
 
 /// Refuses to start work whose results could not be saved: the directory of every output
 /// path must exist, no path may be given for two outputs (the second would overwrite the
-/// first), and geometry outputs need an extension the writers know (`.ply`, `.obj`,
-/// `.off`, `.stl`). Checked before a run, so a typo does not cost the run; what the format
+/// first), and geometry outputs need an extension the writers know
+/// ([`GEOMETRY_EXTENSIONS`]). Checked before a run, so a typo does not cost the run; what the format
 /// can hold is checked by [`check_geometry_output`] once the input is read.
 pub(crate) fn check_output_paths<'a>(
     geometry: impl IntoIterator<Item = &'a Path>,
@@ -24,7 +24,7 @@ pub(crate) fn check_output_paths<'a>(
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
         if FileFormat::from_extension(ext).is_none() {
             return Err(format!(
-                "cannot write {}: geometry files must end in .ply, .obj, .off or .stl",
+                "cannot write {}: geometry files must end in {GEOMETRY_EXTENSIONS}",
                 path.display()
             )
             .into());

@@ -14,7 +14,8 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth convert`.
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// Point set or mesh to convert (.ply, .obj, .off, .stl).
+    /// Point set or mesh to convert (.ply, .obj, .off, .stl; point sets also .xyz, .xyzn,
+    /// .xyzrgb).
     input: PathBuf,
     /// Output file; its extension picks the format (.ply, .obj, .off; .stl for a mesh).
     /// Georeferenced input is written back in place (PLY as `double`, OBJ/OFF with full
@@ -56,7 +57,12 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         .and_then(|e| e.to_str())
         .unwrap_or("");
     let format = FileFormat::from_extension(ext).ok_or("unknown output format")?;
-    if args.ascii && matches!(format, FileFormat::Obj | FileFormat::Off) {
+    if args.ascii
+        && matches!(
+            format,
+            FileFormat::Obj | FileFormat::Off | FileFormat::Xyz(_)
+        )
+    {
         status(
             globals,
             format!("note: {format} is always text; --ascii changes nothing"),
@@ -83,6 +89,7 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     let counts = match format {
         // STL has no vertices of its own: the reader welds corners back by position.
         FileFormat::Stl => format!("{faces} triangles"),
+        FileFormat::Xyz(_) => format!("{} points", geometry.points().len()),
         _ => format!("{} vertices, {faces} triangles", geometry.points().len()),
     };
     status(

@@ -17,11 +17,12 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The file to describe: .ply, .obj, .off, .stl, a picture (.png, .jpg), a raw height
-    /// field (`name_WxH.f32le`, or a raw file with an ENVI header beside it: `.f32le`,
-    /// `.bil`, `.bsq`, `.bip`, `.img`, `.dat`, `.raw`, `.bin`), a one-band TIFF height
-    /// field (.tif, .tiff: a GeoTIFF DEM) or an NRRD volume (.nrrd as `sdf` and `voxel
-    /// --field` write, or a detached .nhdr header).
+    /// The file to describe: .ply, .obj, .off, .stl, .xyz (.xyzn, .xyzrgb: point clouds, a
+    /// point a line), a picture (.png, .jpg), a raw height field (`name_WxH.f32le`, or a
+    /// raw file with an ENVI header beside it: `.f32le`, `.bil`, `.bsq`, `.bip`, `.img`,
+    /// `.dat`, `.raw`, `.bin`), a one-band TIFF height field (.tif, .tiff: a GeoTIFF DEM)
+    /// or an NRRD volume (.nrrd as `sdf` and `voxel --field` write, or a detached .nhdr
+    /// header).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]

@@ -15,7 +15,7 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth warp`.
 #[derive(Debug, Args)]
 pub struct WarpArgs {
-    /// Point set or mesh to warp (.ply, .obj, .off, .stl); meshes keep their faces.
+    /// Point set or mesh to warp (.ply, .obj, .off, .stl, .xyz); meshes keep their faces.
     input: PathBuf,
     /// Pairs file: one pair per line, `sx sy sz qx qy qz` (source → target); `#` starts a
     /// comment.

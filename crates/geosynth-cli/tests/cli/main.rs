@@ -2543,3 +2543,39 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
         assert!(said.contains(&note), "{command}: {said}");
     }
 }
+
+#[test]
+fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
+    let dir = Scratch::new();
+    let points = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let xyz = dir.path("sphere.xyz");
+    let said = ok(&["convert", &arg(&points), "-o", &arg(&xyz)]);
+    assert!(said.contains("(XYZ): 2000 points"), "{said}");
+    let json = info_json(&xyz);
+    assert_eq!(
+        (json["format"].as_str(), json["vertices"].as_u64()),
+        (Some("XYZ"), Some(2000))
+    );
+    assert_eq!(json["normals"], true);
+    // Back to PLY: the same positions and normals.
+    let back = dir.path("back.ply");
+    ok(&["convert", &arg(&xyz), "-o", &arg(&back), "-q"]);
+    let read = |path: &Path| geosynth::core::io::read_geometry(path).unwrap().geometry;
+    assert_eq!(
+        read(&back).points().positions(),
+        read(&points).points().positions()
+    );
+    assert_eq!(
+        read(&back).points().normals(),
+        read(&points).points().normals()
+    );
+    // A mesh output as XYZ is refused before the run: its faces would be lost.
+    refused(
+        &["reconstruct", &arg(&xyz), "-o", &arg(&dir.path("m.xyz"))],
+        "holds points only",
+    );
+    refused(
+        &["convert", &arg(&xyz), "-o", &arg(&dir.path("m.txt"))],
+        ".xyz, .xyzn or .xyzrgb",
+    );
+}

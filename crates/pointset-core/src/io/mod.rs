@@ -1,4 +1,5 @@
-//! Reading and writing point sets and meshes: PLY, OBJ, OFF and STL (meshes only).
+//! Reading and writing point sets and meshes: PLY, OBJ, OFF, STL (meshes only) and XYZ
+//! (points only: `.xyz`, `.xyzn`, `.xyzrgb`).
 //!
 //! [`read_geometry`] picks the format from the file extension and checks it against the
 //! content (a `.ply` that does not start with `ply` is an error, not a guess); files without
@@ -17,6 +18,7 @@ mod obj;
 mod off;
 pub mod ply;
 mod stl;
+mod xyz;
 
 use std::fmt;
 use std::path::Path;
@@ -27,6 +29,8 @@ pub use off::{read_off, write_off};
 use off::{read_off_at, write_off_at};
 pub use stl::{StlEncoding, read_stl, write_stl, write_stl_ascii};
 use stl::{read_stl_at, write_stl_at};
+pub use xyz::{XyzColumns, read_xyz, write_xyz};
+use xyz::{read_xyz_at, write_xyz_at};
 
 use glam::{DVec3, Vec3};
 
@@ -44,7 +48,13 @@ pub enum FileFormat {
     Off,
     /// Stereolithography triangles, binary or ASCII (meshes only: see [`read_stl`]).
     Stl,
+    /// A point a line, text (points only: see [`read_xyz`]); the columns are named by the
+    /// extension.
+    Xyz(XyzColumns),
 }
+
+/// The extensions the writers know, for messages.
+pub const GEOMETRY_EXTENSIONS: &str = ".ply, .obj, .off, .stl, .xyz, .xyzn or .xyzrgb";
 
 impl fmt::Display for FileFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -53,6 +63,9 @@ impl fmt::Display for FileFormat {
             FileFormat::Obj => "OBJ",
             FileFormat::Off => "OFF",
             FileFormat::Stl => "STL",
+            FileFormat::Xyz(XyzColumns::Positions) => "XYZ",
+            FileFormat::Xyz(XyzColumns::Normals) => "XYZN",
+            FileFormat::Xyz(XyzColumns::Colours) => "XYZRGB",
         })
     }
 }
@@ -65,13 +78,17 @@ impl FileFormat {
             "obj" => Some(FileFormat::Obj),
             "off" => Some(FileFormat::Off),
             "stl" => Some(FileFormat::Stl),
+            "xyz" => Some(FileFormat::Xyz(XyzColumns::Positions)),
+            "xyzn" => Some(FileFormat::Xyz(XyzColumns::Normals)),
+            "xyzrgb" => Some(FileFormat::Xyz(XyzColumns::Colours)),
             _ => None,
         }
     }
 
     /// Refuses, before any work is done, what writing in this format would fail on or
     /// lose: a point set (`mesh` false) or a nonzero write origin
-    /// ([`WriteOptions::origin`]) as STL. Every other format stores both.
+    /// ([`WriteOptions::origin`]) as STL, a mesh as XYZ (its faces). PLY, OBJ and OFF store
+    /// all of them.
     ///
     /// ```
     /// use glam::DVec3;
@@ -80,18 +97,24 @@ impl FileFormat {
     /// assert!(FileFormat::Stl.check_can_store(false, DVec3::ZERO).is_err());
     /// assert!(FileFormat::Stl.check_can_store(true, DVec3::new(5e5, 0.0, 0.0)).is_err());
     /// assert!(FileFormat::Off.check_can_store(false, DVec3::new(5e5, 0.0, 0.0)).is_ok());
+    /// let xyz = FileFormat::from_extension("xyz").unwrap();
+    /// assert!(xyz.check_can_store(false, DVec3::ZERO).is_ok());
+    /// assert!(xyz.check_can_store(true, DVec3::ZERO).is_err());
     /// ```
     pub fn check_can_store(self, mesh: bool, origin: DVec3) -> Result<()> {
         match self {
             FileFormat::Stl => stl::check_storable(mesh, origin),
-            FileFormat::Ply | FileFormat::Obj | FileFormat::Off => Ok(()),
+            FileFormat::Xyz(columns) if mesh => Err(xyz::cannot_store_mesh(columns)),
+            FileFormat::Ply | FileFormat::Obj | FileFormat::Off | FileFormat::Xyz(_) => Ok(()),
         }
     }
 
     /// What writing `geometry` in this format would not store, in words (empty when the
     /// format keeps everything). PLY keeps everything; OBJ drops attributes other than
-    /// colours; OFF drops those and UVs; STL keeps only positions and triangles. Colours are
-    /// the `red`, `green`, `blue` channels when all three exist.
+    /// colours; OFF drops those and UVs; STL keeps only positions and triangles; `.xyz` and
+    /// `.xyzn` keep positions and normals, `.xyzrgb` positions and colours (and no format
+    /// of points keeps a mesh's faces, which [`Self::check_can_store`] refuses). Colours
+    /// are the `red`, `green`, `blue` channels when all three exist.
     ///
     /// ```
     /// use pointset_core::io::{FileFormat, Geometry};
@@ -110,6 +133,8 @@ impl FileFormat {
             FileFormat::Obj => (true, true, true, false),
             FileFormat::Off => (true, false, true, false),
             FileFormat::Stl => (false, false, false, false),
+            FileFormat::Xyz(XyzColumns::Colours) => (false, false, true, false),
+            FileFormat::Xyz(_) => (true, false, false, false),
         };
         let points = geometry.points();
         let has_colours = points.colors().is_some();
@@ -362,12 +387,15 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
         (None, Some(by_content)) => Ok(by_content),
         (None, None) => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
-            reason: "no .ply/.obj/.off/.stl extension and the content matches none of them".into(),
+            reason: format!(
+                "no {GEOMETRY_EXTENSIONS} extension, and the content looks like none of PLY, \
+                 OBJ, OFF and STL (XYZ is told by its extension only)"
+            ),
         }),
     }
 }
 
-/// Reads a PLY, OBJ, OFF or STL file.
+/// Reads a PLY, OBJ, OFF, STL or XYZ file.
 pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
     read_geometry_with(path, &ReadOptions::default())
 }
@@ -462,6 +490,17 @@ pub fn read_geometry_bytes_with(
                 notes: file.notes,
             })
         }
+        FileFormat::Xyz(columns) => {
+            let file = read_xyz_at(bytes, columns, recentre)?;
+            Ok(LoadedGeometry {
+                geometry: file.geometry,
+                format: FileFormat::Xyz(columns),
+                encoding: "ascii".into(),
+                comments: file.comments,
+                origin: file.origin,
+                notes: Vec::new(),
+            })
+        }
     }
 }
 
@@ -498,6 +537,13 @@ pub fn encode_geometry(
         FileFormat::Obj => write_obj_at(geometry, &options.comments, options.origin, &mut out)?,
         FileFormat::Off => write_off_at(geometry, &options.comments, options.origin, &mut out)?,
         FileFormat::Stl => write_stl_at(geometry, options.stl_encoding, options.origin, &mut out)?,
+        FileFormat::Xyz(columns) => write_xyz_at(
+            geometry,
+            columns,
+            &options.comments,
+            options.origin,
+            &mut out,
+        )?,
     }
     Ok(out)
 }
@@ -512,7 +558,7 @@ pub fn write_geometry(
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     let format = FileFormat::from_extension(ext).ok_or_else(|| Error::UnknownFormat {
         path: path.to_path_buf(),
-        reason: "the output extension must be .ply, .obj, .off or .stl".into(),
+        reason: format!("the output extension must be {GEOMETRY_EXTENSIONS}"),
     })?;
     let bytes = encode_geometry(geometry, format, options)?;
     std::fs::write(path, bytes).map_err(|source| Error::Io {

@@ -1,22 +1,33 @@
-//! Edited or cut-short PLY (binary and ASCII), OBJ and OFF files, of meshes and of point
-//! sets with normals and colours: each is read as valid geometry or refused with an error,
-//! never a panic. (STL and NRRD files have tests of their own like this one.)
+//! Edited or cut-short PLY (binary and ASCII), OBJ, OFF and XYZ files, of meshes and of
+//! point sets with normals and colours (XYZ: point sets only): each is read as valid
+//! geometry or refused with an error, never a panic. (STL and NRRD files have tests of
+//! their own like this one.)
 
 use glam::Vec3;
 use pointset_core::io::ply::PlyEncoding;
-use pointset_core::io::{self, FileFormat, Geometry, WriteOptions};
+use pointset_core::io::{self, FileFormat, Geometry, WriteOptions, XyzColumns};
 use proptest::prelude::*;
 
 use super::{random_mesh, read};
 
 /// The formats edited: the format, the PLY encoding (ignored by the others), a file name
 /// that says the format.
-const FORMATS: [(FileFormat, PlyEncoding, &str); 5] = [
+const FORMATS: [(FileFormat, PlyEncoding, &str); 7] = [
     (FileFormat::Ply, PlyEncoding::BinaryLittleEndian, "e.ply"),
     (FileFormat::Ply, PlyEncoding::BinaryBigEndian, "e.ply"),
     (FileFormat::Ply, PlyEncoding::Ascii, "e.ply"),
     (FileFormat::Obj, PlyEncoding::Ascii, "e.obj"),
     (FileFormat::Off, PlyEncoding::Ascii, "e.off"),
+    (
+        FileFormat::Xyz(XyzColumns::Positions),
+        PlyEncoding::Ascii,
+        "e.xyz",
+    ),
+    (
+        FileFormat::Xyz(XyzColumns::Colours),
+        PlyEncoding::Ascii,
+        "e.xyzrgb",
+    ),
 ];
 
 /// A random mesh, or its vertices as points with normals and colours.
@@ -47,6 +58,7 @@ proptest! {
     ) {
         let (format, encoding, name) = FORMATS[format];
         let options = WriteOptions::default().ply_encoding(encoding);
+        let mesh = mesh && !matches!(format, FileFormat::Xyz(_));
         let mut bytes = io::encode_geometry(&geometry(seed, mesh), format, &options).unwrap();
         let len = bytes.len();
         for (at, byte) in edits {

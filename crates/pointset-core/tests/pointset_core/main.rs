@@ -7,12 +7,13 @@
 mod edited_files;
 mod ply_codec;
 mod stl_codec;
+mod xyz_codec;
 
 use std::path::Path;
 
 use glam::{DVec3, Vec2, Vec3};
 use pointset_core::io::ply::PlyEncoding;
-use pointset_core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions};
+use pointset_core::io::{self, FileFormat, Geometry, ReadOptions, WriteOptions, XyzColumns};
 use pointset_core::spatial::{key_index, nearness_key};
 use pointset_core::testdata::shared_data;
 use pointset_core::{
@@ -199,6 +200,7 @@ proptest! {
             (FileFormat::Ply, "far.ply"),
             (FileFormat::Obj, "far.obj"),
             (FileFormat::Off, "far.off"),
+            (FileFormat::Xyz(XyzColumns::Positions), "far.xyz"),
         ] {
             let options = WriteOptions::default()
                 .ply_encoding(PlyEncoding::BinaryBigEndian)
