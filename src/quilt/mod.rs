@@ -1,8 +1,8 @@
 //! Patch-based geometry texture synthesis (paper 000; the `patch-quilt` crate), with the
 //! facade's stage and file conventions.
 //!
-//! A geometry texture file is an oriented point set (PLY, OBJ, OFF, XYZ; a mesh without vertex
-//! normals gets them from its faces) whose comments carry its box and up axis:
+//! A geometry texture file is an oriented point set (PLY, OBJ, OFF, XYZ; a mesh without
+//! vertex normals gets them from its faces) whose comments carry its box and up axis:
 //! `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the up axis is Z
 //! (or the one given to [`read_texture_with_up`]) and the box is the points' bounding box
 //! inset by a sixth of its extent across the reference plane on every side (so the outer
