@@ -3,7 +3,9 @@
 //! line holds is told by the extension, as Open3D names them:
 //!
 //! - `.xyz`: `x y z`, or `x y z nx ny nz` (positions and normals, as MeshLab writes them);
-//!   every line has as many numbers as the first;
+//!   every line has as many numbers as the first, and three numbers after a position must
+//!   look like a normal (length 1/2 to 3/2, or zero): colours are refused, not taken for
+//!   normals;
 //! - `.xyzn`: `x y z nx ny nz`;
 //! - `.xyzrgb`: `x y z r g b`, colours in `0..=1`, or in `0..=255` when any value exceeds 1
 //!   (decided per file, as for OFF).
@@ -40,7 +42,7 @@ impl XyzColumns {
         }
     }
 
-    /// The numbers a line may hold, and what the numbers after the position are.
+    /// How many numbers a line may hold.
     fn allowed(self) -> &'static [usize] {
         match self {
             XyzColumns::Positions => &[3, 6],
@@ -74,6 +76,15 @@ pub(crate) struct XyzFile {
     pub(crate) comments: Vec<String>,
     /// The origin positions are stored relative to.
     pub(crate) origin: DVec3,
+}
+
+/// Whether three numbers after a position in an `.xyz` file can be a normal: of length
+/// 1/2 to 3/2 (unit, as written with a few digits), or zero (none known). Colours (`r g b`
+/// in `0..=255`, as CloudCompare writes them, or dim ones in `0..=1`) mostly are not, so a
+/// colour file named `.xyz` is refused rather than read as normals.
+fn looks_like_a_normal(n: [f64; 3]) -> bool {
+    let length = DVec3::from(n).length();
+    length == 0.0 || (0.5..=1.5).contains(&length) || !length.is_finite()
 }
 
 /// The comment a line holds, if it is one.
@@ -158,7 +169,22 @@ pub(crate) fn read_xyz_at(
         }
         positions.push(DVec3::new(values[0], values[1], values[2]));
         if expected == 6 {
-            rest.push([values[3], values[4], values[5]]);
+            let after = [values[3], values[4], values[5]];
+            if columns == XyzColumns::Positions && !looks_like_a_normal(after) {
+                return Err(malformed(
+                    columns,
+                    number,
+                    format!(
+                        "({}, {}, {}) after the position is no normal (its length is {:.3}); \
+                         for colours, name the file .xyzrgb",
+                        after[0],
+                        after[1],
+                        after[2],
+                        DVec3::from(after).length()
+                    ),
+                ));
+            }
+            rest.push(after);
         }
     }
     let (relative, origin) = relative_positions(&positions, recentre_far);

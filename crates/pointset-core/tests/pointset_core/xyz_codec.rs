@@ -149,6 +149,13 @@ fn bad_lines_are_refused_with_their_number() {
             "`two` is not a number",
         ),
         ("f.xyzrgb", "0 0 0 1 1 1 1\n", "line 1", "`x y z r g b`"),
+        // CloudCompare's colours in a file named .xyz: not normals.
+        (
+            "g.xyz",
+            "0 0 0 0 0 1\n1 1 1 255 0 51\n",
+            "line 2",
+            "name the file .xyzrgb",
+        ),
     ];
     for (name, text, line, what) in cases {
         let err = read(name, text.as_bytes()).unwrap_err();
