@@ -17,12 +17,14 @@ pub struct ConvertArgs {
     /// Point set or mesh to convert (.ply, .obj, .off, .stl; point sets also .xyz, .xyzn,
     /// .xyzrgb).
     input: PathBuf,
-    /// Output file; its extension picks the format (.ply, .obj, .off; .stl for a mesh).
-    /// Georeferenced input is written back in place (PLY as `double`, OBJ/OFF with full
-    /// digits); STL, single precision, refuses it.
+    /// Output file; its extension picks the format (.ply, .obj, .off; .stl for a mesh;
+    /// .xyz, .xyzn, .xyzrgb for a point set). Georeferenced input is written back in place
+    /// (PLY as `double`, OBJ, OFF and XYZ with full digits); STL, single precision, refuses
+    /// it.
     #[arg(short, long)]
     output: PathBuf,
-    /// Write text: ASCII PLY or ASCII STL (default binary; OBJ and OFF are always text).
+    /// Write text: ASCII PLY or ASCII STL (default binary; OBJ, OFF and XYZ are always
+    /// text).
     #[arg(long)]
     ascii: bool,
     /// Turn a mesh's triangles to agree with their neighbours (closed parts facing out,

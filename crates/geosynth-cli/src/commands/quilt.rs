@@ -810,30 +810,30 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         measure_for(texture, &params, globals)
     };
     let main = main.measured(&measure, globals, "quilt");
-    // The baselines: their report entries, and their qualities for the summary lines.
+    // The baselines: their report entries, and their qualities for the summary lines
+    // (their outputs are dropped run by run, so no two are held at once).
     let mut compared = Vec::new();
     if args.baselines {
-        for (key, label, method) in [
-            ("search_only", "search only", Method::SearchOnly),
+        let mut runs = vec![
+            (
+                "search_only",
+                "search only",
+                params.clone().method(Method::SearchOnly),
+            ),
             (
                 "random_placement",
                 "random placement",
-                Method::RandomPlacement,
+                params.clone().method(Method::RandomPlacement),
             ),
-        ] {
-            let params = params.clone().method(method);
-            compared.push((
-                key,
-                label,
-                measured_run(texture, &params, &measure, globals, key)?,
-            ));
-        }
+        ];
         if params.method == Method::Full {
             // The control: the same patches pasted, so only the warp and blend differ.
             let pasted = params.same_layout_control(&main.output);
-            let label = "full's layout, pasted";
-            let control = measured_run(texture, &pasted, &measure, globals, label)?;
-            compared.push(("same_layout_pasted", label, control));
+            runs.push(("same_layout_pasted", "full's layout, pasted", pasted));
+        }
+        for (key, label, run_params) in runs {
+            let run = measured_run(texture, &run_params, &measure, globals, label)?;
+            compared.push((key, label, run_json(&run), run.quality));
         }
     }
     if let Some(path) = &args.report {
@@ -846,8 +846,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "mesh": mesh,
             "heightfield_out": heightfield_out,
         });
-        for (key, _, run) in &compared {
-            report[*key] = run_json(run);
+        for (key, _, entry, _) in &compared {
+            report[*key] = entry.clone();
         }
         write_json_report(path, "quilt", &report)?;
     }
@@ -862,11 +862,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             quality_summary(&main.quality),
         ),
     );
-    for (_, label, run) in &compared {
-        status(
-            globals,
-            format!("  {label}: {}", quality_summary(&run.quality)),
-        );
+    for (_, label, _, quality) in &compared {
+        status(globals, format!("  {label}: {}", quality_summary(quality)));
     }
     Ok(())
 }
