@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
-use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::io::{self, FileFormat, Geometry, WriteOptions, XyzColumns};
 use geosynth::core::{KdIndex, PointSet};
 use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_path};
 use geosynth::mls::Covariance;
@@ -687,6 +687,19 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             .map(PathBuf::as_path),
     )?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
+    let ext = args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("");
+    if FileFormat::from_extension(ext) == Some(FileFormat::Xyz(XyzColumns::Colours)) {
+        return Err(format!(
+            "cannot write {}: a quilt's points carry normals and their patch, no colours \
+             (write .xyz or .xyzn)",
+            args.output.display()
+        )
+        .into());
+    }
     if let Some(map) = &args.heightfield_out {
         check_heightfield_output(map)?;
     }

@@ -2578,4 +2578,24 @@ fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
         &["convert", &arg(&xyz), "-o", &arg(&dir.path("m.txt"))],
         ".xyz, .xyzn or .xyzrgb",
     );
+    // A quilt has no colours for .xyzrgb: refused before the run. As .xyz it reads back
+    // with its box.
+    let exemplar = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
+    let quilt = [
+        "quilt",
+        &exemplar,
+        "--no-quality",
+        "--scale",
+        "1.2",
+        "-q",
+        "-o",
+    ];
+    refused(
+        &[&quilt[..], &[&arg(&dir.path("q.xyzrgb"))]].concat(),
+        "no colours",
+    );
+    let quilted = dir.path("q.xyz");
+    ok(&[&quilt[..], &[&arg(&quilted)]].concat());
+    let comments = info_json(&quilted)["comments"].to_string();
+    assert!(comments.contains("texture_box"), "{comments}");
 }
