@@ -3,7 +3,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use geosynth::core::io::{FileFormat, GEOMETRY_EXTENSIONS};
+use geosynth::core::io::{self, FileFormat, GEOMETRY_EXTENSIONS, Geometry, WriteOptions};
 use geosynth::{ProgressUpdate, RunContext};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -64,9 +64,27 @@ pub(crate) fn check_output_paths<'a>(
     Ok(())
 }
 
+/// Writes `geometry` to `path` as [`io::write_geometry`] does; an error that does not name
+/// the file (what its format cannot store, an encoder's failure) is told as `cannot write
+/// FILE: …`, as [`check_geometry_output`] tells it before a run.
+pub(crate) fn write_geometry_file(
+    path: &Path,
+    geometry: &Geometry,
+    options: &WriteOptions,
+) -> CliResult {
+    io::write_geometry(path, geometry, options).map_err(|error| {
+        let message = error.to_string();
+        if message.contains(&path.display().to_string()) {
+            error.into()
+        } else {
+            format!("cannot write {}: {message}", path.display()).into()
+        }
+    })
+}
+
 /// Refuses, before the work, a geometry output whose format cannot hold what the command
 /// will write there: a point set (`mesh` false), or data stored relative to a nonzero
-/// `origin` (georeferenced input), as STL.
+/// `origin` (georeferenced input), as STL; a mesh as XYZ.
 pub(crate) fn check_geometry_output(path: &Path, mesh: bool, origin: DVec3) -> CliResult {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     match FileFormat::from_extension(ext) {

@@ -4,11 +4,13 @@ use std::path::PathBuf;
 
 use clap::Args;
 use geosynth::core::io::ply::PlyEncoding;
-use geosynth::core::io::{self, FileFormat, Geometry, StlEncoding, WriteOptions};
+use geosynth::core::io::{FileFormat, Geometry, StlEncoding, WriteOptions};
 
 use super::{no_faces_to_orient, orient_faces};
 use crate::input_file::read_geometry;
-use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
+use crate::output::{
+    check_geometry_output, check_output_paths, report_not_kept, status, write_geometry_file,
+};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth convert`.
@@ -86,7 +88,7 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         "converted by geosynth from {}",
         args.input.display()
     ));
-    io::write_geometry(&args.output, &geometry, &options)?;
+    write_geometry_file(&args.output, &geometry, &options)?;
     let faces = geometry.mesh().map_or(0, |m| m.face_count());
     let counts = match format {
         // STL has no vertices of its own: the reader welds corners back by position.

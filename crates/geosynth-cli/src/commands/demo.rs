@@ -24,7 +24,7 @@ use crate::commands::demo_terrain::{TERRAIN, TerrainEntry, quilt_terrain};
 use crate::commands::quilt::{measure_for, measured_run, run_json, texture_preview};
 use crate::json_report::write_json_report;
 use crate::memory::peak_resident_bytes;
-use crate::output::{progress_bar, status};
+use crate::output::{progress_bar, status, write_geometry_file};
 use crate::{CliResult, Globals, create_dir};
 
 /// Arguments of `geosynth demo`.
@@ -188,7 +188,7 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     for f in &fixtures {
         let geometry_path = geometry_dir.join(format!("{}.obj", f.name));
         let options = WriteOptions::default().comment(f.description);
-        io::write_geometry(&geometry_path, &f.geometry, &options)?;
+        write_geometry_file(&geometry_path, &f.geometry, &options)?;
         let preview_path = preview_dir.join(format!("{}.png", f.name));
         let image = preview::render(&f.geometry, &RenderOptions::default().size(w, h).up(f.up))?;
         preview::save_png(&image, &preview_path)?;
@@ -497,7 +497,7 @@ fn reconstruct_one(
         .join("geometry")
         .join(format!("{}_reconstructed.ply", job.name));
     let mesh = Geometry::Mesh(mesh);
-    io::write_geometry(
+    write_geometry_file(
         &geometry_path,
         &mesh,
         &WriteOptions::default().comment(format!("reconstructed from {}", job.name)),
@@ -597,7 +597,7 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
         for c in geosynth::quilt::texture_comments(&full.output.bounds, texture.up()) {
             options = options.comment(c);
         }
-        io::write_geometry(
+        write_geometry_file(
             &geometry_path,
             &Geometry::Points(full.output.points.clone()),
             &options,
@@ -674,7 +674,7 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
         let dir = args.out.join("geometry");
         let write = |suffix: &str, mesh: &geosynth::core::TriMesh| -> CliResult<PathBuf> {
             let path = dir.join(format!("{}_{suffix}.ply", volume.name));
-            io::write_geometry(
+            write_geometry_file(
                 &path,
                 &Geometry::Mesh(mesh.clone()),
                 &WriteOptions::default().comment(volume.description),

@@ -3,14 +3,17 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::mls::{
     NORMAL_NEIGHBOURS, estimate_normals, orient_normals, orientation_disagreement,
 };
 use glam::{DVec3, Vec3};
 
 use crate::input_file::read_geometry;
-use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
+use crate::output::{
+    check_geometry_output, check_output_paths, report_not_kept, spinner, status,
+    write_geometry_file,
+};
 use crate::{CliResult, Globals};
 
 /// The direction estimated normals are turned toward where nothing else decides.
@@ -78,7 +81,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
             args.neighbours, args.up
         ))
         .origin(loaded.origin);
-    io::write_geometry(&args.output, &Geometry::Points(oriented.clone()), &options)?;
+    write_geometry_file(&args.output, &Geometry::Points(oriented.clone()), &options)?;
     let disagreement = orientation_disagreement(&oriented)?;
     status(
         globals,

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
-use geosynth::core::io::{self, FileFormat, Geometry, WriteOptions, XyzColumns};
+use geosynth::core::io::{FileFormat, Geometry, WriteOptions, XyzColumns};
 use geosynth::core::{KdIndex, PointSet};
 use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_path};
 use geosynth::mls::Covariance;
@@ -27,6 +27,7 @@ use crate::input_file::named;
 use crate::json_report::write_json_report;
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, spinner, status,
+    write_geometry_file,
 };
 use crate::params_file::{
     GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, QUILT_REPORTS, RecordedInput, check_positive,
@@ -653,7 +654,7 @@ fn write_sheet_mesh(
     let bar = spinner(globals, "meshing");
     let (mesh, resolution, seconds) = sheet_mesh(points)?;
     bar.finish_and_clear();
-    io::write_geometry(path, &Geometry::Mesh(mesh.clone()), options)?;
+    write_geometry_file(path, &Geometry::Mesh(mesh.clone()), options)?;
     let topology = mesh.topology();
     status(
         globals,
@@ -800,7 +801,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         options = options.comment(c);
     }
     let written = Geometry::Points(file.to_file_frame(&main.output.points)?);
-    io::write_geometry(&args.output, &written, &options)?;
+    write_geometry_file(&args.output, &written, &options)?;
     if let Some(path) = &args.preview {
         texture_preview(texture, &[&main.output], path, 480, 360)?;
     }

@@ -21,7 +21,10 @@ use serde_json::{Value, json};
 use super::{SignArgs, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::write_json_report;
-use crate::output::{check_geometry_output, check_output_paths, report_not_kept, spinner, status};
+use crate::output::{
+    check_geometry_output, check_output_paths, report_not_kept, spinner, status,
+    write_geometry_file,
+};
 use crate::params_file::{
     GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, RECONSTRUCT_REPORTS, RecordedInput, ReportKind,
     SDF_REPORTS, check_positive,
@@ -330,7 +333,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             args.input.display()
         ))
         .origin(loaded.origin);
-    io::write_geometry(&args.output, &Geometry::Mesh(mesh.clone()), &write_options)?;
+    write_geometry_file(&args.output, &Geometry::Mesh(mesh.clone()), &write_options)?;
     let timings: Vec<String> = ctx
         .timings()
         .iter()

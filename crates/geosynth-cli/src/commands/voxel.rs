@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 use geosynth::Stage;
-use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::{GridSpec, nrrd};
 use geosynth::voxel::{
@@ -17,7 +17,9 @@ use serde_json::{Value, json};
 use super::SignArgs;
 use crate::input_file::named;
 use crate::json_report::write_json_report;
-use crate::output::{check_geometry_output, check_output_paths, progress_context, status};
+use crate::output::{
+    check_geometry_output, check_output_paths, progress_context, status, write_geometry_file,
+};
 use crate::params_file::{GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, VOXEL_REPORTS};
 use crate::{CliResult, Globals};
 
@@ -326,13 +328,13 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
             stage.params.matcher.name()
         ))
         .origin(exemplar.origin);
-    io::write_geometry(
+    write_geometry_file(
         &args.output,
         &Geometry::Mesh(run.output.copied.mesh.clone()),
         &options,
     )?;
     if let Some(path) = &args.isosurface {
-        io::write_geometry(
+        write_geometry_file(
             path,
             &Geometry::Mesh(run.output.isosurface.clone()),
             &options,

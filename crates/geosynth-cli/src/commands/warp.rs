@@ -3,13 +3,15 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use geosynth::core::io::{self, Geometry, WriteOptions};
+use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::tps::{ThinPlateSpline, TpsParams};
 use glam::{DVec3, Vec3};
 
 use crate::input_file::read_geometry;
-use crate::output::{check_geometry_output, check_output_paths, report_not_kept, status};
+use crate::output::{
+    check_geometry_output, check_output_paths, report_not_kept, status, write_geometry_file,
+};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth warp`.
@@ -121,7 +123,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
             args.pairs.display()
         ))
         .origin(loaded.origin);
-    io::write_geometry(&args.output, &out, &options)?;
+    write_geometry_file(&args.output, &out, &options)?;
     status(
         globals,
         format!(

@@ -2596,6 +2596,15 @@ fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
     );
     let quilted = dir.path("q.xyz");
     ok(&[&quilt[..], &[&arg(&quilted)]].concat());
+    // Found only when writing (points without colours): the error names the file.
+    let rgb = dir.path("n.xyzrgb");
+    refused(
+        &["normals", &arg(&points), "-o", &arg(&rgb)],
+        &format!(
+            "cannot write {}: XYZRGB cannot store points without colours",
+            rgb.display()
+        ),
+    );
     let comments = info_json(&quilted)["comments"].to_string();
     assert!(comments.contains("texture_box"), "{comments}");
 }
