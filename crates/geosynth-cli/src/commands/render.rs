@@ -180,6 +180,13 @@ pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
     if !(args.relief.is_finite() && args.relief > 0.0) {
         return Err(format!("--relief must be a positive number, not {}", args.relief).into());
     }
+    if args.heightfield && !args.files.iter().any(|p| imagery::is_image_path(p)) {
+        status(
+            globals,
+            "note: --heightfield draws pictures (.png, .jpg) as height fields, and none of \
+             the files is one (height field files are drawn as terrain without it)",
+        );
+    }
     let inputs = args
         .files
         .iter()

@@ -168,13 +168,18 @@ fn info_and_render_work_on_every_shared_file() {
         .find(|p| p.to_str().unwrap().ends_with("_u16.png"))
         .unwrap();
     let terrain = dir.path().join("terrain.png");
-    ok(&[
+    let said = ok(&[
         "render",
         "--heightfield",
         hf.to_str().unwrap(),
         "-o",
         terrain.to_str().unwrap(),
     ]);
+    assert!(!said.contains("note"), "{said}");
+    // Without a picture among the files, --heightfield has nothing to do, and says so.
+    let points = arg(&geosynth::fixtures::bundled_dir().join("sphere_points.ply"));
+    let said = ok(&["render", "--heightfield", &points, "-o", &arg(&terrain)]);
+    assert!(said.contains("none of the files is one"), "{said}");
     // Several inputs become panels.
     let all: Vec<&str> = files.iter().take(3).map(|p| p.to_str().unwrap()).collect();
     let out = dir.path().join("panels.png");
