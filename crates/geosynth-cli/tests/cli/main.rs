@@ -271,7 +271,7 @@ fn bad_input_fails_with_a_message_not_a_panic() {
     let missing = dir.path().join("missing/out.ply");
     let missing = missing.to_str().unwrap();
     let report_in_missing = dir.path().join("missing/report.json");
-    let unknown = dir.path().join("out.xyz");
+    let unknown = dir.path().join("out.xyzw");
     for (args, message) in [
         (vec!["quilt", fixture, "-o", missing], "does not exist"),
         (
@@ -287,7 +287,7 @@ fn bad_input_fails_with_a_message_not_a_panic() {
         ),
         (
             vec!["quilt", fixture, "-o", unknown.to_str().unwrap()],
-            ".ply, .obj, .off or .stl",
+            ".ply, .obj, .off, .stl, .xyz, .xyzn or .xyzrgb",
         ),
         (
             vec!["reconstruct", fixture, "-o", missing],
@@ -1015,7 +1015,8 @@ fn quilt_also_writes_the_sheet_as_a_mesh() {
     // The mesh may not overwrite the points, and must go to a format that stores faces.
     for (bad, why) in [
         (out.as_str(), "twice"),
-        (&arg(&dir.path("q_mesh.xyz")), "must end in"),
+        (&arg(&dir.path("q_mesh.txt")), "must end in"),
+        (&arg(&dir.path("q_mesh.xyz")), "holds points only"),
     ] {
         let refused = quilt(bad);
         let err = String::from_utf8_lossy(&refused.stderr);

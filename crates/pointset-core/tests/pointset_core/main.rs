@@ -489,7 +489,7 @@ fn malformed_files_give_specific_errors() {
         Err(Error::FormatMismatch { .. })
     ));
     assert!(matches!(
-        read("x.xyz", b"\x00\x01binary"),
+        read("x.dat", b"\x00\x01binary"),
         Err(Error::UnknownFormat { .. })
     ));
     // Without an extension the content decides.
