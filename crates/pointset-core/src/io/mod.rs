@@ -331,6 +331,17 @@ pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3
     (relative, origin)
 }
 
+/// Colours as a text file gives them, in `0..=1`: integers in `0..=255` when any value
+/// exceeds 1, floats in `0..=1` otherwise (decided per file, as OFF and XYZ readers do).
+pub(crate) fn unit_colours(raw: &[[f64; 3]]) -> Vec<[f32; 3]> {
+    let scale = if raw.iter().flatten().any(|&c| c > 1.0) {
+        255.0
+    } else {
+        1.0
+    };
+    raw.iter().map(|c| c.map(|x| (x / scale) as f32)).collect()
+}
+
 /// Options for [`write_geometry`].
 #[derive(Debug, Clone, PartialEq, Default)]
 #[non_exhaustive]

@@ -8,7 +8,7 @@ use std::io::Write;
 
 use glam::{DVec3, Vec3};
 
-use super::{FileFormat, Geometry, position_text, relative_positions};
+use super::{FileFormat, Geometry, position_text, relative_positions, unit_colours};
 use crate::{Error, Location, PointSet, Result, TriMesh};
 
 fn malformed(line: usize, message: impl Into<String>) -> Error {
@@ -164,16 +164,7 @@ pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
         points = points.with_normals(normals)?;
     }
     if has_colors {
-        let scale = if raw_colors.iter().flatten().any(|&c| c > 1.0) {
-            255.0
-        } else {
-            1.0
-        };
-        let colors: Vec<[f32; 3]> = raw_colors
-            .iter()
-            .map(|c| c.map(|x| (x / scale) as f32))
-            .collect();
-        points.set_colors(&colors)?;
+        points.set_colors(&unit_colours(&raw_colors))?;
     }
     let mut triangles = Vec::with_capacity(nf);
     let mut faces_with_values = 0;

@@ -18,7 +18,7 @@ use std::io::Write;
 
 use glam::{DVec3, Vec3};
 
-use super::{FileFormat, Geometry, position_text, relative_positions};
+use super::{FileFormat, Geometry, position_text, relative_positions, unit_colours};
 use crate::{Error, Location, PointSet, Result};
 
 /// Which numbers each line of an XYZ file holds (see the module docs).
@@ -191,16 +191,7 @@ pub(crate) fn read_xyz_at(
     let mut points = PointSet::new(relative)?;
     if !rest.is_empty() {
         match columns {
-            XyzColumns::Colours => {
-                let scale = if rest.iter().flatten().any(|&c| c > 1.0) {
-                    255.0
-                } else {
-                    1.0
-                };
-                let colours: Vec<[f32; 3]> =
-                    rest.iter().map(|c| c.map(|x| (x / scale) as f32)).collect();
-                points.set_colors(&colours)?;
-            }
+            XyzColumns::Colours => points.set_colors(&unit_colours(&rest))?,
             XyzColumns::Positions | XyzColumns::Normals => {
                 let normals = rest
                     .iter()
