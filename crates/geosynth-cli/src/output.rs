@@ -115,6 +115,9 @@ pub(crate) fn progress_bar(globals: Globals, total: u64, label: &str) -> Progres
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_message(label.to_string());
+    // The clock keeps running between updates: a long first step (a large exemplar's
+    // preparation) would otherwise show a frozen 00:00:00.
+    bar.enable_steady_tick(std::time::Duration::from_millis(500));
     bar
 }
 
