@@ -226,6 +226,15 @@ fn prepared_input(
                 orient_faces: options.orient_faces,
                 ..args.sign
             };
+            if let Some(h) = params.kernel {
+                status(
+                    globals,
+                    format!(
+                        "note: --kernel {h} sets a point set's MLS kernel; a mesh's distance is \
+                         exact and takes none"
+                    ),
+                );
+            }
             let (mesh, change) = sign.oriented(mesh)?;
             if let Some(line) = change {
                 status(globals, line);

@@ -49,6 +49,20 @@ fn a_mesh_is_remeshed_closed_on_its_own_surface() {
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["input_kind"], "mesh");
     assert_eq!(r["points"], 48 * 24);
+    // A kernel is for point sets: noted, and the remesh is the same.
+    let kernel_out = dir.path("kernel.ply");
+    let said = ok(&[
+        "reconstruct",
+        &arg(&torus),
+        "-o",
+        &arg(&kernel_out),
+        "--resolution",
+        "48",
+        "--kernel",
+        "0.2",
+    ]);
+    assert!(said.contains("a mesh's distance is exact"), "{said}");
+    assert_eq!(mesh_in(&kernel_out), remeshed);
     // A mesh has no normals to orient; a point set without normals is named in its refusal.
     refused(
         &[&args[..], &["--orient-normals"]].concat(),
