@@ -97,7 +97,8 @@ impl FileFormat {
     /// assert!(FileFormat::Stl.check_can_store(false, DVec3::ZERO).is_err());
     /// assert!(FileFormat::Stl.check_can_store(true, DVec3::new(5e5, 0.0, 0.0)).is_err());
     /// assert!(FileFormat::Off.check_can_store(false, DVec3::new(5e5, 0.0, 0.0)).is_ok());
-    /// let xyz = FileFormat::from_extension("xyz").unwrap();
+    /// let xyz = FileFormat::Xyz(pointset_core::io::XyzColumns::Positions);
+    /// assert_eq!(FileFormat::from_extension("xyz"), Some(xyz));
     /// assert!(xyz.check_can_store(false, DVec3::ZERO).is_ok());
     /// assert!(xyz.check_can_store(true, DVec3::ZERO).is_err());
     /// ```
