@@ -149,7 +149,7 @@ const USAGE: &str = "usage: quilt_study [--seeds N ≥ 1] [--windows W ≥ 1] [-
      [--cluster-points N] [--cluster-variation S] [--anchors A] \
      [--max-normal-difference M] FIXTURE.ply...";
 
-/// A texture file (PLY, OBJ, OFF), or a height field (`.png`, `.f32le`) read with the
+/// A texture file (PLY, OBJ, OFF, XYZ), or a height field (`.png`, `.f32le`) read with the
 /// command line's conventions.
 fn load(path: &Path) -> Result<GeometryTexture, Box<dyn Error>> {
     let extension = path

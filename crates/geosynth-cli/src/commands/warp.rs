@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
-use geosynth::tps::{ThinPlateSpline, TpsParams};
+use geosynth::tps::{ThinPlateSpline, TpsError, TpsParams};
 use glam::{DVec3, Vec3};
 
 use crate::input_file::read_geometry;
@@ -23,8 +23,9 @@ pub struct WarpArgs {
     /// comment.
     #[arg(long)]
     pairs: PathBuf,
-    /// Output file (.ply, .obj, .off; .stl for a mesh): warped positions, transported normals when the input
-    /// has normals, other attributes unchanged.
+    /// Output file (.ply, .obj, .off; .stl for a mesh; .xyz, .xyzn, .xyzrgb for a point
+    /// set): warped positions, transported normals when the input has normals, other
+    /// attributes unchanged.
     #[arg(short, long)]
     output: PathBuf,
     /// Smoothing λ of the spline (0 = interpolate the pairs exactly).
@@ -32,12 +33,29 @@ pub struct WarpArgs {
     smoothing: f64,
 }
 
+/// The pairs of a pairs file, with the line each came from.
+#[derive(Debug)]
+pub struct Pairs {
+    /// Where each pair starts (the spline's control points), relative to the origin.
+    pub from: Vec<Vec3>,
+    /// Where each pair ends, relative to the origin.
+    pub to: Vec<Vec3>,
+    /// The 1-based line of each pair in the file.
+    pub lines: Vec<usize>,
+}
+
 /// Parses a pairs file into sources and targets, naming the line of any error. The
 /// coordinates are read in double precision and stored relative to `origin` (that of the
-/// point set they warp, see [`geosynth::core::io::ReadOptions::recentre_far`]).
-pub fn parse_pairs(text: &str, path: &Path, origin: DVec3) -> CliResult<(Vec<Vec3>, Vec<Vec3>)> {
-    let (mut from, mut to) = (Vec::new(), Vec::new());
+/// point set they warp, see [`geosynth::core::io::ReadOptions::recentre_far`]); a
+/// coordinate that is not finite there, or that single precision cannot hold, is refused.
+pub fn parse_pairs(text: &str, path: &Path, origin: DVec3) -> CliResult<Pairs> {
+    let mut pairs = Pairs {
+        from: Vec::new(),
+        to: Vec::new(),
+        lines: Vec::new(),
+    };
     for (i, line) in text.lines().enumerate() {
+        let at = format!("{}:{}", path.display(), i + 1);
         let content = line.split('#').next().unwrap_or("").trim();
         if content.is_empty() {
             continue;
@@ -46,29 +64,45 @@ pub fn parse_pairs(text: &str, path: &Path, origin: DVec3) -> CliResult<(Vec<Vec
             .split_whitespace()
             .map(|w| w.parse::<f64>())
             .collect::<Result<_, _>>()
-            .map_err(|_| {
-                format!(
-                    "{}:{}: `{content}` is not six numbers",
-                    path.display(),
-                    i + 1
-                )
-            })?;
+            .map_err(|_| format!("{at}: `{content}` is not six numbers"))?;
         let [sx, sy, sz, qx, qy, qz] = values[..] else {
+            return Err(format!("{at}: expected 6 numbers, found {}", values.len()).into());
+        };
+        let from = (DVec3::new(sx, sy, sz) - origin).as_vec3();
+        let to = (DVec3::new(qx, qy, qz) - origin).as_vec3();
+        if !(from.is_finite() && to.is_finite()) {
             return Err(format!(
-                "{}:{}: expected 6 numbers, found {}",
-                path.display(),
-                i + 1,
-                values.len()
+                "{at}: `{content}` has a coordinate that is not a finite single-precision \
+                 number"
             )
             .into());
-        };
-        from.push((DVec3::new(sx, sy, sz) - origin).as_vec3());
-        to.push((DVec3::new(qx, qy, qz) - origin).as_vec3());
+        }
+        pairs.from.push(from);
+        pairs.to.push(to);
+        pairs.lines.push(i + 1);
     }
-    if from.is_empty() {
+    if pairs.from.is_empty() {
         return Err(format!("{}: no pairs", path.display()).into());
     }
-    Ok((from, to))
+    Ok(pairs)
+}
+
+/// Fits the spline through `pairs`, naming the file, and the lines of the pairs a fit
+/// refuses.
+fn fit_spline(pairs: &Pairs, path: &Path, smoothing: f64) -> CliResult<ThinPlateSpline> {
+    let params = TpsParams::default().smoothing(smoothing);
+    ThinPlateSpline::fit(&pairs.from, &pairs.to, &params).map_err(|e| match e {
+        TpsError::DuplicateControlPoints { first, second } => format!(
+            "{}:{} and {}: both pairs start at one point but end at different points; no \
+             warp can do that (remove one, or give them one target)",
+            path.display(),
+            pairs.lines.get(first).copied().unwrap_or(first + 1),
+            pairs.lines.get(second).copied().unwrap_or(second + 1),
+        )
+        .into(),
+        TpsError::InvalidParameter { .. } => e.to_string().into(),
+        other => format!("{}: {other}", path.display()).into(),
+    })
 }
 
 /// A copy of `points` with new positions and normals (attributes kept).
@@ -100,11 +134,20 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
         loaded.geometry.mesh().is_some(),
         loaded.origin,
     )?;
-    let (from, to) = parse_pairs(&text, &args.pairs, loaded.origin)?;
-    let spline = ThinPlateSpline::fit(&from, &to, &TpsParams::default().smoothing(args.smoothing))?;
+    let pairs = parse_pairs(&text, &args.pairs, loaded.origin)?;
+    let spline = fit_spline(&pairs, &args.pairs, args.smoothing)?;
     let geometry = loaded.geometry;
     let points = geometry.points();
     let (moved, normals) = spline.warp(points.positions(), points.normals());
+    if let Some(index) = moved.iter().position(|p| !p.is_finite()) {
+        return Err(format!(
+            "the spline through {} sends point {index} of {} beyond single precision; its \
+             targets lie too far from their sources",
+            args.pairs.display(),
+            args.input.display()
+        )
+        .into());
+    }
     let warped = rebuild(points, moved, normals)?;
     let out = match &geometry {
         Geometry::Points(_) => Geometry::Points(warped),
@@ -119,7 +162,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     let options = WriteOptions::default()
         .comment(format!(
             "warped by {} pairs from {}",
-            from.len(),
+            pairs.from.len(),
             args.pairs.display()
         ))
         .origin(loaded.origin);
@@ -127,9 +170,14 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     status(
         globals,
         format!(
-            "wrote {} ({} points warped by a spline through {} pairs, bending energy {:.4e})",
+            "wrote {} ({} {} warped by a spline through {} pairs, bending energy {:.4e})",
             args.output.display(),
             out.points().len(),
+            if out.mesh().is_some() {
+                "vertices"
+            } else {
+                "points"
+            },
             spline.centers().len(),
             spline.bending_energy()
         ),
@@ -139,19 +187,20 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
 
 #[cfg(test)]
 mod tests {
-    use super::{DVec3, parse_pairs};
+    use super::{DVec3, fit_spline, parse_pairs};
     use std::path::Path;
 
     #[test]
     fn pairs_files_parse_with_line_numbers_in_errors() {
         let p = Path::new("p.txt");
-        let (a, b) = parse_pairs(
+        let pairs = parse_pairs(
             "# header\n0 0 0 1 1 1\n\n1 2 3 4 5 6 # note\n",
             p,
             DVec3::ZERO,
         )
         .unwrap();
-        assert_eq!((a.len(), b.len()), (2, 2));
+        assert_eq!((pairs.from.len(), pairs.to.len()), (2, 2));
+        assert_eq!(pairs.lines, [2, 4]);
         let err = parse_pairs("0 0 0 1 1 1\n0 0 0 1 1\n", p, DVec3::ZERO)
             .unwrap_err()
             .to_string();
@@ -161,7 +210,8 @@ mod tests {
         // Georeferenced pairs keep their digits relative to the point set's origin (an f32
         // at 4e6 steps by 0.25).
         let origin = DVec3::new(500_000.0, 4_000_000.0, 0.0);
-        let (a, b) = parse_pairs("500000.1 4000000.1 0 500000.2 4000000.3 1\n", p, origin).unwrap();
+        let pairs = parse_pairs("500000.1 4000000.1 0 500000.2 4000000.3 1\n", p, origin).unwrap();
+        let (a, b) = (pairs.from, pairs.to);
         assert!(
             (a[0] - glam::Vec3::new(0.1, 0.1, 0.0)).length() < 1e-6,
             "{}",
@@ -172,5 +222,32 @@ mod tests {
             "{}",
             b[0]
         );
+    }
+
+    #[test]
+    fn coordinates_single_precision_cannot_hold_are_refused_with_their_line() {
+        let p = Path::new("p.txt");
+        for bad in ["nan", "inf", "-inf", "1e39"] {
+            let text = format!("0 0 0 1 1 1\n# two\n0 0 1 0 0 {bad}\n");
+            let err = parse_pairs(&text, p, DVec3::ZERO).unwrap_err().to_string();
+            assert!(err.contains("p.txt:3") && err.contains("finite"), "{err}");
+        }
+        // Finite in double precision far from the origin, but not once recentred to f32.
+        let far = DVec3::new(0.0, 0.0, -3.0e38);
+        assert!(parse_pairs("0 0 3e38 0 0 3e38\n", p, far).is_err());
+        assert!(parse_pairs("0 0 1e38 0 0 1e38\n", p, DVec3::ZERO).is_ok());
+    }
+
+    #[test]
+    fn pairs_that_start_together_and_part_are_named_by_their_lines() {
+        let p = Path::new("p.txt");
+        let text = "1 0 0 1 0 0\n\n0 0 0 0 0 1\n# comment\n0 1 0 0 1 0\n0 0 0 0 0 2\n";
+        let pairs = parse_pairs(text, p, DVec3::ZERO).unwrap();
+        let err = fit_spline(&pairs, p, 0.0).unwrap_err().to_string();
+        assert!(err.contains("p.txt:3 and 6"), "{err}");
+        // Negative smoothing is the parameter's fault, not the file's.
+        let fine = parse_pairs("1 0 0 1 0 0\n0 1 0 0 1 0\n", p, DVec3::ZERO).unwrap();
+        let err = fit_spline(&fine, p, -1.0).unwrap_err().to_string();
+        assert!(!err.contains("p.txt") && err.contains("smoothing"), "{err}");
     }
 }

@@ -949,6 +949,23 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
         &arg(&out),
     ];
     refused(&args, "pairs.txt:2");
+    // So do pairs that leave one point for two places, naming both lines.
+    std::fs::write(&pairs, "1 0 0 0 1 0\n# moved\n1 0 0 0 2 0\n").unwrap();
+    refused(&args, "pairs.txt:1 and 3: both pairs start at one point");
+    // Targets so far that the warped points leave single precision are refused, and
+    // nothing is written.
+    std::fs::write(&pairs, "0 0 0 0 0 3e38\n1 0 0 1 0 0\n0 1 0 0 1 0\n").unwrap();
+    let fresh = dir.path().join("never.ply");
+    let args = [
+        "warp",
+        &arg(&input),
+        "--pairs",
+        &arg(&pairs),
+        "-o",
+        &arg(&fresh),
+    ];
+    refused(&args, "beyond single precision");
+    assert!(!fresh.exists());
 }
 
 #[test]
