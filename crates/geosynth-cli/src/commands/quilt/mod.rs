@@ -1,0 +1,459 @@
+//! `geosynth quilt`: patch-based geometry texture synthesis (paper 000).
+
+mod args;
+mod measured;
+mod notes;
+
+use std::path::{Path, PathBuf};
+
+use geosynth::core::PointSet;
+use geosynth::core::io::{FileFormat, Geometry, WriteOptions, XyzColumns};
+use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_path};
+use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
+use geosynth::quilt::{
+    DEFAULT_RELIEF, GeometryTexture, HeightFieldFrame, Method, OutputSize, QualityReport,
+    QuiltOutput, QuiltParams, TextureFile, UpAxis, read_heightfield_texture_framed,
+    read_texture_file, read_texture_file_fitted,
+};
+use geosynth::tps::{PairingParams, Table1Preset};
+use glam::{DVec3, Vec3};
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+
+use super::sheet_heights::{MapPlacement, write_sheet_heights};
+use super::sheet_mesh::sheet_mesh;
+use crate::input_file::named;
+use crate::json_report::write_json_report;
+use crate::output::{
+    check_geometry_output, check_output_paths, report_not_kept, spinner, status,
+    write_geometry_file,
+};
+use crate::params_file::{
+    GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, QUILT_REPORTS, RecordedInput, check_positive,
+};
+use crate::{CliResult, Globals};
+use args::{PresetArg, TextureUpArg};
+use notes::{orientation_note, precision_note, size_note, tilt_note};
+
+pub use args::QuiltArgs;
+pub use measured::{measure_for, measured_run, run_json, unmeasured_run};
+
+/// How the exemplar is read: the options a report records under
+/// [`INPUT_OPTIONS_KEY`], so that `--params REPORT` reads it as the reported run did.
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct InputOptions {
+    /// `--up` (unset: the file's `texture_up` comment, or z).
+    up: Option<TextureUpArg>,
+    /// `--relief`, for height fields (unset: [`DEFAULT_RELIEF`]).
+    relief: Option<f32>,
+    /// `--orient-normals`.
+    orient_normals: bool,
+}
+
+impl RecordedInput for InputOptions {
+    fn check(&self) -> Result<(), String> {
+        check_positive("relief", self.relief, "fraction")
+    }
+}
+
+impl InputOptions {
+    /// The options given on the command line over those of `--params`' file; the relief
+    /// written out for a height field and dropped otherwise, like the axis for one.
+    fn of(args: &QuiltArgs, file: &ParamsFile) -> CliResult<Self> {
+        let recorded: Self = file.input_options()?;
+        let heightfield = args.heightfield.is_some();
+        Ok(Self {
+            up: args.up.or(recorded.up).filter(|_| !heightfield),
+            relief: heightfield.then(|| args.relief.or(recorded.relief).unwrap_or(DEFAULT_RELIEF)),
+            orient_normals: args.orient_normals || recorded.orient_normals,
+        })
+    }
+}
+
+/// The run's parameters: `--params`' file over the defaults (with the pairing weights
+/// written out, so the report shows them), then every flag given on the command line;
+/// validated.
+fn run_params(args: &QuiltArgs, file: &ParamsFile, given: GivenFlags) -> CliResult<QuiltParams> {
+    let defaults = QuiltParams::default().pairing(PairingParams::default());
+    let mut p = file.params(defaults, QuiltParams::validate)?;
+    match (args.size, args.scale) {
+        (Some((w, h)), _) => p.output = OutputSize::Absolute(w, h),
+        (None, Some(s)) => p.output = OutputSize::Scale(s),
+        (None, None) => {}
+    }
+    given.apply("seed", &mut p.seed, args.seed);
+    given.apply("method", &mut p.method, args.method.into());
+    given.apply("resolution", &mut p.field_resolution, args.resolution);
+    given.apply("patch", &mut p.patch_size, args.patch);
+    given.apply("epsilon", &mut p.epsilon, args.epsilon);
+    given.apply("pair_distance", &mut p.pair_distance, args.pair_distance);
+    given.apply(
+        "warp_targets",
+        &mut p.warp_targets,
+        args.warp_targets.into(),
+    );
+    given.apply("smoothing", &mut p.smoothing, args.smoothing);
+    given.apply("blend_reach", &mut p.blend_reach, args.blend_reach);
+    given.apply(
+        "normal_agreement",
+        &mut p.normal_agreement,
+        args.normal_agreement,
+    );
+    given.apply(
+        "cluster_points",
+        &mut p.clusters.max_points,
+        args.cluster_points,
+    );
+    given.apply("relax", &mut p.relaxation_rounds, args.relax);
+    if let Some(preset) = args.preset {
+        p.pairing = Some(PairingParams::table1(match preset {
+            PresetArg::Heightfield => Table1Preset::HeightField,
+            PresetArg::ChainMail => Table1Preset::ChainMail,
+            PresetArg::Weave => Table1Preset::Weave,
+            PresetArg::Flowers => Table1Preset::Flowers,
+        }));
+    }
+    p.validate()?;
+    Ok(p)
+}
+
+/// Loads the texture named by the arguments as `options` say (a height field is at the
+/// origin), its normals oriented if asked, and for a height field where its samples were
+/// placed.
+fn load(
+    args: &QuiltArgs,
+    options: &InputOptions,
+) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
+    let (mut file, frame) = read_texture(args, options)?;
+    if options.orient_normals {
+        file.texture = file.texture.with_oriented_normals()?;
+    }
+    Ok((file, frame))
+}
+
+/// Reads the texture named by the arguments with the axis or relief of `options`, and for
+/// a height field where its samples were placed.
+fn read_texture(
+    args: &QuiltArgs,
+    options: &InputOptions,
+) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
+    if let Some(path) = &args.heightfield {
+        let relief = options.relief.unwrap_or(DEFAULT_RELIEF);
+        let (texture, frame) =
+            read_heightfield_texture_framed(path, relief).map_err(named(path))?;
+        return Ok((texture.into(), Some(frame)));
+    }
+    let path = args
+        .exemplar
+        .as_deref()
+        .ok_or("an exemplar or --heightfield is needed")?;
+    let file = match options.up {
+        Some(TextureUpArg::Auto) => read_texture_file_fitted(path),
+        up => read_texture_file(path, up.and_then(TextureUpArg::axis)),
+    }
+    .map_err(named(path))?;
+    Ok((file, None))
+}
+
+/// Renders exemplar | result panels (Z-up textures are viewed with Z up).
+pub fn texture_preview(
+    texture: &GeometryTexture,
+    outputs: &[&QuiltOutput],
+    path: &Path,
+    w: u32,
+    h: u32,
+) -> CliResult {
+    let up = match texture.up() {
+        UpAxis::X | UpAxis::Y => ViewUp::Y,
+        UpAxis::Z => ViewUp::Z,
+    };
+    let exemplar = Geometry::Points(texture.canonical_points().clone());
+    let results: Vec<Geometry> = outputs
+        .iter()
+        .map(|o| Geometry::Points(o.points.clone()))
+        .collect();
+    let mut panels = vec![Panel::Geometry(&exemplar, ViewUp::Z)];
+    panels.extend(results.iter().map(|g| Panel::Geometry(g, up)));
+    let image = preview::render_panels(
+        &panels,
+        &RenderOptions::default().size(w, h).view(30.0, 40.0),
+    )?;
+    preview::save_png(&image, path)?;
+    Ok(())
+}
+
+/// Writes the quilted points `points` (in the file's frame) as a mesh to `path`, with the
+/// output's `options` (origin and comments); returns the report's `mesh` entry.
+fn write_sheet_mesh(
+    path: &Path,
+    points: PointSet,
+    options: &WriteOptions,
+    globals: Globals,
+) -> CliResult<Value> {
+    let bar = spinner(globals, "meshing");
+    let (mesh, resolution, seconds) = sheet_mesh(points)?;
+    bar.finish_and_clear();
+    write_geometry_file(path, &Geometry::Mesh(mesh.clone()), options)?;
+    let topology = mesh.topology();
+    status(
+        globals,
+        format!(
+            "wrote {} ({} vertices, {} faces, {} component(s), grid {resolution}, {seconds:.2}s)",
+            path.display(),
+            mesh.vertex_count(),
+            mesh.face_count(),
+            topology.components,
+        ),
+    );
+    Ok(json!({
+        "path": path.display().to_string(),
+        "resolution": resolution,
+        "vertices": mesh.vertex_count(),
+        "faces": mesh.face_count(),
+        "components": topology.components,
+        "boundary_edges": topology.boundary_edges,
+        "seconds": seconds,
+    }))
+}
+
+/// Runs `geosynth quilt`.
+pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
+    check_output_paths(
+        std::iter::once(args.output.as_path()).chain(args.mesh.as_deref()),
+        args.report
+            .iter()
+            .chain(&args.preview)
+            .chain(&args.heightfield_out)
+            .map(PathBuf::as_path),
+    )?;
+    check_geometry_output(&args.output, false, DVec3::ZERO)?;
+    let ext = args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("");
+    if FileFormat::from_extension(ext) == Some(FileFormat::Xyz(XyzColumns::Colours)) {
+        return Err(format!(
+            "cannot write {}: a quilt's points carry normals and their patch, no colours \
+             (write .xyz or .xyzn)",
+            args.output.display()
+        )
+        .into());
+    }
+    if let Some(map) = &args.heightfield_out {
+        check_heightfield_output(map)?;
+    }
+    // Checked here, not by clap's `requires` and `conflicts_with`: clap skips `requires`
+    // when the required flag conflicts with one given (clap-rs/clap#4520).
+    if let Some(spacing) = args.map_spacing
+        && (args.heightfield_out.is_none() || args.heightfield.is_some())
+    {
+        return Err(format!(
+            "--map-spacing {spacing} sets the grid of a point-set exemplar's \
+             --heightfield-out map (a height field's map keeps the input's own grid)"
+        )
+        .into());
+    }
+    let png_map = args
+        .heightfield_out
+        .as_deref()
+        .is_some_and(|map| !is_heightfield_path(map));
+    if let Some((lo, hi)) = args.map_range
+        && !(png_map && args.heightfield.is_none())
+    {
+        return Err(format!(
+            "--map-range {lo},{hi} sets the grey scale of a point-set exemplar's \
+             --heightfield-out PNG (a .f32le or .tif map keeps every height; a height \
+             field's PNG keeps the input's grey levels)"
+        )
+        .into());
+    }
+    if let Some(mesh) = &args.mesh {
+        check_geometry_output(mesh, true, DVec3::ZERO)?;
+    }
+    check_baselines_land(args, globals)?;
+    let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
+    let params = run_params(args, &params_file, given)?;
+    let input_options = InputOptions::of(args, &params_file)?;
+    let (file, heightfield_frame) = load(args, &input_options)?;
+    if let Some(mesh) = &args.mesh {
+        // Georeferenced exemplars are written back in place: can the mesh's format say so?
+        check_geometry_output(mesh, true, file.origin)?;
+    }
+    if let Some(path) = &args.exemplar {
+        report_not_kept(globals, path, &file.notes);
+    }
+    // Before the run: a map that cannot be written must not cost the quilt. A height
+    // field is read at the origin, so the output's points are in its frame.
+    let map_placement = match (&args.heightfield_out, heightfield_frame) {
+        (None, _) => None,
+        (Some(_), Some(frame)) => Some(MapPlacement {
+            frame,
+            file: None,
+            grey_range: None,
+            input_reference: match &args.heightfield {
+                Some(input) => GeoReference::of_heightfield(input).map_err(named(input))?,
+                None => None,
+            },
+        }),
+        (Some(_), None) => Some(MapPlacement::of_points(
+            &file,
+            args.map_spacing,
+            args.map_range,
+        )?),
+    };
+    if let Some(placement) = &map_placement {
+        let extent = file.texture.output_extent(params.output);
+        placement.frame.map_size(extent)?;
+    }
+    let texture = &file.texture;
+    // The hints about a file's up axis and its normals' orientation are for point-set
+    // files: a height field's up axis is its own, its relief the one asked for, and its
+    // normals its surface's, all facing up (rough terrain whose neighbouring normals tilt
+    // apart is no sign of unoriented data).
+    let from_points = heightfield_frame.is_none();
+    for note in [
+        from_points.then(|| orientation_note(texture)).flatten(),
+        tilt_note(&file),
+        precision_note(&file),
+        from_points
+            .then(|| super::unoriented_normals_note(texture.canonical_points(), Some(Vec3::Z)))
+            .flatten(),
+        size_note(texture, &params),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        status(globals, note);
+    }
+    // The output (and its preview) are written before it is measured: on large exemplars
+    // the measure can take longer than the synthesis, and an interrupted measure must not
+    // cost the result.
+    let main = unmeasured_run(texture, &params, globals, "quilt")?;
+    let mut comments = vec![format!(
+        "quilted by geosynth (seed {}, {:?})",
+        params.seed, params.method
+    )];
+    comments.extend(file.comments(&main.output.bounds));
+    let mut options = WriteOptions::default().origin(file.origin);
+    for c in comments {
+        options = options.comment(c);
+    }
+    let written = Geometry::Points(file.to_file_frame(&main.output.points)?);
+    write_geometry_file(&args.output, &written, &options)?;
+    if let Some(path) = &args.preview {
+        texture_preview(texture, &[&main.output], path, 480, 360)?;
+    }
+    // The written points, taken back for the mesh (no copy of them is made).
+    let mesh = match (&args.mesh, written) {
+        (Some(path), Geometry::Points(points)) => {
+            Some(write_sheet_mesh(path, points, &options, globals)?)
+        }
+        _ => None,
+    };
+    let heightfield_out = match (&args.heightfield_out, map_placement) {
+        (Some(path), Some(placement)) => {
+            Some(write_sheet_heights(path, &main.output, placement, globals)?)
+        }
+        _ => None,
+    };
+    let measure = if args.no_quality {
+        Err("skipped (--no-quality)".to_string())
+    } else {
+        measure_for(texture, &params, globals)
+    };
+    let main = main.measured(&measure, globals, "quilt");
+    // The baselines: their report entries, and their qualities for the summary lines
+    // (their outputs are dropped run by run, so no two are held at once).
+    let mut compared = Vec::new();
+    if args.baselines {
+        let mut runs = vec![
+            (
+                "search_only",
+                "search only",
+                params.clone().method(Method::SearchOnly),
+            ),
+            (
+                "random_placement",
+                "random placement",
+                params.clone().method(Method::RandomPlacement),
+            ),
+        ];
+        if params.method == Method::Full {
+            // The control: the same patches pasted, so only the warp and blend differ.
+            let pasted = params.same_layout_control(&main.output);
+            runs.push(("same_layout_pasted", "full's layout, pasted", pasted));
+        }
+        for (key, label, run_params) in runs {
+            let run = measured_run(texture, &run_params, &measure, globals, label)?;
+            compared.push((key, label, run_json(&run), run.quality));
+        }
+    }
+    if let Some(path) = &args.report {
+        let mut report = json!({
+            "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref())
+                .map(|path| path.display().to_string()),
+            INPUT_OPTIONS_KEY: input_options,
+            "params": params,
+            "run": run_json(&main),
+            "mesh": mesh,
+            "heightfield_out": heightfield_out,
+        });
+        for (key, _, entry, _) in &compared {
+            report[*key] = entry.clone();
+        }
+        write_json_report(path, "quilt", &report)?;
+    }
+    status(
+        globals,
+        format!(
+            "wrote {} ({} points, {} patches, {:.2}s; {})",
+            args.output.display(),
+            main.output.points.len(),
+            main.output.stats.patches,
+            main.seconds,
+            quality_summary(&main.quality),
+        ),
+    );
+    for (_, label, _, quality) in &compared {
+        status(globals, format!("  {label}: {}", quality_summary(quality)));
+    }
+    Ok(())
+}
+
+/// Refuses `--baselines` where its results would land nowhere: without `--report` only
+/// their errors are printed, which `--no-quality` skips and `--quiet` hides.
+fn check_baselines_land(args: &QuiltArgs, globals: Globals) -> CliResult<()> {
+    if !args.baselines || args.report.is_some() {
+        return Ok(());
+    }
+    let fix = if args.no_quality {
+        "--no-quality skips them: add --report R.json for their counts and timings, or drop \
+         --no-quality"
+    } else if globals.quiet {
+        "--quiet hides them: add --report R.json"
+    } else {
+        return Ok(());
+    };
+    Err(format!(
+        "without --report, --baselines only prints the baselines' neighbourhood and seam \
+         errors, and {fix}"
+    )
+    .into())
+}
+
+/// The quality part of a run's summary line: its two errors, or why there are none.
+fn quality_summary(quality: &Result<QualityReport, String>) -> String {
+    match quality {
+        Ok(q) if q.featureless_exemplar => "the exemplar has no relief, so its window \
+            errors are not meaningful; see the report's coverage"
+            .to_string(),
+        Ok(q) => format!(
+            "neighbourhood error {:.3}, seam error {:.3}",
+            q.neighbourhood_error, q.seam_error
+        ),
+        Err(reason) => format!("quality not measured: {reason}"),
+    }
+}

@@ -1,0 +1,97 @@
+//! `geosynth demo` and `geosynth fixtures`.
+
+use std::path::Path;
+
+use geosynth::core::testdata::shared_data;
+
+use crate::{assert_peak_memory, ok};
+
+#[test]
+fn demo_quick_writes_report_geometry_and_previews() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    ok(&["demo", "--quick", "--quiet", "--out", out.to_str().unwrap()]);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_peak_memory(&report);
+    let markdown = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(markdown.contains("· peak memory "), "{markdown}");
+    let fixtures = report["fixtures"].as_array().unwrap();
+    assert!(fixtures.len() >= 6);
+    for f in fixtures {
+        for key in ["preview", "geometry"] {
+            let p = out.join(f[key].as_str().unwrap());
+            assert!(p.is_file(), "{}", p.display());
+        }
+        let img = image::open(out.join(f["preview"].as_str().unwrap())).unwrap();
+        assert_eq!(img.width(), 320);
+    }
+    assert!(
+        report["fixtures_source"]
+            .as_str()
+            .unwrap()
+            .ends_with("fixtures")
+    );
+    assert!(
+        std::fs::read_to_string(out.join("report.md"))
+            .unwrap()
+            .contains("| stage | seconds |")
+    );
+    assert!(Path::new(&out.join("fixtures.png")).is_file());
+    // Patch quilting: every texture fixture, its files, and the parameters that made it.
+    let quilts = report["quilts"].as_array().unwrap();
+    assert_eq!(quilts.len(), 4);
+    for q in quilts {
+        for key in ["preview", "geometry"] {
+            assert!(out.join(q[key].as_str().unwrap()).is_file(), "{key}");
+        }
+        assert_eq!(q["params"]["method"], "full", "{q}");
+        assert!(q["params"]["pairing"]["w_d"].as_f64().unwrap() > 0.0, "{q}");
+        assert!(
+            q["full"]["quality"]["neighbourhood_error"]
+                .as_f64()
+                .unwrap()
+                >= 0.0
+        );
+    }
+    // A real terrain quilted and written back as a height map, with the shared data (the
+    // demo also looks beside the source tree when `GEOSYNTH_DATA` is not set).
+    let terrain = report["terrain"].as_array().unwrap();
+    let test = "demo_quick_writes_report_geometry_and_previews";
+    match terrain.first() {
+        Some(t) => {
+            assert_eq!(terrain.len(), 1);
+            assert!(out.join(t["preview"].as_str().unwrap()).is_file());
+            let map_path = out.join(t["height_map"].as_str().unwrap());
+            let map = geosynth::imagery::read_heightfield(&map_path).unwrap();
+            assert_eq!(map.width() as u64, t["width"].as_u64().unwrap());
+            assert_eq!(map.height() as u64, t["height"].as_u64().unwrap());
+        }
+        None => {
+            let data = shared_data(test, "heightfields/SainteHelens_317x460_u16.png");
+            assert!(data.is_none(), "{}", report["skipped"]);
+            assert!(report["skipped"].to_string().contains("terrain height map"));
+        }
+    }
+    // Distance-field synthesis: every Figure 6 solid, search beating random blocks.
+    let volumes = report["volumes"].as_array().unwrap();
+    assert_eq!(volumes.len(), 5);
+    for v in volumes {
+        assert!(v["beats_baseline"].as_bool().unwrap(), "{v}");
+        for key in ["preview", "geometry", "isosurface", "exemplar_geometry"] {
+            assert!(out.join(v[key].as_str().unwrap()).is_file(), "{key}");
+        }
+    }
+}
+
+#[test]
+fn fixtures_command_reproduces_the_committed_files() {
+    let dir = tempfile::tempdir().unwrap();
+    ok(&["fixtures", "--quiet", "--out", dir.path().to_str().unwrap()]);
+    let committed = geosynth::fixtures::bundled_dir();
+    for f in geosynth::fixtures::all().unwrap() {
+        let a = std::fs::read(dir.path().join(f.file_name())).unwrap();
+        let b = std::fs::read(committed.join(f.file_name())).unwrap();
+        assert!(a == b, "{} differs", f.file_name());
+    }
+}

@@ -1,0 +1,644 @@
+//! Reading, describing, converting and drawing files: every format, every shared data
+//! file, and bad input refused with a message instead of a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use geosynth::core::testdata::shared_data;
+
+use crate::{
+    Scratch, arg, assert_closed, geosynth, info_json, ok, refused, tiny_voxel, write_with_defaults,
+};
+
+/// Every data file under `GEOSYNTH_DATA` (geometry, pictures, height fields), skipping the
+/// folder's own text documentation.
+fn shared_data_files() -> Option<Vec<PathBuf>> {
+    let root = shared_data("info_and_render_on_shared_data", "")?;
+    let mut files = Vec::new();
+    let mut dirs = vec![root];
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if !matches!(
+                path.extension().and_then(|e| e.to_str()),
+                Some("md" | "json" | "txt")
+            ) {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    assert!(
+        files.len() >= 30,
+        "expected the shared data set, found {files:?}"
+    );
+    Some(files)
+}
+
+#[test]
+fn info_and_render_work_on_every_shared_file() {
+    let Some(files) = shared_data_files() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for file in &files {
+        let f = file.to_str().unwrap();
+        let json = info_json(file);
+        match json["kind"].as_str().unwrap() {
+            "points" | "mesh" => {
+                assert!(json["vertices"].as_u64().unwrap() > 0, "{f}");
+                assert!(json["bbox_min"].is_array(), "{f}");
+            }
+            "image" | "heightfield" => assert!(json["width"].as_u64().unwrap() >= 64, "{f}"),
+            other => panic!("{f}: unexpected kind {other}"),
+        }
+        let text = ok(&["info", f]);
+        assert!(text.contains("kind:"), "{f}");
+        if f.ends_with("spot_triangulated.obj") {
+            // Split along its UV seams into open pieces; closed once welded by position.
+            assert_eq!(json["topology"]["closed_manifold"], false);
+            assert_eq!(json["welded_topology"]["closed_manifold"], true, "{json}");
+            assert_eq!(json["welded_topology"]["components"], 1);
+            assert!(text.contains("welded:"), "{text}");
+        }
+        let png = dir.path().join(format!(
+            "{}.png",
+            file.file_stem().unwrap().to_str().unwrap()
+        ));
+        ok(&[
+            "render",
+            f,
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "160",
+            "--height",
+            "120",
+        ]);
+        let img = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (160, 120));
+        let drawn = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+        assert!(drawn > 500, "{f}: only {drawn} pixels drawn");
+    }
+    // A 16-bit PNG height field can be drawn as terrain too.
+    let hf = files
+        .iter()
+        .find(|p| p.to_str().unwrap().ends_with("_u16.png"))
+        .unwrap();
+    let terrain = dir.path().join("terrain.png");
+    let said = ok(&[
+        "render",
+        "--heightfield",
+        hf.to_str().unwrap(),
+        "-o",
+        terrain.to_str().unwrap(),
+    ]);
+    assert!(!said.contains("note"), "{said}");
+    // Without a picture among the files, --heightfield has nothing to do, and says so.
+    let points = arg(&geosynth::fixtures::bundled_dir().join("sphere_points.ply"));
+    let said = ok(&["render", "--heightfield", &points, "-o", &arg(&terrain)]);
+    assert!(said.contains("none of the files is one"), "{said}");
+    // Several inputs become panels.
+    let all: Vec<&str> = files.iter().take(3).map(|p| p.to_str().unwrap()).collect();
+    let out = dir.path().join("panels.png");
+    let mut args = vec!["render"];
+    args.extend(&all);
+    args.extend([
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "100",
+        "--height",
+        "80",
+        "--quiet",
+    ]);
+    ok(&args);
+    assert_eq!(image::open(&out).unwrap().width(), 3 * 100 + 2 * 4);
+}
+
+#[test]
+fn output_into_a_closed_pipe_is_not_a_panic() {
+    // `geosynth info x.ply | head -1`: the reader leaves before the output is written.
+    let fixture = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");
+    for json in [false, true] {
+        let mut args = vec!["info", fixture.to_str().unwrap()];
+        if json {
+            args.push("--json");
+        }
+        let mut child = Command::new(env!("CARGO_BIN_EXE_geosynth"))
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(out.status.success(), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn info_reports_kept_attributes() {
+    let Some(path) = shared_data(
+        "info_reports_kept_attributes",
+        "meshes/stanford_bunny_res2.ply",
+    ) else {
+        return;
+    };
+    let json = info_json(&path);
+    assert_eq!(json["vertices"], 8171);
+    assert_eq!(json["faces"], 16301);
+    let names: Vec<&str> = json["attributes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["confidence", "intensity"]);
+}
+
+#[test]
+fn bad_input_fails_with_a_message_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.ply");
+    std::fs::write(&bad, b"ply\nformat binary_little_endian 1.0\nelement vertex 99999999\nproperty float x\nend_header\n").unwrap();
+    for args in [
+        vec!["info", bad.to_str().unwrap()],
+        vec!["info", "/nonexistent/file.ply"],
+        vec!["render", bad.to_str().unwrap(), "-o", "x.png"],
+        vec![
+            "render",
+            "--width",
+            "0",
+            "-o",
+            "x.png",
+            bad.to_str().unwrap(),
+        ],
+    ] {
+        let out = geosynth(&args);
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("error"), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    // Outputs that could not be written are refused before the run, not after it.
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/quilt_bumpy.ply");
+    let fixture = fixture.to_str().unwrap();
+    let missing = dir.path().join("missing/out.ply");
+    let missing = missing.to_str().unwrap();
+    let report_in_missing = dir.path().join("missing/report.json");
+    let unknown = dir.path().join("out.xyzw");
+    for (args, message) in [
+        (vec!["quilt", fixture, "-o", missing], "does not exist"),
+        (
+            vec![
+                "quilt",
+                fixture,
+                "-o",
+                dir.path().join("q.ply").to_str().unwrap(),
+                "--report",
+                report_in_missing.to_str().unwrap(),
+            ],
+            "does not exist",
+        ),
+        (
+            vec!["quilt", fixture, "-o", unknown.to_str().unwrap()],
+            ".ply, .obj, .off, .stl, .xyz, .xyzn or .xyzrgb",
+        ),
+        (
+            vec!["reconstruct", fixture, "-o", missing],
+            "does not exist",
+        ),
+    ] {
+        refused(&args, message);
+    }
+    // The quilt whose report had nowhere to go never ran: its output was not written either.
+    assert!(!dir.path().join("q.ply").exists());
+    // Thread counts out of range are refused before anything starts (100,000 threads had
+    // not started after a minute).
+    for threads in ["0", "100000"] {
+        let args = ["--threads", threads, "fixtures", "--out", &arg(dir.path())];
+        refused(&args, "--threads must be 1 to");
+    }
+}
+
+#[test]
+fn a_bad_input_file_is_named_in_its_error_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.ply");
+    write_with_defaults(
+        &good,
+        &geosynth::core::io::Geometry::Points(geosynth::fixtures::sphere_points(50).unwrap()),
+    );
+    let nan = dir.path().join("nan.ply");
+    let header = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+                  property float z\nend_header\n";
+    std::fs::write(&nan, format!("{header}0 0 0\n1 nan 0\n")).unwrap();
+    let short_raw = dir.path().join("short_4x4.f32le");
+    std::fs::write(&short_raw, [0u8; 40]).unwrap();
+    let volume = dir.path().join("volume.nrrd");
+    std::fs::write(
+        &volume,
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nendian: little\n\n",
+    )
+    .unwrap();
+    let png = dir.path().join("out.png");
+    let ply_out = dir.path().join("out.ply");
+    let (nan, short_raw, volume) = (arg(&nan), arg(&short_raw), arg(&volume));
+    let (png, ply_out, good) = (arg(&png), arg(&ply_out), arg(&good));
+    for (args, file, what) in [
+        // Of two panels, the second cannot be read: the message says which.
+        (
+            vec!["render", &good, &nan, "-o", &png],
+            &nan,
+            "position 1 is not finite",
+        ),
+        (vec!["info", &short_raw], &short_raw, "needs 64 bytes"),
+        (vec!["info", &volume], &volume, "spacings"),
+        (vec!["voxel", &volume, "-o", &ply_out], &volume, "spacings"),
+        (vec!["quilt", &nan, "-o", &ply_out], &nan, "not finite"),
+        (
+            vec!["quilt", "--heightfield", &short_raw, "-o", &ply_out],
+            &short_raw,
+            "64 bytes",
+        ),
+        (vec!["convert", &nan, "-o", &ply_out], &nan, "not finite"),
+        (vec!["normals", &nan, "-o", &ply_out], &nan, "not finite"),
+        (
+            vec!["reconstruct", &nan, "-o", &ply_out],
+            &nan,
+            "not finite",
+        ),
+    ] {
+        let out = geosynth(&args);
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.starts_with(&format!("error: {file}: ")),
+            "{args:?}: {err}"
+        );
+        assert!(err.contains(what), "{args:?}: {err}");
+        // The cause is the message itself: it is not printed a second time.
+        assert_eq!(err.matches(what).count(), 1, "{args:?}: {err}");
+    }
+    // A message that names the file already is left as it is.
+    let missing = dir.path().join("missing.ply");
+    let out = geosynth(&["info", &arg(&missing)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.matches("missing.ply").count(), 1, "{err}");
+}
+
+#[test]
+fn an_empty_mesh_is_described_and_drawn_as_empty() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.stl");
+    std::fs::write(&empty, "solid nothing\nendsolid nothing\n").unwrap();
+    let text = ok(&["info", &arg(&empty)]);
+    assert!(
+        text.contains("topology:    no faces, 0 component(s)"),
+        "{text}"
+    );
+    assert_eq!(info_json(&empty)["topology"]["closed_manifold"], false);
+    let png = dir.path().join("empty.png");
+    let out = geosynth(&["render", &arg(&empty), "-o", &arg(&png)]);
+    assert!(out.status.success() && png.exists());
+    let said = String::from_utf8_lossy(&out.stdout) + String::from_utf8_lossy(&out.stderr);
+    assert!(
+        said.contains("empty.stl holds no points; its panel is empty"),
+        "{said}"
+    );
+}
+
+#[test]
+fn stl_meshes_work_where_meshes_do_and_point_sets_are_refused_early() {
+    use geosynth::core::io::{Geometry, WriteOptions, write_geometry};
+    let scratch = Scratch::new();
+    let sphere = geosynth::fixtures::icosphere_mesh(3).unwrap();
+    write_with_defaults(&scratch.path("sphere.ply"), &Geometry::Mesh(sphere.clone()));
+    write_with_defaults(&scratch.path("sphere.stl"), &Geometry::Mesh(sphere.clone()));
+
+    // `info` sees the same closed sphere: STL corners welded back into shared vertices.
+    let json = info_json(&scratch.path("sphere.stl"));
+    assert_eq!(
+        (json["format"].as_str(), json["encoding"].as_str()),
+        (Some("STL"), Some("binary_little_endian"))
+    );
+    assert_eq!(
+        (json["vertices"].as_u64(), json["faces"].as_u64()),
+        (Some(642), Some(1280))
+    );
+    assert_closed(&scratch.path("sphere.stl"), 2, "STL sphere");
+
+    // `sdf` gives the same field from either file.
+    let field = |input: &Path, name: &str| {
+        ok(&[
+            "sdf",
+            &arg(input),
+            "-o",
+            &arg(&scratch.path(name)),
+            "--resolution",
+            "24",
+        ]);
+        geosynth::sdf::nrrd::read_file(&scratch.path(name))
+            .unwrap()
+            .data
+    };
+    assert_eq!(
+        field(&scratch.path("sphere.stl"), "a.nrrd"),
+        field(&scratch.path("sphere.ply"), "b.nrrd")
+    );
+
+    // `voxel` takes an STL exemplar and writes STL meshes: the same run as with PLY.
+    for ext in ["ply", "stl"] {
+        let iso = arg(&scratch.path(&format!("iso.{ext}")));
+        tiny_voxel(
+            &scratch.path(&format!("sphere.{ext}")),
+            &scratch.path(&format!("voxel.{ext}")),
+            &["--isosurface", &iso],
+        );
+    }
+    let [iso_ply, iso_stl] = ["iso.ply", "iso.stl"].map(|n| info_json(&scratch.path(n)));
+    assert_eq!(iso_stl["topology"]["closed_manifold"], true);
+    assert_eq!(iso_stl["topology"], iso_ply["topology"]);
+    assert_eq!(iso_stl["faces"], iso_ply["faces"]);
+    let [copied_ply, copied_stl] = ["voxel.ply", "voxel.stl"].map(|n| info_json(&scratch.path(n)));
+    assert!(copied_stl["faces"].as_u64() > Some(0));
+    assert_eq!(copied_stl["faces"], copied_ply["faces"]);
+
+    // Point sets cannot be STL: refused before any work, naming what to write instead.
+    let fixture =
+        arg(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/quilt_bumpy.ply"));
+    let refused = geosynth(&["quilt", &fixture, "-o", &arg(&scratch.path("quilt.stl"))]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && said.contains("STL cannot store a point set"),
+        "{said}"
+    );
+    assert!(!scratch.path("quilt.stl").exists());
+
+    // Georeferenced input would lose its precision as STL: refused once the input is read.
+    let points = sphere
+        .vertices()
+        .clone()
+        .with_normals(sphere.vertex_normals(geosynth::core::NormalWeighting::Angle))
+        .unwrap();
+    let far = scratch.path("far.ply");
+    write_geometry(
+        &far,
+        &Geometry::Points(points),
+        &WriteOptions::default().origin(glam::DVec3::new(5e5, 4e6, 0.0)),
+    )
+    .unwrap();
+    let refused = geosynth(&[
+        "reconstruct",
+        &arg(&far),
+        "-o",
+        &arg(&scratch.path("far.stl")),
+    ]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && said.contains("write .ply to keep them"),
+        "{said}"
+    );
+    ok(&[
+        "reconstruct",
+        &arg(&far),
+        "-o",
+        &arg(&scratch.path("far_ok.ply")),
+        "--resolution",
+        "24",
+    ]);
+}
+
+#[test]
+fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
+    use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
+    let scratch = Scratch::new();
+    // A sphere with normals (which STL cannot keep), its triangles partly turned over.
+    let sphere = geosynth::fixtures::icosphere_mesh(2).unwrap();
+    let turned: Vec<[u32; 3]> = sphere
+        .triangles()
+        .iter()
+        .enumerate()
+        .map(|(i, &[a, b, c])| if i % 5 == 0 { [a, c, b] } else { [a, b, c] })
+        .collect();
+    let normals = sphere.vertex_normals(geosynth::core::NormalWeighting::Angle);
+    let vertices = sphere.vertices().clone().with_normals(normals).unwrap();
+    let messy = geosynth::core::TriMesh::new(vertices, turned).unwrap();
+    write_with_defaults(&scratch.path("messy.ply"), &Geometry::Mesh(messy));
+
+    let said = ok(&[
+        "convert",
+        &arg(&scratch.path("messy.ply")),
+        "-o",
+        &arg(&scratch.path("s.stl")),
+        "--orient-faces",
+    ]);
+    assert!(said.contains("oriented faces: 64 of 320"), "{said}");
+    assert!(
+        said.contains("STL cannot store the input's vertex normals"),
+        "{said}"
+    );
+    // A point set has no triangles to turn: written as it is, with a note saying so.
+    let points = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let copy = scratch.path("points.ply");
+    let said = ok(&[
+        "convert",
+        &arg(&points),
+        "-o",
+        &arg(&copy),
+        "--orient-faces",
+    ]);
+    assert!(said.contains("is a point set: --orient-faces"), "{said}");
+    assert_eq!(info_json(&copy)["vertices"], 2000);
+    let said = ok(&[
+        "convert",
+        &arg(&scratch.path("s.stl")),
+        "-o",
+        &arg(&scratch.path("s.obj")),
+    ]);
+    assert!(!said.contains("note"), "{said}");
+    assert_closed(&scratch.path("s.obj"), 2, "sphere through STL and OBJ");
+    // The clean sphere's triangles, each as its corners from the lowest one on.
+    let corners = |mesh: &geosynth::core::TriMesh| -> Vec<[[f32; 3]; 3]> {
+        let p = mesh.positions();
+        mesh.triangles()
+            .iter()
+            .map(|t| {
+                let c = t.map(|v| p[v as usize].to_array());
+                let first = (0..3)
+                    .min_by(|&i, &j| c[i].partial_cmp(&c[j]).unwrap())
+                    .unwrap();
+                std::array::from_fn(|k| c[(first + k) % 3])
+            })
+            .collect()
+    };
+    let back = read_geometry(scratch.path("s.obj")).unwrap();
+    assert_eq!(corners(back.geometry.mesh().unwrap()), corners(&sphere));
+
+    // ASCII on request, for PLY and STL.
+    ok(&[
+        "convert",
+        &arg(&scratch.path("s.obj")),
+        "-o",
+        &arg(&scratch.path("a.stl")),
+        "--ascii",
+    ]);
+    ok(&[
+        "convert",
+        &arg(&scratch.path("a.stl")),
+        "-o",
+        &arg(&scratch.path("a.ply")),
+        "--ascii",
+    ]);
+    assert!(
+        std::fs::read_to_string(scratch.path("a.stl"))
+            .unwrap()
+            .starts_with("solid")
+    );
+    assert_eq!(info_json(&scratch.path("a.ply"))["encoding"], "ascii");
+    assert_eq!(info_json(&scratch.path("a.ply"))["faces"], 320);
+    let said = ok(&[
+        "convert",
+        &arg(&scratch.path("a.stl")),
+        "-o",
+        &arg(&scratch.path("a.off")),
+        "--ascii",
+    ]);
+    assert!(said.contains("OFF is always text"), "{said}");
+
+    // Georeferenced points stay in place through OFF; STL refuses them, and point sets.
+    let points = sphere.vertices().clone();
+    let origin = glam::DVec3::new(5e5, 4e6, 10.0);
+    write_geometry(
+        scratch.path("far.ply"),
+        &Geometry::Points(points.clone()),
+        &WriteOptions::default().origin(origin),
+    )
+    .unwrap();
+    ok(&[
+        "convert",
+        &arg(&scratch.path("far.ply")),
+        "-o",
+        &arg(&scratch.path("far.off")),
+    ]);
+    let recentred = geosynth::core::io::ReadOptions::default().recentre_far(true);
+    let far = geosynth::core::io::read_geometry_with(scratch.path("far.off"), &recentred).unwrap();
+    let first = far.geometry.points().positions()[0].as_dvec3() + far.origin;
+    assert!((first - (points.positions()[0].as_dvec3() + origin)).length() < 1e-6);
+    let refused = geosynth(&[
+        "convert",
+        &arg(&scratch.path("far.ply")),
+        "-o",
+        &arg(&scratch.path("far.stl")),
+    ]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && said.contains("STL cannot store a point set"),
+        "{said}"
+    );
+    assert!(!scratch.path("far.stl").exists());
+
+    // `info` counts triangles that repeat another's corners (here, one facing the other way).
+    let twin = scratch.path("twin.off");
+    std::fs::write(
+        &twin,
+        "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 2 1\n3 0 1 3\n",
+    )
+    .unwrap();
+    let said = ok(&["info", &arg(&twin)]);
+    assert!(
+        said.contains(
+            "duplicates:  1 triangles on the same corners as another, 1 of them facing the \
+             other way"
+        ),
+        "{said}"
+    );
+    assert_eq!(info_json(&twin)["duplicate_faces"], 1);
+    assert_eq!(info_json(&twin)["reversed_duplicates"], 1);
+
+    // What the reader could not keep is said by `info` and by the commands that read it.
+    let mixed = scratch.path("mixed.obj");
+    std::fs::write(
+        &mixed,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n\
+         o textured\nf 1/1 2/2 3/3\no plain\nf 2 4 3\n",
+    )
+    .unwrap();
+    let dropped = "texture coordinates dropped: 3 of 6 face corners have them";
+    assert!(ok(&["info", &arg(&mixed)]).contains(&format!("not kept:    {dropped}")));
+    let note = format!("note: {}: {dropped}", mixed.display());
+    for (command, out) in [("convert", "mixed.ply"), ("render", "mixed.png")] {
+        let said = ok(&[command, &arg(&mixed), "-o", &arg(&scratch.path(out))]);
+        assert!(said.contains(&note), "{command}: {said}");
+    }
+}
+
+#[test]
+fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
+    let dir = Scratch::new();
+    let points = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let xyz = dir.path("sphere.xyz");
+    let said = ok(&["convert", &arg(&points), "-o", &arg(&xyz)]);
+    assert!(said.contains("(XYZ): 2000 points"), "{said}");
+    let json = info_json(&xyz);
+    assert_eq!(
+        (json["format"].as_str(), json["vertices"].as_u64()),
+        (Some("XYZ"), Some(2000))
+    );
+    assert_eq!(json["normals"], true);
+    // Back to PLY: the same positions and normals.
+    let back = dir.path("back.ply");
+    ok(&["convert", &arg(&xyz), "-o", &arg(&back), "-q"]);
+    let read = |path: &Path| geosynth::core::io::read_geometry(path).unwrap().geometry;
+    assert_eq!(
+        read(&back).points().positions(),
+        read(&points).points().positions()
+    );
+    assert_eq!(
+        read(&back).points().normals(),
+        read(&points).points().normals()
+    );
+    // A mesh output as XYZ is refused before the run: its faces would be lost.
+    refused(
+        &["reconstruct", &arg(&xyz), "-o", &arg(&dir.path("m.xyz"))],
+        "holds points only",
+    );
+    refused(
+        &["convert", &arg(&xyz), "-o", &arg(&dir.path("m.txt"))],
+        ".xyz, .xyzn or .xyzrgb",
+    );
+    // A quilt has no colours for .xyzrgb: refused before the run. As .xyz it reads back
+    // with its box.
+    let exemplar = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
+    let quilt = [
+        "quilt",
+        &exemplar,
+        "--no-quality",
+        "--scale",
+        "1.2",
+        "-q",
+        "-o",
+    ];
+    refused(
+        &[&quilt[..], &[&arg(&dir.path("q.xyzrgb"))]].concat(),
+        "no colours",
+    );
+    let quilted = dir.path("q.xyz");
+    ok(&[&quilt[..], &[&arg(&quilted)]].concat());
+    // Found only when writing (points without colours): the error names the file.
+    let rgb = dir.path("n.xyzrgb");
+    refused(
+        &["normals", &arg(&points), "-o", &arg(&rgb)],
+        &format!(
+            "cannot write {}: XYZRGB cannot store points without colours",
+            rgb.display()
+        ),
+    );
+    let comments = info_json(&quilted)["comments"].to_string();
+    assert!(comments.contains("texture_box"), "{comments}");
+}

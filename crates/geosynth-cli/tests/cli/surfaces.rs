@@ -1,0 +1,541 @@
+//! Surfaces from points and meshes: `normals`, `reconstruct`, `sdf` and `warp`.
+
+use std::path::Path;
+
+use crate::{
+    Scratch, arg, assert_closed, geosynth, info_json, ok, refused, tiny_voxel, write_with_defaults,
+};
+
+#[test]
+fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
+    use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let truth = read_geometry(&fixture).unwrap().geometry.points().clone();
+    let bare = dir.path().join("bare.ply");
+    let positions = geosynth::core::PointSet::new(truth.positions().to_vec()).unwrap();
+    write_geometry(
+        &bare,
+        &Geometry::Points(positions),
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    assert!(ok(&["info", bare.to_str().unwrap()]).contains("no (geosynth normals"));
+    let with_normals = dir.path().join("with_normals.ply");
+    let said = ok(&[
+        "normals",
+        bare.to_str().unwrap(),
+        "-o",
+        with_normals.to_str().unwrap(),
+    ]);
+    assert!(said.contains("0.0% face away"), "{said}");
+    let got = read_geometry(&with_normals).unwrap().geometry;
+    let got = got.points().normals().unwrap();
+    let worst = got
+        .iter()
+        .zip(truth.normals().unwrap())
+        .map(|(a, b)| a.dot(*b))
+        .fold(1.0f32, f32::min);
+    assert!(worst > 0.95, "least agreement {worst}");
+    // Without normals reconstruct refuses and names the remedy; with them it closes.
+    let mesh = dir.path().join("mesh.ply");
+    refused(
+        &["reconstruct", &arg(&bare), "-o", "x.ply"],
+        "geosynth normals",
+    );
+    let said = ok(&[
+        "reconstruct",
+        with_normals.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "32",
+    ]);
+    assert_closed(&mesh, 2, "a sphere");
+    assert!(said.contains("1 component(s), closed"), "{said}");
+    assert!(!said.contains("sides of the grid"), "{said}");
+    // An open sheet (the bumpy fixture) trimmed: the surface ends near its samples
+    // instead of running on to the grid's edge. Untrimmed, the run says why its mesh is
+    // open and what to do about it.
+    let bumpy = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
+    let samples = read_geometry(&bumpy)
+        .unwrap()
+        .geometry
+        .bounding_box()
+        .unwrap();
+    let reach = |trim: &[&str]| {
+        let mut args = vec!["reconstruct", bumpy.to_str().unwrap(), "-o"];
+        args.extend([mesh.to_str().unwrap(), "--resolution", "40"]);
+        args.extend(trim);
+        let said = ok(&args);
+        let noted = said.contains("runs out to the sides of the grid") && said.contains("--trim");
+        assert_eq!(noted, trim.is_empty(), "{said}");
+        let b = read_geometry(&mesh)
+            .unwrap()
+            .geometry
+            .bounding_box()
+            .unwrap();
+        (samples.min - b.min)
+            .max_element()
+            .max((b.max - samples.max).max_element())
+    };
+    let (untrimmed, trimmed) = (reach(&[]), reach(&["--trim"]));
+    assert!(untrimmed > 0.4 && trimmed < 0.15, "{untrimmed} / {trimmed}");
+    // A mesh is not estimated: its faces give its normals.
+    refused(&["normals", &arg(&mesh), "-o", "x.ply"], "is a mesh");
+}
+
+#[test]
+fn reconstruct_and_sdf_commands_write_usable_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = geosynth::fixtures::bundled_dir().join("torus_points.ply");
+    let mesh = dir.path().join("torus.ply");
+    ok(&[
+        "reconstruct",
+        points.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "40",
+        "-q",
+    ]);
+    assert_closed(&mesh, 0, "a torus");
+    // The same points with every third normal flipped, as unoriented estimates come: the
+    // run warns, the oriented one does not.
+    let torus = geosynth::core::io::read_geometry(&points).unwrap().geometry;
+    let signs: Vec<glam::Vec3> = torus
+        .points()
+        .normals()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| if i % 3 == 0 { -n } else { n })
+        .collect();
+    let mixed = dir.path().join("mixed.ply");
+    let unoriented = torus.points().clone().with_normals(signs).unwrap();
+    write_with_defaults(&mixed, &geosynth::core::io::Geometry::Points(unoriented));
+    let share = |path: &Path| {
+        let json = info_json(path);
+        json["normal_disagreement"].as_f64().unwrap()
+    };
+    assert!(share(&points) < 0.05 && share(&mixed) > 0.15);
+    let probe = dir.path().join("probe.ply");
+    for (input, warned) in [(&points, false), (&mixed, true)] {
+        let said = ok(&[
+            "reconstruct",
+            input.to_str().unwrap(),
+            "-o",
+            probe.to_str().unwrap(),
+            "--resolution",
+            "24",
+        ]);
+        assert_eq!(said.contains("look unoriented"), warned, "{said}");
+    }
+    // `--orient-normals` repairs them: no note, and the surface is the torus again.
+    let said = ok(&[
+        "reconstruct",
+        mixed.to_str().unwrap(),
+        "-o",
+        probe.to_str().unwrap(),
+        "--resolution",
+        "40",
+        "--orient-normals",
+    ]);
+    assert!(!said.contains("look unoriented"), "{said}");
+    assert_closed(&probe, 0, "a torus");
+
+    let field = dir.path().join("torus.nrrd");
+    ok(&[
+        "sdf",
+        mesh.to_str().unwrap(),
+        "-o",
+        field.to_str().unwrap(),
+        "--resolution",
+        "24",
+        "--gradient",
+        "-q",
+    ]);
+    let volume = geosynth::sdf::nrrd::read_file(&field).unwrap();
+    assert_eq!(volume.channels, 4);
+    assert!(
+        volume.data.iter().step_by(4).any(|d| *d < 0.0)
+            && volume.data.iter().step_by(4).any(|d| *d > 0.0)
+    );
+    // info describes the field; render draws its zero level set, a torus like the mesh.
+    let json = info_json(&field);
+    assert_eq!(json["channels"], 4);
+    assert_eq!(json["dims"], serde_json::json!(volume.dims));
+    let inside = json["inside_share"].as_f64().unwrap();
+    assert!(inside > 0.0 && inside < 0.5, "{json}");
+    assert_eq!(json["non_finite"], 0);
+    let picture = dir.path().join("field.png");
+    ok(&[
+        "render",
+        field.to_str().unwrap(),
+        "-o",
+        picture.to_str().unwrap(),
+        "--width",
+        "160",
+        "--height",
+        "120",
+    ]);
+    let drawn = image::open(&picture).unwrap().into_rgb8();
+    let covered = drawn.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+    assert!(covered > 500, "{covered} pixels drawn");
+    // A field that never crosses zero, or holds NaN, has no surface: an error, not a blank.
+    let header =
+        b"NRRD0004\ntype: float\nsizes: 2 2 2\nencoding: raw\nspacings: 1 1 1\n\n".to_vec();
+    for (name, last) in [("positive.nrrd", 1.0f32), ("nan.nrrd", f32::NAN)] {
+        let path = dir.path().join(name);
+        let mut bytes = header.clone();
+        for k in 0..8 {
+            let v = if k == 7 { last } else { 1.0 };
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let out = geosynth(&[
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            picture.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success(), "{name}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("no surface to draw") && !err.contains("panicked"),
+            "{err}"
+        );
+    }
+
+    let bad = geosynth(&[
+        "reconstruct",
+        points.to_str().unwrap(),
+        "-o",
+        "x.ply",
+        "--resolution",
+        "2",
+    ]);
+    assert!(!bad.status.success());
+    let bare = dir.path().join("bare.ply");
+    std::fs::write(&bare, b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n").unwrap();
+    let out = geosynth(&["reconstruct", bare.to_str().unwrap(), "-o", "x.ply"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("normals"));
+}
+
+#[test]
+fn warp_moves_points_through_the_pairs_and_turns_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    let pairs = dir.path().join("pairs.txt");
+    // A rotation by 90° about +z given by five pairs (not coplanar).
+    std::fs::write(
+        &pairs,
+        "# rotation about z\n1 0 0  0 1 0\n0 1 0  -1 0 0\n-1 0 0  0 -1 0\n0 0 1  0 0 1\n0 0 -1  0 0 -1\n",
+    )
+    .unwrap();
+    // `geosynth warp INPUT --pairs PAIRS -o OUTPUT`.
+    let warp = |input: &Path, output: &Path| {
+        [
+            "warp",
+            &arg(input),
+            "--pairs",
+            &arg(&pairs),
+            "-o",
+            &arg(output),
+        ]
+        .map(String::from)
+    };
+    let input = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let out = dir.path().join("warped.ply");
+    ok(&warp(&input, &out).each_ref().map(String::as_str));
+    let before = geosynth::core::io::read_geometry(&input).unwrap().geometry;
+    let after = geosynth::core::io::read_geometry(&out).unwrap().geometry;
+    let (p0, p1) = (before.points(), after.points());
+    for i in (0..p0.len()).step_by(37) {
+        let (a, b) = (p0.positions()[i], p1.positions()[i]);
+        assert!((b - glam::Vec3::new(-a.y, a.x, a.z)).length() < 1e-4);
+        let (n0, n1) = (p0.normals().unwrap()[i], p1.normals().unwrap()[i]);
+        assert!((n1 - glam::Vec3::new(-n0.y, n0.x, n0.z)).length() < 1e-4);
+    }
+    // Meshes keep their faces.
+    let mesh_in = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");
+    let mesh_out = dir.path().join("torus_warped.obj");
+    ok(&warp(&mesh_in, &mesh_out).each_ref().map(String::as_str));
+    let json = info_json(&mesh_out);
+    assert_eq!(json["faces"], 48 * 24 * 2);
+    // Bad pairs files fail with the line.
+    std::fs::write(&pairs, "1 0 0 0 1 0\n1 2 3\n").unwrap();
+    let args = warp(&input, &out);
+    let args = args.each_ref().map(String::as_str);
+    refused(&args, "pairs.txt:2");
+    // So do pairs that leave one point for two places, naming both lines.
+    std::fs::write(&pairs, "1 0 0 0 1 0\n# moved\n1 0 0 0 2 0\n").unwrap();
+    refused(&args, "pairs.txt:1 and 3: both pairs start at one point");
+    // Targets so far that the warped points leave single precision are refused, and
+    // nothing is written.
+    std::fs::write(&pairs, "0 0 0 0 0 3e38\n1 0 0 1 0 0\n0 1 0 0 1 0\n").unwrap();
+    let fresh = dir.path().join("never.ply");
+    refused(
+        &warp(&input, &fresh).each_ref().map(String::as_str),
+        "beyond single precision",
+    );
+    assert!(!fresh.exists());
+}
+
+#[test]
+fn sdf_signs_intersecting_pieces_by_winding_numbers_when_asked() {
+    // Two unit icospheres whose centres are 1.2 apart, as one mesh of two intersecting
+    // closed components: inside one, next to the other's surface, the nearest piece's
+    // pseudo-normal says outside. The run says so, and `--sign winding` fixes it.
+    let dir = tempfile::tempdir().unwrap();
+    let sphere = geosynth::fixtures::icosphere_mesh(3).unwrap();
+    let shift = glam::Vec3::new(1.2, 0.0, 0.0);
+    let n = sphere.vertex_count() as u32;
+    let positions = sphere
+        .positions()
+        .iter()
+        .copied()
+        .chain(sphere.positions().iter().map(|p| *p + shift))
+        .collect();
+    let triangles = sphere
+        .triangles()
+        .iter()
+        .copied()
+        .chain(sphere.triangles().iter().map(|t| t.map(|v| v + n)))
+        .collect();
+    let pair =
+        geosynth::core::TriMesh::new(geosynth::core::PointSet::new(positions).unwrap(), triangles)
+            .unwrap();
+    let mesh = dir.path().join("pair.ply");
+    write_with_defaults(&mesh, &geosynth::core::io::Geometry::Mesh(pair));
+    let wrong_signs = |sign: &str| {
+        let field = dir.path().join(format!("{sign}.nrrd"));
+        let said = ok(&[
+            "sdf",
+            mesh.to_str().unwrap(),
+            "-o",
+            field.to_str().unwrap(),
+            "--resolution",
+            "32",
+            "--sign",
+            sign,
+        ]);
+        let volume = geosynth::sdf::nrrd::read_file(&field).unwrap();
+        let [nx, ny, _] = volume.dims;
+        let wrong = volume
+            .data
+            .iter()
+            .enumerate()
+            .filter(|&(i, d)| {
+                let node = glam::Vec3::new(
+                    (i % nx) as f32,
+                    ((i / nx) % ny) as f32,
+                    (i / (nx * ny)) as f32,
+                );
+                let p = volume.origin.as_vec3() + node * volume.spacing;
+                let union = (p.length() - 1.0).min((p - shift).length() - 1.0);
+                // The icosphere lies within 0.01 of the unit sphere.
+                union.abs() > 0.02 && (*d < 0.0) != (union < 0.0)
+            })
+            .count();
+        (said, wrong)
+    };
+    let (said, wrong) = wrong_signs("pseudo-normal");
+    assert!(
+        said.contains("triangles probed lie inside other parts"),
+        "{said}"
+    );
+    assert!(wrong > 10, "{wrong}");
+    let (said, wrong) = wrong_signs("winding");
+    assert!(!said.contains("note"), "{said}");
+    assert_eq!(wrong, 0);
+    // `voxel` takes the same flag for its exemplar mesh, and says the same.
+    for (sign, noted) in [("pseudo-normal", true), ("winding", false)] {
+        let said = tiny_voxel(&mesh, &dir.path().join("voxel.ply"), &["--sign", sign]);
+        assert_eq!(said.contains("lie inside other parts"), noted, "{said}");
+    }
+}
+
+#[test]
+fn reconstruct_drops_small_pieces_when_asked_and_says_so_when_not() {
+    // A sphere of radius 1 (3000 samples) and one of radius 0.1 beside it (300): the small
+    // one comes out as its own closed piece about 4 median spacings across.
+    let dir = Scratch::new();
+    let big = geosynth::fixtures::sphere_points(3000).unwrap();
+    let small = geosynth::fixtures::sphere_points(300).unwrap();
+    let shifted: Vec<glam::Vec3> = small
+        .positions()
+        .iter()
+        .map(|p| *p * 0.1 + glam::Vec3::new(1.6, 0.0, 0.0))
+        .collect();
+    let positions = [big.positions(), &shifted].concat();
+    let normals = [big.normals().unwrap(), small.normals().unwrap()].concat();
+    let points = dir.path("two.ply");
+    write_with_defaults(
+        &points,
+        &geosynth::core::io::Geometry::Points(
+            geosynth::core::PointSet::new(positions)
+                .unwrap()
+                .with_normals(normals)
+                .unwrap(),
+        ),
+    );
+    let (mesh, report) = (dir.path("mesh.ply"), dir.path("report.json"));
+    let reconstruct = |extra: &[&str]| {
+        let (points, mesh, report) = (arg(&points), arg(&mesh), arg(&report));
+        let mut args = vec![
+            "reconstruct",
+            &points,
+            "-o",
+            &mesh,
+            "--resolution",
+            "64",
+            "--report",
+            &report,
+        ];
+        args.extend_from_slice(extra);
+        let said = ok(&args);
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (said, json)
+    };
+    let (said, json) = reconstruct(&[]);
+    assert_eq!(json["components"], 2, "{said}");
+    assert!(json["pieces_dropped"].is_null(), "{json}");
+    assert!(
+        said.contains("1 of the 2 pieces are under 12 sample spacings")
+            && said.contains("--drop-pieces"),
+        "{said}"
+    );
+    // `--drop-pieces` alone is 12 spacings, and the report records it for `--params`.
+    let (said, json) = reconstruct(&["--drop-pieces"]);
+    assert_eq!(
+        (json["components"].as_u64(), json["pieces_dropped"].as_u64()),
+        (Some(1), Some(1)),
+        "{said}"
+    );
+    assert_eq!(json["input_options"]["drop_pieces"].as_f64(), Some(12.0));
+    assert!(
+        said.contains("after dropping 1 small") && !said.contains("note"),
+        "{said}"
+    );
+    let mesh = geosynth::core::io::read_geometry(&mesh).unwrap().geometry;
+    assert!(mesh.points().positions().iter().all(|p| p.x < 1.2));
+    // A limit below the small sphere's width keeps it; a bad one is refused by name.
+    let (_, json) = reconstruct(&["--drop-pieces", "1"]);
+    assert_eq!(json["pieces_dropped"].as_u64(), Some(0));
+    refused(
+        &[
+            "reconstruct",
+            &arg(&points),
+            "-o",
+            &arg(&dir.path("bad.ply")),
+            "--drop-pieces=-1",
+        ],
+        "--drop-pieces",
+    );
+}
+
+#[test]
+fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding() {
+    // 4000 points on a sphere, every 25th normal turned inward: each such sample turns the
+    // MLS surface's implicit function around near it, and the surface comes out in
+    // pieces (224 at this resolution); the points' winding number outvotes them.
+    let dir = tempfile::tempdir().unwrap();
+    let sphere = geosynth::fixtures::sphere_points(4000).unwrap();
+    let normals = sphere
+        .normals()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, n)| if i % 25 == 0 { -*n } else { *n })
+        .collect();
+    let points = dir.path().join("stray.ply");
+    write_with_defaults(
+        &points,
+        &geosynth::core::io::Geometry::Points(sphere.with_normals(normals).unwrap()),
+    );
+    let mesh = dir.path().join("mesh.ply");
+    let reconstruct = |sign: &str| {
+        let said = ok(&[
+            "reconstruct",
+            points.to_str().unwrap(),
+            "-o",
+            mesh.to_str().unwrap(),
+            "--resolution",
+            "48",
+            "--sign",
+            sign,
+        ]);
+        let topology = match geosynth::core::io::read_geometry(&mesh).unwrap().geometry {
+            geosynth::core::io::Geometry::Mesh(m) => m.topology(),
+            geosynth::core::io::Geometry::Points(_) => panic!("a mesh was written"),
+        };
+        (said, topology)
+    };
+    let (said, topology) = reconstruct("local");
+    assert!(topology.components > 1, "{said}");
+    assert!(said.contains("--sign winding"), "{said}");
+    let (said, topology) = reconstruct("winding");
+    assert!(
+        topology.is_closed_manifold() && topology.components == 1,
+        "{said}"
+    );
+    assert!(!said.contains("pieces"), "{said}");
+    // Two stacked flat patches (an open scan) come out in pieces too, but their normals do
+    // not cancel: no such note.
+    let patches: Vec<glam::Vec3> = (0..2)
+        .flat_map(|patch| {
+            (0..400).map(move |i| {
+                glam::Vec3::new(
+                    (i % 20) as f32 * 0.05,
+                    (i / 20) as f32 * 0.05,
+                    2.0 * patch as f32,
+                )
+            })
+        })
+        .collect();
+    let sheets = dir.path().join("sheets.ply");
+    write_with_defaults(
+        &sheets,
+        &geosynth::core::io::Geometry::Points(
+            geosynth::core::PointSet::new(patches.clone())
+                .unwrap()
+                .with_normals(vec![glam::Vec3::Z; patches.len()])
+                .unwrap(),
+        ),
+    );
+    let said = ok(&[
+        "reconstruct",
+        sheets.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "32",
+    ]);
+    assert!(!said.contains(" 1 component(s)"), "{said}");
+    assert!(!said.contains("--sign winding"), "{said}");
+    // Trimming says that winding numbers are for closed objects.
+    let said = ok(&[
+        "reconstruct",
+        points.to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "24",
+        "--sign",
+        "winding",
+        "--trim",
+    ]);
+    assert!(said.contains("open scan has no inside"), "{said}");
+    // `sdf` takes the flag for point sets too.
+    ok(&[
+        "sdf",
+        points.to_str().unwrap(),
+        "-o",
+        dir.path().join("stray.nrrd").to_str().unwrap(),
+        "--resolution",
+        "24",
+        "--sign",
+        "winding",
+    ]);
+}
