@@ -101,7 +101,10 @@ pub use orientation::{
     orientation_disagreement,
 };
 pub use params::MlsParams;
-pub use pca::{Covariance, NORMAL_NEIGHBOURS, estimate_normals, surface_variation};
+pub use pca::{
+    Covariance, MIN_NORMAL_DEFINITENESS, NORMAL_NEIGHBOURS, NormalFit, estimate_normals,
+    fit_normals, surface_variation,
+};
 pub use ray::{RayHit, Snap, SnapMethod};
 pub use relax::{RelaxParams, Relaxed, nearest_neighbour_spread, relax};
 pub use surface::{LocalFit, MlsSurface, Projection, SINGLE_PLANE_COSINE};

@@ -75,6 +75,15 @@ impl Covariance {
             (self.eigenvalues[0] / total) as f32
         }
     }
+
+    /// Whether the neighbourhood has one direction of least spread: `λ1 − λ0` above
+    /// [`MIN_NORMAL_DEFINITENESS`] times `λ2`. False for points on one line (`λ0 ≈ λ1 ≈
+    /// 0`), for points that all coincide, and for a neighbourhood spread alike in all
+    /// directions.
+    pub fn defines_normal(&self) -> bool {
+        let [l0, l1, l2] = self.eigenvalues;
+        l2 > 0.0 && l1 - l0 > MIN_NORMAL_DEFINITENESS * l2
+    }
 }
 
 /// Surface variation of each point over its `k` nearest neighbours (itself included).
@@ -100,14 +109,35 @@ pub fn surface_variation(index: &KdIndex, k: usize) -> Result<Vec<f32>> {
 /// told otherwise.
 pub const NORMAL_NEIGHBOURS: usize = 12;
 
+/// How much the two smallest spreads of a neighbourhood must differ, as a fraction of the
+/// largest, for its direction of least spread to count as a normal
+/// ([`Covariance::defines_normal`]). Points along one line fall below, and so do points
+/// whose spread across a line (standard deviation) is under about a hundredth of their
+/// spread along it: their least spread is any direction across the line.
+pub const MIN_NORMAL_DEFINITENESS: f64 = 1e-4;
+
+/// Normals estimated by [`fit_normals`], with the points whose neighbourhoods define none.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub struct NormalFit {
+    /// The points with their estimated (unoriented) unit normals.
+    pub points: PointSet,
+    /// Indices of the points whose neighbourhoods have no single direction of least spread
+    /// ([`Covariance::defines_normal`]): on one line (a scan line sampled far more densely
+    /// than the lines lie apart), coincident, or isotropic. Their normals are the
+    /// decomposition's unit vector, perpendicular to the line but otherwise arbitrary.
+    /// Ascending.
+    pub undefined: Vec<usize>,
+}
+
 /// Unit normals estimated by local PCA (Hoppe et al. 1992): each point's normal is the
 /// direction of least spread of its `k` nearest neighbours, itself included. The signs are
 /// whatever the eigen-decomposition gives, so they flip from point to point:
 /// [`orient_normals`](crate::orient_normals) makes them consistent. Any normals `points`
 /// had are replaced. A neighbourhood with no direction of least spread (all its points on
 /// one line, or equal) still gets the decomposition's unit vector, which is then only
-/// perpendicular to the line. Errors: `k` below 3, fewer than 3 points, a non-finite
-/// position.
+/// perpendicular to the line; [`fit_normals`] says which points those are. Errors: `k`
+/// below 3, fewer than 3 points, a non-finite position.
 ///
 /// ```
 /// use glam::Vec3;
@@ -128,6 +158,32 @@ pub const NORMAL_NEIGHBOURS: usize = 12;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn estimate_normals(points: &PointSet, k: usize) -> Result<PointSet> {
+    fit_normals(points, k).map(|fit| fit.points)
+}
+
+/// [`estimate_normals`], also saying which points' neighbourhoods define no normal (see
+/// [`NormalFit::undefined`]), so that a caller can warn about them or ask for more
+/// neighbours. The normals are the same as [`estimate_normals`]'s, bit for bit.
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::fit_normals;
+/// use pointset_core::PointSet;
+///
+/// // Scan lines 0.5 apart, sampled every 0.01 along them: 12 neighbours lie on one line.
+/// let p: Vec<Vec3> = (0..2000)
+///     .map(|i| Vec3::new((i % 200) as f32 * 0.01, (i / 200) as f32 * 0.5, 0.0))
+///     .collect();
+/// let points = PointSet::new(p)?;
+/// assert_eq!(fit_normals(&points, 12)?.undefined.len(), 2000);
+/// // Neighbourhoods wide enough to reach the next line define the plane's normal.
+/// let wide = fit_normals(&points, 160)?;
+/// assert!(wide.undefined.is_empty());
+/// let normals = wide.points.normals().ok_or("no normals")?;
+/// assert!(normals.iter().all(|n| n.z.abs() > 0.999));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn fit_normals(points: &PointSet, k: usize) -> Result<NormalFit> {
     if k < 3 {
         return Err(MlsError::InvalidParameter {
             name: "k",
@@ -149,16 +205,26 @@ pub fn estimate_normals(points: &PointSet, k: usize) -> Result<PointSet> {
     }
     let positions = points.positions();
     let index = KdIndex::new(positions)?;
-    let normals = positions
+    let fits = positions
         .par_iter()
         .enumerate()
         .map(|(i, &p)| {
             let nn = index.nearest(p, k)?;
             Covariance::of(positions, nn.iter().map(|n| n.index))
-                .map(|c| c.eigenvectors[0])
-                .filter(|n| n.is_normalized())
+                .map(|c| (c.eigenvectors[0], c.defines_normal()))
+                .filter(|(n, _)| n.is_normalized())
                 .ok_or(MlsError::DegenerateNormal { index: i })
         })
-        .collect::<Result<Vec<Vec3>>>()?;
-    Ok(points.clone().with_normals(normals)?)
+        .collect::<Result<Vec<(Vec3, bool)>>>()?;
+    let undefined = fits
+        .iter()
+        .enumerate()
+        .filter(|(_, (_, defined))| !defined)
+        .map(|(i, _)| i)
+        .collect();
+    let normals = fits.into_iter().map(|(n, _)| n).collect();
+    Ok(NormalFit {
+        points: points.clone().with_normals(normals)?,
+        undefined,
+    })
 }

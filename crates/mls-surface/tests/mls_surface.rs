@@ -7,8 +7,8 @@
 use glam::Vec3;
 use mls_surface::{
     ClusterParams, Covariance, MlsError, MlsParams, MlsSurface, NORMAL_NEIGHBOURS, RelaxParams,
-    SINGLE_PLANE_COSINE, adaptive_clusters, estimate_normals, nearest_neighbour_spread,
-    orient_normals, relax, surface_variation,
+    SINGLE_PLANE_COSINE, adaptive_clusters, estimate_normals, fit_normals,
+    nearest_neighbour_spread, orient_normals, relax, surface_variation,
 };
 use pointset_core::{BandAnswer, KdIndex, PointSet, Surface, rng};
 use proptest::prelude::*;
@@ -703,4 +703,81 @@ fn estimated_normals_are_the_analytic_ones_up_to_sign_and_orientation_fixes_the_
         estimate_normals(&two, 12),
         Err(MlsError::InvalidParameter { .. })
     ));
+}
+
+#[test]
+fn neighbourhoods_on_one_line_or_one_point_are_said_to_define_no_normal() {
+    let cov = |points: &[Vec3]| Covariance::of(points, 0..points.len()).unwrap();
+    // A square patch of a plane defines its normal; a line, a point and the corners of a
+    // cube (spread alike in every direction) do not.
+    let square: Vec<Vec3> = (0..25)
+        .map(|i| Vec3::new((i % 5) as f32, (i / 5) as f32, 0.0))
+        .collect();
+    assert!(cov(&square).defines_normal());
+    let line: Vec<Vec3> = (0..10)
+        .map(|i| Vec3::new(i as f32, 2.0 * i as f32, 1.0))
+        .collect();
+    assert!(!cov(&line).defines_normal());
+    assert!(!cov(&[Vec3::ONE; 6]).defines_normal());
+    let cube: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32))
+        .collect();
+    assert!(!cov(&cube).defines_normal());
+    // Two rows 19 long: 0.001 apart they are a line, 0.1 apart still one (their spreads'
+    // ratio is 8e-5), 1 apart a plane.
+    for (width, defined) in [(1e-3, false), (0.1, false), (1.0, true)] {
+        let strip: Vec<Vec3> = (0..40)
+            .map(|i| Vec3::new((i / 2) as f32, width * (i % 2) as f32, 0.0))
+            .collect();
+        assert_eq!(cov(&strip).defines_normal(), defined, "width {width}");
+    }
+
+    // Scan lines 1 apart sampled every 0.02, with a little noise across them: 12
+    // neighbours lie along one line, so no point's normal is defined and the estimate
+    // points anywhere across the line; neighbourhoods reaching the next lines find the
+    // plane z = 0.
+    let mut rng = rng::rng_from_seed(21);
+    let scan: Vec<Vec3> = (0..3000)
+        .map(|i| {
+            let jitter = 1e-5 * (rng.random::<f32>() - 0.5);
+            Vec3::new((i % 300) as f32 * 0.02, (i / 300) as f32 + jitter, jitter)
+        })
+        .collect();
+    let scan = PointSet::new(scan).unwrap();
+    let narrow = fit_normals(&scan, 12).unwrap();
+    assert_eq!(narrow.undefined.len(), 3000);
+    let tilted = narrow
+        .points
+        .normals()
+        .unwrap()
+        .iter()
+        .filter(|n| n.z.abs() < 0.9);
+    assert!(
+        tilted.count() > 300,
+        "the estimates across the lines are arbitrary"
+    );
+    let wide = fit_normals(&scan, 160).unwrap();
+    assert!(
+        wide.undefined.is_empty(),
+        "{:?}",
+        &wide.undefined[..5.min(wide.undefined.len())]
+    );
+    assert!(
+        wide.points
+            .normals()
+            .unwrap()
+            .iter()
+            .all(|n| n.z.abs() > 0.999)
+    );
+    // The normals are those of estimate_normals, and a sampled surface has no undefined
+    // ones.
+    assert_eq!(
+        estimate_normals(&scan, 160).unwrap().normals(),
+        wide.points.normals()
+    );
+    let sphere_fit = fit_normals(
+        &PointSet::new(sphere(2000, 1.5).positions().to_vec()).unwrap(),
+        12,
+    );
+    assert!(sphere_fit.unwrap().undefined.is_empty());
 }

@@ -4,9 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{Geometry, WriteOptions};
-use geosynth::mls::{
-    NORMAL_NEIGHBOURS, estimate_normals, orient_normals, orientation_disagreement,
-};
+use geosynth::mls::{NORMAL_NEIGHBOURS, fit_normals, orient_normals, orientation_disagreement};
 use glam::{DVec3, Vec3};
 
 use crate::input_file::read_geometry;
@@ -40,18 +38,44 @@ impl UpArg {
 /// Arguments of `geosynth normals`.
 #[derive(Debug, Args)]
 pub struct NormalsArgs {
-    /// Point set (.ply, .obj, .off); normals it has are replaced.
+    /// Point set (.ply, .obj, .off, .xyz); normals it has are replaced.
     input: PathBuf,
-    /// Output point set with normals (.ply, .obj or .off).
+    /// Output point set with normals (.ply, .obj, .off, .xyz or .xyzn).
     #[arg(short, long)]
     output: PathBuf,
-    /// Nearest neighbours (the point included) each tangent plane is fitted to.
-    #[arg(long, default_value_t = NORMAL_NEIGHBOURS)]
+    /// Nearest neighbours (the point included) each tangent plane is fitted to, at least
+    /// 3. Scans sampled far more densely along their lines than across them need enough
+    /// to reach the next line.
+    #[arg(long, default_value_t = NORMAL_NEIGHBOURS, value_parser = parse_neighbours)]
     neighbours: usize,
     /// Each connected part's highest point along this axis gets the normal facing it;
     /// the signs spread from there (for a closed scan: outward).
     #[arg(long, value_enum, default_value_t = UpArg::Z)]
     up: UpArg,
+}
+
+/// Parses `--neighbours`: a whole number of at least 3, the fewest points a plane is
+/// fitted to.
+fn parse_neighbours(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(k) if k >= 3 => Ok(k),
+        _ => Err(format!("`{s}` is not a whole number of at least 3")),
+    }
+}
+
+/// A note when some points' neighbourhoods define no normal
+/// ([`geosynth::mls::NormalFit::undefined`]): their normals, and the orientation spread
+/// through them, are arbitrary.
+fn undefined_note(undefined: usize, points: usize, neighbours: usize) -> Option<String> {
+    (undefined > 0).then(|| {
+        format!(
+            "note: {undefined} of {points} points ({:.1}%) have {neighbours} nearest \
+             neighbours along one line (or at one place), which fixes no normal: theirs are \
+             only perpendicular to the line. Scan lines sampled far more densely along than \
+             across do that; --neighbours large enough to reach the next line fixes it",
+            100.0 * undefined as f64 / points as f64
+        )
+    })
 }
 
 /// Runs `geosynth normals`.
@@ -72,13 +96,18 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
         }
     };
     let bar = spinner(globals, "estimating normals");
-    let estimated = estimate_normals(points, args.neighbours)?;
-    let oriented = orient_normals(&estimated, args.up.vector())?;
+    let fit = fit_normals(points, args.neighbours)?;
+    let oriented = orient_normals(&fit.points, args.up.vector())?;
     bar.finish_and_clear();
+    let neighbours = args.neighbours.min(points.len());
+    if let Some(note) = undefined_note(fit.undefined.len(), points.len(), neighbours) {
+        status(globals, note);
+    }
     let options = WriteOptions::default()
         .comment(format!(
-            "normals estimated by geosynth from {} nearest neighbours and oriented toward +{:?}",
-            args.neighbours, args.up
+            "normals estimated by geosynth from {neighbours} nearest neighbours and oriented \
+             toward +{:?}",
+            args.up
         ))
         .origin(loaded.origin);
     write_geometry_file(&args.output, &Geometry::Points(oriented.clone()), &options)?;

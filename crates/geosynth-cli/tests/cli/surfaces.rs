@@ -86,6 +86,59 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
 }
 
 #[test]
+fn scan_lines_too_far_apart_for_the_neighbours_get_a_note() {
+    // An XYZ scan of the plane z = 0.1 x in lines 0.5 apart, sampled every 0.01 along
+    // them: 12 neighbours lie on one line, which fixes no normal.
+    let dir = Scratch::new();
+    let scan = dir.path("scan.xyz");
+    let lines: String = (0..2000)
+        .map(|i| {
+            let (x, y) = ((i % 200) as f32 * 0.01, (i / 200) as f32 * 0.5);
+            format!("{x} {y} {}\n", 0.1 * x)
+        })
+        .collect();
+    std::fs::write(&scan, lines).unwrap();
+    let out = dir.path("scan.xyzn");
+    let normals = |neighbours: &str| {
+        let said = ok(&[
+            "normals",
+            &arg(&scan),
+            "-o",
+            &arg(&out),
+            "--neighbours",
+            neighbours,
+        ]);
+        let read = geosynth::core::io::read_geometry(&out).unwrap().geometry;
+        (said, read.points().normals().unwrap().to_vec())
+    };
+    // The plane's unit normal, facing up.
+    let up = glam::Vec3::new(-0.1, 0.0, 1.0).normalize();
+    let (said, estimated) = normals("12");
+    assert!(said.contains("2000 of 2000 points (100.0%)"), "{said}");
+    assert!(said.contains("--neighbours"), "{said}");
+    let off = estimated.iter().filter(|n| n.dot(up) < 0.9).count();
+    assert!(
+        off > 200,
+        "{off} of the arbitrary normals are off the plane's"
+    );
+    // Neighbourhoods that reach the next lines find the plane, and nothing is noted.
+    let (said, estimated) = normals("160");
+    assert!(!said.contains("note"), "{said}");
+    assert!(estimated.iter().all(|n| n.dot(up) > 0.999));
+    refused(
+        &[
+            "normals",
+            &arg(&scan),
+            "-o",
+            &arg(&out),
+            "--neighbours",
+            "2",
+        ],
+        "at least 3",
+    );
+}
+
+#[test]
 fn reconstruct_and_sdf_commands_write_usable_files() {
     let dir = tempfile::tempdir().unwrap();
     let points = geosynth::fixtures::bundled_dir().join("torus_points.ply");
