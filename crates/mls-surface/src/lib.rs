@@ -102,8 +102,8 @@ pub use orientation::{
 };
 pub use params::MlsParams;
 pub use pca::{
-    Covariance, MIN_NORMAL_DEFINITENESS, NORMAL_NEIGHBOURS, NormalFit, estimate_normals,
-    fit_normals, surface_variation,
+    Covariance, MIN_NORMAL_DEFINITENESS, NORMAL_NEIGHBOURS, NormalFit, PLANE_RADIUS_MAX_NEIGHBOURS,
+    estimate_normals, fit_normals, plane_radius, surface_variation,
 };
 pub use ray::{RayHit, Snap, SnapMethod};
 pub use relax::{RelaxParams, Relaxed, nearest_neighbour_spread, relax};

@@ -228,3 +228,67 @@ pub fn fit_normals(points: &PointSet, k: usize) -> Result<NormalFit> {
         undefined,
     })
 }
+
+/// The most neighbours [`plane_radius`] gathers around a point looking for a plane.
+pub const PLANE_RADIUS_MAX_NEIGHBOURS: usize = 512;
+
+/// How many points [`plane_radius`] asks at most (every `n / 2000`-th, rounded up).
+const PLANE_RADIUS_SAMPLES: usize = 2000;
+
+/// The neighbourhood sizes [`plane_radius`] tries, nearest first.
+const PLANE_RADIUS_LADDER: [usize; 15] =
+    [4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512];
+
+/// How far a typical point must look to find neighbours that span a plane: over up to
+/// 2000 points spread through the set, the median distance to the farthest of the fewest
+/// nearest neighbours (itself included; 4, 6, 8, 12, … up to
+/// [`PLANE_RADIUS_MAX_NEIGHBOURS`]) that [`Covariance::defines_normal`]. On an even
+/// sampling of a surface that is about the spacing; on scan lines sampled far more
+/// densely along than across, it is the distance between the lines, where the spacing
+/// (nearest neighbours, [`KdIndex::median_spacing`]) is the step along them. `None` when
+/// the median point finds no plane among its nearest [`PLANE_RADIUS_MAX_NEIGHBOURS`]
+/// (points on one line, or fewer than 3 points).
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::plane_radius;
+/// use pointset_core::KdIndex;
+///
+/// // Lines 0.5 apart, sampled every 0.01 along them.
+/// let p: Vec<Vec3> = (0..2000)
+///     .map(|i| Vec3::new((i % 200) as f32 * 0.01, (i / 200) as f32 * 0.5, 0.0))
+///     .collect();
+/// let index = KdIndex::new(&p)?;
+/// let radius = plane_radius(&index)?.ok_or("no plane")?;
+/// assert!((0.5..0.6).contains(&radius), "{radius}");
+/// assert!(index.median_spacing()? < 0.011);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn plane_radius(index: &KdIndex) -> Result<Option<f32>> {
+    let points = index.points();
+    if points.len() < 3 {
+        return Ok(None);
+    }
+    let step = points.len().div_ceil(PLANE_RADIUS_SAMPLES);
+    let asked: Vec<usize> = (0..points.len()).step_by(step).collect();
+    let mut radii = asked
+        .par_iter()
+        .map(|&i| {
+            let nn = index.nearest(points[i], PLANE_RADIUS_MAX_NEIGHBOURS)?;
+            let found = PLANE_RADIUS_LADDER
+                .iter()
+                .map(|&k| k.min(nn.len()))
+                .find(|&k| {
+                    Covariance::of(points, nn[..k].iter().map(|n| n.index))
+                        .is_some_and(|c| c.defines_normal())
+                });
+            Ok(found.map(|k| nn[k - 1].distance_squared.sqrt()))
+        })
+        .collect::<Result<Vec<Option<f32>>>>()?;
+    // No plane sorts last, as farther than any.
+    radii.sort_by(|a, b| match (a, b) {
+        (Some(a), Some(b)) => a.total_cmp(b),
+        (a, b) => b.is_some().cmp(&a.is_some()),
+    });
+    Ok(radii[radii.len() / 2])
+}

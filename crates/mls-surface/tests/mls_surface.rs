@@ -8,7 +8,7 @@ use glam::Vec3;
 use mls_surface::{
     ClusterParams, Covariance, MlsError, MlsParams, MlsSurface, NORMAL_NEIGHBOURS, RelaxParams,
     SINGLE_PLANE_COSINE, adaptive_clusters, estimate_normals, fit_normals,
-    nearest_neighbour_spread, orient_normals, relax, surface_variation,
+    nearest_neighbour_spread, orient_normals, plane_radius, relax, surface_variation,
 };
 use pointset_core::{BandAnswer, KdIndex, PointSet, Surface, rng};
 use proptest::prelude::*;
@@ -780,4 +780,33 @@ fn neighbourhoods_on_one_line_or_one_point_are_said_to_define_no_normal() {
         12,
     );
     assert!(sphere_fit.unwrap().undefined.is_empty());
+}
+
+#[test]
+fn plane_radius_is_the_spacing_on_a_surface_and_the_gap_between_scan_lines() {
+    let radius = |p: Vec<Vec3>| plane_radius(&KdIndex::new(&p).unwrap()).unwrap();
+    // A square grid 0.1 apart: the 4 nearest (the point and three of its neighbours) span
+    // a plane at one spacing, or √2 of it for the diagonal.
+    let grid: Vec<Vec3> = (0..900)
+        .map(|i| Vec3::new((i % 30) as f32 * 0.1, (i / 30) as f32 * 0.1, 0.0))
+        .collect();
+    let r = radius(grid).unwrap();
+    assert!((0.099..0.142).contains(&r), "{r}");
+    // Scan lines: the distance to the next line, whatever the step along them.
+    for (gap, step) in [(0.5, 0.01), (0.2, 0.005), (1.0, 0.05)] {
+        let lines: Vec<Vec3> = (0..3000)
+            .map(|i| Vec3::new((i % 300) as f32 * step, (i / 300) as f32 * gap, 0.0))
+            .collect();
+        let r = radius(lines).unwrap();
+        assert!(r >= gap && r < 1.2 * gap, "gap {gap}, step {step}: {r}");
+    }
+    // Points on one line, or fewer than three, span no plane.
+    assert_eq!(radius((0..50).map(|i| Vec3::X * i as f32).collect()), None);
+    assert_eq!(radius(vec![Vec3::ZERO, Vec3::Y]), None);
+    // On the sphere fixture it is about the spacing.
+    let sphere_points = sphere(2000, 1.5);
+    let index = KdIndex::new(sphere_points.positions()).unwrap();
+    let r = plane_radius(&index).unwrap().unwrap();
+    let spacing = index.median_spacing().unwrap();
+    assert!(r > 0.5 * spacing && r < 2.0 * spacing, "{r} vs {spacing}");
 }

@@ -86,7 +86,7 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
 }
 
 #[test]
-fn scan_lines_too_far_apart_for_the_neighbours_get_a_note() {
+fn scan_lines_too_far_apart_for_the_neighbours_or_the_kernel_get_notes() {
     // An XYZ scan of the plane z = 0.1 x in lines 0.5 apart, sampled every 0.01 along
     // them: 12 neighbours lie on one line, which fixes no normal.
     let dir = Scratch::new();
@@ -136,6 +136,68 @@ fn scan_lines_too_far_apart_for_the_neighbours_get_a_note() {
         ],
         "at least 3",
     );
+
+    // Reconstructed with the kernel of the step along the lines, the trim cuts the sheet
+    // into strips; the note says so and gives a kernel and a trim that keep it whole.
+    let mesh = dir.path("scan.ply");
+    let reconstruct = |extra: &[&str]| {
+        let args = [
+            "reconstruct",
+            &arg(&out),
+            "-o",
+            &arg(&mesh),
+            "--resolution",
+            "64",
+        ];
+        let said = ok(&[&args[..], extra].concat());
+        (
+            said,
+            info_json(&mesh)["topology"]["components"].as_u64().unwrap(),
+        )
+    };
+    let (said, strips) = reconstruct(&["--trim"]);
+    assert!(said.contains("the points lie in lines"), "{said}");
+    assert!(strips > 5, "{strips} pieces");
+    // The advice: "--kernel K spans the gaps, and --trim T keeps …".
+    let value_after = |flag: &str| {
+        let at = said.find(flag).unwrap() + flag.len();
+        said[at..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .trim_end_matches(',')
+            .to_string()
+    };
+    let (kernel, trim) = (value_after("--kernel "), value_after("--trim "));
+    let kernel_value: f32 = kernel.parse().unwrap();
+    assert!((0.2..0.3).contains(&kernel_value), "{kernel}");
+    let (said, pieces) = reconstruct(&["--kernel", &kernel, "--trim", &trim]);
+    assert!(!said.contains("the points lie in lines"), "{said}");
+    assert_eq!(pieces, 1, "{said}");
+    // The sheet is the plane's, trimmed back to within the trim (0.31) of the scan (x 0–2,
+    // y 0–4.5).
+    let sheet = geosynth::core::io::read_geometry(&mesh).unwrap().geometry;
+    for p in sheet.points().positions() {
+        assert!((p.z - 0.1 * p.x).abs() < 0.01, "{p}");
+        assert!(
+            p.x > -0.35 && p.x < 2.35 && p.y > -0.35 && p.y < 4.85,
+            "{p}"
+        );
+    }
+    // sdf notes it too; a well-sampled surface gets no such note.
+    let field = dir.path("scan.nrrd");
+    let said = ok(&["sdf", &arg(&out), "-o", &arg(&field), "--resolution", "16"]);
+    assert!(said.contains("the points lie in lines"), "{said}");
+    let sphere = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let said = ok(&[
+        "sdf",
+        &arg(&sphere),
+        "-o",
+        &arg(&field),
+        "--resolution",
+        "16",
+    ]);
+    assert!(!said.contains("note"), "{said}");
 }
 
 #[test]
