@@ -19,7 +19,10 @@ pub enum MlsError {
         what: &'static str,
     },
     /// A normal of (near) zero length cannot be oriented.
-    #[error("normal {index} has zero length")]
+    #[error(
+        "normal {index} has zero length: no direction to orient the surface by (normals a tool \
+         left unset; estimate them anew)"
+    )]
     DegenerateNormal {
         /// Index of the point.
         index: usize,

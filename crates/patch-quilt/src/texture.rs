@@ -90,13 +90,24 @@ pub struct GeometryTexture {
 impl GeometryTexture {
     /// A texture from oriented points (in world coordinates), the box and the up axis.
     ///
-    /// Errors: no normals, fewer than 16 points, points spanning more than
+    /// Errors: no normals, a zero normal, fewer than 16 points, points spanning more than
     /// [`pointset_core::MAX_SPAN`], points that all coincide, a box with zero extent, no
     /// points inside it.
     pub fn new(points: &PointSet, bounds: Aabb, up: UpAxis) -> Result<Self> {
         if points.normals().is_none() {
             return Err(QuiltError::InvalidTexture {
                 reason: "the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into(),
+            });
+        }
+        let directionless = points.directionless_normals();
+        if directionless > 0 {
+            return Err(QuiltError::InvalidTexture {
+                reason: format!(
+                    "{directionless} of the {} normals are zero (unset by the tool that wrote \
+                     them), and patch quilting needs a direction at every point (`geosynth \
+                     normals` estimates them all anew)",
+                    points.len()
+                ),
             });
         }
         if points.len() < 16 {

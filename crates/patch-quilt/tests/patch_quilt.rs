@@ -399,6 +399,20 @@ fn invalid_input_is_an_error() {
         GeometryTexture::new(&bare, b, UpAxis::Z),
         Err(QuiltError::InvalidTexture { .. })
     ));
+    // Normals a tool left unset (zero) are refused, counted; so are ones too short to
+    // have a direction.
+    let sheet: Vec<Vec3> = (0..100)
+        .map(|i| Vec3::new((i % 10) as f32 * 0.1, (i / 10) as f32 * 0.1, 0.0))
+        .collect();
+    let mut normals = vec![Vec3::Z; 100];
+    normals[3] = Vec3::ZERO;
+    normals[50] = Vec3::splat(1e-30);
+    let unset = PointSet::new(sheet).unwrap().with_normals(normals).unwrap();
+    let unset = GeometryTexture::new(&unset, b, UpAxis::Z).unwrap_err();
+    assert!(
+        unset.to_string().contains("2 of the 100 normals are zero"),
+        "{unset}"
+    );
     let heap = PointSet::new(vec![Vec3::splat(0.5); 100])
         .unwrap()
         .with_normals(vec![Vec3::Z; 100])

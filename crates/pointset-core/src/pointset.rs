@@ -168,6 +168,27 @@ impl PointSet {
         self.normals.as_deref()
     }
 
+    /// How many normals have no direction: zero, or too short to normalize. Tools write
+    /// such normals where they computed none (a photogrammetry export's `0 0 0`); 0 when
+    /// there are no normals at all.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::PointSet;
+    /// let points = PointSet::new(vec![Vec3::ZERO, Vec3::X])?
+    ///     .with_normals(vec![Vec3::Z, Vec3::ZERO])?;
+    /// assert_eq!(points.directionless_normals(), 1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn directionless_normals(&self) -> usize {
+        self.normals().map_or(0, |normals| {
+            normals
+                .iter()
+                .filter(|n| n.try_normalize().is_none())
+                .count()
+        })
+    }
+
     /// All attribute channels, in insertion (file) order.
     pub fn attributes(&self) -> &[Attribute] {
         &self.attributes

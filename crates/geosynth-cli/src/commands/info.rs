@@ -55,6 +55,9 @@ pub struct FileInfo {
     /// Share of points whose normal faces away from most of their nearest neighbours'
     /// (`mls_surface::orientation_disagreement`); `None` without normals.
     normal_disagreement: Option<f32>,
+    /// Normals without a direction (zero), which a tool writes where it computed none
+    /// ([`PointSet::directionless_normals`](geosynth::core::PointSet::directionless_normals)).
+    zero_normals: usize,
     colors: bool,
     uvs: bool,
     attributes: Vec<AttributeInfo>,
@@ -159,6 +162,7 @@ impl FileInfo {
             }),
             normals: points.normals().is_some(),
             normal_disagreement: orientation_disagreement(points).ok(),
+            zero_normals: points.directionless_normals(),
             colors: points.colors().is_some(),
             uvs: g.mesh().is_some_and(|m| m.uvs().is_some()),
             attributes: points
@@ -232,6 +236,10 @@ impl FileInfo {
         s.push_str(&format!(
             "normals:     {}\ncolours:     {}\nuvs:         {}\nattributes:  {}\nbbox min:    {}\nbbox max:    {}",
             match self.normal_disagreement {
+                Some(_) if self.zero_normals > 0 => format!(
+                    "yes, {} of them zero (unset; geosynth normals estimates them all anew)",
+                    self.zero_normals
+                ),
                 Some(share) if share > LIKELY_UNORIENTED => format!(
                     "yes, {:.1}% facing away from most neighbours (unoriented? geosynth normals \
                      re-estimates them, --orient-normals orients them)",

@@ -18,7 +18,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use super::{SignArgs, no_faces_to_orient};
+use super::{SignArgs, check_oriented_points, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::write_json_report;
 use crate::output::{
@@ -248,14 +248,7 @@ fn prepared_input(
             Ok(ReconstructInput::Mesh(mesh))
         }
         Geometry::Points(mut points) => {
-            if points.normals().is_none() {
-                return Err(format!(
-                    "{}: the points have no normals, and their MLS surface needs oriented \
-                     points (`geosynth normals` estimates and orients them)",
-                    args.input.display()
-                )
-                .into());
-            }
+            check_oriented_points(&points, &args.input)?;
             if options.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
             }
@@ -567,10 +560,11 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     if sign.orient_faces && loaded.geometry.mesh().is_none() {
         status(globals, no_faces_to_orient(&args.input));
     }
-    if let io::Geometry::Points(points) = &loaded.geometry
-        && let Some(note) = line_gap_note(points, params.kernel, false)?
-    {
-        status(globals, note);
+    if let io::Geometry::Points(points) = &loaded.geometry {
+        check_oriented_points(points, &args.input)?;
+        if let Some(note) = line_gap_note(points, params.kernel, false)? {
+            status(globals, note);
+        }
     }
     if let io::Geometry::Mesh(mesh) = loaded.geometry {
         let (mesh, change) = sign.oriented(mesh)?;

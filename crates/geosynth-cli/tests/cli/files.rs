@@ -246,6 +246,20 @@ fn a_bad_input_file_is_named_in_its_error_once() {
         "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nendian: little\n\n",
     )
     .unwrap();
+    // Points whose normals a tool left unset (0 0 0) for every fifth point.
+    let unset = dir.path().join("unset.xyzn");
+    let lines: String = (0..200)
+        .map(|i| {
+            let (x, y) = ((i % 20) as f32 * 0.1, (i / 20) as f32 * 0.1);
+            let nz = if i % 5 == 0 { 0 } else { 1 };
+            format!("{x} {y} 0 0 0 {nz}\n")
+        })
+        .collect();
+    std::fs::write(&unset, lines).unwrap();
+    let info = info_json(&unset);
+    assert_eq!(info["zero_normals"], 40);
+    assert_eq!(info_json(Path::new(&good))["zero_normals"], 0);
+    let unset = arg(&unset);
     let png = dir.path().join("out.png");
     let ply_out = dir.path().join("out.ply");
     let (nan, short_raw, volume) = (arg(&nan), arg(&short_raw), arg(&volume));
@@ -272,6 +286,21 @@ fn a_bad_input_file_is_named_in_its_error_once() {
             vec!["reconstruct", &nan, "-o", &ply_out],
             &nan,
             "not finite",
+        ),
+        (
+            vec!["reconstruct", &unset, "-o", &ply_out],
+            &unset,
+            "40 of the 200 normals are zero",
+        ),
+        (
+            vec!["sdf", &unset, "-o", &ply_out.replace(".ply", ".nrrd")],
+            &unset,
+            "40 of the 200 normals are zero",
+        ),
+        (
+            vec!["quilt", &unset, "-o", &ply_out],
+            &unset,
+            "40 of the 200 normals are zero",
         ),
     ] {
         let out = geosynth(&args);
