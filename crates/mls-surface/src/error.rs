@@ -19,10 +19,7 @@ pub enum MlsError {
         what: &'static str,
     },
     /// A normal of (near) zero length cannot be oriented.
-    #[error(
-        "normal {index} has zero length: no direction to orient the surface by (normals a tool \
-         left unset; estimate them anew)"
-    )]
+    #[error("normal {index} has zero length, so it gives the surface no direction there")]
     DegenerateNormal {
         /// Index of the point.
         index: usize,

@@ -168,9 +168,8 @@ impl PointSet {
         self.normals.as_deref()
     }
 
-    /// How many normals have no direction: zero, or too short to normalize. Tools write
-    /// such normals where they computed none (a photogrammetry export's `0 0 0`); 0 when
-    /// there are no normals at all.
+    /// How many normals have no direction: zero, or too short to normalize (a tool's `0 0
+    /// 0` where it computed none). 0 when there are no normals at all.
     ///
     /// ```
     /// use glam::Vec3;
