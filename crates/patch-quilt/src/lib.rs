@@ -43,7 +43,7 @@
 //! | `blend_reach` | 0.25 × the MLS support | §5.3 "gaps should be small"; measured |
 //! | `normal_agreement` | cosine 0.8 | ours; measured |
 //! | `clusters` | `n_max` 12, `σ_max` 0.1 | paper silent |
-//! | `anchors_per_corner` | 4 | "a few extra pairs … in corner regions" |
+//! | `anchors_per_corner` | 4 (at most 1024) | "a few extra pairs … in corner regions" |
 //! | `output` | twice the exemplar | |
 //! | `relaxation_rounds` | 0 | §6 post-process |
 //! | `seed`, `method`, `seed_patch`, `layout` | 0, full, random, searched | |
@@ -186,7 +186,9 @@ mod warp;
 pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
 pub use exemplar::{BASE_SIDE, MAX_FIELD_NODES, MIN_PATCH_SPACINGS, PatchGeometry};
-pub use params::{MAX_RELAXATION_ROUNDS, Method, OutputSize, QuiltParams, WarpTargets};
+pub use params::{
+    MAX_ANCHORS_PER_CORNER, MAX_RELAXATION_ROUNDS, Method, OutputSize, QuiltParams, WarpTargets,
+};
 pub use quality::windows::MAX_MEASURE_NODES;
 pub use quality::{FEATURELESS_VARIATION, QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};

@@ -11,6 +11,11 @@ use crate::quilt::QuiltOutput;
 /// "Bounds"), so the bound catches a mistyped count that would run for months.
 pub const MAX_RELAXATION_ROUNDS: usize = 100;
 
+/// Most anchors per free corner [`QuiltParams::validate`] accepts: four corners of 1024
+/// fill half of the spline's [`tps_warp::MAX_CONTROL_POINTS`], leaving the rest to the
+/// pairs. The paper asks for "a few"; the default is 4.
+pub const MAX_ANCHORS_PER_CORNER: usize = 1024;
+
 /// Which parts of the algorithm run. [`Method::Full`] is the paper; the others are the
 /// baselines the quality report compares against, computed by the same code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -128,7 +133,7 @@ pub struct QuiltParams {
     /// free corner's column is also pinned at the patch's lowest or highest z where the
     /// patch reaches far beyond the spline's control points along z, and more widely for
     /// a warp that stretches too far (the crate docs, "Choices where the paper leaves
-    /// room").
+    /// room"). At most [`MAX_ANCHORS_PER_CORNER`].
     pub anchors_per_corner: usize,
     /// The output extent; default twice the exemplar in each direction.
     pub output: OutputSize,
@@ -212,7 +217,8 @@ impl QuiltParams {
         self
     }
 
-    /// Sets the anchors per free corner of `F_k` (default 4).
+    /// Sets the anchors per free corner of `F_k` (default 4, at most
+    /// [`MAX_ANCHORS_PER_CORNER`]).
     pub fn anchors_per_corner(mut self, n: usize) -> Self {
         self.anchors_per_corner = n;
         self
@@ -383,6 +389,13 @@ impl QuiltParams {
                 "relaxation_rounds",
                 self.relaxation_rounds,
                 format!("at most {MAX_RELAXATION_ROUNDS} rounds"),
+            ));
+        }
+        if self.anchors_per_corner > MAX_ANCHORS_PER_CORNER {
+            return Err(invalid(
+                "anchors_per_corner",
+                self.anchors_per_corner,
+                format!("at most {MAX_ANCHORS_PER_CORNER} anchors"),
             ));
         }
         if let Some(p) = &self.pairing {

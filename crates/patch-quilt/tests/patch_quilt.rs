@@ -379,6 +379,8 @@ fn invalid_input_is_an_error() {
         // Used to pass validation and then skip every warp silently.
         QuiltParams::default().cluster_points(0),
         QuiltParams::default().relaxation_rounds(patch_quilt::MAX_RELAXATION_ROUNDS + 1),
+        QuiltParams::default().anchors_per_corner(patch_quilt::MAX_ANCHORS_PER_CORNER + 1),
+        QuiltParams::default().anchors_per_corner(usize::MAX),
         {
             let mut p = QuiltParams::default();
             p.clusters = p.clusters.max_variation(f32::NAN);

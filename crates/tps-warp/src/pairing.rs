@@ -542,6 +542,9 @@ pub fn anchors_in_regions(points: &[Vec3], regions: &[Aabb], per_region: usize) 
 /// each of `count` equal layers between their lowest and highest z, then the most preferred
 /// of the rest for the layers left empty.
 fn spread_through_height(by_preference: &[Vec3], count: usize) -> Vec<Vec3> {
+    // More layers than points choose every point either way (each layer's most preferred,
+    // then the rest for the empty layers), so the layers are capped at the points.
+    let count = count.min(by_preference.len());
     if count == 0 {
         return Vec::new();
     }

@@ -672,6 +672,24 @@ proptest! {
 }
 
 #[test]
+fn asking_for_more_anchors_than_points_gives_every_point_inside() {
+    let points: Vec<Vec3> = (0..30)
+        .map(|i| Vec3::new(0.03 * i as f32, 0.5, 0.01 * (i % 7) as f32))
+        .collect();
+    let column = Aabb::new(Vec3::new(0.0, 0.0, f32::MIN), Vec3::new(0.5, 1.0, f32::MAX));
+    let inside: Vec<Vec3> = points
+        .iter()
+        .copied()
+        .filter(|p| column.contains(*p))
+        .collect();
+    for per_region in [inside.len(), inside.len() + 1, 1 << 40, usize::MAX] {
+        let mut anchors = anchors_in_regions(&points, &[column], per_region);
+        anchors.sort_by(|a, b| a.x.total_cmp(&b.x));
+        assert_eq!(anchors, inside, "{per_region}");
+    }
+}
+
+#[test]
 fn anchors_of_a_flat_region_are_the_nearest_its_centre() {
     let mut g = rng::rng_from_seed(4);
     let points: Vec<Vec3> = (0..300)
