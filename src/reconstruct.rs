@@ -142,7 +142,11 @@ impl FieldParams {
         Ok(())
     }
 
-    fn grid_for(&self, geometry: &Geometry) -> Result<GridSpec> {
+    /// The grid [`signed_distance`] samples `geometry` on: [`FieldParams::resolution`]
+    /// nodes along the longest side of its box, grown by [`FieldParams::margin`] spacings.
+    /// Its node count tells what a run will hold before it starts. Errors: a geometry
+    /// whose points all coincide, or the grid's own range errors.
+    pub fn grid_for(&self, geometry: &Geometry) -> Result<GridSpec> {
         let bounds = geometry.bounding_box().ok_or(Error::InvalidParameter {
             name: "geometry",
             value: "no points".into(),

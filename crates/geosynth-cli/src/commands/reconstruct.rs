@@ -21,6 +21,7 @@ use serde_json::{Value, json};
 use super::{SignArgs, check_oriented_points, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::write_json_report;
+use crate::memory::available_bytes;
 use crate::output::{
     check_geometry_output, check_output_paths, report_not_kept, spinner, status,
     write_geometry_file,
@@ -194,6 +195,14 @@ enum ReconstructInput {
 }
 
 impl ReconstructInput {
+    /// The input as geometry (a copy).
+    fn geometry(&self) -> Geometry {
+        match self {
+            Self::Points(points) => Geometry::Points(points.clone()),
+            Self::Mesh(mesh) => Geometry::Mesh(mesh.clone()),
+        }
+    }
+
     /// The input's samples: the points, or the mesh's vertices.
     fn samples(&self) -> &PointSet {
         match self {
@@ -319,6 +328,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
              out speckled; the default --sign local follows the sheet",
         );
     }
+    check_grid_fits(&params, &input.geometry())?;
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
     let mut mesh = reconstructed(&input, &params, options.trim, &mut ctx)?;
@@ -446,6 +456,49 @@ fn grid_side_note(open: usize, points: &PointSet, kernel: Option<f32>) -> CliRes
         three_digits(h),
         three_digits(2.0 * h)
     ))
+}
+
+/// What `sdf` and `reconstruct` hold per grid node, in bytes: their peak memory over
+/// the grid's nodes on the torus points at 400 nodes (`--report`'s `peak_memory_bytes`,
+/// 2026-12-05) was 25 for `sdf` and 32 for `reconstruct`; 47 and more at 100 nodes,
+/// where the input and the program weigh more than the grid.
+const GRID_BYTES_PER_NODE: u64 = 32;
+
+/// Refuses a grid that would not fit in the memory this machine has available
+/// ([`available_bytes`]) at [`GRID_BYTES_PER_NODE`], saying which resolution would. The
+/// allowed resolutions reach 1024 nodes along the longest side, and a cube at 1024 holds
+/// 10⁹ nodes, about 34 GB: without the check the run would be killed (or the allocation
+/// abort) after the input was read. Nothing is checked where the machine does not tell.
+fn check_grid_fits(params: &FieldParams, geometry: &Geometry) -> CliResult {
+    match available_bytes() {
+        Some(available) => check_grid_fits_in(params, geometry, available),
+        None => Ok(()),
+    }
+}
+
+/// [`check_grid_fits`] with `available` bytes.
+fn check_grid_fits_in(params: &FieldParams, geometry: &Geometry, available: u64) -> CliResult {
+    let spec = params.grid_for(geometry)?;
+    let nodes = spec
+        .dims
+        .iter()
+        .fold(1u64, |n, &d| n.saturating_mul(d as u64));
+    let needed = nodes.saturating_mul(GRID_BYTES_PER_NODE);
+    if needed <= available {
+        return Ok(());
+    }
+    // The node count goes with the cube of the resolution; a twentieth is left spare.
+    let scale = (available as f64 / needed as f64).cbrt();
+    let fits = (0.95 * scale * params.resolution as f64).floor();
+    let [x, y, z] = spec.dims;
+    Err(format!(
+        "a grid of {x} × {y} × {z} nodes (resolution {}) needs about {:.1} GB, more than the \
+         {:.1} GB this machine has available; --resolution {fits} fits",
+        params.resolution,
+        needed as f64 / 1e9,
+        available as f64 / 1e9
+    )
+    .into())
 }
 
 /// The MLS parameters of a point set's surface: the defaults, with `kernel` if one is
@@ -576,6 +629,7 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
         }
         loaded.geometry = io::Geometry::Mesh(mesh);
     }
+    check_grid_fits(&params, &loaded.geometry)?;
     let bar = spinner(globals, "sampling distances");
     let start = Instant::now();
     let sdf = signed_distance(&loaded.geometry, &params)?;
@@ -615,4 +669,41 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
         ),
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{FieldParams, GRID_BYTES_PER_NODE, Geometry, check_grid_fits_in};
+
+    #[test]
+    fn a_grid_larger_than_the_memory_is_refused_with_a_resolution_that_fits() {
+        let sphere = geosynth::fixtures::sphere_points(500).unwrap_or_else(|e| panic!("{e}"));
+        let sphere = Geometry::Points(sphere);
+        let params = FieldParams::default().resolution(512);
+        let nodes = |p: &FieldParams| {
+            let spec = p.grid_for(&sphere).unwrap_or_else(|e| panic!("{e}"));
+            spec.dims.iter().map(|&d| d as u64).product::<u64>()
+        };
+        let needed = nodes(&params) * GRID_BYTES_PER_NODE;
+        assert!(check_grid_fits_in(&params, &sphere, needed).is_ok());
+        let available = needed / 10;
+        let err = check_grid_fits_in(&params, &sphere, available)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            err.contains("resolution 512") && err.contains("GB"),
+            "{err}"
+        );
+        // The resolution it names fits, and is not far below the largest that does.
+        let fits: usize = err
+            .rsplit("--resolution ")
+            .next()
+            .and_then(|w| w.split_whitespace().next())
+            .and_then(|w| w.parse().ok())
+            .unwrap_or(0);
+        let at = |r: usize| nodes(&FieldParams::default().resolution(r)) * GRID_BYTES_PER_NODE;
+        assert!(at(fits) <= available, "{fits}: {} > {available}", at(fits));
+        assert!(at(fits * 11 / 10) > available, "{fits} is too cautious");
+    }
 }
