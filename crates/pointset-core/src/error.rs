@@ -225,6 +225,15 @@ pub enum Error {
         /// What it cannot store, and what to write instead.
         what: String,
     },
+    /// Memory for `what` could not be allocated (a process limit such as `ulimit -v`, or
+    /// an address space too small for the request).
+    #[error("cannot allocate {bytes} bytes for {what}")]
+    OutOfMemory {
+        /// What the memory was for.
+        what: String,
+        /// How many bytes were asked for.
+        bytes: u128,
+    },
     /// The run was cancelled through its [`crate::CancelFlag`].
     #[error("cancelled")]
     Cancelled,

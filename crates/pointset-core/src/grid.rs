@@ -22,14 +22,22 @@ impl<T: Clone> Grid3<T> {
     /// A grid of `dims` nodes filled with `fill`.
     ///
     /// Errors when a dimension is zero, the node count overflows, or `spacing` is not a
-    /// positive finite number, or `origin` is not finite.
+    /// positive finite number, or `origin` is not finite; [`Error::OutOfMemory`] when the
+    /// samples cannot be allocated (instead of aborting the process).
     pub fn new(dims: [usize; 3], origin: Vec3, spacing: f32, fill: T) -> Result<Self> {
         let count = Self::validate(dims, origin, spacing)?;
+        let mut data = Vec::new();
+        data.try_reserve_exact(count)
+            .map_err(|_| Error::OutOfMemory {
+                what: format!("a grid of {} × {} × {} samples", dims[0], dims[1], dims[2]),
+                bytes: count as u128 * std::mem::size_of::<T>() as u128,
+            })?;
+        data.resize(count, fill);
         Ok(Self {
             dims,
             origin,
             spacing,
-            data: vec![fill; count],
+            data,
         })
     }
 }
@@ -237,6 +245,18 @@ mod tests {
         }
         assert!(g.index(3, 0, 0).is_none());
         assert!(g.coords(60).is_none());
+    }
+
+    #[test]
+    fn a_grid_too_large_to_allocate_is_an_error_not_an_abort() {
+        // 2^50 samples of 4 bytes: 4 PiB, more than any machine has.
+        let err = Grid3::new([1 << 20, 1 << 20, 1 << 10], Vec3::ZERO, 1.0, 0f32).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            matches!(err, Error::OutOfMemory { bytes, .. } if bytes == 1 << 52),
+            "{text}"
+        );
+        assert!(text.contains("1048576 × 1048576 × 1024"), "{text}");
     }
 
     #[test]
