@@ -164,6 +164,16 @@ pub(super) fn relative(path: &Path, base: &Path) -> String {
 
 /// Runs `geosynth demo`.
 pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
+    if let Some(data) = &args.data
+        && !data.is_dir()
+    {
+        return Err(format!(
+            "--data {}: not a folder (give the shared data folder, the one holding \
+             pointsets/ and heightfields/)",
+            data.display()
+        )
+        .into());
+    }
     let started = Instant::now();
     let mut stages = Vec::new();
     let mut timed = |name: &str, t: Instant| {
@@ -326,6 +336,9 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
         skipped,
     };
     write_reports(&report, &args.out)?;
+    for part in &report.skipped {
+        status(globals, format!("skipped: {part}"));
+    }
     status(
         globals,
         format!(

@@ -4,7 +4,27 @@ use std::path::Path;
 
 use geosynth::core::testdata::shared_data;
 
-use crate::{assert_peak_memory, ok};
+use crate::{arg, assert_peak_memory, ok, refused};
+
+#[test]
+fn demo_refuses_a_data_folder_that_is_a_file_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("data.ply");
+    std::fs::write(&file, "ply\n").unwrap();
+    let out = dir.path().join("demo");
+    refused(
+        &[
+            "demo",
+            "--quick",
+            "--out",
+            &arg(&out),
+            "--data",
+            &arg(&file),
+        ],
+        "not a folder",
+    );
+    assert!(!out.exists());
+}
 
 #[test]
 fn demo_quick_writes_report_geometry_and_previews() {
