@@ -1,11 +1,12 @@
 //! Wavefront OBJ: reading through `tobj`, writing in-house.
 //!
-//! Reading triangulates polygons (fans), unifies position/UV/normal indices into one vertex
-//! per distinct combination (so vertices on UV seams are duplicated, the way every GPU-style
-//! mesh stores them), keeps per-vertex colours (`v x y z r g b`) as `red/green/blue`
-//! channels, merges all objects and groups into one mesh, and ignores materials and line
-//! elements. A file without faces (bare `v` lines, the usual point-cloud OBJ) becomes a
-//! point set; `vn` lines are its normals when there is one per vertex.
+//! Reading triangulates polygons ([`crate::triangulate_polygon`]: fans when convex, ear
+//! clipping when not), unifies position/UV/normal indices into one vertex per distinct
+//! combination (so vertices on UV seams are duplicated, the way every GPU-style mesh stores
+//! them), keeps per-vertex colours (`v x y z r g b`) as `red/green/blue` channels, merges
+//! all objects and groups into one mesh, and ignores materials and line elements. A file
+//! without faces (bare `v` lines, the usual point-cloud OBJ) becomes a point set; `vn`
+//! lines are its normals when there is one per vertex.
 //!
 //! Before `tobj` reads the file, its `v`, `vt`, `vn` and `f` lines are checked, so that a
 //! malformed file is refused with the line at fault ([`crate::Error::Malformed`]): numbers
@@ -19,7 +20,7 @@ use std::path::Path;
 use glam::{DVec3, Vec2};
 
 use super::{Geometry, position_text, relative_positions};
-use crate::{Error, PointSet, Result, TriMesh};
+use crate::{Error, PointSet, Result, TriMesh, triangulate_polygon};
 
 fn obj_error(path: &Path, message: impl Into<String>) -> Error {
     Error::Obj {
@@ -228,7 +229,8 @@ pub(crate) fn read_obj_at(
 ) -> Result<(Geometry, DVec3, Vec<String>)> {
     let options = tobj::LoadOptions {
         single_index: true,
-        triangulate: true,
+        // Polygons are split here (`triangulate_polygon`): tobj's fans fold concave ones.
+        triangulate: false,
         ignore_points: true,
         ignore_lines: true,
     };
@@ -254,7 +256,9 @@ pub(crate) fn read_obj_at(
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
     let mut colors = Vec::new();
-    let mut triangles = Vec::new();
+    // Every face's corners (indices into `positions`), one after the other, and how many
+    // each face has.
+    let (mut corners, mut arities) = (Vec::new(), Vec::new());
     let (mut all_normals, mut all_uvs, mut all_colors) = (true, true, true);
     for model in &models {
         let mesh = &model.mesh;
@@ -272,15 +276,28 @@ pub(crate) fn read_obj_at(
         );
         all_colors &= mesh.vertex_color.len() == 3 * count;
         colors.extend(triples(&mesh.vertex_color).map(|c| c.as_vec3().to_array()));
-        for (face, tri) in mesh.indices.chunks_exact(3).enumerate() {
-            if tri.iter().any(|&i| i as usize >= count) {
+        // tobj leaves the arities empty when every face is a triangle.
+        let face_arities = if mesh.face_arities.is_empty() {
+            vec![3; mesh.indices.len() / 3]
+        } else {
+            mesh.face_arities.clone()
+        };
+        let mut start = 0;
+        for arity in face_arities {
+            let face = mesh
+                .indices
+                .get(start..start + arity as usize)
+                .ok_or_else(|| obj_error(path, "face indices end early"))?;
+            if let Some(&bad) = face.iter().find(|&&i| i as usize >= count) {
                 return Err(Error::IndexOutOfRange {
-                    face: triangles.len() + face,
-                    vertex: tri.iter().map(|&i| i64::from(i)).max().unwrap_or(0),
+                    face: arities.len(),
+                    vertex: i64::from(bad),
                     vertex_count: count,
                 });
             }
-            triangles.push([tri[0] + base, tri[1] + base, tri[2] + base]);
+            corners.extend(face.iter().map(|&i| i + base));
+            arities.push(arity as usize);
+            start += arity as usize;
         }
     }
     if positions.is_empty() {
@@ -294,6 +311,13 @@ pub(crate) fn read_obj_at(
     }
     if all_colors && !colors.is_empty() {
         points.set_colors(&colors)?;
+    }
+    let mut triangles = Vec::with_capacity(corners.len().saturating_sub(2 * arities.len()));
+    let mut start = 0;
+    for arity in arities {
+        let face = &corners[start..start + arity];
+        triangulate_polygon(points.positions(), face, &mut triangles);
+        start += arity;
     }
     let mut mesh = TriMesh::new(points, triangles)?;
     if all_uvs && !uvs.is_empty() {

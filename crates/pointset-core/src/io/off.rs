@@ -1,15 +1,15 @@
 //! Object File Format (OFF, with the `N` normal and `C` colour prefixes: `NOFF`, `COFF`,
-//! `CNOFF`). Polygons are split into triangle fans; per-face colours are skipped, and the
-//! reader's notes say so ([`super::LoadedGeometry::notes`]). Vertex
-//! colours may be integers in `0..=255` or floats in `0..=1` (decided per file: any value
-//! above 1 means the integer range).
+//! `CNOFF`). Polygons are split into triangles (fans when convex, ear clipping when not:
+//! [`crate::triangulate_polygon`]); per-face colours are skipped, and the reader's notes
+//! say so ([`super::LoadedGeometry::notes`]). Vertex colours may be integers in `0..=255`
+//! or floats in `0..=1` (decided per file: any value above 1 means the integer range).
 
 use std::io::Write;
 
 use glam::{DVec3, Vec3};
 
 use super::{FileFormat, Geometry, position_text, relative_positions, unit_colours};
-use crate::{Error, Location, PointSet, Result, TriMesh};
+use crate::{Error, Location, PointSet, Result, TriMesh, triangulate_polygon};
 
 fn malformed(line: usize, message: impl Into<String>) -> Error {
     Error::Malformed {
@@ -205,9 +205,7 @@ pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
             }
             idx.push(i as u32);
         }
-        for k in 1..n - 1 {
-            triangles.push([idx[0], idx[k], idx[k + 1]]);
-        }
+        triangulate_polygon(points.positions(), &idx, &mut triangles);
         faces_with_values += usize::from(words.len() > n + 1);
     }
     let notes = if faces_with_values > 0 {

@@ -6,6 +6,7 @@
 
 mod edited_files;
 mod ply_codec;
+mod polygons;
 mod stl_codec;
 mod xyz_codec;
 

@@ -1,18 +1,22 @@
 //! Conversions between [`PlyDocument`] and the geometry types.
 //!
-//! Reading: the `vertex` element must have `x y z`; `nx ny nz` become normals; in files with
-//! faces, `s t` (or `u v`, `texture_u texture_v`, `texture_s texture_t`) become UVs; every other
-//! scalar vertex property becomes a named [`Attribute`] that remembers its declared type.
-//! The `face` element's `vertex_indices` (or `vertex_index`) lists become triangles, polygons
-//! split as fans. Other elements, list properties on vertices and other face properties are
-//! skipped. Writing produces `float` positions/normals/UVs, attributes in their storage type,
-//! and `list uchar int vertex_indices` faces — the layout MeshLab, Blender and Open3D read.
+//! Reading: the `vertex` element must have `x y z`; `nx ny nz` become normals; in files
+//! with faces, `s t` (or `u v`, `texture_u texture_v`, `texture_s texture_t`) become UVs;
+//! every other scalar vertex property becomes a named [`Attribute`] that remembers its
+//! declared type. The `face` element's `vertex_indices` (or `vertex_index`) lists become
+//! triangles, polygons split by [`crate::triangulate_polygon`] (fans when convex, ear
+//! clipping when not). Other elements, list properties on vertices and other face
+//! properties are skipped. Writing produces `float` positions/normals/UVs, attributes in
+//! their storage type, and `list uchar int vertex_indices` faces — the layout MeshLab,
+//! Blender and Open3D read.
 
 use glam::{DVec3, Vec2, Vec3};
 
 use super::{PlyColumn, PlyDocument, PlyElement, PlyEncoding, PlyProperty, PropertyKind};
 use crate::io::{FileFormat, Geometry, relative_positions};
-use crate::{Attribute, Error, Location, PointSet, Result, ScalarType, TriMesh};
+use crate::{
+    Attribute, Error, Location, PointSet, Result, ScalarType, TriMesh, triangulate_polygon,
+};
 
 const UV_NAMES: [(&str, &str); 4] = [
     ("s", "t"),
@@ -170,9 +174,7 @@ pub fn geometry_from_document_at(
             }
             idx.push(v as u32);
         }
-        for k in 1..idx.len() - 1 {
-            triangles.push([idx[0], idx[k], idx[k + 1]]);
-        }
+        triangulate_polygon(points.positions(), &idx, &mut triangles);
     }
     let mut mesh = TriMesh::new(points, triangles)?;
     if let Some((u, v)) = uv_names {
