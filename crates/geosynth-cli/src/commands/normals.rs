@@ -70,9 +70,9 @@ fn undefined_note(undefined: usize, points: usize, neighbours: usize) -> Option<
     (undefined > 0).then(|| {
         format!(
             "note: {undefined} of {points} points ({:.1}%) have {neighbours} nearest \
-             neighbours along one line (or at one place), which fixes no normal: theirs are \
-             only perpendicular to the line. Scan lines sampled far more densely along than \
-             across do that; --neighbours large enough to reach the next line fixes it",
+             neighbours that fix no normal (along one line, at one place, or spread alike \
+             every way): theirs are arbitrary. Scan lines sampled far more densely along \
+             than across do that; --neighbours large enough to reach the next line fixes it",
             100.0 * undefined as f64 / points as f64
         )
     })
