@@ -145,3 +145,24 @@ fn every_reader_splits_a_concave_face_within_its_outline() {
         assert!((area - 3.0).abs() < 1e-6, "{name}: {area}");
     }
 }
+
+#[test]
+fn a_fractional_vertex_index_is_refused_not_rounded() {
+    // PLY allows float-typed index lists; 1.5 names no vertex.
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar float vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n";
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.ply");
+    std::fs::write(&path, ply).unwrap();
+    let err = pointset_core::io::read_geometry(&path).unwrap_err();
+    assert!(
+        matches!(err, pointset_core::Error::InvalidFace { face: 0, .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("1.5"), "{err}");
+    // Whole numbers in a float list are indices like any other.
+    std::fs::write(&path, ply.replace("1.5", "1.0")).unwrap();
+    let mesh = pointset_core::io::read_geometry(&path).unwrap().geometry;
+    assert_eq!(mesh.mesh().unwrap().triangles(), [[0, 1, 2]]);
+}

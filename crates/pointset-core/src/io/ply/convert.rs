@@ -165,6 +165,12 @@ pub fn geometry_from_document_at(
         }
         let mut idx = Vec::with_capacity(list.len());
         for &v in list {
+            if v.fract() != 0.0 {
+                return Err(Error::InvalidFace {
+                    face,
+                    reason: format!("vertex index {v} is not a whole number"),
+                });
+            }
             if v < 0.0 || v >= vertex_count as f64 {
                 return Err(Error::IndexOutOfRange {
                     face,
