@@ -114,9 +114,9 @@ fn timings_json(ctx: &RunContext) -> Value {
 /// Arguments of `geosynth reconstruct`.
 #[derive(Debug, Args)]
 pub struct ReconstructArgs {
-    /// An oriented point set (PLY/OBJ/OFF with normals), or a mesh: remeshed closed through
-    /// its own exact distance field (`--sign` and `--orient-faces` apply; `--kernel` does
-    /// not).
+    /// An oriented point set (PLY, OBJ, OFF or XYZ with normals), or a mesh: remeshed closed
+    /// through its own exact distance field (`--sign` and `--orient-faces` apply; `--kernel`
+    /// does not).
     input: PathBuf,
     /// Output mesh (.ply, .obj, .off or .stl).
     #[arg(short, long)]

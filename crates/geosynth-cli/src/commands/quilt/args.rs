@@ -114,7 +114,7 @@ pub struct QuiltArgs {
     /// axis (or any, with `auto`) is refused.
     #[arg(long, value_enum, conflicts_with = "heightfield")]
     pub(super) up: Option<TextureUpArg>,
-    /// Output point set (.ply, .obj, .off).
+    /// Output point set (.ply, .obj, .off, .xyz or .xyzn).
     #[arg(short, long)]
     pub(super) output: PathBuf,
     /// Read the parameters from JSON: any of the library's `QuiltParams` fields (as the
