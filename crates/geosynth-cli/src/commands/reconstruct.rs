@@ -188,30 +188,6 @@ impl ReconstructInputOptions {
     }
 }
 
-/// What `reconstruct` was given: oriented points, or a mesh to remesh.
-enum ReconstructInput {
-    Points(PointSet),
-    Mesh(TriMesh),
-}
-
-impl ReconstructInput {
-    /// The input as geometry (a copy).
-    fn geometry(&self) -> Geometry {
-        match self {
-            Self::Points(points) => Geometry::Points(points.clone()),
-            Self::Mesh(mesh) => Geometry::Mesh(mesh.clone()),
-        }
-    }
-
-    /// The input's samples: the points, or the mesh's vertices.
-    fn samples(&self) -> &PointSet {
-        match self {
-            Self::Points(points) => points,
-            Self::Mesh(mesh) => mesh.vertices(),
-        }
-    }
-}
-
 /// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's normals
 /// oriented, a mesh's faces turned to agree; prints the notes about it.
 fn prepared_input(
@@ -220,7 +196,7 @@ fn prepared_input(
     options: &ReconstructInputOptions,
     params: &FieldParams,
     globals: Globals,
-) -> CliResult<ReconstructInput> {
+) -> CliResult<Geometry> {
     match geometry {
         Geometry::Mesh(mesh) => {
             if options.orient_normals {
@@ -254,7 +230,7 @@ fn prepared_input(
             {
                 status(globals, note);
             }
-            Ok(ReconstructInput::Mesh(mesh))
+            Ok(Geometry::Mesh(mesh))
         }
         Geometry::Points(mut points) => {
             check_oriented_points(&points, &args.input)?;
@@ -270,27 +246,25 @@ fn prepared_input(
             if let Some(note) = line_gap_note(&points, params.kernel, options.trim.is_some())? {
                 status(globals, note);
             }
-            Ok(ReconstructInput::Points(points))
+            Ok(Geometry::Points(points))
         }
     }
 }
 
 /// The closed (or, with `trim` in median sample spacings, trimmed) surface of `input`.
 fn reconstructed(
-    input: &ReconstructInput,
+    input: &Geometry,
     params: &FieldParams,
     trim: Option<f32>,
     ctx: &mut RunContext,
 ) -> CliResult<TriMesh> {
     let params = params.clone();
     Ok(match (input, trim) {
-        (ReconstructInput::Points(points), Some(trim)) => {
+        (Geometry::Points(points), Some(trim)) => {
             ReconstructOpen { params, trim }.run(points.clone(), ctx)?
         }
-        (ReconstructInput::Points(points), None) => {
-            Reconstruct { params }.run(points.clone(), ctx)?
-        }
-        (ReconstructInput::Mesh(mesh), trim) => {
+        (Geometry::Points(points), None) => Reconstruct { params }.run(points.clone(), ctx)?,
+        (Geometry::Mesh(mesh), trim) => {
             let closed = Remesh { params }.run(mesh.clone(), ctx)?;
             match trim {
                 Some(trim) => {
@@ -314,7 +288,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
     let input = prepared_input(args, loaded.geometry, &options, &params, globals)?;
-    let from_points = matches!(input, ReconstructInput::Points(_));
+    let from_points = matches!(input, Geometry::Points(_));
     let winding = if from_points {
         params.point_sign == PointSign::WindingNumber
     } else {
@@ -328,11 +302,11 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
              out speckled; the default --sign local follows the sheet",
         );
     }
-    check_grid_fits(&params, &input.geometry())?;
+    check_grid_fits(&params, &input)?;
     let bar = spinner(globals, "reconstructing");
     let mut ctx = RunContext::new(0);
     let mut mesh = reconstructed(&input, &params, options.trim, &mut ctx)?;
-    let points = input.samples();
+    let points = input.points();
     // Measured only when a piece's size is asked about (`--drop-pieces`, the note).
     let spacing = || -> CliResult<f32> { Ok(KdIndex::new(points.positions())?.median_spacing()?) };
     let mut pieces_dropped = None;
