@@ -38,12 +38,16 @@
    wound, of the input's Euler number and within 1% of its volume;
 8. has numpy write XYZ point clouds as CloudCompare, MeshLab and colour exporters do, and
    checks `info --json` on them; converts a demo quilt to .xyz and checks that numpy reads
-   the positions and normals plyfile reads from its PLY.
+   the positions and normals plyfile reads from its PLY;
+9. has laspy write LAS point clouds (1.2 point formats 0 and 3, 1.3 format 5, 1.4 formats
+   6 and 8, georeferenced at UTM coordinates) and checks that `geosynth convert` gives
+   their positions, intensities, classes and colours in a PLY plyfile reads; converts a
+   demo quilt to .las and checks that laspy reads plyfile's positions from it.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
 
-    pip install --user plyfile trimesh pynrrd pillow rasterio
+    pip install --user plyfile trimesh pynrrd pillow rasterio laspy
     geosynth demo --quick --out /tmp/demo
     python3 scripts/check_interop.py target/release/geosynth /tmp/demo
 
@@ -52,7 +56,7 @@ Measured 2026-12-03 (plyfile 1.1.5, trimesh 5.2.0, pynrrd 1.1.3): 0 mismatches o
 our files (42 of them STL) and 40 of theirs (2 STL, 3 int64 NRRD, 3 detached NRRD).
 """
 import json, subprocess, sys, pathlib
-import numpy as np, plyfile, trimesh, nrrd, rasterio
+import numpy as np, plyfile, trimesh, nrrd, rasterio, laspy
 from PIL import Image
 
 G = sys.argv[1]
@@ -454,5 +458,52 @@ ok = table.shape == expected.shape and np.array_equal(table.astype(np.float32), 
 bad += not ok
 print(('ok  ' if ok else 'BAD ') + f"foreign/{ours_xyz.name} (ours, read by numpy): "
       f"{table.shape[0]} rows of {table.shape[1]}, equal to plyfile's {expected.shape}")
+# 9. LAS both ways: laspy writes georeferenced clouds in five point formats, our `convert`
+#    turns them into PLY (double coordinates) for plyfile to compare; our `convert` writes a
+#    demo quilt as .las for laspy to read.
+for version, point_format in [('1.2', 0), ('1.2', 3), ('1.3', 5), ('1.4', 6), ('1.4', 8)]:
+    header = laspy.LasHeader(point_format=point_format, version=version)
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.offsets = np.array([512000.0, 5430000.0, 200.0])
+    data = laspy.LasData(header)
+    count = 500
+    data.x = 512000 + rng.random(count) * 80
+    data.y = 5430000 + rng.random(count) * 60
+    data.z = 200 + rng.random(count) * 15
+    data.intensity = rng.integers(0, 65536, count)
+    data.classification = rng.integers(0, 32, count)
+    coloured = 'red' in data.point_format.dimension_names
+    if coloured:
+        for channel in ('red', 'green', 'blue'):
+            setattr(data, channel, rng.integers(0, 256, count) * 257)
+    path = foreign / f'laspy_{version}_{point_format}.las'
+    data.write(path)
+    as_ply = foreign / f'{path.stem}.ply'
+    subprocess.run([G, 'convert', str(path), '-o', str(as_ply), '-q'], check=True)
+    vertex = plyfile.PlyData.read(str(as_ply))['vertex']
+    ours = np.stack([vertex[k] for k in ('x', 'y', 'z')], axis=1)
+    theirs = np.stack([np.asarray(data.x), np.asarray(data.y), np.asarray(data.z)], axis=1)
+    error = np.abs(ours - theirs).max()
+    # Positions are kept in single precision relative to the data's centre: within 1e-5.
+    ok = (len(ours) == count and error < 1e-5
+          and np.array_equal(vertex['intensity'], np.asarray(data.intensity))
+          and np.array_equal(vertex['classification'], np.asarray(data.classification)))
+    if coloured:
+        ok &= np.array_equal(vertex['red'], np.asarray(data.red) // 257)
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + f"foreign/{path.name} (laspy): {len(ours)} points, "
+          f"position error {error:.1e}, colours {coloured}")
+ours_las = foreign / f'{quilted.stem}.las'
+subprocess.run([G, 'convert', str(quilted), '-o', str(ours_las), '-q'], check=True)
+read_back = laspy.read(ours_las)
+positions = np.stack([np.asarray(read_back.x), np.asarray(read_back.y),
+                      np.asarray(read_back.z)], axis=1)
+quilt_vertex = plyfile.PlyData.read(str(quilted))['vertex']
+expected = np.stack([quilt_vertex[k] for k in ('x', 'y', 'z')], axis=1).astype(np.float64)
+error = np.abs(positions - expected).max() if positions.shape == expected.shape else np.inf
+ok = read_back.header.version == laspy.header.Version(1, 2) and error < 1e-7
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/{ours_las.name} (ours, read by laspy): "
+      f"{len(positions)} points, position error {error:.1e}")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

@@ -2,10 +2,11 @@
 //!
 //! Shared foundations of the geosynth workspace: geometry types ([`PointSet`], [`TriMesh`],
 //! [`Aabb`], [`Grid3`]), spatial indices ([`KdIndex`], [`BucketGrid`]), file I/O ([`io`]:
-//! PLY ascii/binary, OBJ, OFF, STL, XYZ; polygon faces split by [`triangulate_polygon`]),
-//! seeded randomness ([`rng`]), and the [`Stage`] / [`RunContext`] / [`Progress`] machinery
-//! every algorithm is exposed through, and the [`Surface`] trait (closest point + normal)
-//! shared by point-set surfaces and meshes. It contains no algorithm from any paper.
+//! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS; polygon faces split by
+//! [`triangulate_polygon`]), seeded randomness ([`rng`]), and the [`Stage`] /
+//! [`RunContext`] / [`Progress`] machinery every algorithm is exposed through, and the
+//! [`Surface`] trait (closest point + normal) shared by point-set surfaces and meshes. It
+//! contains no algorithm from any paper.
 //!
 //! ## Quick start
 //!

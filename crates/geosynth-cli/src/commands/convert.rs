@@ -17,16 +17,16 @@ use crate::{CliResult, Globals};
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
     /// Point set or mesh to convert (.ply, .obj, .off, .stl; point sets also .xyz, .xyzn,
-    /// .xyzrgb).
+    /// .xyzrgb and .las).
     input: PathBuf,
     /// Output file; its extension picks the format (.ply, .obj, .off; .stl for a mesh;
-    /// .xyz, .xyzn, .xyzrgb for a point set). Georeferenced input is written back in place
-    /// (PLY as `double`, OBJ, OFF and XYZ with full digits); STL, single precision, refuses
-    /// it.
+    /// .xyz, .xyzn, .xyzrgb, .las for a point set). Georeferenced input is written back in
+    /// place (PLY as `double`, OBJ, OFF and XYZ with full digits, LAS as integers on a
+    /// decimal scale finer than single precision); STL, single precision, refuses it.
     #[arg(short, long)]
     output: PathBuf,
     /// Write text: ASCII PLY or ASCII STL (default binary; OBJ, OFF and XYZ are always
-    /// text).
+    /// text, LAS always binary).
     #[arg(long)]
     ascii: bool,
     /// Turn a mesh's triangles to agree with their neighbours (closed parts facing out,
@@ -61,16 +61,18 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         .and_then(|e| e.to_str())
         .unwrap_or("");
     let format = FileFormat::from_extension(ext).ok_or("unknown output format")?;
-    if args.ascii
-        && matches!(
-            format,
-            FileFormat::Obj | FileFormat::Off | FileFormat::Xyz(_)
-        )
-    {
-        status(
-            globals,
-            format!("note: {format} is always text; --ascii changes nothing"),
-        );
+    if args.ascii {
+        let always = match format {
+            FileFormat::Obj | FileFormat::Off | FileFormat::Xyz(_) => Some("text"),
+            FileFormat::Las => Some("binary"),
+            FileFormat::Ply | FileFormat::Stl => None,
+        };
+        if let Some(kind) = always {
+            status(
+                globals,
+                format!("note: {format} is always {kind}; --ascii changes nothing"),
+            );
+        }
     }
     let (ply, stl) = if args.ascii {
         (PlyEncoding::Ascii, StlEncoding::Ascii)
@@ -93,7 +95,7 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     let counts = match format {
         // STL has no vertices of its own: the reader welds corners back by position.
         FileFormat::Stl => format!("{faces} triangles"),
-        FileFormat::Xyz(_) => format!("{} points", geometry.points().len()),
+        FileFormat::Xyz(_) | FileFormat::Las => format!("{} points", geometry.points().len()),
         _ => format!("{} vertices, {faces} triangles", geometry.points().len()),
     };
     status(

@@ -38,7 +38,7 @@ impl UpArg {
 /// Arguments of `geosynth normals`.
 #[derive(Debug, Args)]
 pub struct NormalsArgs {
-    /// Point set (.ply, .obj, .off, .xyz); normals it has are replaced.
+    /// Point set (.ply, .obj, .off, .xyz, .las); normals it has are replaced.
     input: PathBuf,
     /// Output point set with normals (.ply, .obj, .off, .xyz or .xyzn).
     #[arg(short, long)]

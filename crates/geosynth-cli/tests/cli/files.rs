@@ -207,7 +207,7 @@ fn bad_input_fails_with_a_message_not_a_panic() {
         ),
         (
             vec!["quilt", fixture, "-o", unknown.to_str().unwrap()],
-            ".ply, .obj, .off, .stl, .xyz, .xyzn or .xyzrgb",
+            ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb or .las",
         ),
         (
             vec!["reconstruct", fixture, "-o", missing],
@@ -639,7 +639,7 @@ fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
     );
     refused(
         &["convert", &arg(&xyz), "-o", &arg(&dir.path("m.txt"))],
-        ".xyz, .xyzn or .xyzrgb",
+        ".xyz, .xyzn, .xyzrgb or .las",
     );
     // A quilt has no colours for .xyzrgb: refused before the run. As .xyz it reads back
     // with its box.
@@ -670,4 +670,74 @@ fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
     );
     let comments = info_json(&quilted)["comments"].to_string();
     assert!(comments.contains("texture_box"), "{comments}");
+}
+
+#[test]
+fn lidar_points_go_through_las_files_and_meshes_do_not() {
+    use geosynth::core::io::{Geometry, WriteOptions, write_geometry};
+    use geosynth::core::{Attribute, PointSet};
+    let dir = Scratch::new();
+    // A terrain strip at UTM coordinates, with intensities and classes.
+    let local: Vec<glam::Vec3> = (0..400)
+        .map(|i| {
+            glam::Vec3::new(
+                (i % 20) as f32 * 0.5,
+                (i / 20) as f32 * 0.5,
+                (i % 7) as f32 * 0.1,
+            )
+        })
+        .collect();
+    let mut points = PointSet::new(local.clone()).unwrap();
+    points
+        .set_attribute(Attribute::new(
+            "intensity",
+            (0..400).map(|i| (i * 100) as f32).collect(),
+        ))
+        .unwrap();
+    points
+        .set_attribute(Attribute::new(
+            "classification",
+            (0..400).map(|i| (i % 3) as f32).collect(),
+        ))
+        .unwrap();
+    let origin = glam::DVec3::new(512_000.0, 5_430_000.0, 300.0);
+    let las = dir.path("strip.las");
+    write_geometry(
+        &las,
+        &Geometry::Points(points),
+        &WriteOptions::default().origin(origin),
+    )
+    .unwrap();
+    let json = info_json(&las);
+    assert_eq!(json["format"], "LAS");
+    assert_eq!(json["encoding"], "LAS 1.2, point format 0");
+    assert_eq!(json["vertices"], 400);
+    assert!((json["bbox_min"][0].as_f64().unwrap() - 512_000.0).abs() < 1e-6);
+    // To PLY: the coordinates in place (double) and both attributes.
+    let ply = dir.path("strip.ply");
+    let said = ok(&["convert", &arg(&las), "-o", &arg(&ply)]);
+    assert!(said.contains("(PLY): 400 vertices"), "{said}");
+    let json = info_json(&ply);
+    let attributes = json["attributes"].to_string();
+    assert!(attributes.contains("intensity") && attributes.contains("classification"));
+    assert!((json["bbox_max"][1].as_f64().unwrap() - 5_430_009.5).abs() < 1e-4);
+    // Normals for the bare LiDAR points.
+    let with_normals = dir.path("strip_n.ply");
+    ok(&["normals", &arg(&las), "-o", &arg(&with_normals), "-q"]);
+    assert_eq!(info_json(&with_normals)["normals"], true);
+    // Meshes are refused before anything is written; .laz is not written.
+    let mesh = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");
+    let out = dir.path("mesh.las");
+    refused(&["convert", &arg(&mesh), "-o", &arg(&out)], "faces");
+    assert!(!out.exists());
+    refused(
+        &["convert", &arg(&las), "-o", &arg(&dir.path("x.laz"))],
+        ".las",
+    );
+    // A compressed file (the format id's bit 7) is refused with what to do.
+    let mut bytes = std::fs::read(&las).unwrap();
+    bytes[104] |= 0x80;
+    let laz = dir.path("strip.laz");
+    std::fs::write(&laz, bytes).unwrap();
+    refused(&["info", &arg(&laz)], "decompress");
 }

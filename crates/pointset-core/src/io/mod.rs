@@ -1,5 +1,6 @@
-//! Reading and writing point sets and meshes: PLY, OBJ, OFF, STL (meshes only) and XYZ
-//! (points only: `.xyz`, `.xyzn`, `.xyzrgb`).
+//! Reading and writing point sets and meshes: PLY, OBJ, OFF, STL (meshes only), XYZ
+//! (points only: `.xyz`, `.xyzn`, `.xyzrgb`) and LAS (LiDAR points: `.las`; see
+//! [`read_las`]).
 //!
 //! [`read_geometry`] picks the format from the file extension and checks it against the
 //! content (a `.ply` that does not start with `ply` is an error, not a guess); files without
@@ -14,6 +15,7 @@
 //! [`write_geometry`] adds such an origin back ([`WriteOptions::origin`]; PLY then stores
 //! `double` coordinates). Plain [`read_geometry`] never moves the data.
 
+mod las;
 mod obj;
 mod off;
 pub mod ply;
@@ -23,6 +25,8 @@ mod xyz;
 use std::fmt;
 use std::path::Path;
 
+pub use las::{read_las, write_las};
+use las::{read_las_at, write_las_at};
 pub use obj::{read_obj, write_obj};
 use obj::{read_obj_at, write_obj_at};
 pub use off::{read_off, write_off};
@@ -34,7 +38,7 @@ use xyz::{read_xyz_at, write_xyz_at};
 
 use glam::{DVec3, Vec3};
 
-use crate::{Aabb, COLOR_CHANNELS, Error, PointSet, Result, TriMesh};
+use crate::{Aabb, Attribute, COLOR_CHANNELS, Error, PointSet, Result, TriMesh};
 use ply::PlyEncoding;
 
 /// The supported file formats.
@@ -51,10 +55,13 @@ pub enum FileFormat {
     /// A point a line, text (points only: see [`read_xyz`]); the columns are named by the
     /// extension.
     Xyz(XyzColumns),
+    /// ASPRS LAS, LiDAR points (see [`read_las`], [`write_las`]). A `.laz` file is read
+    /// as LAS, so that its compression is refused with its own message; it is not written.
+    Las,
 }
 
 /// The extensions the writers know, for messages.
-pub const GEOMETRY_EXTENSIONS: &str = ".ply, .obj, .off, .stl, .xyz, .xyzn or .xyzrgb";
+pub const GEOMETRY_EXTENSIONS: &str = ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb or .las";
 
 impl fmt::Display for FileFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -66,6 +73,7 @@ impl fmt::Display for FileFormat {
             FileFormat::Xyz(XyzColumns::Positions) => "XYZ",
             FileFormat::Xyz(XyzColumns::Normals) => "XYZN",
             FileFormat::Xyz(XyzColumns::Colours) => "XYZRGB",
+            FileFormat::Las => "LAS",
         })
     }
 }
@@ -81,14 +89,15 @@ impl FileFormat {
             "xyz" => Some(FileFormat::Xyz(XyzColumns::Positions)),
             "xyzn" => Some(FileFormat::Xyz(XyzColumns::Normals)),
             "xyzrgb" => Some(FileFormat::Xyz(XyzColumns::Colours)),
+            "las" => Some(FileFormat::Las),
             _ => None,
         }
     }
 
     /// Refuses, before any work is done, what writing in this format would fail on or
     /// lose: a point set (`mesh` false) or a nonzero write origin
-    /// ([`WriteOptions::origin`]) as STL, a mesh as XYZ (its faces). PLY, OBJ and OFF store
-    /// all of them.
+    /// ([`WriteOptions::origin`]) as STL, a mesh as XYZ or LAS (its faces). PLY, OBJ and
+    /// OFF store all of them.
     ///
     /// ```
     /// use glam::DVec3;
@@ -106,16 +115,23 @@ impl FileFormat {
         match self {
             FileFormat::Stl => stl::check_storable(mesh, origin),
             FileFormat::Xyz(columns) if mesh => Err(xyz::cannot_store_mesh(columns)),
-            FileFormat::Ply | FileFormat::Obj | FileFormat::Off | FileFormat::Xyz(_) => Ok(()),
+            FileFormat::Las if mesh => Err(las::cannot_store_mesh()),
+            FileFormat::Ply
+            | FileFormat::Obj
+            | FileFormat::Off
+            | FileFormat::Xyz(_)
+            | FileFormat::Las => Ok(()),
         }
     }
 
     /// What writing `geometry` in this format would not store, in words (empty when the
     /// format keeps everything). PLY keeps everything; OBJ drops attributes other than
     /// colours; OFF drops those and UVs; STL keeps only positions and triangles; `.xyz` and
-    /// `.xyzn` keep positions and normals, `.xyzrgb` positions and colours (and no format
-    /// of points keeps a mesh's faces, which [`Self::check_can_store`] refuses). Colours
-    /// are the `red`, `green`, `blue` channels when all three exist.
+    /// `.xyzn` keep positions and normals, `.xyzrgb` positions and colours, LAS positions,
+    /// colours and the `intensity` and `classification` attributes when their values fit
+    /// its records (and no format of points keeps a mesh's faces, which
+    /// [`Self::check_can_store`] refuses). Colours are the `red`, `green`, `blue` channels
+    /// when all three exist.
     ///
     /// ```
     /// use pointset_core::io::{FileFormat, Geometry};
@@ -134,7 +150,7 @@ impl FileFormat {
             FileFormat::Obj => (true, true, true, false),
             FileFormat::Off => (true, false, true, false),
             FileFormat::Stl => (false, false, false, false),
-            FileFormat::Xyz(XyzColumns::Colours) => (false, false, true, false),
+            FileFormat::Xyz(XyzColumns::Colours) | FileFormat::Las => (false, false, true, false),
             FileFormat::Xyz(_) => (true, false, false, false),
         };
         let points = geometry.points();
@@ -150,12 +166,14 @@ impl FileFormat {
             lost.push("colours".to_string());
         }
         let is_colour = |name: &str| has_colours && COLOR_CHANNELS.contains(&name);
+        // LAS records hold an intensity and a class, when the values fit.
+        let in_las_record = |a: &Attribute| self == FileFormat::Las && las::stores(a);
         if !others {
             lost.extend(
                 points
                     .attributes()
                     .iter()
-                    .filter(|a| !is_colour(a.name()))
+                    .filter(|a| !is_colour(a.name()) && !in_las_record(a))
                     .map(|a| format!("attribute `{}`", a.name())),
             );
         }
@@ -165,6 +183,9 @@ impl FileFormat {
     /// The format a file's content looks like, if any. A binary STL is recognised by its
     /// size (84 bytes plus 50 per facet its header declares), so pass the whole file.
     pub fn sniff(bytes: &[u8]) -> Option<Self> {
+        if las::looks_like_las(bytes) {
+            return Some(FileFormat::Las);
+        }
         if stl::binary_facet_count(bytes).is_some() {
             return Some(FileFormat::Stl);
         }
@@ -389,7 +410,10 @@ impl WriteOptions {
 pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
     let sniffed = FileFormat::sniff(bytes);
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    match (FileFormat::from_extension(ext), sniffed) {
+    // A `.laz` is a LAS whose points are compressed: read as LAS, it is refused as such.
+    let named = FileFormat::from_extension(ext)
+        .or_else(|| ext.eq_ignore_ascii_case("laz").then_some(FileFormat::Las));
+    match (named, sniffed) {
         (Some(by_ext), Some(by_content)) if by_ext != by_content => Err(Error::FormatMismatch {
             path: path.to_path_buf(),
             extension: ext.to_string(),
@@ -401,13 +425,13 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
             path: path.to_path_buf(),
             reason: format!(
                 "no {GEOMETRY_EXTENSIONS} extension, and the content looks like none of PLY, \
-                 OBJ, OFF and STL (XYZ is told by its extension only)"
+                 OBJ, OFF, STL and LAS (XYZ is told by its extension only)"
             ),
         }),
     }
 }
 
-/// Reads a PLY, OBJ, OFF, STL or XYZ file.
+/// Reads a PLY, OBJ, OFF, STL, XYZ or LAS file.
 pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
     read_geometry_with(path, &ReadOptions::default())
 }
@@ -513,6 +537,17 @@ pub fn read_geometry_bytes_with(
                 notes: Vec::new(),
             })
         }
+        FileFormat::Las => {
+            let file = read_las_at(bytes, recentre)?;
+            Ok(LoadedGeometry {
+                geometry: file.geometry,
+                format: FileFormat::Las,
+                encoding: file.encoding,
+                comments: file.comments,
+                origin: file.origin,
+                notes: file.notes,
+            })
+        }
     }
 }
 
@@ -556,6 +591,7 @@ pub fn encode_geometry(
             options.origin,
             &mut out,
         )?,
+        FileFormat::Las => write_las_at(geometry, options.origin, &mut out)?,
     }
     Ok(out)
 }

@@ -5,6 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod edited_files;
+mod las_codec;
 mod ply_codec;
 mod polygons;
 mod stl_codec;
@@ -202,6 +203,7 @@ proptest! {
             (FileFormat::Obj, "far.obj"),
             (FileFormat::Off, "far.off"),
             (FileFormat::Xyz(XyzColumns::Positions), "far.xyz"),
+            (FileFormat::Las, "far.las"),
         ] {
             let options = WriteOptions::default()
                 .ply_encoding(PlyEncoding::BinaryBigEndian)
