@@ -355,8 +355,8 @@ pub(crate) fn stores(attribute: &Attribute) -> bool {
     })
 }
 
-/// Writes `geometry` as LAS 1.2 to `out` (see the module docs); positions are `origin` +
-/// the stored ones, in double precision.
+/// Writes the point set `geometry` as LAS 1.2 to `out` (see the module docs); a mesh is
+/// refused (its faces would be lost).
 pub fn write_las(geometry: &Geometry, out: &mut impl Write) -> Result<()> {
     write_las_at(geometry, DVec3::ZERO, out)
 }
@@ -369,7 +369,8 @@ fn scale_and_offset(lo: DVec3, hi: DVec3) -> (f64, DVec3) {
     (scale, offset)
 }
 
-/// [`write_las`] with the stored positions relative to `origin`.
+/// [`write_las`] with the stored positions relative to `origin`: the file's coordinates
+/// are their sums, in double precision.
 pub(crate) fn write_las_at(geometry: &Geometry, origin: DVec3, out: &mut impl Write) -> Result<()> {
     let Geometry::Points(points) = geometry else {
         return Err(cannot_store_mesh());
