@@ -22,6 +22,31 @@
 //! assert!(out.isosurface.face_count() > 0 && out.copied.mesh.face_count() > 0);
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! The stage runs in two halves, [`VoxelSynth::synthesize_field`] and
+//! [`VoxelSynth::reconstruct`]; between them the meshes' sizes can be counted, to check
+//! that they fit in memory before they are built (as `geosynth voxel` does):
+//!
+//! ```
+//! use geosynth::voxel::{VoxelExemplar, VoxelParams, VoxelSynth, copied_triangle_count,
+//!     isosurface_cells};
+//! use geosynth::{fixtures, RunContext};
+//!
+//! let exemplar = VoxelExemplar::from(&fixtures::volumes::grid(1)?);
+//! let stage = VoxelSynth {
+//!     source_resolution: 16,
+//!     params: VoxelParams::default().target_dims([24; 3]).levels(2).block(8),
+//!     ..Default::default()
+//! };
+//! let mut ctx = RunContext::new(0);
+//! let field = stage.synthesize_field(&exemplar, &mut ctx)?;
+//! let copied = copied_triangle_count(&exemplar.mesh, &field.synthesis);
+//! let cells = isosurface_cells(&field.synthesis, true);
+//! let out = stage.reconstruct(&exemplar, field, &mut ctx)?;
+//! assert_eq!(out.copied.copied_triangles, copied);
+//! assert!(cells <= out.isosurface.face_count() && out.isosurface.face_count() <= 12 * cells);
+//! Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use std::path::Path;
 
@@ -33,8 +58,8 @@ pub use voxel_dfsynth::{
     BlockCopy, BlockMatcher, BoxMeans, BruteForce, CopiedMesh, FftMatcher, LevelReport, Match,
     MatcherKind, QualityParams, QuantizedField, RelaxParams, SearchTree, SubsampledSource,
     Synthesis, TreeStats, VoxelError, VoxelParams, VoxelQuality, block_level, copied_mesh,
-    evaluate, fft, isosurface_mesh, quantize_source, source_quantizer, synthesize,
-    unit_gradient_fraction,
+    copied_triangle_count, evaluate, fft, isosurface_cells, isosurface_mesh, quantize_source,
+    source_quantizer, synthesize, unit_gradient_fraction,
 };
 
 use crate::fixtures::volumes::VolumeExemplar;
@@ -205,6 +230,16 @@ impl Default for VoxelSynth {
     }
 }
 
+/// The first half of [`VoxelSynth`]'s run ([`VoxelSynth::synthesize_field`]): the fields,
+/// before any geometry is built from them.
+#[derive(Debug, Clone)]
+pub struct SynthesizedField {
+    /// The source field.
+    pub source: SdfGrid,
+    /// The synthesized field and its block copies.
+    pub synthesis: Synthesis,
+}
+
 /// Everything [`VoxelSynth`] produces.
 #[derive(Debug, Clone)]
 pub struct VoxelOutput {
@@ -218,20 +253,32 @@ pub struct VoxelOutput {
     pub copied: CopiedMesh,
 }
 
-impl Stage for VoxelSynth {
-    type Input = VoxelExemplar;
-    type Output = VoxelOutput;
-    type Error = Error;
-
-    fn name(&self) -> &str {
-        "voxel"
-    }
-
-    fn run(&self, input: VoxelExemplar, ctx: &mut RunContext) -> Result<VoxelOutput> {
+impl VoxelSynth {
+    /// The first half of [`Stage::run`]: the exemplar's source field and the synthesized
+    /// field. Between the halves a caller can look at the field, write it, or check that
+    /// the reconstructions fit in memory ([`copied_triangle_count`], [`isosurface_cells`]);
+    /// [`VoxelSynth::reconstruct`] is the second half.
+    pub fn synthesize_field(
+        &self,
+        input: &VoxelExemplar,
+        ctx: &mut RunContext,
+    ) -> Result<SynthesizedField> {
         let source = ctx.timed("source field", |_| {
-            source_field(&input, self.source_resolution, self.mesh_sign)
+            source_field(input, self.source_resolution, self.mesh_sign)
         })?;
         let synthesis = synthesize(&source, &self.params, ctx)?;
+        Ok(SynthesizedField { source, synthesis })
+    }
+
+    /// The second half of [`Stage::run`]: both reconstructions of `field`, which
+    /// [`VoxelSynth::synthesize_field`] made from `input` with these settings.
+    pub fn reconstruct(
+        &self,
+        input: &VoxelExemplar,
+        field: SynthesizedField,
+        ctx: &mut RunContext,
+    ) -> Result<VoxelOutput> {
+        let SynthesizedField { source, synthesis } = field;
         let isosurface = ctx.timed("isosurface", |_| isosurface_mesh(&synthesis, true))?;
         let copied = ctx.timed("copied triangles", |_| {
             copied_mesh(&input.mesh, &synthesis, &self.relax)
@@ -242,6 +289,21 @@ impl Stage for VoxelSynth {
             isosurface,
             copied,
         })
+    }
+}
+
+impl Stage for VoxelSynth {
+    type Input = VoxelExemplar;
+    type Output = VoxelOutput;
+    type Error = Error;
+
+    fn name(&self) -> &str {
+        "voxel"
+    }
+
+    fn run(&self, input: VoxelExemplar, ctx: &mut RunContext) -> Result<VoxelOutput> {
+        let field = self.synthesize_field(&input, ctx)?;
+        self.reconstruct(&input, field, ctx)
     }
 }
 

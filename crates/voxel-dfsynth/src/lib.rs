@@ -12,7 +12,8 @@
 //!   by dropping leaf levels, blocks in scan-line order with 7 of 8 octants known, random
 //!   seeding, exact best match at every step, deterministic and parallel;
 //! - **reconstruction (§5.3)**: [`isosurface_mesh`] and [`copied_mesh`] (source triangles
-//!   copied block by block, welded and relaxed);
+//!   copied block by block, welded and relaxed), with their sizes counted before building
+//!   ([`isosurface_cells`], [`copied_triangle_count`]) so a caller can check memory first;
 //! - **quality**: [`evaluate`], against the same numbers for random blocks.
 //!
 //! ```
@@ -146,7 +147,8 @@ pub use field::{BoxMeans, QuantizedField, SubsampledSource, block_level};
 pub use matcher::{BlockMatcher, BruteForce, FftMatcher};
 pub use quality::{QualityParams, VoxelQuality, evaluate, unit_gradient_fraction};
 pub use reconstruct::{
-    CopiedMesh, MAX_RELAX_ITERATIONS, MAX_WELD_RADIUS, RelaxParams, copied_mesh, isosurface_mesh,
+    CopiedMesh, MAX_RELAX_ITERATIONS, MAX_WELD_RADIUS, RelaxParams, copied_mesh,
+    copied_triangle_count, isosurface_cells, isosurface_mesh,
 };
 pub use synth::{
     BlockCopy, LevelReport, MAX_TARGET_SAMPLES, MatcherKind, Synthesis, VoxelParams,

@@ -20,9 +20,10 @@ use std::collections::{HashMap, HashSet, VecDeque};
 
 use glam::Vec3;
 use pointset_core::{DisjointSets, KdIndex, PointSet, TriMesh};
+use rayon::prelude::*;
 
 use crate::error::{Result, invalid};
-use crate::synth::Synthesis;
+use crate::synth::{BlockCopy, Synthesis};
 
 /// The zero set of the synthesized field as a mesh (reconstruction (a)).
 pub fn isosurface_mesh(synthesis: &Synthesis, closed: bool) -> Result<TriMesh> {
@@ -155,6 +156,113 @@ fn boundary_edges(triangles: &[[u32; 3]]) -> HashMap<(u32, u32), u32> {
     count
 }
 
+/// For each triangle of `source_mesh` (in the world frame of the source field), the index
+/// of the source sample nearest its centroid, the sample it travels with; `None` outside
+/// the source field.
+fn triangle_samples<'a>(
+    source_mesh: &'a TriMesh,
+    synthesis: &'a Synthesis,
+) -> impl Iterator<Item = Option<usize>> + 'a {
+    let positions = source_mesh.positions();
+    let sdims = synthesis.source_dims;
+    source_mesh.triangles().iter().map(move |t| {
+        let c =
+            (positions[t[0] as usize] + positions[t[1] as usize] + positions[t[2] as usize]) / 3.0;
+        let u = ((c - synthesis.origin) / synthesis.spacing).round();
+        if !u.is_finite() || u.min_element() < 0.0 {
+            return None;
+        }
+        let s = [u.x as usize, u.y as usize, u.z as usize];
+        (0..3)
+            .all(|a| s[a] < sdims[a])
+            .then(|| s[0] + sdims[0] * (s[1] + sdims[1] * s[2]))
+    })
+}
+
+/// The source samples (as indices into the source field) behind the target samples that
+/// `copy`, block `j` of the last iteration, owns, in scan-line order within the block.
+fn owned_source_samples<'a>(
+    synthesis: &'a Synthesis,
+    j: usize,
+    copy: &'a BlockCopy,
+) -> impl Iterator<Item = usize> + 'a {
+    let sdims = synthesis.source_dims;
+    let tdims = synthesis.field.dims();
+    let m = synthesis.levels.last().map_or(0, |l| l.block);
+    (0..m * m * m).filter_map(move |x| {
+        let o = [x % m, (x / m) % m, x / (m * m)];
+        let t = [0, 1, 2].map(|a| copy.target[a] + o[a]);
+        let s = [0, 1, 2].map(|a| copy.source[a] + o[a]);
+        let owned = (0..3).all(|a| t[a] < tdims[a] && s[a] < sdims[a])
+            && synthesis.owner[synthesis.field.index(t[0], t[1], t[2])] == j as u32;
+        owned.then(|| s[0] + sdims[0] * (s[1] + sdims[1] * s[2]))
+    })
+}
+
+/// How many source triangles [`copied_mesh`] copies for `synthesis` (its
+/// [`CopiedMesh::copied_triangles`]), counted without copying any: the memory the copy
+/// needs grows with this number, so a caller can check it first. `O(target samples)`.
+pub fn copied_triangle_count(source_mesh: &TriMesh, synthesis: &Synthesis) -> usize {
+    let sdims = synthesis.source_dims;
+    let mut per_sample = vec![0usize; sdims.iter().product()];
+    for s in triangle_samples(source_mesh, synthesis).flatten() {
+        per_sample[s] += 1;
+    }
+    synthesis
+        .copies
+        .par_iter()
+        .enumerate()
+        .map(|(j, copy)| {
+            owned_source_samples(synthesis, j, copy)
+                .map(|s| per_sample[s])
+                .sum::<usize>()
+        })
+        .sum()
+}
+
+/// How many cells of the grid that [`isosurface_mesh`] with `closed` triangulates cross the
+/// zero set (corners on both sides), counted without triangulating: each such cell gives 1
+/// to 12 triangles (6 tetrahedra, at most 2 each), so the memory the iso-surface needs
+/// grows with this number. `O(target samples)`.
+pub fn isosurface_cells(synthesis: &Synthesis, closed: bool) -> usize {
+    let [nx, ny, nz] = synthesis.field.dims();
+    let inside: Vec<bool> = synthesis
+        .field
+        .values()
+        .iter()
+        .map(|&q| synthesis.quantizer.dequantize(q) < 0.0)
+        .collect();
+    // Closed: one layer of outside around the field, so corner coordinates run over 0..n+2
+    // with the field's samples at 1..=n.
+    let pad = usize::from(closed);
+    let inside_at = |x: usize, y: usize, z: usize| {
+        let [x, y, z] = [
+            x.wrapping_sub(pad),
+            y.wrapping_sub(pad),
+            z.wrapping_sub(pad),
+        ];
+        x < nx && y < ny && z < nz && inside[x + nx * (y + ny * z)]
+    };
+    let cells = |n: usize| (n + 2 * pad).saturating_sub(1);
+    (0..cells(nz))
+        .into_par_iter()
+        .map(|k| {
+            let mut crossing = 0;
+            for j in 0..cells(ny) {
+                for i in 0..cells(nx) {
+                    let negative = (0..8)
+                        .filter(|&c| inside_at(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)))
+                        .count();
+                    if negative != 0 && negative != 8 {
+                        crossing += 1;
+                    }
+                }
+            }
+            crossing
+        })
+        .sum()
+}
+
 /// Copies the triangles of `source_mesh` (in the world frame of the source field) block by
 /// block to the target, then welds and relaxes the seams (reconstruction (b), see the
 /// module docs).
@@ -165,27 +273,13 @@ pub fn copied_mesh(
 ) -> Result<CopiedMesh> {
     relax.validate()?;
     let spacing = synthesis.spacing;
-    let origin = synthesis.origin;
-    let sdims = synthesis.source_dims;
-    let tdims = synthesis.field.dims();
-    let m = synthesis.levels.last().map_or(0, |l| l.block);
     let positions = source_mesh.positions();
 
     // Source triangles by the source sample nearest their centroid.
     let mut by_sample: HashMap<usize, Vec<u32>> = HashMap::new();
-    for (i, t) in source_mesh.triangles().iter().enumerate() {
-        let c =
-            (positions[t[0] as usize] + positions[t[1] as usize] + positions[t[2] as usize]) / 3.0;
-        let u = ((c - origin) / spacing).round();
-        if !u.is_finite() || u.min_element() < 0.0 {
-            continue;
-        }
-        let s = [u.x as usize, u.y as usize, u.z as usize];
-        if (0..3).all(|a| s[a] < sdims[a]) {
-            by_sample
-                .entry(s[0] + sdims[0] * (s[1] + sdims[1] * s[2]))
-                .or_default()
-                .push(i as u32);
+    for (i, sample) in triangle_samples(source_mesh, synthesis).enumerate() {
+        if let Some(s) = sample {
+            by_sample.entry(s).or_default().push(i as u32);
         }
     }
 
@@ -200,16 +294,8 @@ pub fn copied_mesh(
             copy.target[2] as f32 - copy.source[2] as f32,
         ) * spacing;
         let mut local: HashMap<u32, u32> = HashMap::new();
-        for x in 0..m * m * m {
-            let o = [x % m, (x / m) % m, x / (m * m)];
-            let t = [0, 1, 2].map(|a| copy.target[a] + o[a]);
-            let s = [0, 1, 2].map(|a| copy.source[a] + o[a]);
-            if (0..3).any(|a| t[a] >= tdims[a] || s[a] >= sdims[a])
-                || synthesis.owner[synthesis.field.index(t[0], t[1], t[2])] != j as u32
-            {
-                continue;
-            }
-            let Some(list) = by_sample.get(&(s[0] + sdims[0] * (s[1] + sdims[1] * s[2]))) else {
+        for s in owned_source_samples(synthesis, j, copy) {
+            let Some(list) = by_sample.get(&s) else {
                 continue;
             };
             for &ti in list {

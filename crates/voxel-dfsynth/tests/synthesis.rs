@@ -344,3 +344,72 @@ fn copied_triangles_are_welded_and_relaxed_onto_the_target() {
     let widest = voxel_dfsynth::RelaxParams::default().weld_radius(voxel_dfsynth::MAX_WELD_RADIUS);
     assert!(widest.validate().is_ok());
 }
+
+#[test]
+fn reconstruction_sizes_are_counted_before_building() {
+    let source = random_balls([24, 24, 24], 29);
+    let source_mesh = distance_field::isosurface(&source.distances().unwrap(), 0.0).unwrap();
+    for (dims, seed) in [([32, 32, 32], 1), ([40, 24, 32], 2), ([24, 32, 16], 3)] {
+        let out = synthesize(
+            &source,
+            &params(32, 2, 8, MatcherKind::Brute)
+                .target_dims(dims)
+                .seed(seed),
+            &mut RunContext::new(0),
+        )
+        .unwrap();
+        let copied =
+            voxel_dfsynth::copied_mesh(&source_mesh, &out, &voxel_dfsynth::RelaxParams::default())
+                .unwrap();
+        assert!(copied.copied_triangles > 100);
+        assert_eq!(
+            voxel_dfsynth::copied_triangle_count(&source_mesh, &out),
+            copied.copied_triangles,
+            "{dims:?}"
+        );
+        // Cells crossing the zero set, counted on the dequantized grid by hand.
+        let grid = out.distances().unwrap();
+        let d = grid.dims();
+        let mut by_hand = 0;
+        for (k, j, i) in grid_cells(d) {
+            let negative = (0..8)
+                .filter(|&c| {
+                    let at = grid.get(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
+                    at.is_some_and(|&v| v < 0.0)
+                })
+                .count();
+            by_hand += usize::from(negative != 0 && negative != 8);
+        }
+        assert_eq!(voxel_dfsynth::isosurface_cells(&out, false), by_hand);
+        // Each crossing cell gives 1 to 12 triangles.
+        for closed in [false, true] {
+            let cells = voxel_dfsynth::isosurface_cells(&out, closed);
+            let faces = voxel_dfsynth::isosurface_mesh(&out, closed)
+                .unwrap()
+                .face_count();
+            assert!(
+                cells > 0 && cells <= faces && faces <= 12 * cells,
+                "{cells} {faces}"
+            );
+        }
+    }
+    // A solid filling the box crosses nowhere inside; closed, every cell touching the
+    // outside layer crosses.
+    let full = synthesize(
+        &analytic([16, 16, 16], |_| -1.0),
+        &params(24, 2, 8, MatcherKind::Brute),
+        &mut RunContext::new(0),
+    )
+    .unwrap();
+    assert_eq!(voxel_dfsynth::isosurface_cells(&full, false), 0);
+    assert_eq!(
+        voxel_dfsynth::isosurface_cells(&full, true),
+        25 * 25 * 25 - 23 * 23 * 23
+    );
+}
+
+/// The cells `(k, j, i)` of a grid of `d` samples.
+fn grid_cells(d: [usize; 3]) -> impl Iterator<Item = (usize, usize, usize)> {
+    (0..d[2] - 1)
+        .flat_map(move |k| (0..d[1] - 1).flat_map(move |j| (0..d[0] - 1).map(move |i| (k, j, i))))
+}

@@ -683,7 +683,10 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
                 .seed(args.seed),
             ..VoxelSynth::default()
         };
-        let run = crate::commands::voxel::measured_run(exemplar.clone(), &stage, true, globals)?;
+        let run =
+            crate::commands::voxel::measured_run(exemplar.clone(), &stage, true, globals, |_| {
+                Ok(())
+            })?;
         let dir = args.out.join("geometry");
         let write = |suffix: &str, mesh: &geosynth::core::TriMesh| -> CliResult<PathBuf> {
             let path = dir.join(format!("{}_{suffix}.ply", volume.name));

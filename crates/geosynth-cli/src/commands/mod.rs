@@ -12,6 +12,7 @@ pub mod render;
 pub mod sheet_heights;
 pub mod sheet_mesh;
 pub mod voxel;
+pub mod voxel_memory;
 pub mod warp;
 
 use std::path::Path;

@@ -4,17 +4,18 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
-use geosynth::Stage;
 use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::{GridSpec, nrrd};
 use geosynth::voxel::{
-    MatcherKind, QualityParams, VoxelExemplar, VoxelOutput, VoxelParams, VoxelQuality, VoxelSynth,
-    evaluate, quantize_source, read_exemplar, source_quantizer, synthesize,
+    MatcherKind, QualityParams, SynthesizedField, VoxelExemplar, VoxelOutput, VoxelParams,
+    VoxelQuality, VoxelSynth, evaluate, quantize_source, read_exemplar, source_quantizer,
+    synthesize,
 };
 use serde_json::{Value, json};
 
 use super::SignArgs;
+use super::voxel_memory::{check_reconstruction_fits, check_synthesis_fits};
 use crate::input_file::named;
 use crate::json_report::write_json_report;
 use crate::output::{
@@ -126,17 +127,24 @@ pub struct VoxelRun {
 }
 
 /// Runs the stage with a progress bar, measures it, and optionally the random baseline.
+/// `after_synthesis` sees the synthesized field before the meshes are built from it (to
+/// write it, or to check that they fit) and can stop the run.
 pub fn measured_run(
     exemplar: VoxelExemplar,
     stage: &VoxelSynth,
     baseline: bool,
     globals: Globals,
+    after_synthesis: impl FnOnce(&SynthesizedField) -> CliResult,
 ) -> CliResult<VoxelRun> {
     let (mut ctx, bar) = progress_context(globals, stage.params.seed, "blocks", true);
     let start = Instant::now();
-    let output = stage.run(exemplar, &mut ctx)?;
-    let seconds = start.elapsed().as_secs_f64();
+    let field = stage.synthesize_field(&exemplar, &mut ctx)?;
+    let mut seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    after_synthesis(&field)?;
+    let start = Instant::now();
+    let output = stage.reconstruct(&exemplar, field, &mut ctx)?;
+    seconds += start.elapsed().as_secs_f64();
     let quantizer = source_quantizer(&output.source, &stage.params)?;
     let source = quantize_source(&output.source, &quantizer)?;
     let qp = QualityParams::default()
@@ -320,7 +328,14 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(note) = sign.note(&exemplar.mesh, stage.mesh_sign)? {
         status(globals, note);
     }
-    let run = measured_run(exemplar.clone(), &stage, args.baseline, globals)?;
+    check_synthesis_fits(&stage, &exemplar)?;
+    let run = measured_run(exemplar.clone(), &stage, args.baseline, globals, |field| {
+        if let Some(path) = &args.field {
+            let grid = field.synthesis.distances()?;
+            nrrd::write_file(path, |f| nrrd::write_scalar_at(f, &grid, exemplar.origin))?;
+        }
+        check_reconstruction_fits(&stage, &exemplar, field, args.field.as_deref())
+    })?;
     let options = WriteOptions::default()
         .comment(format!(
             "synthesized by geosynth voxel (seed {}, matcher {})",
@@ -339,10 +354,6 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
             &Geometry::Mesh(run.output.isosurface.clone()),
             &options,
         )?;
-    }
-    if let Some(path) = &args.field {
-        let grid = run.output.synthesis.distances()?;
-        nrrd::write_file(path, |f| nrrd::write_scalar_at(f, &grid, exemplar.origin))?;
     }
     if let Some(path) = &args.preview {
         voxel_preview(&exemplar, &run, path, 400)?;

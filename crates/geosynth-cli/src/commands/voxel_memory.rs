@@ -1,0 +1,367 @@
+//! Whether a `geosynth voxel` run fits in the memory this machine has available, checked
+//! before each half of the run: before the synthesis from the sample counts, and before
+//! the reconstructions from the counts the synthesized field fixes (copied triangles and
+//! surface cells, counted without building anything). Without the checks, a large target
+//! (up to 512³ samples are allowed) ran for minutes and was then killed while copying
+//! triangles: balls from a 32³ source to a 128³ target already copy 7.2 million of them.
+//!
+//! The peak resident memory is modelled as the larger of two phases' needs (extracting the
+//! iso-surface, copying triangles), each a sum of terms, fitted to `--report`'s peak over
+//! 33 runs (five solids, the torus, the bunny, the teapot and fertility; sources 32 to 128,
+//! targets 64 to 256; see `docs/performance.md`, "Memory of `geosynth voxel`"). The model
+//! is within −10% to +20% of every measured peak.
+
+use geosynth::voxel::{
+    SynthesizedField, VoxelExemplar, VoxelSynth, copied_triangle_count, isosurface_cells,
+    source_dims,
+};
+
+use crate::CliResult;
+use crate::memory::{available_bytes, resident_bytes};
+
+/// Fitted bytes that do not depend on the sizes.
+const BASE_BYTES: f64 = 5.0e6;
+/// Fitted bytes per source sample (the signed distance grid, its quantized copy and the
+/// matcher's tables).
+const BYTES_PER_SOURCE_SAMPLE: f64 = 268.0;
+/// Fitted bytes per target sample while the iso-surface is extracted (the field and its
+/// owners, the distances, their padded copy and the extraction's own copy).
+const ISO_BYTES_PER_TARGET_SAMPLE: f64 = 49.1;
+/// Fitted bytes per surface cell while the iso-surface is extracted.
+const ISO_BYTES_PER_SURFACE_CELL: f64 = 71.3;
+/// Fitted bytes per target sample while triangles are copied.
+const COPY_BYTES_PER_TARGET_SAMPLE: f64 = 8.8;
+/// Fitted bytes per surface cell while triangles are copied (the finished iso-surface,
+/// about 6 triangles a cell).
+const COPY_BYTES_PER_SURFACE_CELL: f64 = 143.3;
+/// Fitted bytes per copied triangle (the copy, its welding and relaxation).
+const COPY_BYTES_PER_COPIED_TRIANGLE: f64 = 198.6;
+
+/// The sizes the memory of a run depends on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct RunSizes {
+    /// Samples of the source field.
+    source_samples: usize,
+    /// Samples of the target field.
+    target_samples: usize,
+    /// Source triangles the copied-triangle mesh copies (0 before the synthesis).
+    copied_triangles: usize,
+    /// Cells of the target grid that cross the zero set (0 before the synthesis).
+    surface_cells: usize,
+}
+
+impl RunSizes {
+    /// The modelled peak resident memory of the run, in bytes.
+    fn peak_bytes(&self) -> f64 {
+        self.fixed_bytes() + self.scaled_bytes()
+    }
+
+    /// The part of [`RunSizes::peak_bytes`] that does not depend on the target.
+    fn fixed_bytes(&self) -> f64 {
+        BASE_BYTES + self.source_samples as f64 * BYTES_PER_SOURCE_SAMPLE
+    }
+
+    /// The part of [`RunSizes::peak_bytes`] that grows with the target: the larger of the
+    /// two phases' needs, the iso-surface extraction and the triangle copy.
+    fn scaled_bytes(&self) -> f64 {
+        let [target, cells, copied] = [
+            self.target_samples,
+            self.surface_cells,
+            self.copied_triangles,
+        ]
+        .map(|n| n as f64);
+        let iso = target * ISO_BYTES_PER_TARGET_SAMPLE + cells * ISO_BYTES_PER_SURFACE_CELL;
+        let copy = target * COPY_BYTES_PER_TARGET_SAMPLE
+            + cells * COPY_BYTES_PER_SURFACE_CELL
+            + copied * COPY_BYTES_PER_COPIED_TRIANGLE;
+        iso.max(copy)
+    }
+}
+
+/// The share of the exemplar's mean triangles per source sample that the upfront check
+/// takes every target sample to copy. Measured shares (33 runs, as for the model): 0.15 to
+/// 2.3, 0.4 to 0.6 on the five solids; the smallest is the bunny, mostly empty space,
+/// copied into a cube four times its height. A tenth stays below all of them, so the
+/// check refuses only runs that would not fit even then.
+const LEAST_COPY_SHARE: f64 = 0.1;
+
+/// Refuses a run that would not fit even on its most favourable showing, before anything
+/// runs: the fields, and a tenth ([`LEAST_COPY_SHARE`]) of the triangles a target of
+/// source-like density would copy. Without it, balls from a 16³ source to a 512³ target
+/// were refused only after three minutes of synthesis (4.2 billion triangles to copy).
+pub fn check_synthesis_fits(stage: &VoxelSynth, exemplar: &VoxelExemplar) -> CliResult {
+    let Some(memory) = machine_memory() else {
+        return Ok(());
+    };
+    let source = source_dims(exemplar, stage.source_resolution)?;
+    let target = stage.params.target_dims;
+    let sizes = upfront_sizes(exemplar, source, target);
+    let what = format!(
+        "synthesizing a target of {} samples from a source of {} (at least about {} copied \
+         triangles)",
+        dims_text(target),
+        dims_text(source),
+        sizes.copied_triangles
+    );
+    check_fits(&sizes, Copies::AtLeast, stage, memory, &what)
+}
+
+/// The sizes [`check_synthesis_fits`] checks: the fields', and a tenth of the copied
+/// triangles at the exemplar's mean density ([`LEAST_COPY_SHARE`]; the triangles whose
+/// centroids lie in the exemplar's box, over the source samples).
+fn upfront_sizes(exemplar: &VoxelExemplar, source: [usize; 3], target: [usize; 3]) -> RunSizes {
+    let [source_samples, target_samples] = [source, target].map(|d| d.iter().product::<usize>());
+    let positions = exemplar.mesh.positions();
+    let in_box = exemplar
+        .mesh
+        .triangles()
+        .iter()
+        .filter(|t| {
+            let corners = t.map(|v| positions[v as usize]);
+            exemplar
+                .bounds
+                .contains((corners[0] + corners[1] + corners[2]) / 3.0)
+        })
+        .count();
+    let copied =
+        LEAST_COPY_SHARE * in_box as f64 * target_samples as f64 / source_samples.max(1) as f64;
+    RunSizes {
+        source_samples,
+        target_samples,
+        copied_triangles: copied as usize,
+        surface_cells: 0,
+    }
+}
+
+/// Refuses to build the meshes from `field` when they would not fit; `kept` says where
+/// the synthesized field was written, if it was, for the message.
+pub fn check_reconstruction_fits(
+    stage: &VoxelSynth,
+    exemplar: &VoxelExemplar,
+    field: &SynthesizedField,
+    kept: Option<&std::path::Path>,
+) -> CliResult {
+    let Some(memory) = machine_memory() else {
+        return Ok(());
+    };
+    let synthesis = &field.synthesis;
+    let copied_triangles = copied_triangle_count(&exemplar.mesh, synthesis);
+    let surface_cells = isosurface_cells(synthesis, true);
+    let sizes = RunSizes {
+        source_samples: synthesis.source_dims.iter().product(),
+        target_samples: synthesis.field.values().len(),
+        copied_triangles,
+        surface_cells,
+    };
+    let what = format!(
+        "building the meshes of a target of {} samples ({copied_triangles} copied triangles, \
+         {surface_cells} surface cells)",
+        dims_text(synthesis.field.dims())
+    );
+    check_fits(&sizes, Copies::Counted, stage, memory, &what).map_err(|e| match kept {
+        Some(path) => format!("{e}; the synthesized field is in {}", path.display()).into(),
+        None => e,
+    })
+}
+
+/// What the machine offers this process: `(available, resident)` bytes, where `resident`
+/// is what the process holds already (part of the modelled peak, and no longer in
+/// `available`). `None` where the platform does not tell.
+fn machine_memory() -> Option<(u64, u64)> {
+    Some((available_bytes()?, resident_bytes()?))
+}
+
+/// Where the copied triangles of [`RunSizes`] come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Copies {
+    /// Estimated before the run, on the low side ([`LEAST_COPY_SHARE`]): a smaller target
+    /// can still be too large.
+    AtLeast,
+    /// Counted after the synthesis.
+    Counted,
+}
+
+/// Refuses `sizes` when their modelled peak, less what the process already holds, exceeds
+/// what is available, naming the target dimensions that would (or, before the run, at
+/// most could) fit.
+fn check_fits(
+    sizes: &RunSizes,
+    copies: Copies,
+    stage: &VoxelSynth,
+    (available, resident): (u64, u64),
+    what: &str,
+) -> CliResult {
+    let needed = (sizes.peak_bytes() - resident as f64).max(0.0);
+    if needed <= available as f64 {
+        return Ok(());
+    }
+    let advice = match fitting_target(sizes, stage, available as f64 + resident as f64) {
+        Some([x, y, z]) if copies == Copies::Counted => format!("--target-dims {x},{y},{z} fits"),
+        Some([x, y, z]) => format!("at most --target-dims {x},{y},{z} could fit"),
+        None => "no target fits beside this source; a lower --source-res needs less".into(),
+    };
+    Err(format!(
+        "{what} needs about {:.1} GB, more than the {:.1} GB this machine has available; \
+         {advice}",
+        needed / 1e9,
+        available as f64 / 1e9
+    )
+    .into())
+}
+
+/// `x × y × z`.
+fn dims_text([x, y, z]: [usize; 3]) -> String {
+    format!("{x} × {y} × {z}")
+}
+
+/// The largest target, the asked one scaled alike along every axis in steps of half a
+/// block, whose modelled peak fits in `budget` bytes with a twentieth spare. Everything
+/// that grows with the target is taken to grow with its sample count (surface cells grow
+/// more slowly, so this errs small). `None` when not even the smallest block fits.
+fn fitting_target(sizes: &RunSizes, stage: &VoxelSynth, budget: f64) -> Option<[usize; 3]> {
+    let share = (0.95 * budget - sizes.fixed_bytes()) / sizes.scaled_bytes();
+    if share.is_nan() || share <= 0.0 {
+        return None;
+    }
+    let block = stage.params.block;
+    let step = (block / 2).max(1);
+    let scale = share.cbrt();
+    let dims = stage
+        .params
+        .target_dims
+        .map(|d| (d as f64 * scale / step as f64).floor() as usize * step);
+    dims.iter().all(|&d| d >= block).then_some(dims)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+
+    use super::*;
+    use geosynth::RunContext;
+    use geosynth::voxel::VoxelParams;
+
+    fn stage(dims: [usize; 3]) -> VoxelSynth {
+        VoxelSynth {
+            params: VoxelParams::default().target_dims(dims),
+            ..VoxelSynth::default()
+        }
+    }
+
+    /// Balls from a 32³ source to a 128³ target: 7.2 M copied triangles, 0.96 M surface
+    /// cells, 1.44 GB measured peak.
+    const BALLS: RunSizes = RunSizes {
+        source_samples: 32 * 32 * 32,
+        target_samples: 128 * 128 * 128,
+        copied_triangles: 7_176_153,
+        surface_cells: 960_200,
+    };
+
+    #[test]
+    fn the_model_is_near_a_measured_peak() {
+        let ratio = BALLS.peak_bytes() / 1.435e9;
+        assert!((0.9..1.2).contains(&ratio), "{ratio}");
+    }
+
+    #[test]
+    fn a_run_that_does_not_fit_is_refused_with_a_target_that_does() {
+        let stage = stage([128; 3]);
+        assert!(
+            check_fits(
+                &BALLS,
+                Copies::Counted,
+                &stage,
+                (2_000_000_000, 0),
+                "copying"
+            )
+            .is_ok()
+        );
+        // What the process already holds is part of the peak.
+        assert!(
+            check_fits(
+                &BALLS,
+                Copies::Counted,
+                &stage,
+                (1_100_000_000, 600_000_000),
+                "copying"
+            )
+            .is_ok()
+        );
+        let message = check_fits(&BALLS, Copies::Counted, &stage, (500_000_000, 0), "copying")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.starts_with("copying needs about 1.6 GB, more than the 0.5 GB"),
+            "{message}"
+        );
+        let dims: Vec<usize> = message
+            .rsplit_once("--target-dims ")
+            .and_then(|(_, d)| d.strip_suffix(" fits"))
+            .unwrap()
+            .split(',')
+            .map(|d| d.parse().unwrap())
+            .collect();
+        // Whole half blocks, and the run they describe fits.
+        assert!(dims.iter().all(|d| d % 8 == 0 && *d < 128), "{dims:?}");
+        // Everything that grows with the target scaled by its share of the samples.
+        let scaled_to = |dims: [usize; 3]| {
+            let share = dims.iter().product::<usize>() as f64 / BALLS.target_samples as f64;
+            let grown = |n: usize| (n as f64 * share) as usize;
+            RunSizes {
+                target_samples: grown(BALLS.target_samples),
+                copied_triangles: grown(BALLS.copied_triangles),
+                surface_cells: grown(BALLS.surface_cells),
+                ..BALLS
+            }
+            .peak_bytes()
+        };
+        let dims = [dims[0], dims[1], dims[2]];
+        assert!(scaled_to(dims) <= 0.95 * 500_000_000.0, "{dims:?}");
+        // A step of half a block more along every axis would not.
+        assert!(
+            scaled_to(dims.map(|d| d + 8)) > 0.95 * 500_000_000.0,
+            "{dims:?}"
+        );
+        // Before the run, the copy is a lower estimate.
+        let message = check_fits(&BALLS, Copies::AtLeast, &stage, (500_000_000, 0), "copying")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.ends_with("at most --target-dims 80,80,80 could fit"),
+            "{message}"
+        );
+        // Nothing fits beside a source that takes the memory by itself.
+        let message = check_fits(&BALLS, Copies::Counted, &stage, (10_000_000, 0), "copying")
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("no target fits"), "{message}");
+    }
+
+    #[test]
+    fn the_upfront_estimate_stays_below_what_runs_copy() {
+        // A lower estimate, and not a vacuous one (here 7–9% of the count).
+        for volume in geosynth::fixtures::volumes::all(3).unwrap() {
+            let exemplar = VoxelExemplar::from(&volume);
+            let stage = VoxelSynth {
+                source_resolution: 24,
+                params: VoxelParams::default()
+                    .target_dims([32, 32, 16])
+                    .levels(2)
+                    .block(8),
+                ..VoxelSynth::default()
+            };
+            let source = source_dims(&exemplar, 24).unwrap();
+            let upfront = upfront_sizes(&exemplar, source, stage.params.target_dims);
+            let field = stage
+                .synthesize_field(&exemplar, &mut RunContext::new(0))
+                .unwrap();
+            let copied = copied_triangle_count(&exemplar.mesh, &field.synthesis);
+            assert!(
+                copied / 20 < upfront.copied_triangles && upfront.copied_triangles < copied,
+                "{}: {} vs {copied}",
+                volume.name,
+                upfront.copied_triangles
+            );
+        }
+    }
+}
