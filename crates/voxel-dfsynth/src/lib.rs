@@ -132,6 +132,7 @@
 
 #![deny(missing_docs)]
 
+mod copied;
 mod error;
 pub mod fft;
 mod field;
@@ -142,14 +143,15 @@ mod reconstruct;
 mod synth;
 mod tree;
 
+pub use copied::{
+    CopiedMesh, MAX_RELAX_ITERATIONS, MAX_WELD_RADIUS, RelaxParams, copied_mesh,
+    copied_triangle_count,
+};
 pub use error::{Result, VoxelError};
 pub use field::{BoxMeans, QuantizedField, SubsampledSource, block_level};
 pub use matcher::{BlockMatcher, BruteForce, FftMatcher};
 pub use quality::{QualityParams, VoxelQuality, evaluate, unit_gradient_fraction};
-pub use reconstruct::{
-    CopiedMesh, MAX_RELAX_ITERATIONS, MAX_WELD_RADIUS, RelaxParams, copied_mesh,
-    copied_triangle_count, isosurface_cells, isosurface_mesh,
-};
+pub use reconstruct::{isosurface_cells, isosurface_mesh};
 pub use synth::{
     BlockCopy, LevelReport, MAX_TARGET_SAMPLES, MatcherKind, Synthesis, VoxelParams,
     quantize_source, source_quantizer, synthesize,
