@@ -12,7 +12,9 @@
 //! The paper only says "mesh relaxation"; welding first is our reading of "close seams", as
 //! smoothing alone cannot join pieces that share no vertices.
 //!
-//! Memory: the copy holds about 100 bytes per copied triangle at its peak (see
+//! Memory: the copy adds about 45 bytes per copied triangle at its peak (balls, 32³ source
+//! to 128³ target, 7.2 million triangles: 322 MB over what the process held before; 160
+//! bytes a triangle when it hashed its edges, clusters and triangles, see
 //! [`copied_mesh`]); [`copied_triangle_count`] gives the count before anything is copied.
 
 use std::collections::HashMap;
@@ -652,7 +654,7 @@ mod tests {
                 l.sort_unstable();
                 l.dedup();
             }
-            let mut ring = vec![usize::MAX; 20];
+            let mut ring = [usize::MAX; 20];
             let mut queue: VecDeque<usize> = VecDeque::new();
             for v in (0..20).filter(|&v| welded[v]) {
                 ring[v] = 0;
