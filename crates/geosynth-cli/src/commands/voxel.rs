@@ -328,13 +328,19 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(note) = sign.note(&exemplar.mesh, stage.mesh_sign)? {
         status(globals, note);
     }
-    check_synthesis_fits(&stage, &exemplar)?;
+    check_synthesis_fits(&stage, &exemplar, args.isosurface.is_some())?;
     let run = measured_run(exemplar.clone(), &stage, args.baseline, globals, |field| {
         if let Some(path) = &args.field {
             let grid = field.synthesis.distances()?;
             nrrd::write_file(path, |f| nrrd::write_scalar_at(f, &grid, exemplar.origin))?;
         }
-        check_reconstruction_fits(&stage, &exemplar, field, args.field.as_deref())
+        check_reconstruction_fits(
+            &stage,
+            &exemplar,
+            field,
+            args.isosurface.is_some(),
+            args.field.as_deref(),
+        )
     })?;
     let options = WriteOptions::default()
         .comment(format!(
