@@ -74,7 +74,10 @@ pub struct VoxelArgs {
     /// Source samples along the exemplar box's longest side.
     #[arg(long, default_value_t = VoxelSynth::default().source_resolution)]
     source_res: usize,
-    /// Target samples along each axis at the last iteration.
+    /// Target samples along each axis at the last iteration. A run the machine's available
+    /// memory cannot hold is refused before it starts, or, once the synthesized field shows
+    /// how many triangles it copies, before the meshes are built (after `--field` is
+    /// written); the error names a target that fits.
     #[arg(long, default_value_t = VoxelParams::default().target_dims[0])]
     target_res: usize,
     /// Target samples along x, y, z (`X,Y,Z`), instead of a cube of `--target-res`; e.g.
