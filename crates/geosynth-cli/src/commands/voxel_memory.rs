@@ -111,7 +111,7 @@ impl RunSizes {
 }
 
 /// The share of the exemplar's mean triangles per source sample that the upfront check
-/// takes every target sample to copy. Measured shares (33 runs, as for the model): 0.15 to
+/// takes every target sample to copy. Measured shares (the model's 33 settings): 0.15 to
 /// 2.3, 0.4 to 0.6 on the five solids; the smallest is the bunny, mostly empty space,
 /// copied into a cube four times its height. A tenth stays below all of them, so the
 /// check refuses only runs that would not fit even then.
