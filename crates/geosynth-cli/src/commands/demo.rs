@@ -688,25 +688,29 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
                 Ok(())
             })?;
         let dir = args.out.join("geometry");
-        let write = |suffix: &str, mesh: &geosynth::core::TriMesh| -> CliResult<PathBuf> {
+        let write = |suffix: &str, geometry: &Geometry| -> CliResult<PathBuf> {
             let path = dir.join(format!("{}_{suffix}.ply", volume.name));
             write_geometry_file(
                 &path,
-                &Geometry::Mesh(mesh.clone()),
+                geometry,
                 &WriteOptions::default().comment(volume.description),
             )?;
             Ok(path)
         };
-        let exemplar_path = write("exemplar", &volume.mesh)?;
-        let copied_path = write("synthesized", &run.output.copied.mesh)?;
-        let iso_path = write("isosurface", &run.output.isosurface)?;
+        let run_report = crate::commands::voxel::run_json(&run, &stage);
+        let exemplar_path = write("exemplar", &Geometry::Mesh(volume.mesh.clone()))?;
+        let copied = Geometry::Mesh(run.output.copied.mesh);
+        let copied_path = write("synthesized", &copied)?;
+        let isosurface = Geometry::Mesh(run.output.isosurface);
+        let iso_path = write("isosurface", &isosurface)?;
         let preview_path = args
             .out
             .join("previews")
             .join(format!("{}_synthesized.png", volume.name));
         crate::commands::voxel::voxel_preview(
             &exemplar,
-            &run,
+            &copied,
+            &isosurface,
             &preview_path,
             if args.quick { 240 } else { 400 },
         )?;
@@ -721,7 +725,7 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
             geometry: relative(&copied_path, &args.out),
             isosurface: relative(&iso_path, &args.out),
             preview: relative(&preview_path, &args.out),
-            run: crate::commands::voxel::run_json(&run, &stage),
+            run: run_report,
             beats_baseline,
         });
     }

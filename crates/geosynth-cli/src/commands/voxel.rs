@@ -225,14 +225,16 @@ pub fn run_json(run: &VoxelRun, stage: &VoxelSynth) -> Value {
 }
 
 /// Renders exemplar | copied-triangle mesh | iso-surface, Z up.
-pub fn voxel_preview(exemplar: &VoxelExemplar, run: &VoxelRun, path: &Path, w: u32) -> CliResult {
-    let panels = [
-        Geometry::Mesh(exemplar.mesh.clone()),
-        Geometry::Mesh(run.output.copied.mesh.clone()),
-        Geometry::Mesh(run.output.isosurface.clone()),
-    ];
-    let panels: Vec<Panel<'_>> = panels
-        .iter()
+pub fn voxel_preview(
+    exemplar: &VoxelExemplar,
+    copied: &Geometry,
+    isosurface: &Geometry,
+    path: &Path,
+    w: u32,
+) -> CliResult {
+    let exemplar = Geometry::Mesh(exemplar.mesh.clone());
+    let panels: Vec<Panel<'_>> = [&exemplar, copied, isosurface]
+        .into_iter()
         .map(|g| Panel::Geometry(g, UpAxis::Z))
         .collect();
     let image = preview::render_panels(
@@ -352,29 +354,28 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
             stage.params.matcher.name()
         ))
         .origin(exemplar.origin);
-    write_geometry_file(
-        &args.output,
-        &Geometry::Mesh(run.output.copied.mesh.clone()),
-        &options,
-    )?;
+    // What needs the meshes is taken first, then they move into the written geometry
+    // (copies of them would be the run's largest allocation).
+    let report = run_json(&run, &stage);
+    let note = empty_copy_note(&exemplar, &run, args.isosurface.is_some());
+    let faces = run.output.copied.mesh.face_count();
+    let copied = Geometry::Mesh(run.output.copied.mesh);
+    write_geometry_file(&args.output, &copied, &options)?;
+    let isosurface = Geometry::Mesh(run.output.isosurface);
     if let Some(path) = &args.isosurface {
-        write_geometry_file(
-            path,
-            &Geometry::Mesh(run.output.isosurface.clone()),
-            &options,
-        )?;
+        write_geometry_file(path, &isosurface, &options)?;
     }
     if let Some(path) = &args.preview {
-        voxel_preview(&exemplar, &run, path, 400)?;
+        voxel_preview(&exemplar, &copied, &isosurface, path, 400)?;
     }
     if let Some(path) = &args.report {
-        let mut report = run_json(&run, &stage);
+        let mut report = report;
         report["exemplar"] = Value::from(args.exemplar.display().to_string());
         report[INPUT_OPTIONS_KEY] = serde_json::to_value(input_options)?;
         report["stage"] = serde_json::to_value(&stage)?;
         write_json_report(path, "voxel", &report)?;
     }
-    if let Some(note) = empty_copy_note(&exemplar, &run, args.isosurface.is_some()) {
+    if let Some(note) = note {
         status(globals, note);
     }
     let q = &run.quality;
@@ -383,7 +384,7 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
         format!(
             "wrote {} ({} faces, {:.1}s; neighbourhood error {:.3}, seam error {:.3}, distance-field fraction {:.2})",
             args.output.display(),
-            run.output.copied.mesh.face_count(),
+            faces,
             run.seconds,
             q.neighbourhood_error,
             q.seam_error,

@@ -281,6 +281,45 @@ fn obj_round_trip_keeps_faces_normals_and_uvs() {
     assert!(back.mesh().is_none());
 }
 
+#[test]
+fn files_hold_the_encoded_bytes_and_unwritable_paths_are_named() {
+    // PLY is streamed to its file, the other formats written whole: either way the file
+    // holds exactly what `encode_geometry` gives.
+    let points = PointSet::new(
+        (0..50)
+            .map(|i| Vec3::new(i as f32, (i * i) as f32, 0.5))
+            .collect(),
+    )
+    .unwrap()
+    .with_normals(vec![Vec3::Z; 50])
+    .unwrap();
+    let mesh = TriMesh::new(points, (0..48).map(|i| [i, i + 1, i + 2]).collect()).unwrap();
+    let geometry = Geometry::Mesh(mesh);
+    let dir = tempfile::tempdir().unwrap();
+    for (name, encoding) in [
+        ("m.ply", PlyEncoding::BinaryLittleEndian),
+        ("a.ply", PlyEncoding::Ascii),
+        ("m.obj", PlyEncoding::Ascii),
+        ("m.off", PlyEncoding::Ascii),
+    ] {
+        let path = dir.path().join(name);
+        let options = WriteOptions::default()
+            .comment("streamed or not")
+            .origin(DVec3::new(1e6, 0.0, 0.0))
+            .ply_encoding(encoding);
+        io::write_geometry(&path, &geometry, &options).unwrap();
+        let format = FileFormat::from_extension(name.rsplit('.').next().unwrap()).unwrap();
+        let expected = io::encode_geometry(&geometry, format, &options).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), expected, "{name}");
+        // A folder that does not exist: the error names the file.
+        let missing = dir.path().join("no such folder").join(name);
+        match io::write_geometry(&missing, &geometry, &options) {
+            Err(Error::Io { path, .. }) => assert_eq!(path, missing),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+}
+
 // ---------------------------------------------------------------- malformed input
 
 fn read(name: &str, bytes: &[u8]) -> Result<io::LoadedGeometry, Error> {
