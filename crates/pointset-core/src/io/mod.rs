@@ -596,7 +596,10 @@ pub fn encode_geometry(
     Ok(out)
 }
 
-/// Writes geometry to `path` in the format its extension names.
+/// Writes geometry to `path` in the format its extension names. The file holds exactly
+/// what [`encode_geometry`] gives; PLY is streamed to it once its document is built, so
+/// the encoded file is never held whole in memory (the other formats are encoded first).
+/// Errors before the writing starts leave `path` untouched.
 pub fn write_geometry(
     path: impl AsRef<Path>,
     geometry: &Geometry,
