@@ -10,8 +10,8 @@
 //! `--isosurface`), each a sum of terms, fitted to `--report`'s peak over 66 runs (five
 //! solids, the torus, the bunny, the teapot and fertility; sources 32 to 128, targets 64 to
 //! 256; each with and without `--isosurface`; see `docs/performance.md`, "Memory of
-//! `geosynth voxel`"). Model / measured peak: 0.78 to 1.33 over all runs, 0.86 to 1.12 over
-//! the 20 runs above 500 MB.
+//! `geosynth voxel`"). Model / measured peak: 0.75 to 1.37 over all runs, 0.84 to 1.16 over
+//! the 13 runs above 500 MB.
 
 use geosynth::voxel::{
     SynthesizedField, VoxelExemplar, VoxelSynth, copied_triangle_count, isosurface_cells,
@@ -22,10 +22,10 @@ use crate::CliResult;
 use crate::memory::{available_bytes, resident_bytes};
 
 /// Fitted bytes that do not depend on the sizes.
-const BASE_BYTES: f64 = 5.7e6;
+const BASE_BYTES: f64 = 8.5e6;
 /// Fitted bytes per source sample (the signed distance grid, its quantized copy and the
 /// matcher's tables).
-const BYTES_PER_SOURCE_SAMPLE: f64 = 277.8;
+const BYTES_PER_SOURCE_SAMPLE: f64 = 274.0;
 
 /// What one phase of the run holds beyond the fixed part, in fitted bytes per unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,24 +40,24 @@ struct Phase {
 
 /// Extracting the iso-surface: the field and its owners, the distances, their padded copy.
 const EXTRACTING_ISOSURFACE: Phase = Phase {
-    per_target_sample: 20.7,
-    per_surface_cell: 229.6,
+    per_target_sample: 15.3,
+    per_surface_cell: 245.3,
     per_copied_triangle: 0.0,
 };
 
 /// Copying, welding and relaxing the triangles beside the finished iso-surface, and
-/// writing the copied mesh (the writer's copy and its encoded bytes).
+/// writing the copied mesh (the PLY writer's columns).
 const COPYING: Phase = Phase {
-    per_target_sample: 10.4,
-    per_surface_cell: 65.2,
-    per_copied_triangle: 124.8,
+    per_target_sample: 10.7,
+    per_surface_cell: 94.6,
+    per_copied_triangle: 82.0,
 };
 
 /// Writing the iso-surface (`--isosurface`) beside the copied mesh.
 const WRITING_ISOSURFACE: Phase = Phase {
-    per_target_sample: 0.0,
-    per_surface_cell: 852.9,
-    per_copied_triangle: 28.5,
+    per_target_sample: 3.3,
+    per_surface_cell: 497.8,
+    per_copied_triangle: 34.2,
 };
 
 impl Phase {
@@ -119,8 +119,10 @@ const LEAST_COPY_SHARE: f64 = 0.1;
 
 /// Refuses a run that would not fit even on its most favourable showing, before anything
 /// runs: the fields, and a tenth ([`LEAST_COPY_SHARE`]) of the triangles a target of
-/// source-like density would copy. Without it, balls from a 16³ source to a 512³ target
-/// were refused only after three minutes of synthesis (4.2 billion triangles to copy).
+/// source-like density would copy. It catches the hopeless runs (a 512³ source beside a
+/// 512³ target: the source field alone needs 37 GB); the rest wait for the counted check
+/// after the synthesis (balls from a 16³ source to a 512³ target pass this estimate, 22 GB,
+/// and are refused after three minutes of synthesis at 4.2 billion copied triangles).
 /// `isosurface_written`: whether `--isosurface` is written too.
 pub fn check_synthesis_fits(
     stage: &VoxelSynth,
@@ -294,7 +296,7 @@ mod tests {
     }
 
     /// Balls from a 32³ source to a 128³ target, with `--isosurface`: 7.2 M copied
-    /// triangles, 0.96 M surface cells, 0.98 GB measured peak.
+    /// triangles, 0.96 M surface cells, 0.68 GB measured peak.
     const BALLS: RunSizes = RunSizes {
         source_samples: 32 * 32 * 32,
         target_samples: 128 * 128 * 128,
@@ -305,7 +307,7 @@ mod tests {
 
     #[test]
     fn the_model_is_near_a_measured_peak() {
-        let ratio = BALLS.peak_bytes() / 0.983e9;
+        let ratio = BALLS.peak_bytes() / 0.676e9;
         assert!((0.9..1.2).contains(&ratio), "{ratio}");
     }
 
@@ -337,7 +339,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            message.starts_with("copying needs about 1.0 GB, more than the 0.5 GB"),
+            message.starts_with("copying needs about 0.7 GB, more than the 0.5 GB"),
             "{message}"
         );
         let dims: Vec<usize> = message
@@ -373,7 +375,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            message.ends_with("at most --target-dims 96,96,96 could fit"),
+            message.ends_with("at most --target-dims 104,104,104 could fit"),
             "{message}"
         );
         // Nothing fits beside a source that takes the memory by itself.
