@@ -564,6 +564,16 @@ fn without_byte_order_mark(bytes: &[u8]) -> &[u8] {
     }
 }
 
+/// The PLY document of `geometry` as `options` ask for it.
+fn ply_document(geometry: &Geometry, options: &WriteOptions) -> Result<ply::PlyDocument> {
+    ply::document_from_geometry_at(
+        geometry,
+        options.ply_encoding,
+        &options.comments,
+        options.origin,
+    )
+}
+
 /// Encodes geometry in `format` into a byte vector.
 pub fn encode_geometry(
     geometry: &Geometry,
@@ -572,15 +582,7 @@ pub fn encode_geometry(
 ) -> Result<Vec<u8>> {
     let mut out = Vec::new();
     match format {
-        FileFormat::Ply => {
-            let doc = ply::document_from_geometry_at(
-                geometry,
-                options.ply_encoding,
-                &options.comments,
-                options.origin,
-            )?;
-            ply::write_ply(&doc, &mut out)?;
-        }
+        FileFormat::Ply => ply::write_ply(&ply_document(geometry, options)?, &mut out)?,
         FileFormat::Obj => write_obj_at(geometry, &options.comments, options.origin, &mut out)?,
         FileFormat::Off => write_off_at(geometry, &options.comments, options.origin, &mut out)?,
         FileFormat::Stl => write_stl_at(geometry, options.stl_encoding, options.origin, &mut out)?,
@@ -618,12 +620,7 @@ pub fn write_geometry(
     if format == FileFormat::Ply {
         // Built first (where anything but the disk can fail), then streamed: the encoded
         // file is never held whole (136 MB for a mesh of 7.2 million triangles).
-        let doc = ply::document_from_geometry_at(
-            geometry,
-            options.ply_encoding,
-            &options.comments,
-            options.origin,
-        )?;
+        let doc = ply_document(geometry, options)?;
         let mut file = std::io::BufWriter::new(std::fs::File::create(path).map_err(at_path)?);
         return ply::write_ply(&doc, &mut file)
             .and_then(|()| {
