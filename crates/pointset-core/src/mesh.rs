@@ -293,7 +293,7 @@ impl TriMesh {
             sets.join(t[0], t[1]);
             sets.join(t[0], t[2]);
         }
-        let used = self.referenced();
+        let used = referenced(&self.triangles, self.vertex_count());
         let used_count = used.iter().filter(|&&u| u).count();
         let components = (0..self.vertex_count() as u32)
             .filter(|&v| used[v as usize] && sets.root(v) == v)
@@ -354,7 +354,11 @@ impl TriMesh {
     /// them on load and report a different vertex count; bounding boxes that count them
     /// disagree with those that do not.
     pub fn unreferenced_vertices(&self) -> usize {
-        self.vertex_count() - self.referenced().iter().filter(|&&u| u).count()
+        self.vertex_count()
+            - referenced(&self.triangles, self.vertex_count())
+                .iter()
+                .filter(|&&u| u)
+                .count()
     }
 
     /// The mesh with only the triangles `keep` accepts (given each triangle's index and
@@ -407,17 +411,29 @@ impl TriMesh {
     /// # Ok::<(), pointset_core::Error>(())
     /// ```
     pub fn without_unreferenced_vertices(&self) -> Result<TriMesh> {
-        let used = self.referenced();
+        self.compacted(self.triangles.clone())
+    }
+
+    /// [`TriMesh::without_unreferenced_vertices`], consuming the mesh: its triangles are
+    /// renumbered in place rather than copied (for meshes of millions of triangles).
+    pub fn into_without_unreferenced_vertices(mut self) -> Result<TriMesh> {
+        let triangles = std::mem::take(&mut self.triangles);
+        self.compacted(triangles)
+    }
+
+    /// The mesh of `triangles` (this mesh's, moved out or copied) over the vertices they
+    /// use, with their positions, normals, attributes and UVs; the triangles renumbered in
+    /// place.
+    fn compacted(&self, mut triangles: Vec<[u32; 3]>) -> Result<TriMesh> {
+        let used = referenced(&triangles, self.vertex_count());
         let kept: Vec<usize> = (0..self.vertex_count()).filter(|&v| used[v]).collect();
         let mut renumbered = vec![0u32; self.vertex_count()];
         for (new, &old) in kept.iter().enumerate() {
             renumbered[old] = new as u32;
         }
-        let triangles = self
-            .triangles
-            .iter()
-            .map(|t| t.map(|v| renumbered[v as usize]))
-            .collect();
+        for t in &mut triangles {
+            *t = t.map(|v| renumbered[v as usize]);
+        }
         let mesh = TriMesh::new(self.vertices.subset(&kept)?, triangles)?;
         match &self.uvs {
             Some(uvs) => mesh.with_uvs(kept.iter().map(|&v| uvs[v]).collect()),
@@ -425,21 +441,21 @@ impl TriMesh {
         }
     }
 
-    /// For each vertex, whether some triangle uses it.
-    fn referenced(&self) -> Vec<bool> {
-        let mut used = vec![false; self.vertex_count()];
-        for t in &self.triangles {
-            for &v in t {
-                used[v as usize] = true;
-            }
-        }
-        used
-    }
-
     /// Consumes the mesh and returns its parts.
     pub fn into_parts(self) -> (PointSet, Vec<[u32; 3]>, Option<Vec<Vec2>>) {
         (self.vertices, self.triangles, self.uvs)
     }
+}
+
+/// For each of `vertex_count` vertices, whether one of `triangles` uses it.
+fn referenced(triangles: &[[u32; 3]], vertex_count: usize) -> Vec<bool> {
+    let mut used = vec![false; vertex_count];
+    for t in triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    used
 }
 
 #[cfg(test)]

@@ -275,7 +275,8 @@ pub fn copied_mesh(
     let seam_distance_after = mean_abs(&positions);
     let boundary_edges_after = boundary_edges(&triangles).len();
     // Welding collapses some copied triangles onto an edge; their vertices go too.
-    let mesh = without_unused_vertices(positions, triangles)?;
+    let mesh =
+        TriMesh::new(PointSet::new(positions)?, triangles)?.into_without_unreferenced_vertices()?;
     Ok(CopiedMesh {
         mesh,
         copied_triangles,
@@ -558,34 +559,6 @@ impl Neighbours {
     }
 }
 
-/// The mesh of `positions` and `triangles` without the vertices no triangle uses, the rest
-/// renumbered in order.
-fn without_unused_vertices(
-    mut positions: Vec<Vec3>,
-    mut triangles: Vec<[u32; 3]>,
-) -> Result<TriMesh> {
-    let mut used = vec![false; positions.len()];
-    for t in &triangles {
-        for &v in t {
-            used[v as usize] = true;
-        }
-    }
-    let mut renumbered = vec![0u32; positions.len()];
-    let mut kept = 0;
-    for v in 0..positions.len() {
-        if used[v] {
-            positions[kept] = positions[v];
-            renumbered[v] = kept as u32;
-            kept += 1;
-        }
-    }
-    positions.truncate(kept);
-    for t in &mut triangles {
-        *t = t.map(|v| renumbered[v as usize]);
-    }
-    Ok(TriMesh::new(PointSet::new(positions)?, triangles)?)
-}
-
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -678,16 +651,6 @@ mod tests {
             for (slot, &v) in active.iter().enumerate() {
                 prop_assert_eq!(neighbours.of_slot(slot), lists[v as usize].as_slice());
             }
-        }
-
-        #[test]
-        fn unused_vertices_go_as_the_mesh_would_drop_them(ts in soup(15)) {
-            let positions: Vec<Vec3> = (0..15).map(|i| Vec3::new(i as f32, (i * i) as f32, 1.0)).collect();
-            let ours = without_unused_vertices(positions.clone(), ts.clone()).unwrap();
-            let mesh = TriMesh::new(PointSet::new(positions).unwrap(), ts).unwrap();
-            let theirs = mesh.without_unreferenced_vertices().unwrap();
-            prop_assert_eq!(ours.positions(), theirs.positions());
-            prop_assert_eq!(ours.triangles(), theirs.triangles());
         }
     }
 }

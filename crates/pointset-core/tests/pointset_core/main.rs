@@ -912,3 +912,21 @@ fn spot_is_closed_once_its_uv_seams_are_welded() {
     assert!(welded.is_closed_manifold(), "{welded:?}");
     assert_eq!((welded.components, welded.euler_characteristic), (1, 2));
 }
+
+proptest! {
+    #[test]
+    fn unreferenced_vertices_go_alike_whether_the_mesh_is_consumed_or_not(
+        ts in prop::collection::vec([0u32..15, 0u32..15, 0u32..15], 0..40),
+    ) {
+        let ts: Vec<[u32; 3]> =
+            ts.into_iter().filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]).collect();
+        let positions: Vec<Vec3> = (0..15).map(|i| Vec3::new(i as f32, (i * i) as f32, 1.0)).collect();
+        let normals: Vec<Vec3> = (0..15).map(|i| Vec3::new(1.0, i as f32, 0.0).normalize()).collect();
+        let uvs: Vec<Vec2> = (0..15).map(|i| Vec2::new(i as f32 / 15.0, 0.5)).collect();
+        let points = PointSet::new(positions).unwrap().with_normals(normals).unwrap();
+        let mesh = TriMesh::new(points, ts).unwrap().with_uvs(uvs).unwrap();
+        let borrowed = mesh.without_unreferenced_vertices().unwrap();
+        prop_assert_eq!(borrowed.unreferenced_vertices(), 0);
+        prop_assert_eq!(mesh.into_without_unreferenced_vertices().unwrap(), borrowed);
+    }
+}
