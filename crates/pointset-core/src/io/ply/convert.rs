@@ -12,11 +12,10 @@
 
 use glam::{DVec3, Vec2, Vec3};
 
-use super::{PlyColumn, PlyDocument, PlyElement, PlyEncoding, PlyProperty, PropertyKind};
+use super::view::DocumentView;
+use super::{PlyColumn, PlyDocument, PlyElement, PlyEncoding, PropertyKind};
 use crate::io::{FileFormat, Geometry, relative_positions};
-use crate::{
-    Attribute, Error, Location, PointSet, Result, ScalarType, TriMesh, triangulate_polygon,
-};
+use crate::{Attribute, Error, Location, PointSet, Result, TriMesh, triangulate_polygon};
 
 const UV_NAMES: [(&str, &str); 4] = [
     ("s", "t"),
@@ -197,16 +196,6 @@ pub fn geometry_from_document_at(
     Ok((Geometry::Mesh(mesh), origin))
 }
 
-fn scalar_property(name: &str, ty: ScalarType, values: Vec<f64>) -> (PlyProperty, PlyColumn) {
-    (
-        PlyProperty {
-            name: name.to_string(),
-            kind: PropertyKind::Scalar(ty),
-        },
-        PlyColumn::Scalar(values),
-    )
-}
-
 /// Builds a document for a point set or mesh, with the given encoding and comments.
 pub fn document_from_geometry(
     geometry: &Geometry,
@@ -224,88 +213,5 @@ pub fn document_from_geometry_at(
     comments: &[String],
     origin: DVec3,
 ) -> Result<PlyDocument> {
-    let (points, mesh) = match geometry {
-        Geometry::Points(p) => (p, None),
-        Geometry::Mesh(m) => (m.vertices(), Some(m)),
-    };
-    let mut props = Vec::new();
-    let pos = points.positions();
-    let coordinate_type = if origin == DVec3::ZERO {
-        ScalarType::F32
-    } else {
-        ScalarType::F64
-    };
-    for (axis, name) in ["x", "y", "z"].iter().enumerate() {
-        props.push(scalar_property(
-            name,
-            coordinate_type,
-            pos.iter()
-                .map(|p| f64::from(p[axis]) + origin[axis])
-                .collect(),
-        ));
-    }
-    if let Some(normals) = points.normals() {
-        for (axis, name) in ["nx", "ny", "nz"].iter().enumerate() {
-            props.push(scalar_property(
-                name,
-                ScalarType::F32,
-                normals.iter().map(|n| f64::from(n[axis])).collect(),
-            ));
-        }
-    }
-    if let Some(uvs) = mesh.and_then(TriMesh::uvs) {
-        if points.attribute("s").is_some() || points.attribute("t").is_some() {
-            return Err(Error::IncompatibleLayout {
-                reason: "attributes named `s`/`t` collide with the UV properties".into(),
-            });
-        }
-        props.push(scalar_property(
-            "s",
-            ScalarType::F32,
-            uvs.iter().map(|uv| f64::from(uv.x)).collect(),
-        ));
-        props.push(scalar_property(
-            "t",
-            ScalarType::F32,
-            uvs.iter().map(|uv| f64::from(uv.y)).collect(),
-        ));
-    }
-    for a in points.attributes() {
-        props.push(scalar_property(
-            a.name(),
-            a.storage(),
-            a.values().iter().map(|&v| f64::from(v)).collect(),
-        ));
-    }
-    let (properties, columns) = props.into_iter().unzip();
-    let mut elements = vec![PlyElement {
-        name: "vertex".into(),
-        count: points.len(),
-        properties,
-        columns,
-    }];
-    if let Some(mesh) = mesh {
-        let tris = mesh.triangles();
-        elements.push(PlyElement {
-            name: "face".into(),
-            count: tris.len(),
-            properties: vec![PlyProperty {
-                name: "vertex_indices".into(),
-                kind: PropertyKind::List {
-                    count: ScalarType::U8,
-                    item: ScalarType::I32,
-                },
-            }],
-            columns: vec![PlyColumn::List {
-                offsets: (0..=tris.len()).map(|i| 3 * i).collect(),
-                items: tris.iter().flat_map(|t| t.map(f64::from)).collect(),
-            }],
-        });
-    }
-    Ok(PlyDocument {
-        encoding,
-        comments: comments.to_vec(),
-        obj_info: Vec::new(),
-        elements,
-    })
+    Ok(DocumentView::of_geometry(geometry, encoding, comments, origin)?.to_document())
 }

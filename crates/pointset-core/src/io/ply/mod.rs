@@ -10,13 +10,16 @@
 mod body;
 mod convert;
 mod header;
+mod view;
 mod write;
 
 pub use convert::{
     document_from_geometry, document_from_geometry_at, geometry_from_document,
     geometry_from_document_at, skipped_parts,
 };
+pub(crate) use view::DocumentView;
 pub use write::write_ply;
+pub(crate) use write::write_view;
 
 use crate::{Result, ScalarType};
 

@@ -2,7 +2,8 @@
 
 use std::io::Write;
 
-use super::{PlyColumn, PlyDocument, PlyEncoding, PropertyKind};
+use super::view::DocumentView;
+use super::{PlyDocument, PlyEncoding, PropertyKind};
 use crate::{Error, Result, ScalarType};
 
 fn io(source: std::io::Error) -> Error {
@@ -12,6 +13,11 @@ fn io(source: std::io::Error) -> Error {
 /// Writes `doc` in `doc.encoding`. Values are converted with [`ScalarType::quantize`]
 /// (integers rounded and clamped); columns must hold `count` records each.
 pub fn write_ply(doc: &PlyDocument, out: &mut impl Write) -> Result<()> {
+    write_view(&DocumentView::of_document(doc), out)
+}
+
+/// Writes the viewed values as [`write_ply`] writes a document holding them.
+pub(crate) fn write_view(doc: &DocumentView<'_>, out: &mut impl Write) -> Result<()> {
     for element in &doc.elements {
         for (prop, column) in element.properties.iter().zip(&element.columns) {
             if column.len() != element.count {
@@ -31,19 +37,20 @@ pub fn write_ply(doc: &PlyDocument, out: &mut impl Write) -> Result<()> {
         }
     }
     write_header(doc, out).map_err(io)?;
+    let ascii = doc.encoding == PlyEncoding::Ascii;
     let mut buf: Vec<u8> = Vec::with_capacity(1 << 16);
     for element in &doc.elements {
         for record in 0..element.count {
             for (i, (prop, column)) in element.properties.iter().zip(&element.columns).enumerate() {
-                if doc.encoding == PlyEncoding::Ascii && i > 0 {
+                if ascii && i > 0 {
                     buf.push(b' ');
                 }
-                match (prop.kind, column) {
-                    (PropertyKind::Scalar(ty), PlyColumn::Scalar(v)) => {
-                        put(&mut buf, doc.encoding, ty, v[record]);
+                let written = match (prop.kind, column.scalar(record), column.list(record)) {
+                    (PropertyKind::Scalar(ty), Some(value), _) => {
+                        put(&mut buf, doc.encoding, ty, value);
+                        true
                     }
-                    (PropertyKind::List { count, item }, PlyColumn::List { offsets, items }) => {
-                        let list = &items[offsets[record]..offsets[record + 1]];
+                    (PropertyKind::List { count, item }, _, Some(list)) => {
                         let (_, max) = count.range();
                         if list.len() as f64 > max {
                             return Err(Error::ListCountOverflow {
@@ -54,24 +61,26 @@ pub fn write_ply(doc: &PlyDocument, out: &mut impl Write) -> Result<()> {
                             });
                         }
                         put(&mut buf, doc.encoding, count, list.len() as f64);
-                        for &v in list {
-                            if doc.encoding == PlyEncoding::Ascii {
+                        for v in list.items() {
+                            if ascii {
                                 buf.push(b' ');
                             }
                             put(&mut buf, doc.encoding, item, v);
                         }
+                        true
                     }
-                    _ => {
-                        return Err(Error::IncompatibleLayout {
-                            reason: format!(
-                                "column of `{}` does not match its declared kind",
-                                prop.name
-                            ),
-                        });
-                    }
+                    _ => false,
+                };
+                if !written {
+                    return Err(Error::IncompatibleLayout {
+                        reason: format!(
+                            "column of `{}` does not match its declared kind",
+                            prop.name
+                        ),
+                    });
                 }
             }
-            if doc.encoding == PlyEncoding::Ascii {
+            if ascii {
                 buf.push(b'\n');
             }
             if buf.len() >= 1 << 16 {
@@ -84,13 +93,13 @@ pub fn write_ply(doc: &PlyDocument, out: &mut impl Write) -> Result<()> {
     out.flush().map_err(io)
 }
 
-fn write_header(doc: &PlyDocument, out: &mut impl Write) -> std::io::Result<()> {
+fn write_header(doc: &DocumentView<'_>, out: &mut impl Write) -> std::io::Result<()> {
     let mut h = String::from("ply\n");
     h.push_str(&format!("format {} 1.0\n", doc.encoding.keyword()));
-    for c in &doc.comments {
+    for c in doc.comments {
         h.push_str(&format!("comment {}\n", single_line(c)));
     }
-    for c in &doc.obj_info {
+    for c in doc.obj_info {
         h.push_str(&format!("obj_info {}\n", single_line(c)));
     }
     for e in &doc.elements {
