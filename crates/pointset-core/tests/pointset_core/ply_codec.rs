@@ -293,3 +293,20 @@ fn ascii_line_numbers_count_from_the_file_start() {
         other => panic!("expected a line number, got {other:?}"),
     }
 }
+
+#[test]
+fn normals_keep_their_negative_zeros() {
+    // Written from the geometry's arrays, a normal's −0 stays −0 (the bundled fixtures'
+    // bytes depend on it); positions are written with the origin added, as ever.
+    let points = PointSet::new(vec![Vec3::new(-0.0, 1.0, 2.0)])
+        .unwrap()
+        .with_normals(vec![Vec3::new(-0.0, 0.0, 1.0)])
+        .unwrap();
+    let options = WriteOptions::default();
+    let bytes = io::encode_geometry(&Geometry::Points(points), FileFormat::Ply, &options).unwrap();
+    let doc = read_ply(&bytes).unwrap();
+    let vertex = doc.element("vertex").unwrap();
+    assert!(vertex.scalar("nx").unwrap()[0].is_sign_negative());
+    assert!(vertex.scalar("ny").unwrap()[0].is_sign_positive());
+    assert!(vertex.scalar("x").unwrap()[0].is_sign_positive());
+}

@@ -15,15 +15,15 @@ use crate::{Error, Result, ScalarType, TriMesh};
 pub(crate) enum ColumnView<'a> {
     /// A document's stored column.
     Stored(&'a PlyColumn),
-    /// One component of 3-vectors with `offset` added (positions relative to an origin,
-    /// normals with a zero offset).
+    /// One component of 3-vectors, with an origin's coordinate added for positions.
     Component {
         /// The vectors.
         vectors: &'a [Vec3],
         /// 0, 1 or 2.
         axis: usize,
-        /// Added to every value.
-        offset: f64,
+        /// Added to every value (positions, even when zero: −0 is then written as 0);
+        /// `None` writes the values as they are (normals keep their −0).
+        offset: Option<f64>,
     },
     /// One component of texture coordinates.
     UvComponent {
@@ -59,7 +59,10 @@ impl ColumnView<'_> {
                 vectors,
                 axis,
                 offset,
-            } => Some(f64::from(vectors[record][*axis]) + offset),
+            } => {
+                let value = f64::from(vectors[record][*axis]);
+                Some(offset.map_or(value, |offset| value + offset))
+            }
             ColumnView::UvComponent { uvs, axis } => Some(f64::from(uvs[record][*axis])),
             ColumnView::Floats(values) => Some(f64::from(values[record])),
             ColumnView::Stored(PlyColumn::List { .. }) | ColumnView::Triangles(_) => None,
@@ -203,7 +206,7 @@ impl<'a> DocumentView<'a> {
                 ColumnView::Component {
                     vectors: points.positions(),
                     axis,
-                    offset: origin[axis],
+                    offset: Some(origin[axis]),
                 },
             );
         }
@@ -215,7 +218,7 @@ impl<'a> DocumentView<'a> {
                     ColumnView::Component {
                         vectors: normals,
                         axis,
-                        offset: 0.0,
+                        offset: None,
                     },
                 );
             }
