@@ -3,9 +3,11 @@
 //! ENVI header describes; one-band TIFF, as DEMs are shipped; or grey PNG, 8 or 16 bit),
 //! and the files GIS tools read beside a height map.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use image::DynamicImage;
+use pointset_core::io::replace_file;
 use pointset_core::{HeightField, TriMesh};
 
 use crate::{Error, Result};
@@ -174,7 +176,8 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
             .iter()
             .flat_map(|h| h.to_le_bytes())
             .collect();
-        std::fs::write(&path, bytes).map_err(io_error(&path))?;
+        let io = io_error(&path);
+        replace_file(&path, |out| out.write_all(&bytes).map_err(&io), &io)?;
         return Ok(WrittenHeightField { path, clamped: 0 });
     }
     if is_tiff_path(path) {
@@ -197,10 +200,7 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
     // The buffer holds exactly `w × h` samples, so this cannot fail.
     let image = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, grey)
         .ok_or_else(|| sides_error(field, "PNG"))?;
-    image.save(path).map_err(|source| Error::Image {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    crate::preview::save_png(&image, path)?;
     Ok(WrittenHeightField {
         path: path.to_path_buf(),
         clamped,
@@ -310,9 +310,15 @@ fn format_error(path: &Path, reason: String) -> Error {
 }
 
 /// The error for an I/O failure `source` on the file `path`, as a `map_err` argument.
-fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
+pub(crate) fn io_error(path: &Path) -> impl Fn(std::io::Error) -> Error + use<> {
     let path = path.to_path_buf();
-    move |source| pointset_core::Error::Io { path, source }.into()
+    move |source| {
+        pointset_core::Error::Io {
+            path: path.clone(),
+            source,
+        }
+        .into()
+    }
 }
 
 /// Whether [`write_heightfield`] can write `path` (`.png`, `.f32le`, `.tif` or `.tiff`);

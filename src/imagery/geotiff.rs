@@ -16,7 +16,7 @@
 //! and pixel scale when the map has a place in its file's x–y plane.
 
 use std::fs::File;
-use std::io::{BufReader, Write};
+use std::io::BufReader;
 use std::path::Path;
 
 use ::tiff::ColorType;
@@ -25,6 +25,7 @@ use ::tiff::encoder::compression::DeflateLevel;
 use ::tiff::encoder::{Compression, TiffEncoder, colortype};
 use ::tiff::tags::Tag;
 use pointset_core::HeightField;
+use pointset_core::io::{FileReplacement, replace_file};
 
 use crate::{Error, Result};
 
@@ -81,19 +82,19 @@ pub(super) fn write(
         path: path.to_path_buf(),
         source,
     };
-    let file = std::fs::File::create(path).map_err(super::io_error(path))?;
-    let mut writer = std::io::BufWriter::new(file);
-    let mut encoder = TiffEncoder::new(&mut writer)
-        .map_err(encoding)?
-        .with_compression(Compression::Deflate(DeflateLevel::Balanced));
-    let mut image = encoder
-        .new_image::<colortype::Gray32Float>(width, height)
-        .map_err(encoding)?;
-    if let Some(reference) = reference {
-        reference.write_tags(image.encoder()).map_err(encoding)?;
-    }
-    image.write_data(field.heights()).map_err(encoding)?;
-    writer.flush().map_err(super::io_error(path))
+    let write = |out: &mut FileReplacement| {
+        let mut encoder = TiffEncoder::new(out)
+            .map_err(encoding)?
+            .with_compression(Compression::Deflate(DeflateLevel::Balanced));
+        let mut image = encoder
+            .new_image::<colortype::Gray32Float>(width, height)
+            .map_err(encoding)?;
+        if let Some(reference) = reference {
+            reference.write_tags(image.encoder()).map_err(encoding)?;
+        }
+        image.write_data(field.heights()).map_err(encoding)
+    };
+    replace_file(path, write, super::io_error(path))
 }
 
 /// The no-data value GDAL's tag holds: an ASCII number, `nan` included.

@@ -11,9 +11,11 @@
 //! None of them names a coordinate reference system: the point-set formats do not carry
 //! one, and GDAL calls the plane `LOCAL_CS["Arbitrary"]`.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
+use pointset_core::io::replace_file;
 
 use crate::Result;
 
@@ -108,7 +110,12 @@ pub fn write_map_sidecars(
     files
         .into_iter()
         .map(|(path, text)| {
-            std::fs::write(&path, text).map_err(super::io_error(&path))?;
+            let io = super::io_error(&path);
+            replace_file(
+                &path,
+                |out| out.write_all(text.as_bytes()).map_err(&io),
+                &io,
+            )?;
             Ok(path)
         })
         .collect()

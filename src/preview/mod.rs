@@ -26,9 +26,10 @@ mod raster;
 use std::path::Path;
 
 use glam::Vec3;
-use pointset_core::io::Geometry;
+use pointset_core::io::{Geometry, replace_file};
 use pointset_core::{KdIndex, NormalWeighting};
 
+use crate::imagery::io_error;
 use crate::{Error, Result};
 use camera::Camera;
 pub use camera::UpAxis;
@@ -246,12 +247,25 @@ fn fit_image(img: &RgbImage, options: &RenderOptions) -> RgbImage {
     panel
 }
 
-/// Saves an image as PNG (the format is fixed regardless of the extension).
-pub fn save_png(image: &RgbImage, path: &Path) -> Result<()> {
-    image
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|source| Error::Image {
-            path: path.to_path_buf(),
-            source,
-        })
+/// Saves an image as PNG (the format is fixed regardless of the extension), whole or not
+/// at all ([`pointset_core::io::FileReplacement`]).
+pub fn save_png<P, C>(image: &image::ImageBuffer<P, C>, path: &Path) -> Result<()>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+    C: std::ops::Deref<Target = [P::Subpixel]>,
+{
+    let image_error = |source| Error::Image {
+        path: path.to_path_buf(),
+        source,
+    };
+    replace_file(
+        path,
+        |out| {
+            image
+                .write_to(out, image::ImageFormat::Png)
+                .map_err(image_error)
+        },
+        io_error(path),
+    )
 }

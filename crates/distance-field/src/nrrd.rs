@@ -16,6 +16,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3, Vec4};
+use pointset_core::io::{FileReplacement, replace_file};
 use pointset_core::{Grid3, ScalarType};
 
 use crate::error::{FieldError, Result};
@@ -166,17 +167,17 @@ pub fn write_vec4_at(
     write_raw(out, &head, grid.data().iter().flat_map(|v| v.to_array()))
 }
 
-/// Writes to a file, naming it in errors.
+/// Writes a file whole or not at all ([`FileReplacement`]: after any error it keeps what it
+/// held), naming it in errors.
 pub fn write_file(
     path: &Path,
-    write: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+    write: impl FnOnce(&mut FileReplacement) -> std::io::Result<()>,
 ) -> Result<()> {
     let io = |source| FieldError::Io {
         path: path.to_path_buf(),
         source,
     };
-    let mut f = std::fs::File::create(path).map_err(io)?;
-    write(&mut f).map_err(io)
+    replace_file(path, |out| write(out).map_err(io), io)
 }
 
 fn parse_vector(s: &str) -> Option<Vec<f64>> {

@@ -1,7 +1,9 @@
 //! Writing JSON reports a person can read.
 
+use std::io::Write;
 use std::path::Path;
 
+use geosynth::core::io::replace_file;
 use serde::Serialize;
 use serde_json::{Number, Value};
 
@@ -31,7 +33,8 @@ pub fn write_json_report(path: &Path, command: &str, report: &impl Serialize) ->
         );
     }
     shorten_single_precision(&mut value);
-    std::fs::write(path, serde_json::to_string_pretty(&value)?)
+    let text = serde_json::to_string_pretty(&value)?;
+    replace_file(path, |out| out.write_all(text.as_bytes()), |e| e)
         .map_err(|e| format!("cannot write {}: {e}", path.display()).into())
 }
 

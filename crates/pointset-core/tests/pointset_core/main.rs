@@ -8,6 +8,7 @@ mod edited_files;
 mod las_codec;
 mod ply_codec;
 mod polygons;
+mod replaced_files;
 mod stl_codec;
 mod xyz_codec;
 

@@ -1,0 +1,179 @@
+//! Files written whole or not at all: the bytes go to a temporary file beside the output,
+//! which takes the output's place only once everything is written and flushed. A run that
+//! fails while writing (a full disk, an error found halfway) leaves the output as it was:
+//! an earlier file of that name keeps its bytes, and no truncated file appears. Writers
+//! can then stream to the file without first checking or encoding everything in memory.
+//!
+//! The replacement keeps an existing output's permissions, refuses a read-only one (as
+//! opening it for writing would), and writes through a symbolic link to the file it names.
+//! Where no temporary file can be made beside the output (a folder the user may not
+//! write, but a file they may), the output is written in place, as before. A process
+//! killed while writing leaves its temporary file (`.NAME.geosynth-PID-N.tmp`) behind, and
+//! the output untouched.
+
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, ErrorKind, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Numbers the temporary files this process makes, so threads never share one.
+static NEXT_TEMPORARY: AtomicU64 = AtomicU64::new(0);
+
+/// A file being written to replace `target` as a whole; see the module docs. Dropped
+/// without [`FileReplacement::commit`], it removes its temporary file and leaves the
+/// target alone.
+#[derive(Debug)]
+pub struct FileReplacement {
+    file: BufWriter<File>,
+    /// The temporary file, or `None` when writing the target in place.
+    temporary: Option<PathBuf>,
+    /// The file replaced (a symbolic link's target).
+    target: PathBuf,
+}
+
+impl FileReplacement {
+    /// Starts writing a replacement for `path`. Fails as creating `path` would: a missing
+    /// folder, a read-only file, a folder in its place.
+    ///
+    /// ```
+    /// use std::io::Write;
+    /// use pointset_core::io::FileReplacement;
+    ///
+    /// let dir = tempfile::tempdir()?;
+    /// let path = dir.path().join("out.txt");
+    /// std::fs::write(&path, "old")?;
+    /// let mut out = FileReplacement::create(&path)?;
+    /// out.write_all(b"new")?;
+    /// drop(out); // not committed: the old file stays
+    /// assert_eq!(std::fs::read_to_string(&path)?, "old");
+    /// let mut out = FileReplacement::create(&path)?;
+    /// out.write_all(b"new")?;
+    /// out.commit()?;
+    /// assert_eq!(std::fs::read_to_string(&path)?, "new");
+    /// # Ok::<(), std::io::Error>(())
+    /// ```
+    pub fn create(path: &Path) -> std::io::Result<Self> {
+        let target = followed_link(path);
+        let existing = match std::fs::metadata(&target) {
+            Ok(metadata) => Some(metadata),
+            Err(e) if e.kind() == ErrorKind::NotFound => None,
+            Err(e) => return Err(e),
+        };
+        if let Some(metadata) = &existing {
+            if metadata.is_dir() {
+                return Err(std::io::Error::new(
+                    ErrorKind::IsADirectory,
+                    "a folder has that name",
+                ));
+            }
+            if metadata.permissions().readonly() {
+                return Err(std::io::Error::new(
+                    ErrorKind::PermissionDenied,
+                    "the file is read-only",
+                ));
+            }
+        }
+        let temporary = temporary_path(&target);
+        match OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&temporary)
+        {
+            Ok(file) => {
+                if let Some(metadata) = existing {
+                    file.set_permissions(metadata.permissions())?;
+                }
+                Ok(FileReplacement {
+                    file: BufWriter::new(file),
+                    temporary: Some(temporary),
+                    target,
+                })
+            }
+            Err(e) if e.kind() == ErrorKind::PermissionDenied && existing.is_some() => {
+                Ok(FileReplacement {
+                    file: BufWriter::new(File::create(&target)?),
+                    temporary: None,
+                    target,
+                })
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Flushes the written bytes and puts them in the target's place.
+    pub fn commit(mut self) -> std::io::Result<()> {
+        self.file.flush()?;
+        if let Some(temporary) = self.temporary.take()
+            && let Err(e) = std::fs::rename(&temporary, &self.target)
+        {
+            // Not renamed: the temporary file must not stay behind.
+            let _ = std::fs::remove_file(&temporary);
+            return Err(e);
+        }
+        Ok(())
+    }
+}
+
+impl Write for FileReplacement {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.file.write(buf)
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        self.file.write_all(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+impl Seek for FileReplacement {
+    fn seek(&mut self, position: SeekFrom) -> std::io::Result<u64> {
+        self.file.seek(position)
+    }
+}
+
+impl Drop for FileReplacement {
+    fn drop(&mut self) {
+        if let Some(temporary) = &self.temporary {
+            // Nothing to report to: the write already failed, and the target is untouched.
+            let _ = std::fs::remove_file(temporary);
+        }
+    }
+}
+
+/// Writes `path` as a whole through `write` (see [`FileReplacement`]): on any error,
+/// `write`'s or the disk's, `path` keeps what it held. `io_error` turns the file's own
+/// errors into the caller's.
+pub fn replace_file<E>(
+    path: &Path,
+    write: impl FnOnce(&mut FileReplacement) -> Result<(), E>,
+    io_error: impl Fn(std::io::Error) -> E,
+) -> Result<(), E> {
+    let mut out = FileReplacement::create(path).map_err(&io_error)?;
+    write(&mut out)?;
+    out.commit().map_err(io_error)
+}
+
+/// The file a symbolic link at `path` names (followed to the end), or `path` itself.
+fn followed_link(path: &Path) -> PathBuf {
+    let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    if is_link && let Ok(resolved) = std::fs::canonicalize(path) {
+        return resolved;
+    }
+    path.to_path_buf()
+}
+
+/// A fresh hidden name beside `target`.
+fn temporary_path(target: &Path) -> PathBuf {
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let number = NEXT_TEMPORARY.fetch_add(1, Ordering::Relaxed);
+    target.with_file_name(format!(
+        ".{name}.geosynth-{}-{number}.tmp",
+        std::process::id()
+    ))
+}

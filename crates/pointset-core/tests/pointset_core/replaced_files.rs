@@ -1,0 +1,118 @@
+//! Outputs are written whole or not at all (`FileReplacement`, `replace_file`,
+//! `write_geometry`).
+
+use std::io::Write;
+use std::path::Path;
+
+use glam::Vec3;
+use pointset_core::io::{self, FileReplacement, Geometry, WriteOptions, replace_file};
+use pointset_core::{Attribute, Error, PointSet};
+
+/// The names in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// A writer that fails after `bytes` bytes, as a full disk would.
+fn failing_after(bytes: usize) -> impl FnOnce(&mut FileReplacement) -> std::io::Result<()> {
+    move |out| {
+        out.write_all(&vec![b'x'; bytes])?;
+        out.flush()?;
+        Err(std::io::Error::other("disk full"))
+    }
+}
+
+#[test]
+fn a_failed_write_keeps_the_old_file_and_leaves_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = dir.path().join("old.ply");
+    std::fs::write(&old, "earlier run").unwrap();
+    // Past the writer's buffer, so bytes have reached the temporary file.
+    let result = replace_file(&old, failing_after(1 << 20), |e| e);
+    assert_eq!(result.unwrap_err().to_string(), "disk full");
+    assert_eq!(std::fs::read_to_string(&old).unwrap(), "earlier run");
+    let new = dir.path().join("new.ply");
+    assert!(replace_file(&new, failing_after(10), |e| e).is_err());
+    assert!(!new.exists());
+    assert_eq!(names(dir.path()), ["old.ply"]);
+    // A writer dropped without committing removes its temporary file too.
+    let mut out = FileReplacement::create(&new).unwrap();
+    out.write_all(b"half").unwrap();
+    assert_eq!(names(dir.path()).len(), 2);
+    drop(out);
+    assert_eq!(names(dir.path()), ["old.ply"]);
+    // A successful write replaces the file.
+    replace_file(&old, |out| out.write_all(b"this run"), |e| e).unwrap();
+    assert_eq!(std::fs::read_to_string(&old).unwrap(), "this run");
+    assert_eq!(names(dir.path()), ["old.ply"]);
+}
+
+#[test]
+fn geometry_that_cannot_be_written_keeps_the_old_file() {
+    // An attribute named like the UV properties is found while the PLY is laid out, after
+    // the output was opened: the earlier file must survive.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mesh.ply");
+    std::fs::write(&path, "earlier run").unwrap();
+    let points = PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y])
+        .unwrap()
+        .with_attribute(Attribute::new("s", vec![0.0; 3]))
+        .unwrap();
+    let uvs = vec![glam::Vec2::ZERO; 3];
+    let mesh = pointset_core::TriMesh::new(points, vec![[0, 1, 2]])
+        .unwrap()
+        .with_uvs(uvs)
+        .unwrap();
+    let result = io::write_geometry(&path, &Geometry::Mesh(mesh), &WriteOptions::default());
+    assert!(
+        matches!(result, Err(Error::IncompatibleLayout { .. })),
+        "{result:?}"
+    );
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), "earlier run");
+    assert_eq!(names(dir.path()), ["mesh.ply"]);
+}
+
+#[test]
+fn a_folder_in_the_way_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("taken.ply");
+    std::fs::create_dir(&folder).unwrap();
+    let error = FileReplacement::create(&folder).unwrap_err();
+    assert_eq!(error.kind(), std::io::ErrorKind::IsADirectory);
+    assert!(folder.is_dir());
+}
+
+#[cfg(unix)]
+#[test]
+fn permissions_and_links_are_kept_and_read_only_files_refused() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("shared.ply");
+    std::fs::write(&path, "old").unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640)).unwrap();
+    replace_file(&path, |out| out.write_all(b"new"), |e| e).unwrap();
+    let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+    assert_eq!(mode & 0o777, 0o640);
+    // Through a link: the file it names is replaced, and the link stays a link.
+    let link = dir.path().join("link.ply");
+    std::os::unix::fs::symlink(&path, &link).unwrap();
+    replace_file(&link, |out| out.write_all(b"through the link"), |e| e).unwrap();
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), "through the link");
+    // A read-only file is refused, even where the folder would allow the rename.
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let error = FileReplacement::create(&path).unwrap_err();
+    assert_eq!(error.kind(), std::io::ErrorKind::PermissionDenied);
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), "through the link");
+    assert_eq!(names(dir.path()), ["link.ply", "shared.ply"]);
+}
