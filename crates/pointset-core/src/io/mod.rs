@@ -484,15 +484,14 @@ pub fn read_geometry_bytes_with(
     let recentre = options.recentre_far;
     match detect_format(path, bytes)? {
         FileFormat::Ply => {
-            let doc = ply::read_ply(bytes)?;
-            let (geometry, origin) = ply::geometry_from_document_at(&doc, recentre)?;
+            let read = ply::read_ply_geometry(bytes, recentre)?;
             Ok(LoadedGeometry {
-                geometry,
+                geometry: read.geometry,
                 format: FileFormat::Ply,
-                encoding: doc.encoding.keyword().to_string(),
-                notes: ply::skipped_parts(&doc),
-                comments: doc.comments,
-                origin,
+                encoding: read.encoding.keyword().to_string(),
+                notes: read.notes,
+                comments: read.comments,
+                origin: read.origin,
             })
         }
         FileFormat::Obj => {

@@ -310,3 +310,116 @@ fn normals_keep_their_negative_zeros() {
     assert!(vertex.scalar("ny").unwrap()[0].is_sign_positive());
     assert!(vertex.scalar("x").unwrap()[0].is_sign_positive());
 }
+
+/// Reads `bytes` through a document, as `read_geometry` did before it read PLY bodies
+/// straight into geometry.
+fn through_document(bytes: &[u8], recentre: bool) -> Result<(Geometry, DVec3), Error> {
+    geometry_from_document_at(&read_ply(bytes)?, recentre)
+}
+
+/// Reads `bytes` as `read_geometry` does.
+fn directly(bytes: &[u8], recentre: bool) -> Result<(Geometry, DVec3), Error> {
+    let options = io::ReadOptions::default().recentre_far(recentre);
+    let loaded = io::read_geometry_bytes_with(std::path::Path::new("x.ply"), bytes, &options)?;
+    Ok((loaded.geometry, loaded.origin))
+}
+
+proptest! {
+    /// PLY bodies read straight into geometry give what a document gives: the same
+    /// geometry and origin, or the same error, on files with every kind of part, edited
+    /// or cut short, in every encoding.
+    #[test]
+    fn files_read_directly_equal_files_read_through_a_document(
+        values in proptest::collection::vec(-1e4f32..1e4, 1..12),
+        normals in any::<bool>(),
+        uvs in any::<bool>(),
+        attributes in 0usize..4,
+        faces in 0usize..8,
+        far in any::<bool>(),
+        edits in proptest::collection::vec((0usize..2000, any::<u8>()), 0..4),
+        cut in proptest::option::of(0usize..2000),
+    ) {
+        let geometry = geometry_with_parts(&values, normals, uvs, attributes, faces);
+        let origin = if far { DVec3::new(5e5, -3e6, 12.5) } else { DVec3::ZERO };
+        for encoding in PlyEncoding::ALL {
+            let options = WriteOptions::default().origin(origin).ply_encoding(encoding);
+            let mut bytes = io::encode_geometry(&geometry, FileFormat::Ply, &options).unwrap();
+            // Past the magic `ply` line, which `read_geometry` checks before either reader.
+            for &(at, byte) in &edits {
+                let len = bytes.len();
+                bytes[4 + at % (len - 4)] = byte;
+            }
+            if let Some(cut) = cut {
+                bytes.truncate(cut.max(8));
+            }
+            for recentre in [false, true] {
+                let a = directly(&bytes, recentre).map_err(|e| e.to_string());
+                let b = through_document(&bytes, recentre).map_err(|e| e.to_string());
+                prop_assert_eq!(&a, &b);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_bad_face_in_a_truncated_file_is_reported_as_truncation() {
+    // Both are wrong: face 0 names vertex 7 of 3, and the file stops before face 2. The
+    // whole body is read before the faces are judged, however the file is read.
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 3\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n3 0 1 2\n";
+    for error in [
+        directly(ply.as_bytes(), false).unwrap_err(),
+        through_document(ply.as_bytes(), false).unwrap_err(),
+    ] {
+        assert!(matches!(error, Error::UnexpectedEof { .. }), "{error:?}");
+    }
+    // Complete, the file is refused for its face.
+    let whole = format!("{ply}3 2 1 0\n");
+    let error = directly(whole.as_bytes(), false).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            Error::IndexOutOfRange {
+                face: 0,
+                vertex: 7,
+                ..
+            }
+        ),
+        "{error:?}"
+    );
+}
+
+#[test]
+fn faces_before_vertices_are_read_too() {
+    let ply = "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n\
+               element vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+               end_header\n4 0 1 2 3\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
+    let (geometry, _) = directly(ply.as_bytes(), false).unwrap();
+    assert_eq!(geometry.mesh().unwrap().triangles().len(), 2);
+    assert_eq!(
+        directly(ply.as_bytes(), false).unwrap(),
+        through_document(ply.as_bytes(), false).unwrap()
+    );
+}
+
+#[test]
+fn documents_built_by_hand_with_missing_values_are_refused() {
+    let points = Geometry::Points(PointSet::new(vec![Vec3::ZERO, Vec3::X]).unwrap());
+    let good = document_from_geometry(&points, PlyEncoding::Ascii, &[]).unwrap();
+    // A column one value short, and a column too many.
+    let mut short = good.clone();
+    if let PlyColumn::Scalar(values) = &mut short.elements[0].columns[1] {
+        values.pop();
+    }
+    let mut extra = good.clone();
+    extra.elements[0]
+        .columns
+        .push(PlyColumn::Scalar(vec![0.0; 2]));
+    for doc in [short, extra] {
+        let error = geometry_from_document(&doc).unwrap_err();
+        assert!(matches!(error, Error::LengthMismatch { .. }), "{error:?}");
+        assert!(write_ply(&doc, &mut Vec::new()).is_err());
+    }
+    assert_eq!(geometry_from_document(&good).unwrap(), points);
+}

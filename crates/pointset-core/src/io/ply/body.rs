@@ -16,12 +16,34 @@ trait ValueSource {
     fn max_remaining(&self, ty: ScalarType) -> u64;
 }
 
+/// Where the values of a body go, in file order.
+pub(super) trait BodySink {
+    /// Record `record`'s value of scalar property `property` of element `element`.
+    fn scalar(&mut self, element: usize, property: usize, record: usize, value: f64);
+    /// The next record's list of property `property` of element `element`.
+    fn list(&mut self, element: usize, property: usize, items: &[f64]);
+    /// Every record of element `element` has been read.
+    fn element_done(&mut self, element: usize);
+}
+
+/// The body as [`PlyElement`]s: every value, as `f64`.
 pub(super) fn read_body(header: &ParsedHeader, bytes: &[u8]) -> Result<Vec<PlyElement>> {
+    let mut document = DocumentSink::new(header);
+    read_body_into(header, bytes, &mut document)?;
+    Ok(document.elements)
+}
+
+/// Reads the body, sending every value to `sink`.
+pub(super) fn read_body_into(
+    header: &ParsedHeader,
+    bytes: &[u8],
+    sink: &mut impl BodySink,
+) -> Result<()> {
     let body = bytes.get(header.body_start..).unwrap_or(&[]);
     match header.encoding {
         PlyEncoding::Ascii => {
             let mut src = AsciiSource::new(body, header.header_lines);
-            read_elements(header, &mut src)
+            read_elements(header, &mut src, sink)
         }
         PlyEncoding::BinaryLittleEndian | PlyEncoding::BinaryBigEndian => {
             let mut src = BinarySource {
@@ -30,38 +52,26 @@ pub(super) fn read_body(header: &ParsedHeader, bytes: &[u8]) -> Result<Vec<PlyEl
                 base: header.body_start as u64,
                 big_endian: header.encoding == PlyEncoding::BinaryBigEndian,
             };
-            read_elements(header, &mut src)
+            read_elements(header, &mut src, sink)
         }
     }
 }
 
-fn read_elements(header: &ParsedHeader, src: &mut impl ValueSource) -> Result<Vec<PlyElement>> {
-    let mut elements = Vec::with_capacity(header.elements.len());
-    for decl in &header.elements {
-        // The header size check bounds `count` by the file size, so this allocation is safe.
-        let mut columns: Vec<PlyColumn> = decl
-            .properties
-            .iter()
-            .map(|p| match p.kind {
-                PropertyKind::Scalar(_) => PlyColumn::Scalar(Vec::with_capacity(decl.count)),
-                PropertyKind::List { .. } => {
-                    let mut offsets = Vec::with_capacity(decl.count + 1);
-                    offsets.push(0);
-                    PlyColumn::List {
-                        offsets,
-                        items: Vec::new(),
-                    }
-                }
-            })
-            .collect();
+fn read_elements(
+    header: &ParsedHeader,
+    src: &mut impl ValueSource,
+    sink: &mut impl BodySink,
+) -> Result<()> {
+    let mut items = Vec::new();
+    for (element, decl) in header.elements.iter().enumerate() {
         for record in 0..decl.count {
-            for (prop, column) in decl.properties.iter().zip(columns.iter_mut()) {
+            for (property, prop) in decl.properties.iter().enumerate() {
                 let what = || format!("property `{}` of {} {record}", prop.name, decl.name);
-                match (prop.kind, column) {
-                    (PropertyKind::Scalar(ty), PlyColumn::Scalar(values)) => {
-                        values.push(src.scalar(ty, &what)?);
+                match prop.kind {
+                    PropertyKind::Scalar(ty) => {
+                        sink.scalar(element, property, record, src.scalar(ty, &what)?);
                     }
-                    (PropertyKind::List { count, item }, PlyColumn::List { offsets, items }) => {
+                    PropertyKind::List { count, item } => {
                         let at = src.location();
                         let n = src.scalar(count, &what)?;
                         let remaining = src.max_remaining(item);
@@ -77,24 +87,74 @@ fn read_elements(header: &ParsedHeader, src: &mut impl ValueSource) -> Result<Ve
                                 },
                             });
                         }
+                        items.clear();
                         for _ in 0..n as u64 {
                             items.push(src.scalar(item, &what)?);
                         }
-                        offsets.push(items.len());
+                        sink.list(element, property, &items);
                     }
-                    // Columns are built from the same declarations, so shapes always match.
-                    _ => {}
                 }
             }
         }
-        elements.push(PlyElement {
-            name: decl.name.clone(),
-            count: decl.count,
-            properties: decl.properties.clone(),
-            columns,
-        });
+        sink.element_done(element);
     }
-    Ok(elements)
+    Ok(())
+}
+
+/// Collects a body into [`PlyElement`]s.
+struct DocumentSink {
+    elements: Vec<PlyElement>,
+}
+
+impl DocumentSink {
+    fn new(header: &ParsedHeader) -> Self {
+        // The header size check bounds every `count` by the file size, so these
+        // allocations are safe.
+        let elements = header
+            .elements
+            .iter()
+            .map(|decl| PlyElement {
+                name: decl.name.clone(),
+                count: decl.count,
+                properties: decl.properties.clone(),
+                columns: decl
+                    .properties
+                    .iter()
+                    .map(|p| match p.kind {
+                        PropertyKind::Scalar(_) => {
+                            PlyColumn::Scalar(Vec::with_capacity(decl.count))
+                        }
+                        PropertyKind::List { .. } => {
+                            let mut offsets = Vec::with_capacity(decl.count + 1);
+                            offsets.push(0);
+                            PlyColumn::List {
+                                offsets,
+                                items: Vec::new(),
+                            }
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
+        DocumentSink { elements }
+    }
+}
+
+impl BodySink for DocumentSink {
+    fn scalar(&mut self, element: usize, property: usize, _record: usize, value: f64) {
+        if let PlyColumn::Scalar(values) = &mut self.elements[element].columns[property] {
+            values.push(value);
+        }
+    }
+
+    fn list(&mut self, element: usize, property: usize, list: &[f64]) {
+        if let PlyColumn::List { offsets, items } = &mut self.elements[element].columns[property] {
+            items.extend_from_slice(list);
+            offsets.push(items.len());
+        }
+    }
+
+    fn element_done(&mut self, _element: usize) {}
 }
 
 struct BinarySource<'a> {

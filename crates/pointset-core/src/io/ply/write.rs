@@ -2,7 +2,8 @@
 
 use std::io::Write;
 
-use super::view::DocumentView;
+use super::check_column_lengths;
+use super::view::{ColumnView, DocumentView};
 use super::{PlyDocument, PlyEncoding, PropertyKind};
 use crate::{Error, Result, ScalarType};
 
@@ -19,22 +20,8 @@ pub fn write_ply(doc: &PlyDocument, out: &mut impl Write) -> Result<()> {
 /// Writes the viewed values as [`write_ply`] writes a document holding them.
 pub(crate) fn write_view(doc: &DocumentView<'_>, out: &mut impl Write) -> Result<()> {
     for element in &doc.elements {
-        for (prop, column) in element.properties.iter().zip(&element.columns) {
-            if column.len() != element.count {
-                return Err(Error::LengthMismatch {
-                    what: format!("PLY column `{}` of `{}`", prop.name, element.name),
-                    expected: element.count,
-                    found: column.len(),
-                });
-            }
-        }
-        if element.columns.len() != element.properties.len() {
-            return Err(Error::LengthMismatch {
-                what: format!("PLY columns of `{}`", element.name),
-                expected: element.properties.len(),
-                found: element.columns.len(),
-            });
-        }
+        let lengths = element.columns.iter().map(ColumnView::len);
+        check_column_lengths(&element.name, element.count, &element.properties, lengths)?;
     }
     write_header(doc, out).map_err(io)?;
     let ascii = doc.encoding == PlyEncoding::Ascii;
