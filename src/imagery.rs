@@ -3,11 +3,10 @@
 //! ENVI header describes; one-band TIFF, as DEMs are shipped; or grey PNG, 8 or 16 bit),
 //! and the files GIS tools read beside a height map.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use image::DynamicImage;
-use pointset_core::io::replace_file;
+use pointset_core::io::write_whole;
 use pointset_core::{HeightField, TriMesh};
 
 use crate::{Error, Result};
@@ -176,8 +175,7 @@ pub fn write_heightfield(path: &Path, field: &HeightField) -> Result<WrittenHeig
             .iter()
             .flat_map(|h| h.to_le_bytes())
             .collect();
-        let io = io_error(&path);
-        replace_file(&path, |out| out.write_all(&bytes).map_err(&io), &io)?;
+        write_whole(&path, bytes).map_err(io_error(&path))?;
         return Ok(WrittenHeightField { path, clamped: 0 });
     }
     if is_tiff_path(path) {

@@ -11,11 +11,10 @@
 //! None of them names a coordinate reference system: the point-set formats do not carry
 //! one, and GDAL calls the plane `LOCAL_CS["Arbitrary"]`.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use pointset_core::io::replace_file;
+use pointset_core::io::write_whole;
 
 use crate::Result;
 
@@ -110,12 +109,7 @@ pub fn write_map_sidecars(
     files
         .into_iter()
         .map(|(path, text)| {
-            let io = super::io_error(&path);
-            replace_file(
-                &path,
-                |out| out.write_all(text.as_bytes()).map_err(&io),
-                &io,
-            )?;
+            write_whole(&path, text).map_err(super::io_error(&path))?;
             Ok(path)
         })
         .collect()

@@ -1,9 +1,8 @@
 //! Writing JSON reports a person can read.
 
-use std::io::Write;
 use std::path::Path;
 
-use geosynth::core::io::replace_file;
+use geosynth::core::io::write_whole;
 use serde::Serialize;
 use serde_json::{Number, Value};
 
@@ -34,8 +33,7 @@ pub fn write_json_report(path: &Path, command: &str, report: &impl Serialize) ->
     }
     shorten_single_precision(&mut value);
     let text = serde_json::to_string_pretty(&value)?;
-    replace_file(path, |out| out.write_all(text.as_bytes()), |e| e)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()).into())
+    write_whole(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
 }
 
 /// Rewrites, throughout `value`, every non-integer number that equals an `f32` as the

@@ -6,12 +6,11 @@
 //! shared data it also reconstructs real scans and quilts a real terrain into a height map
 //! ([`super::demo_terrain`]).
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
-use geosynth::core::io::{self, Geometry, WriteOptions, replace_file};
+use geosynth::core::io::{self, Geometry, WriteOptions, write_whole};
 use geosynth::fixtures::{self, Fixture};
 use geosynth::preview::{self, RenderOptions};
 use geosynth::quilt::{Method, OutputSize, QualityReport, QuiltParams};
@@ -480,8 +479,7 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
         md.push_str(&format!("| {} | {:.3} |\n", s.stage, s.seconds));
     }
     let path = out.join("report.md");
-    replace_file(&path, |out| out.write_all(md.as_bytes()), |e| e)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()).into())
+    write_whole(&path, md).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
 }
 
 /// Reconstructs one point set, writes the mesh and a points | mesh preview.

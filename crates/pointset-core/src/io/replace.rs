@@ -4,8 +4,9 @@
 //! an earlier file of that name keeps its bytes, and no truncated file appears. Writers
 //! can then stream to the file without first checking or encoding everything in memory.
 //!
-//! The replacement keeps an existing output's permissions, refuses a read-only one (as
-//! opening it for writing would), and writes through a symbolic link to the file it names.
+//! The replacement keeps an existing output's permissions, refuses one that could not be
+//! opened for writing (and a read-only one, even where the user could), and writes
+//! through a symbolic link to the file it names.
 //! Where no temporary file can be made beside the output (a folder the user may not
 //! write, but a file they may), the output is written in place, as before. A process
 //! killed while writing leaves its temporary file (`.NAME.geosynth-PID-N.tmp`) behind, and
@@ -72,6 +73,9 @@ impl FileReplacement {
                     "the file is read-only",
                 ));
             }
+            // Refused where writing it in place would be (another user's file in a
+            // folder this one may write): opened, not truncated, and closed again.
+            OpenOptions::new().write(true).open(&target)?;
         }
         let temporary = temporary_path(&target);
         match OpenOptions::new()
@@ -154,6 +158,12 @@ pub fn replace_file<E>(
     let mut out = FileReplacement::create(path).map_err(&io_error)?;
     write(&mut out)?;
     out.commit().map_err(io_error)
+}
+
+/// `std::fs::write`, whole or not at all: `contents` replace `path`'s only once they are
+/// all written ([`FileReplacement`]).
+pub fn write_whole(path: &Path, contents: impl AsRef<[u8]>) -> std::io::Result<()> {
+    replace_file(path, |out| out.write_all(contents.as_ref()), |e| e)
 }
 
 /// The file a symbolic link at `path` names (followed to the end), or `path` itself.

@@ -47,7 +47,7 @@ fn a_failed_write_keeps_the_old_file_and_leaves_nothing_behind() {
     drop(out);
     assert_eq!(names(dir.path()), ["old.ply"]);
     // A successful write replaces the file.
-    replace_file(&old, |out| out.write_all(b"this run"), |e| e).unwrap();
+    io::write_whole(&old, "this run").unwrap();
     assert_eq!(std::fs::read_to_string(&old).unwrap(), "this run");
     assert_eq!(names(dir.path()), ["old.ply"]);
 }
