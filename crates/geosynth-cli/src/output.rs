@@ -12,9 +12,10 @@ use crate::{CliResult, Globals};
 
 /// Refuses to start work whose results could not be saved: the directory of every output
 /// path must exist, no path may be given for two outputs (the second would overwrite the
-/// first), and geometry outputs need an extension the writers know
-/// ([`GEOMETRY_EXTENSIONS`]). Checked before a run, so a typo does not cost the run; what the format
-/// can hold is checked by [`check_geometry_output`] once the input is read.
+/// first), an existing output must be replaceable (not read-only, not a folder:
+/// [`io::check_replaceable`]), and geometry outputs need an extension the writers know
+/// ([`GEOMETRY_EXTENSIONS`]). Checked before a run, so a typo does not cost the run; what
+/// the format can hold is checked by [`check_geometry_output`] once the input is read.
 pub(crate) fn check_output_paths<'a>(
     geometry: impl IntoIterator<Item = &'a Path>,
     other: impl IntoIterator<Item = &'a Path>,
@@ -59,6 +60,9 @@ pub(crate) fn check_output_paths<'a>(
             )
             .into());
         }
+        // An existing output the run could not replace (read-only, a folder) is named
+        // now, not after the run.
+        io::check_replaceable(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         files.push(file);
     }
     Ok(())

@@ -192,17 +192,30 @@ fn bad_input_fails_with_a_message_not_a_panic() {
     let missing = missing.to_str().unwrap();
     let report_in_missing = dir.path().join("missing/report.json");
     let unknown = dir.path().join("out.xyzw");
+    // An earlier output made read-only, and a folder where the report would go.
+    let kept = dir.path().join("kept.ply");
+    std::fs::write(&kept, "an earlier run").unwrap();
+    let mut permissions = std::fs::metadata(&kept).unwrap().permissions();
+    permissions.set_readonly(true);
+    std::fs::set_permissions(&kept, permissions).unwrap();
+    let folder = dir.path().join("folder.json");
+    std::fs::create_dir(&folder).unwrap();
+    // A quilt to `q.ply` with its report at `report`.
+    let quilted = dir.path().join("q.ply");
+    let quilted = quilted.to_str().unwrap();
+    let with_report = |report| vec!["quilt", fixture, "-o", quilted, "--report", report];
     for (args, message) in [
+        (
+            vec!["quilt", fixture, "-o", kept.to_str().unwrap()],
+            "read-only",
+        ),
+        (
+            with_report(folder.to_str().unwrap()),
+            "a folder has that name",
+        ),
         (vec!["quilt", fixture, "-o", missing], "does not exist"),
         (
-            vec![
-                "quilt",
-                fixture,
-                "-o",
-                dir.path().join("q.ply").to_str().unwrap(),
-                "--report",
-                report_in_missing.to_str().unwrap(),
-            ],
+            with_report(report_in_missing.to_str().unwrap()),
             "does not exist",
         ),
         (
@@ -218,6 +231,7 @@ fn bad_input_fails_with_a_message_not_a_panic() {
     }
     // The quilt whose report had nowhere to go never ran: its output was not written either.
     assert!(!dir.path().join("q.ply").exists());
+    assert_eq!(std::fs::read_to_string(&kept).unwrap(), "an earlier run");
     // Thread counts out of range are refused before anything starts (100,000 threads had
     // not started after a minute).
     for threads in ["0", "100000"] {

@@ -32,7 +32,7 @@ pub use obj::{read_obj, write_obj};
 use obj::{read_obj_at, write_obj_at};
 pub use off::{read_off, write_off};
 use off::{read_off_at, write_off_at};
-pub use replace::{FileReplacement, replace_file, write_whole};
+pub use replace::{FileReplacement, check_replaceable, replace_file, write_whole};
 pub use stl::{StlEncoding, read_stl, write_stl, write_stl_ascii};
 use stl::{read_stl_at, write_stl_at};
 pub use xyz::{XyzColumns, read_xyz, write_xyz};

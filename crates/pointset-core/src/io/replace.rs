@@ -55,28 +55,7 @@ impl FileReplacement {
     /// ```
     pub fn create(path: &Path) -> std::io::Result<Self> {
         let target = followed_link(path);
-        let existing = match std::fs::metadata(&target) {
-            Ok(metadata) => Some(metadata),
-            Err(e) if e.kind() == ErrorKind::NotFound => None,
-            Err(e) => return Err(e),
-        };
-        if let Some(metadata) = &existing {
-            if metadata.is_dir() {
-                return Err(std::io::Error::new(
-                    ErrorKind::IsADirectory,
-                    "a folder has that name",
-                ));
-            }
-            if metadata.permissions().readonly() {
-                return Err(std::io::Error::new(
-                    ErrorKind::PermissionDenied,
-                    "the file is read-only",
-                ));
-            }
-            // Refused where writing it in place would be (another user's file in a
-            // folder this one may write): opened, not truncated, and closed again.
-            OpenOptions::new().write(true).open(&target)?;
-        }
+        let existing = existing_output(&target)?;
         let temporary = temporary_path(&target);
         match OpenOptions::new()
             .write(true)
@@ -145,6 +124,41 @@ impl Drop for FileReplacement {
             let _ = std::fs::remove_file(temporary);
         }
     }
+}
+
+/// Checks, without changing anything, that [`FileReplacement::create`] would accept
+/// `path` as it stands now: an error for a folder in its place, a read-only file, or a
+/// file this process may not open for writing. A missing file passes (its folder is
+/// checked when it is written). Long runs call it before they start, so that their
+/// results are not lost to an output that cannot be written.
+pub fn check_replaceable(path: &Path) -> std::io::Result<()> {
+    existing_output(&followed_link(path)).map(|_| ())
+}
+
+/// The metadata of the existing file `target`, or `None`; an error where it may not be
+/// replaced.
+fn existing_output(target: &Path) -> std::io::Result<Option<std::fs::Metadata>> {
+    let metadata = match std::fs::metadata(target) {
+        Ok(metadata) => metadata,
+        Err(e) if e.kind() == ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    if metadata.is_dir() {
+        return Err(std::io::Error::new(
+            ErrorKind::IsADirectory,
+            "a folder has that name",
+        ));
+    }
+    if metadata.permissions().readonly() {
+        return Err(std::io::Error::new(
+            ErrorKind::PermissionDenied,
+            "the file is read-only",
+        ));
+    }
+    // Refused where writing it in place would be (another user's file in a folder this
+    // one may write): opened, not truncated, and closed again.
+    OpenOptions::new().write(true).open(target)?;
+    Ok(Some(metadata))
 }
 
 /// Writes `path` as a whole through `write` (see [`FileReplacement`]): on any error,

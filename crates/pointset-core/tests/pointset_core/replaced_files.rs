@@ -84,6 +84,10 @@ fn a_folder_in_the_way_is_refused() {
     std::fs::create_dir(&folder).unwrap();
     let error = FileReplacement::create(&folder).unwrap_err();
     assert_eq!(error.kind(), std::io::ErrorKind::IsADirectory);
+    // The same answer before a run, without touching anything; a new file passes.
+    let error = io::check_replaceable(&folder).unwrap_err();
+    assert_eq!(error.kind(), std::io::ErrorKind::IsADirectory);
+    assert!(io::check_replaceable(&dir.path().join("new.ply")).is_ok());
     assert!(folder.is_dir());
 }
 
@@ -113,6 +117,7 @@ fn permissions_and_links_are_kept_and_read_only_files_refused() {
     std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
     let error = FileReplacement::create(&path).unwrap_err();
     assert_eq!(error.kind(), std::io::ErrorKind::PermissionDenied);
+    assert!(io::check_replaceable(&link).is_err());
     assert_eq!(std::fs::read_to_string(&path).unwrap(), "through the link");
     assert_eq!(names(dir.path()), ["link.ply", "shared.ply"]);
 }
