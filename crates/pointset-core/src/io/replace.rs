@@ -8,7 +8,8 @@
 //! opened for writing (and a read-only one, even where the user could), and writes
 //! through a symbolic link to the file it names.
 //! Where no temporary file can be made beside the output (a folder the user may not
-//! write, but a file they may), the output is written in place, as before. A process
+//! write, but a file they may), and where the output is not a regular file (a device such
+//! as `/dev/null`, a pipe), it is written in place, as before. A process
 //! killed while writing leaves its temporary file (`.NAME.geosynth-PID-N.tmp`) behind, and
 //! the output untouched.
 
@@ -56,6 +57,9 @@ impl FileReplacement {
     pub fn create(path: &Path) -> std::io::Result<Self> {
         let target = followed_link(path);
         let existing = existing_output(&target)?;
+        if !replaced(existing.as_ref()) {
+            return Self::in_place(target);
+        }
         let temporary = temporary_path(&target);
         match OpenOptions::new()
             .write(true)
@@ -73,14 +77,19 @@ impl FileReplacement {
                 })
             }
             Err(e) if e.kind() == ErrorKind::PermissionDenied && existing.is_some() => {
-                Ok(FileReplacement {
-                    file: BufWriter::new(File::create(&target)?),
-                    temporary: None,
-                    target,
-                })
+                Self::in_place(target)
             }
             Err(e) => Err(e),
         }
+    }
+
+    /// Writes `target` itself, truncated first.
+    fn in_place(target: PathBuf) -> std::io::Result<Self> {
+        Ok(FileReplacement {
+            file: BufWriter::new(File::create(&target)?),
+            temporary: None,
+            target,
+        })
     }
 
     /// Flushes the written bytes and puts them in the target's place.
@@ -180,6 +189,13 @@ pub fn write_whole(path: &Path, contents: impl AsRef<[u8]>) -> std::io::Result<(
     replace_file(path, |out| out.write_all(contents.as_ref()), |e| e)
 }
 
+/// Whether an output with this metadata (`None`: none yet) is replaced through a
+/// temporary file: a regular file or a new one is; a device or a pipe (`/dev/null`,
+/// `/dev/stdout`) is written in place, never replaced.
+fn replaced(existing: Option<&std::fs::Metadata>) -> bool {
+    existing.is_none_or(std::fs::Metadata::is_file)
+}
+
 /// The file a symbolic link at `path` names (followed to the end), or `path` itself.
 fn followed_link(path: &Path) -> PathBuf {
     let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
@@ -200,4 +216,24 @@ fn temporary_path(target: &Path) -> PathBuf {
         ".{name}.geosynth-{}-{number}.tmp",
         std::process::id()
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    #[test]
+    fn only_regular_files_are_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("f");
+        std::fs::write(&file, "x").unwrap();
+        assert!(replaced(None));
+        assert!(replaced(Some(&std::fs::metadata(&file).unwrap())));
+        // Read, never written: a device must not be renamed over.
+        if let Ok(device) = std::fs::metadata("/dev/null") {
+            assert!(!replaced(Some(&device)));
+        }
+    }
 }
