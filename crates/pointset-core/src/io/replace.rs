@@ -6,12 +6,15 @@
 //!
 //! The replacement keeps an existing output's permissions, refuses one that could not be
 //! opened for writing (and a read-only one, even where the user could), and writes
-//! through a symbolic link to the file it names.
-//! Where no temporary file can be made beside the output (a folder the user may not
-//! write, but a file they may), and where the output is not a regular file (a device such
-//! as `/dev/null`, a pipe), it is written in place, as before. A process
-//! killed while writing leaves its temporary file (`.NAME.geosynth-PID-N.tmp`) behind, and
-//! the output untouched.
+//! through a symbolic link to the file it names. Where no temporary file can be made
+//! beside the output (a folder the user may not write, but a file they may), and where
+//! the output is not a regular file (a device such as `/dev/null`, a pipe), it is written
+//! in place, as before. A process killed while writing leaves its temporary file
+//! (`.NAME.geosynth-PID-N.tmp`) behind, and the output untouched.
+//!
+//! Unlike writing in place, a replaced file is a new file: other hard links to the old
+//! one keep the old bytes, its owner is the writing user, extended attributes are not
+//! carried over, and the disk holds the old and the new file until the rename.
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, ErrorKind, Seek, SeekFrom, Write};
