@@ -14,7 +14,9 @@
 //!
 //! Unlike writing in place, a replaced file is a new file: other hard links to the old
 //! one keep the old bytes, its owner is the writing user, extended attributes are not
-//! carried over, and the disk holds the old and the new file until the rename.
+//! carried over, and the disk holds the old and the new file until the rename. The new
+//! file is flushed, not synced to the disk, before the rename: a failed run cannot lose
+//! the old file, but a power cut soon after may still lose both.
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, ErrorKind, Seek, SeekFrom, Write};
