@@ -422,4 +422,15 @@ fn documents_built_by_hand_with_missing_values_are_refused() {
         assert!(write_ply(&doc, &mut Vec::new()).is_err());
     }
     assert_eq!(geometry_from_document(&good).unwrap(), points);
+    // A scalar property holding lists cannot be written.
+    let mut mixed = good.clone();
+    mixed.elements[0].columns[0] = PlyColumn::List {
+        offsets: vec![0, 1, 2],
+        items: vec![0.0, 1.0],
+    };
+    let error = write_ply(&mixed, &mut Vec::new()).unwrap_err();
+    assert!(
+        matches!(error, Error::IncompatibleLayout { .. }),
+        "{error:?}"
+    );
 }

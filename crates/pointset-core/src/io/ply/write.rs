@@ -32,33 +32,35 @@ pub(crate) fn write_view(doc: &DocumentView<'_>, out: &mut impl Write) -> Result
                 if ascii && i > 0 {
                     buf.push(b' ');
                 }
-                let written = match (prop.kind, column.scalar(record), column.list(record)) {
-                    (PropertyKind::Scalar(ty), Some(value), _) => {
+                // Only the declared kind's value is looked up: this runs for every value.
+                let written = match prop.kind {
+                    PropertyKind::Scalar(ty) => column.scalar(record).map(|value| {
                         put(&mut buf, doc.encoding, ty, value);
-                        true
-                    }
-                    (PropertyKind::List { count, item }, _, Some(list)) => {
-                        let (_, max) = count.range();
-                        if list.len() as f64 > max {
-                            return Err(Error::ListCountOverflow {
-                                format: crate::io::FileFormat::Ply,
-                                location: crate::Location::Byte(0),
-                                count: list.len() as i128,
-                                reason: format!("more than a `{count}` length can express"),
-                            });
-                        }
-                        put(&mut buf, doc.encoding, count, list.len() as f64);
-                        for v in list.items() {
-                            if ascii {
-                                buf.push(b' ');
+                    }),
+                    PropertyKind::List { count, item } => match column.list(record) {
+                        None => None,
+                        Some(list) => {
+                            let (_, max) = count.range();
+                            if list.len() as f64 > max {
+                                return Err(Error::ListCountOverflow {
+                                    format: crate::io::FileFormat::Ply,
+                                    location: crate::Location::Byte(0),
+                                    count: list.len() as i128,
+                                    reason: format!("more than a `{count}` length can express"),
+                                });
                             }
-                            put(&mut buf, doc.encoding, item, v);
+                            put(&mut buf, doc.encoding, count, list.len() as f64);
+                            for v in list.items() {
+                                if ascii {
+                                    buf.push(b' ');
+                                }
+                                put(&mut buf, doc.encoding, item, v);
+                            }
+                            Some(())
                         }
-                        true
-                    }
-                    _ => false,
+                    },
                 };
-                if !written {
+                if written.is_none() {
                     return Err(Error::IncompatibleLayout {
                         reason: format!(
                             "column of `{}` does not match its declared kind",
