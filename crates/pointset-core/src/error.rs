@@ -43,6 +43,13 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+    /// Reading from a file or user-supplied reader failed.
+    #[error("read failed: {source}")]
+    Read {
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
     /// The file has no bytes at all.
     #[error("{path} is empty")]
     EmptyFile {

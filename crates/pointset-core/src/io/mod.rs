@@ -24,6 +24,8 @@ mod stl;
 mod xyz;
 
 use std::fmt;
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
 pub use las::{read_las, write_las};
@@ -185,11 +187,8 @@ impl FileFormat {
     /// The format a file's content looks like, if any. A binary STL is recognised by its
     /// size (84 bytes plus 50 per facet its header declares), so pass the whole file.
     pub fn sniff(bytes: &[u8]) -> Option<Self> {
-        if las::looks_like_las(bytes) {
-            return Some(FileFormat::Las);
-        }
-        if stl::binary_facet_count(bytes).is_some() {
-            return Some(FileFormat::Stl);
+        if let Some(format) = Self::sniff_head(bytes, bytes.len() as u64) {
+            return Some(format);
         }
         let head = &bytes[..bytes.len().min(4096)];
         let text = String::from_utf8_lossy(head);
@@ -197,9 +196,6 @@ impl FileFormat {
             .lines()
             .map(str::trim)
             .find(|l| !l.is_empty() && !l.starts_with('#'))?;
-        if text.starts_with("ply") && matches!(text.as_bytes().get(3), Some(b'\n' | b'\r')) {
-            return Some(FileFormat::Ply);
-        }
         let word = first.split_whitespace().next().unwrap_or("");
         if word.ends_with("OFF") && word.len() <= 6 {
             return Some(FileFormat::Off);
@@ -211,6 +207,21 @@ impl FileFormat {
             Some(FileFormat::Obj)
         } else {
             stl::starts_like_ascii(bytes).then_some(FileFormat::Stl)
+        }
+    }
+
+    /// The formats a file's first bytes and its length tell on their own: LAS, binary STL
+    /// (by its size) and PLY. Where this answers, [`FileFormat::sniff`] of the whole file
+    /// answers the same.
+    fn sniff_head(head: &[u8], len: u64) -> Option<Self> {
+        if las::looks_like_las(head) {
+            Some(FileFormat::Las)
+        } else if stl::binary_facet_count_of(head, len).is_some() {
+            Some(FileFormat::Stl)
+        } else if head.starts_with(b"ply") && matches!(head.get(3), Some(b'\n' | b'\r')) {
+            Some(FileFormat::Ply)
+        } else {
+            None
         }
     }
 }
@@ -410,7 +421,12 @@ impl WriteOptions {
 
 /// Determines a file's format from its extension, checked against its content.
 pub fn detect_format(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
-    let sniffed = FileFormat::sniff(bytes);
+    format_of(path, FileFormat::sniff(bytes))
+}
+
+/// The format of `path`, from its extension checked against what its content was sniffed
+/// as.
+fn format_of(path: &Path, sniffed: Option<FileFormat>) -> Result<FileFormat> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     // A `.laz` is a LAS whose points are compressed: read as LAS, it is refused as such.
     let named = FileFormat::from_extension(ext)
@@ -440,6 +456,10 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 
 /// [`read_geometry`] with options (e.g. recentring georeferenced data).
 ///
+/// A PLY file is read through a buffer into the geometry's arrays; other files are read
+/// whole into memory first. Either way the result is what [`read_geometry_bytes_with`]
+/// gives for the file's bytes.
+///
 /// ```
 /// use pointset_core::io::{self, ReadOptions};
 /// // Two points a metre apart, 4,000 km north: an f32 steps by 0.25 there.
@@ -457,11 +477,58 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 /// ```
 pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Result<LoadedGeometry> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+    let at_path = |source| Error::Io {
         path: path.to_path_buf(),
         source,
-    })?;
+    };
+    let mut file = File::open(path).map_err(at_path)?;
+    let metadata = file.metadata().map_err(at_path)?;
+    let mut bytes = Vec::new();
+    (&mut file)
+        .take(SNIFFED_BYTES)
+        .read_to_end(&mut bytes)
+        .map_err(at_path)?;
+    if metadata.is_file()
+        && let Some(start) = ply_body_of_file(path, &bytes, metadata.len())?
+    {
+        file.seek(SeekFrom::Start(start)).map_err(at_path)?;
+        let read = ply::read_ply_geometry_from(file, metadata.len() - start, options.recentre_far)
+            .map_err(|error| match error {
+                Error::Read { source } => at_path(source),
+                other => other,
+            })?;
+        return Ok(loaded_ply(read));
+    }
+    file.read_to_end(&mut bytes).map_err(at_path)?;
     read_geometry_bytes_with(path, &bytes, options)
+}
+
+/// Bytes read from the start of a file to tell its format before reading the rest.
+const SNIFFED_BYTES: u64 = 4096;
+
+/// Where the PLY text of a regular file of `len` bytes starting with `head` begins (after a
+/// byte-order mark, if any), if [`read_geometry_bytes_with`] would read the whole file as
+/// PLY; such files are read from the file, not from a copy of it in memory. A file of
+/// another format, or one whose length is not that of its bytes (as in `/proc`), gives
+/// `None`; an extension that names another format is refused as the whole file would be.
+fn ply_body_of_file(path: &Path, head: &[u8], len: u64) -> Result<Option<u64>> {
+    if len < head.len() as u64 {
+        return Ok(None);
+    }
+    let skip =
+        if head.starts_with(BYTE_ORDER_MARK) && stl::binary_facet_count_of(head, len).is_none() {
+            BYTE_ORDER_MARK.len()
+        } else {
+            0
+        };
+    let text = &head[skip..];
+    match FileFormat::sniff_head(text, len - skip as u64) {
+        Some(FileFormat::Ply) => {
+            format_of(path, Some(FileFormat::Ply))?;
+            Ok(Some(skip as u64))
+        }
+        _ => Ok(None),
+    }
 }
 
 /// Reads geometry held in memory; `path` names it in errors and picks the format.
@@ -483,17 +550,7 @@ pub fn read_geometry_bytes_with(
     let bytes = without_byte_order_mark(bytes);
     let recentre = options.recentre_far;
     match detect_format(path, bytes)? {
-        FileFormat::Ply => {
-            let read = ply::read_ply_geometry(bytes, recentre)?;
-            Ok(LoadedGeometry {
-                geometry: read.geometry,
-                format: FileFormat::Ply,
-                encoding: read.encoding.keyword().to_string(),
-                notes: read.notes,
-                comments: read.comments,
-                origin: read.origin,
-            })
-        }
+        FileFormat::Ply => Ok(loaded_ply(ply::read_ply_geometry(bytes, recentre)?)),
         FileFormat::Obj => {
             let (geometry, origin, notes) = read_obj_at(path, bytes, recentre)?;
             Ok(LoadedGeometry {
@@ -549,6 +606,18 @@ pub fn read_geometry_bytes_with(
                 notes: file.notes,
             })
         }
+    }
+}
+
+/// A PLY file's geometry as [`LoadedGeometry`].
+fn loaded_ply(read: ply::PlyGeometry) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry: read.geometry,
+        format: FileFormat::Ply,
+        encoding: read.encoding.keyword().to_string(),
+        notes: read.notes,
+        comments: read.comments,
+        origin: read.origin,
     }
 }
 

@@ -1,6 +1,9 @@
 //! PLY body decoding for the three encodings.
 
+use std::io::Read;
+
 use super::header::ParsedHeader;
+use super::stream::ByteStream;
 use super::{PlyColumn, PlyElement, PlyEncoding, PropertyKind};
 use crate::io::FileFormat;
 use crate::{Error, Location, Result, ScalarType};
@@ -27,29 +30,33 @@ pub(super) trait BodySink {
 }
 
 /// The body as [`PlyElement`]s: every value, as `f64`.
-pub(super) fn read_body(header: &ParsedHeader, bytes: &[u8]) -> Result<Vec<PlyElement>> {
+pub(super) fn read_body<R: Read>(
+    header: &ParsedHeader,
+    stream: &mut ByteStream<R>,
+) -> Result<Vec<PlyElement>> {
     let mut document = DocumentSink::new(header);
-    read_body_into(header, bytes, &mut document)?;
+    read_body_into(header, stream, &mut document)?;
     Ok(document.elements)
 }
 
-/// Reads the body, sending every value to `sink`.
-pub(super) fn read_body_into(
+/// Reads the body from `stream` (just past the header), sending every value to `sink`.
+pub(super) fn read_body_into<R: Read>(
     header: &ParsedHeader,
-    bytes: &[u8],
+    stream: &mut ByteStream<R>,
     sink: &mut impl BodySink,
 ) -> Result<()> {
-    let body = bytes.get(header.body_start..).unwrap_or(&[]);
     match header.encoding {
         PlyEncoding::Ascii => {
-            let mut src = AsciiSource::new(body, header.header_lines);
+            let mut src = AsciiSource {
+                stream,
+                line: header.header_lines + 1,
+                token: Vec::new(),
+            };
             read_elements(header, &mut src, sink)
         }
         PlyEncoding::BinaryLittleEndian | PlyEncoding::BinaryBigEndian => {
             let mut src = BinarySource {
-                data: body,
-                pos: 0,
-                base: header.body_start as u64,
+                stream,
                 big_endian: header.encoding == PlyEncoding::BinaryBigEndian,
             };
             read_elements(header, &mut src, sink)
@@ -157,106 +164,134 @@ impl BodySink for DocumentSink {
     fn element_done(&mut self, _element: usize) {}
 }
 
-struct BinarySource<'a> {
-    data: &'a [u8],
-    pos: usize,
-    base: u64,
+struct BinarySource<'s, R> {
+    stream: &'s mut ByteStream<R>,
     big_endian: bool,
 }
 
-impl ValueSource for BinarySource<'_> {
+impl<R: Read> ValueSource for BinarySource<'_, R> {
     fn scalar(&mut self, ty: ScalarType, what: &dyn Fn() -> String) -> Result<f64> {
-        let value = self
-            .data
-            .get(self.pos..)
-            .and_then(|rest| ty.decode(rest, self.big_endian))
-            .ok_or_else(|| Error::UnexpectedEof {
-                format: FileFormat::Ply,
-                location: self.location(),
-                what: what(),
-            })?;
-        self.pos += ty.size();
-        Ok(value)
+        let at = self.location();
+        let size = ty.size();
+        let buffered = self.stream.buffered();
+        let value = if buffered.len() >= size {
+            let value = ty.decode(buffered, self.big_endian);
+            self.stream.consume(size);
+            value
+        } else {
+            // The value straddles the end of the buffer (or of the file), or nothing is
+            // buffered yet.
+            let mut word = [0u8; 8];
+            let word = &mut word[..size];
+            if self.stream.read_exact(word)? {
+                ty.decode(word, self.big_endian)
+            } else {
+                None
+            }
+        };
+        value.ok_or_else(|| Error::UnexpectedEof {
+            format: FileFormat::Ply,
+            location: at,
+            what: what(),
+        })
     }
 
     fn location(&self) -> Location {
-        Location::Byte(self.base + self.pos as u64)
+        Location::Byte(self.stream.position())
     }
 
     fn max_remaining(&self, ty: ScalarType) -> u64 {
-        (self.data.len().saturating_sub(self.pos) / ty.size()) as u64
+        self.stream.remaining() / ty.size() as u64
     }
 }
 
-struct AsciiSource<'a> {
-    data: &'a [u8],
-    pos: usize,
+struct AsciiSource<'s, R> {
+    stream: &'s mut ByteStream<R>,
+    /// The line the next byte is on.
     line: usize,
+    /// A token that straddled the end of the buffer, gathered.
+    token: Vec<u8>,
 }
 
-impl<'a> AsciiSource<'a> {
-    fn new(data: &'a [u8], header_lines: usize) -> Self {
-        Self {
-            data,
-            pos: 0,
-            line: header_lines + 1,
+impl<R: Read> AsciiSource<'_, R> {
+    /// Moves past whitespace, counting lines.
+    fn skip_whitespace(&mut self) -> Result<()> {
+        let newline_count = |bytes: &[u8]| bytes.iter().filter(|&&b| b == b'\n').count();
+        let buffered = self.stream.buffered();
+        if let Some(end) = buffered.iter().position(|b| !b.is_ascii_whitespace()) {
+            self.line += newline_count(&buffered[..end]);
+            self.stream.consume(end);
+            return Ok(());
         }
+        let mut newlines = 0;
+        self.stream.consume_while(
+            |b| b.is_ascii_whitespace(),
+            |piece| newlines += newline_count(piece),
+        )?;
+        self.line += newlines;
+        Ok(())
     }
+}
 
-    fn next_token(&mut self, what: &dyn Fn() -> String) -> Result<&'a str> {
-        while let Some(&b) = self.data.get(self.pos) {
-            if !b.is_ascii_whitespace() {
-                break;
-            }
-            if b == b'\n' {
-                self.line += 1;
-            }
-            self.pos += 1;
-        }
-        let start = self.pos;
-        while self
-            .data
-            .get(self.pos)
-            .is_some_and(|b| !b.is_ascii_whitespace())
-        {
-            self.pos += 1;
-        }
-        if start == self.pos {
-            return Err(Error::UnexpectedEof {
-                format: FileFormat::Ply,
-                location: Location::Line(self.line),
-                what: what(),
-            });
-        }
-        std::str::from_utf8(&self.data[start..self.pos]).map_err(|_| Error::Malformed {
+/// The value of `token`, read as a `ty` on line `line`.
+#[inline]
+fn token_value(
+    token: &[u8],
+    ty: ScalarType,
+    line: usize,
+    what: &dyn Fn() -> String,
+) -> Result<f64> {
+    let location = Location::Line(line);
+    if token.is_empty() {
+        return Err(Error::UnexpectedEof {
             format: FileFormat::Ply,
-            location: Location::Line(self.line),
-            message: format!("non-text bytes in {}", what()),
-        })
+            location,
+            what: what(),
+        });
     }
+    let token = std::str::from_utf8(token).map_err(|_| Error::Malformed {
+        format: FileFormat::Ply,
+        location,
+        message: format!("non-text bytes in {}", what()),
+    })?;
+    let bad = |reason: &str| Error::Malformed {
+        format: FileFormat::Ply,
+        location,
+        message: format!("`{token}` in {} {reason}", what()),
+    };
+    let value: f64 = token.parse().map_err(|_| bad("is not a number"))?;
+    if ty.is_integer() {
+        let (lo, hi) = ty.range();
+        if value.fract() != 0.0 || value < lo || value > hi {
+            return Err(bad(&format!("is not a valid {ty}")));
+        }
+    }
+    // A `float` token means the nearest single-precision value, as in a binary file.
+    Ok(if ty == ScalarType::F32 {
+        ty.quantize(value)
+    } else {
+        value
+    })
 }
 
-impl ValueSource for AsciiSource<'_> {
+impl<R: Read> ValueSource for AsciiSource<'_, R> {
     fn scalar(&mut self, ty: ScalarType, what: &dyn Fn() -> String) -> Result<f64> {
-        let token = self.next_token(what)?;
-        let bad = |reason: &str| Error::Malformed {
-            format: FileFormat::Ply,
-            location: Location::Line(self.line),
-            message: format!("`{token}` in {} {reason}", what()),
-        };
-        let value: f64 = token.parse().map_err(|_| bad("is not a number"))?;
-        if ty.is_integer() {
-            let (lo, hi) = ty.range();
-            if value.fract() != 0.0 || value < lo || value > hi {
-                return Err(bad(&format!("is not a valid {ty}")));
-            }
+        self.skip_whitespace()?;
+        let line = self.line;
+        // Most tokens end inside the buffer and are read where they lie.
+        let buffered = self.stream.buffered();
+        if let Some(end) = buffered.iter().position(u8::is_ascii_whitespace) {
+            let value = token_value(&buffered[..end], ty, line, what);
+            self.stream.consume(end);
+            return value;
         }
-        // A `float` token means the nearest single-precision value, as in a binary file.
-        Ok(if ty == ScalarType::F32 {
-            ty.quantize(value)
-        } else {
-            value
-        })
+        self.token.clear();
+        let token = &mut self.token;
+        self.stream.consume_while(
+            |b| !b.is_ascii_whitespace(),
+            |piece| token.extend_from_slice(piece),
+        )?;
+        token_value(&self.token, ty, line, what)
     }
 
     fn location(&self) -> Location {
@@ -265,6 +300,6 @@ impl ValueSource for AsciiSource<'_> {
 
     fn max_remaining(&self, _ty: ScalarType) -> u64 {
         // Each token needs at least one character and one separator.
-        (self.data.len().saturating_sub(self.pos) as u64).div_ceil(2)
+        self.stream.remaining().div_ceil(2)
     }
 }

@@ -1,5 +1,8 @@
 //! PLY header parsing and the size check done before any allocation.
 
+use std::io::Read;
+
+use super::stream::ByteStream;
 use super::{PlyEncoding, PlyProperty, PropertyKind};
 use crate::io::FileFormat;
 use crate::{Error, Location, Result, ScalarType};
@@ -20,7 +23,7 @@ pub(super) struct ParsedHeader {
     pub obj_info: Vec<String>,
     pub elements: Vec<ElementDecl>,
     /// Byte offset of the first body byte.
-    pub body_start: usize,
+    pub body_start: u64,
     /// Number of header lines (the ascii body's line numbers continue from here).
     pub header_lines: usize,
 }
@@ -41,37 +44,38 @@ fn scalar_type(line: usize, name: &str) -> Result<ScalarType> {
 }
 
 /// Headers longer than this are rejected (real headers are a few hundred bytes).
-const MAX_HEADER_BYTES: usize = 1 << 20;
+const MAX_HEADER_BYTES: u64 = 1 << 20;
 
-pub(super) fn parse_header(bytes: &[u8]) -> Result<ParsedHeader> {
-    let mut pos = 0usize;
+/// Reads the header from the start of `stream`, leaving it at the first body byte, and
+/// checks the record counts against the stream's length.
+pub(super) fn parse_header<R: Read>(stream: &mut ByteStream<R>) -> Result<ParsedHeader> {
     let mut line_no = 0usize;
     let mut encoding = None;
     let mut comments = Vec::new();
     let mut obj_info = Vec::new();
     let mut elements: Vec<ElementDecl> = Vec::new();
+    let mut raw = Vec::new();
     loop {
-        if pos >= bytes.len() {
+        if stream.at_end()? {
             return Err(Error::UnexpectedEof {
                 format: FileFormat::Ply,
                 location: Location::Line(line_no + 1),
                 what: "the header (no `end_header` line)".into(),
             });
         }
-        if pos > MAX_HEADER_BYTES {
+        if stream.position() > MAX_HEADER_BYTES {
             return Err(malformed(
                 line_no,
                 "header longer than 1 MiB without `end_header`",
             ));
         }
-        let end = bytes[pos..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(bytes.len(), |n| pos + n);
+        raw.clear();
+        stream.consume_while(|b| b != b'\n', |piece| raw.extend_from_slice(piece))?;
+        if !stream.at_end()? {
+            stream.consume(1);
+        }
         line_no += 1;
-        let raw = &bytes[pos..end];
-        pos = end + 1;
-        let line = std::str::from_utf8(raw)
+        let line = std::str::from_utf8(&raw)
             .map_err(|_| malformed(line_no, "header line is not valid text"))?
             .trim_end_matches('\r');
         if line_no == 1 {
@@ -181,10 +185,10 @@ pub(super) fn parse_header(bytes: &[u8]) -> Result<ParsedHeader> {
         comments,
         obj_info,
         elements,
-        body_start: pos.min(bytes.len()),
+        body_start: stream.position(),
         header_lines: line_no,
     };
-    check_counts_against_size(&header, bytes.len())?;
+    check_counts_against_size(&header, stream.len())?;
     Ok(header)
 }
 
@@ -213,8 +217,8 @@ fn min_record_bytes(element: &ElementDecl, encoding: PlyEncoding) -> u128 {
 }
 
 /// Rejects headers whose record counts cannot fit in the bytes after the header.
-fn check_counts_against_size(header: &ParsedHeader, file_len: usize) -> Result<()> {
-    let available = file_len.saturating_sub(header.body_start) as u64;
+fn check_counts_against_size(header: &ParsedHeader, file_len: u64) -> Result<()> {
+    let available = file_len.saturating_sub(header.body_start);
     // The last ascii record may lack its trailing separator.
     let slack = u128::from(header.encoding == PlyEncoding::Ascii);
     let mut needed: u128 = 0;
@@ -230,7 +234,7 @@ fn check_counts_against_size(header: &ParsedHeader, file_len: usize) -> Result<(
                 available_bytes: available,
             });
         }
-        if record == 0 && element.count > 0 && element.count > file_len.max(1 << 20) {
+        if record == 0 && element.count > 0 && element.count as u64 > file_len.max(1 << 20) {
             // Elements without properties occupy no bytes; cap them so a header cannot make
             // us allocate a huge number of empty records.
             return Err(Error::HeaderExceedsFile {

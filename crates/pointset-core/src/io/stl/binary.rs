@@ -13,9 +13,15 @@ pub(super) const BINARY_FACET_BYTES: usize = 50;
 /// The facet count a binary STL declares, when `bytes` is exactly as long as a binary file
 /// with that many facets.
 pub(crate) fn binary_facet_count(bytes: &[u8]) -> Option<usize> {
-    let count = declared_facets(bytes)?;
+    binary_facet_count_of(bytes, bytes.len() as u64)
+}
+
+/// [`binary_facet_count`] of a file of `len` bytes that starts with `head` (at least its
+/// first 84 bytes, if it has them).
+pub(crate) fn binary_facet_count_of(head: &[u8], len: u64) -> Option<usize> {
+    let count = declared_facets(head)?;
     let expected = (count as u128) * BINARY_FACET_BYTES as u128 + BINARY_HEADER_BYTES as u128;
-    (expected == bytes.len() as u128).then_some(count)
+    (expected == u128::from(len)).then_some(count)
 }
 
 fn declared_facets(bytes: &[u8]) -> Option<usize> {

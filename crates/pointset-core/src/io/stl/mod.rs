@@ -41,7 +41,7 @@ use super::{Geometry, origin_for};
 use crate::weld::PositionWelder;
 use crate::{Error, PointSet, Result, TriMesh};
 use ascii::ascii_corners;
-pub(crate) use binary::binary_facet_count;
+pub(crate) use binary::{binary_facet_count, binary_facet_count_of};
 use binary::{binary_facets, binary_size_error, facets_with_attributes, header_text};
 pub use write::{StlEncoding, write_stl, write_stl_ascii};
 pub(crate) use write::{check_storable, write_stl_at};

@@ -1,0 +1,268 @@
+//! The PLY reader's input: bytes in memory or a file, read through a buffer, with the
+//! position reached and the length the file had when it was opened.
+
+use std::io::{ErrorKind, Read};
+
+use crate::{Error, Result};
+
+/// The buffer a file is read through.
+const BUFFER_BYTES: usize = 1 << 20;
+
+/// A byte source read front to back through a buffer, counting what has been consumed.
+pub(super) struct ByteStream<R> {
+    reader: R,
+    buffer: Vec<u8>,
+    /// The unconsumed bytes are `buffer[start..end]`.
+    start: usize,
+    end: usize,
+    /// The offset of `buffer[start]`.
+    position: u64,
+    len: u64,
+}
+
+impl<'a> ByteStream<&'a [u8]> {
+    /// The stream of bytes held in memory.
+    pub(super) fn of_bytes(bytes: &'a [u8]) -> Self {
+        ByteStream::new(bytes, bytes.len() as u64)
+    }
+}
+
+impl<R: Read> ByteStream<R> {
+    /// A stream of `len` bytes read from `reader`. `len` bounds what the header may
+    /// promise; if the reader ends earlier, reading stops there with a truncation error.
+    pub(super) fn new(reader: R, len: u64) -> Self {
+        let capacity = usize::try_from(len).map_or(BUFFER_BYTES, |len| len.clamp(1, BUFFER_BYTES));
+        ByteStream {
+            reader,
+            buffer: vec![0; capacity],
+            start: 0,
+            end: 0,
+            position: 0,
+            len,
+        }
+    }
+
+    /// Bytes consumed so far: the offset of the next byte.
+    pub(super) fn position(&self) -> u64 {
+        self.position
+    }
+
+    /// The stream's length.
+    pub(super) fn len(&self) -> u64 {
+        self.len
+    }
+
+    /// How many bytes the stream's length leaves after the position.
+    pub(super) fn remaining(&self) -> u64 {
+        self.len.saturating_sub(self.position)
+    }
+
+    /// The bytes buffered at the position, without reading (possibly empty).
+    #[inline]
+    pub(super) fn buffered(&self) -> &[u8] {
+        &self.buffer[self.start..self.end]
+    }
+
+    /// The bytes buffered at the position, read from the source if none are (empty at
+    /// the end).
+    pub(super) fn buffer(&mut self) -> Result<&[u8]> {
+        if self.start == self.end {
+            self.start = 0;
+            self.end = 0;
+            loop {
+                match self.reader.read(&mut self.buffer) {
+                    Ok(n) => {
+                        self.end = n;
+                        break;
+                    }
+                    Err(error) if error.kind() == ErrorKind::Interrupted => {}
+                    Err(source) => return Err(Error::Read { source }),
+                }
+            }
+        }
+        Ok(self.buffered())
+    }
+
+    /// Moves past `n` buffered bytes.
+    #[inline]
+    pub(super) fn consume(&mut self, n: usize) {
+        debug_assert!(n <= self.end - self.start);
+        self.start += n;
+        self.position += n as u64;
+    }
+
+    /// Whether the stream has no more bytes.
+    pub(super) fn at_end(&mut self) -> Result<bool> {
+        Ok(self.buffer()?.is_empty())
+    }
+
+    /// Consumes the longest run of bytes for which `take` holds, handing each buffered
+    /// piece of it to `piece`.
+    pub(super) fn consume_while(
+        &mut self,
+        take: impl Fn(u8) -> bool,
+        mut piece: impl FnMut(&[u8]),
+    ) -> Result<()> {
+        loop {
+            let buffer = self.buffer()?;
+            let available = buffer.len();
+            let n = buffer.iter().position(|&b| !take(b)).unwrap_or(available);
+            piece(&buffer[..n]);
+            self.consume(n);
+            if n < available || available == 0 {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Fills `out` from the stream; `false` if the stream ends first.
+    pub(super) fn read_exact(&mut self, out: &mut [u8]) -> Result<bool> {
+        let mut filled = 0;
+        while filled < out.len() {
+            let buffer = self.buffer()?;
+            if buffer.is_empty() {
+                return Ok(false);
+            }
+            let n = buffer.len().min(out.len() - filled);
+            out[filled..filled + n].copy_from_slice(&buffer[..n]);
+            self.consume(n);
+            filled += n;
+        }
+        Ok(true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use std::io::Read;
+
+    use glam::{Vec2, Vec3};
+    use proptest::prelude::*;
+
+    use super::super::{PlyEncoding, read_ply_geometry, read_ply_geometry_from};
+    use crate::io::{self, FileFormat, Geometry, WriteOptions};
+    use crate::{Attribute, Error, PointSet, ScalarType, TriMesh};
+
+    /// A point set or mesh with normals, UVs and an attribute of type `ty`, as chosen.
+    fn geometry(values: &[f32], normals: bool, ty: Option<ScalarType>, faces: usize) -> Geometry {
+        let n = values.len();
+        let v = |i: usize, k: usize| values[(i + k) % n];
+        let mut points = PointSet::new(
+            (0..n)
+                .map(|i| Vec3::new(v(i, 0), v(i, 1), v(i, 2)))
+                .collect(),
+        )
+        .unwrap();
+        if normals {
+            let normals = (0..n).map(|i| Vec3::new(v(i, 3), 1.0, 0.5).normalize());
+            points = points.with_normals(normals.collect()).unwrap();
+        }
+        if let Some(ty) = ty {
+            let channel = (0..n).map(|i| ty.quantize(f64::from(v(i, 4))) as f32);
+            let attribute = Attribute::new("a", channel.collect()).with_storage(ty);
+            points = points.with_attribute(attribute).unwrap();
+        }
+        if faces == 0 {
+            return Geometry::Points(points);
+        }
+        let triangles = (0..faces).map(|f| [f % n, (f * 5 + 1) % n, (f * 11 + 2) % n]);
+        let triangles = triangles.map(|t| t.map(|i| i as u32)).collect();
+        let uvs = (0..n).map(|i| Vec2::new(v(i, 5), v(i, 6))).collect();
+        Geometry::Mesh(
+            TriMesh::new(points, triangles)
+                .unwrap()
+                .with_uvs(uvs)
+                .unwrap(),
+        )
+    }
+
+    proptest! {
+        /// Read a few bytes at a time, so that tokens, words, lines and the header
+        /// straddle refills, a file gives what it gives read from memory: the same
+        /// geometry or the same error, edited or cut short, in every encoding.
+        #[test]
+        fn small_buffers_read_what_memory_reads(
+            values in proptest::collection::vec(-1e3f32..1e3, 1..10),
+            normals in any::<bool>(),
+            ty in proptest::option::of(proptest::sample::select(ScalarType::ALL.to_vec())),
+            faces in 0usize..6,
+            edits in proptest::collection::vec((0usize..1000, any::<u8>()), 0..3),
+            cut in proptest::option::of(0usize..1000),
+            at_most in 1usize..12,
+
+        ) {
+            let geometry = geometry(&values, normals, ty, faces);
+            for encoding in PlyEncoding::ALL {
+                let options = WriteOptions::default().ply_encoding(encoding);
+                let mut bytes = io::encode_geometry(&geometry, FileFormat::Ply, &options)
+                    .unwrap();
+                for &(at, byte) in &edits {
+                    let len = bytes.len();
+                    bytes[at % len] = byte;
+                }
+                if let Some(cut) = cut {
+                    bytes.truncate(cut);
+                }
+                let len = bytes.len() as u64;
+                let reader = Trickle { bytes: &bytes, at_most };
+                let streamed = read_ply_geometry_from(reader, len, true)
+                    .map(|read| (read.geometry, read.origin, read.comments, read.notes))
+                    .map_err(|e| e.to_string());
+                let in_memory = read_ply_geometry(&bytes, true)
+                    .map(|read| (read.geometry, read.origin, read.comments, read.notes))
+                    .map_err(|e| e.to_string());
+                prop_assert_eq!(streamed, in_memory);
+            }
+        }
+    }
+
+    /// A reader that hands out at most `at_most` bytes a read, as pipes and sockets may.
+    struct Trickle<'a> {
+        bytes: &'a [u8],
+        at_most: usize,
+    }
+
+    impl Read for Trickle<'_> {
+        fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+            let n = out.len().min(self.at_most);
+            self.bytes.read(&mut out[..n])
+        }
+    }
+
+    /// A reader that fails after `good` bytes.
+    struct FailingAfter<'a> {
+        good: &'a [u8],
+    }
+
+    impl Read for FailingAfter<'_> {
+        fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+            if self.good.is_empty() {
+                return Err(std::io::Error::other("the disk is gone"));
+            }
+            self.good.read(out)
+        }
+    }
+
+    #[test]
+    fn a_failed_read_is_a_read_error_not_a_truncation() {
+        let geometry = geometry(&[1.0, 2.0, 3.0, 4.0], true, None, 2);
+        for encoding in PlyEncoding::ALL {
+            let options = WriteOptions::default().ply_encoding(encoding);
+            let bytes = io::encode_geometry(&geometry, FileFormat::Ply, &options).unwrap();
+            for good in [10, bytes.len() - 5] {
+                let reader = FailingAfter {
+                    good: &bytes[..good],
+                };
+                let error = read_ply_geometry_from(reader, bytes.len() as u64, false).unwrap_err();
+                assert!(
+                    matches!(&error, Error::Read { source } if source.to_string() == "the disk is gone"),
+                    "{encoding:?}, {good} bytes: {error:?}"
+                );
+            }
+            // The same bytes, whole, are read.
+            assert!(read_ply_geometry(&bytes, false).is_ok());
+        }
+    }
+}
