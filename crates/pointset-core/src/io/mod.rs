@@ -15,6 +15,7 @@
 //! [`write_geometry`] adds such an origin back ([`WriteOptions::origin`]; PLY then stores
 //! `double` coordinates). Plain [`read_geometry`] never moves the data.
 
+mod buffered;
 mod las;
 mod obj;
 mod off;

@@ -19,6 +19,7 @@ use std::path::Path;
 
 use glam::{DVec3, Vec2};
 
+use super::buffered::{buffered, comment_lines};
 use super::{Geometry, position_text, relative_positions};
 use crate::{Error, PointSet, Result, TriMesh, triangulate_polygon};
 
@@ -388,58 +389,63 @@ pub(crate) fn write_obj_at(
     origin: DVec3,
     out: &mut impl Write,
 ) -> Result<()> {
-    let mut s = String::new();
-    for c in comments {
-        s.push_str(&format!("# {}\n", c.replace(['\n', '\r'], " ")));
-    }
     let points = geometry.points();
     let colors = points.colors();
-    for (i, p) in points.positions().iter().enumerate() {
-        match &colors {
-            Some(c) => s.push_str(&format!(
-                "v {} {} {} {}\n",
-                position_text(*p, origin),
-                c[i][0],
-                c[i][1],
-                c[i][2]
-            )),
-            None => s.push_str(&format!("v {}\n", position_text(*p, origin))),
-        }
-    }
     let uvs = geometry.mesh().and_then(TriMesh::uvs);
-    for uv in uvs.unwrap_or(&[]) {
-        s.push_str(&format!("vt {} {}\n", uv.x, uv.y));
-    }
     let normals = points.normals();
-    for n in normals.unwrap_or(&[]) {
-        s.push_str(&format!("vn {} {} {}\n", n.x, n.y, n.z));
-    }
-    let corner = |i: u32| {
-        let i = i + 1;
-        match (uvs.is_some(), normals.is_some()) {
-            (true, true) => format!("{i}/{i}/{i}"),
-            (true, false) => format!("{i}/{i}"),
-            (false, true) => format!("{i}//{i}"),
-            (false, false) => format!("{i}"),
-        }
+    let corner = |i: u32| Corner {
+        index: u64::from(i) + 1,
+        uv: uvs.is_some(),
+        normal: normals.is_some(),
     };
-    match geometry.mesh() {
-        Some(mesh) => {
-            for t in mesh.triangles() {
-                s.push_str(&format!(
-                    "f {} {} {}\n",
-                    corner(t[0]),
-                    corner(t[1]),
-                    corner(t[2])
-                ));
+    buffered(out, |out| {
+        comment_lines(out, comments)?;
+        for (i, p) in points.positions().iter().enumerate() {
+            let p = position_text(*p, origin);
+            match &colors {
+                Some(c) => writeln!(out, "v {p} {} {} {}", c[i][0], c[i][1], c[i][2])?,
+                None => writeln!(out, "v {p}")?,
             }
         }
-        None => {
-            for i in 0..points.len() as u32 {
-                s.push_str(&format!("p {}\n", corner(i)));
+        for uv in uvs.unwrap_or(&[]) {
+            writeln!(out, "vt {} {}", uv.x, uv.y)?;
+        }
+        for n in normals.unwrap_or(&[]) {
+            writeln!(out, "vn {} {} {}", n.x, n.y, n.z)?;
+        }
+        match geometry.mesh() {
+            Some(mesh) => {
+                for t in mesh.triangles() {
+                    let [a, b, c] = t.map(corner);
+                    writeln!(out, "f {a} {b} {c}")?;
+                }
             }
+            None => {
+                for i in 0..points.len() as u32 {
+                    writeln!(out, "p {}", corner(i))?;
+                }
+            }
+        }
+        Ok(())
+    })
+}
+
+/// A face corner as OBJ writes it: `i`, `i/i`, `i//i` or `i/i/i` (1-based; the vertex, its
+/// UV and its normal share an index).
+struct Corner {
+    index: u64,
+    uv: bool,
+    normal: bool,
+}
+
+impl std::fmt::Display for Corner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let i = self.index;
+        match (self.uv, self.normal) {
+            (true, true) => write!(f, "{i}/{i}/{i}"),
+            (true, false) => write!(f, "{i}/{i}"),
+            (false, true) => write!(f, "{i}//{i}"),
+            (false, false) => write!(f, "{i}"),
         }
     }
-    out.write_all(s.as_bytes())
-        .map_err(|source| Error::Write { source })
 }

@@ -8,6 +8,7 @@ use std::io::Write;
 
 use glam::{DVec3, Vec3};
 
+use super::buffered::{buffered, comment_lines};
 use super::{FileFormat, Geometry, position_text, relative_positions, unit_colours};
 use crate::{Error, Location, PointSet, Result, TriMesh, triangulate_polygon};
 
@@ -251,25 +252,24 @@ pub(crate) fn write_off_at(
         if normals.is_some() { "N" } else { "" }
     );
     let tris = geometry.mesh().map_or(&[][..], TriMesh::triangles);
-    let mut s = format!("{keyword}\n");
-    for c in comments {
-        s.push_str(&format!("# {}\n", c.replace(['\n', '\r'], " ")));
-    }
-    s.push_str(&format!("{} {} 0\n", points.len(), tris.len()));
-    for (i, p) in points.positions().iter().enumerate() {
-        s.push_str(&position_text(*p, origin));
-        if let Some(n) = normals {
-            s.push_str(&format!(" {} {} {}", n[i].x, n[i].y, n[i].z));
+    buffered(out, |out| {
+        writeln!(out, "{keyword}")?;
+        comment_lines(out, comments)?;
+        writeln!(out, "{} {} 0", points.len(), tris.len())?;
+        for (i, p) in points.positions().iter().enumerate() {
+            write!(out, "{}", position_text(*p, origin))?;
+            if let Some(n) = normals {
+                write!(out, " {} {} {}", n[i].x, n[i].y, n[i].z)?;
+            }
+            if let Some(c) = &colors {
+                let [r, g, b] = c[i].map(|x| (x * 255.0).round() as u8);
+                write!(out, " {r} {g} {b} 255")?;
+            }
+            writeln!(out)?;
         }
-        if let Some(c) = &colors {
-            let [r, g, b] = c[i].map(|x| (x * 255.0).round() as u8);
-            s.push_str(&format!(" {r} {g} {b} 255"));
+        for t in tris {
+            writeln!(out, "3 {} {} {}", t[0], t[1], t[2])?;
         }
-        s.push('\n');
-    }
-    for t in tris {
-        s.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
-    }
-    out.write_all(s.as_bytes())
-        .map_err(|source| Error::Write { source })
+        Ok(())
+    })
 }

@@ -18,6 +18,7 @@ use std::io::Write;
 
 use glam::{DVec3, Vec3};
 
+use super::buffered::{buffered, comment_lines};
 use super::{FileFormat, Geometry, position_text, relative_positions, unit_colours};
 use crate::{Error, Location, PointSet, Result};
 
@@ -287,20 +288,18 @@ pub(crate) fn write_xyz_at(
         XyzColumns::Colours => points.colors(),
         XyzColumns::Positions | XyzColumns::Normals => None,
     };
-    let mut s = String::new();
-    for c in comments {
-        s.push_str(&format!("# {}\n", c.replace(['\n', '\r'], " ")));
-    }
-    for (i, p) in points.positions().iter().enumerate() {
-        s.push_str(&position_text(*p, origin));
-        if let Some(n) = normals {
-            s.push_str(&format!(" {} {} {}", n[i].x, n[i].y, n[i].z));
+    buffered(out, |out| {
+        comment_lines(out, comments)?;
+        for (i, p) in points.positions().iter().enumerate() {
+            write!(out, "{}", position_text(*p, origin))?;
+            if let Some(n) = normals {
+                write!(out, " {} {} {}", n[i].x, n[i].y, n[i].z)?;
+            }
+            if let Some(c) = &colours {
+                write!(out, " {} {} {}", c[i][0], c[i][1], c[i][2])?;
+            }
+            writeln!(out)?;
         }
-        if let Some(c) = &colours {
-            s.push_str(&format!(" {} {} {}", c[i][0], c[i][1], c[i][2]));
-        }
-        s.push('\n');
-    }
-    out.write_all(s.as_bytes())
-        .map_err(|source| Error::Write { source })
+        Ok(())
+    })
 }

@@ -121,3 +121,106 @@ fn permissions_and_links_are_kept_and_read_only_files_refused() {
     assert_eq!(std::fs::read_to_string(&path).unwrap(), "through the link");
     assert_eq!(names(dir.path()), ["link.ply", "shared.ply"]);
 }
+
+/// A writer that takes `room` bytes, fails the next write as a full disk does, and then
+/// takes everything again: a writer that wrote on after an error would leave a gap.
+struct FailsOnceAt {
+    taken: Vec<u8>,
+    room: usize,
+    failed: bool,
+}
+
+impl FailsOnceAt {
+    fn new(room: usize) -> Self {
+        FailsOnceAt {
+            taken: Vec::new(),
+            room,
+            failed: false,
+        }
+    }
+}
+
+impl Write for FailsOnceAt {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        let n = if self.failed {
+            bytes.len()
+        } else {
+            bytes.len().min(self.room - self.taken.len())
+        };
+        if n == 0 && !bytes.is_empty() {
+            self.failed = true;
+            return Err(std::io::Error::other("disk full"));
+        }
+        self.taken.extend_from_slice(&bytes[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A writer of one format into any `Write`.
+type Writer<'a> = Box<dyn Fn(&mut dyn Write) -> Result<(), Error> + 'a>;
+
+#[test]
+fn every_writer_reports_a_full_disk_and_writes_only_a_prefix() {
+    // 8,100 vertices and 15,842 triangles: every encoding is longer than the writers'
+    // 64 KiB buffer.
+    let side = 90u32;
+    let grid = (0..side * side)
+        .map(|i| Vec3::new((i % side) as f32, (i / side) as f32, (i % 7) as f32 * 0.25))
+        .collect();
+    let points = PointSet::new(grid)
+        .unwrap()
+        .with_normals(vec![Vec3::Z; (side * side) as usize])
+        .unwrap();
+    let triangles = (0..side - 1)
+        .flat_map(|r| (0..side - 1).map(move |c| r * side + c))
+        .flat_map(|i| [[i, i + 1, i + side], [i + 1, i + side + 1, i + side]])
+        .collect();
+    let mesh = Geometry::Mesh(pointset_core::TriMesh::new(points.clone(), triangles).unwrap());
+    let cloud = Geometry::Points(points.clone());
+    let ply = io::ply::document_from_geometry(&mesh, io::ply::PlyEncoding::Ascii, &[]).unwrap();
+    let writers: [(&str, Writer); 7] = [
+        (
+            "PLY",
+            Box::new(|mut out| io::ply::write_ply(&ply, &mut out)),
+        ),
+        (
+            "OBJ",
+            Box::new(|mut out| io::write_obj(&mesh, &[], &mut out)),
+        ),
+        (
+            "OFF",
+            Box::new(|mut out| io::write_off(&mesh, &[], &mut out)),
+        ),
+        ("STL", Box::new(|mut out| io::write_stl(&mesh, &mut out))),
+        (
+            "ASCII STL",
+            Box::new(|mut out| io::write_stl_ascii(&mesh, &mut out)),
+        ),
+        (
+            "XYZ",
+            Box::new(|mut out| io::write_xyz(&points, io::XyzColumns::Normals, &[], &mut out)),
+        ),
+        ("LAS", Box::new(|mut out| io::write_las(&cloud, &mut out))),
+    ];
+    for (format, write) in &writers {
+        let mut whole = Vec::new();
+        write(&mut whole).unwrap();
+        assert!(whole.len() > 1 << 16, "{format}: {} bytes", whole.len());
+        for room in [0, 100, whole.len() / 2, whole.len() - 1] {
+            let mut out = FailsOnceAt::new(room);
+            let error = write(&mut out).unwrap_err();
+            assert!(
+                matches!(&error, Error::Write { source } if source.to_string() == "disk full"),
+                "{format}, room {room}: {error:?}"
+            );
+            assert_eq!(out.taken, whole[..room], "{format}, room {room}");
+        }
+        let mut out = FailsOnceAt::new(whole.len());
+        write(&mut out).unwrap();
+        assert_eq!(out.taken, whole, "{format}");
+    }
+}

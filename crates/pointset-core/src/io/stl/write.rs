@@ -4,7 +4,7 @@ use std::io::Write;
 
 use glam::{DVec3, Vec3};
 
-use super::binary::{BINARY_FACET_BYTES, BINARY_HEADER_BYTES};
+use crate::io::buffered::buffered;
 use crate::io::{FileFormat, Geometry};
 use crate::{Error, Result, TriMesh, triangle_normal};
 
@@ -63,21 +63,20 @@ fn write_binary(mesh: &TriMesh, out: &mut impl Write) -> Result<()> {
             u32::MAX
         ),
     })?;
-    let mut bytes =
-        Vec::with_capacity(BINARY_HEADER_BYTES + BINARY_FACET_BYTES * mesh.triangles().len());
     let mut header = [b' '; 80];
     let title = b"binary STL written by geosynth";
     header[..title.len()].copy_from_slice(title);
-    bytes.extend_from_slice(&header);
-    bytes.extend_from_slice(&facets.to_le_bytes());
-    for facet in facets_with_normals(mesh) {
-        for x in facet.iter().flat_map(|v| v.to_array()) {
-            bytes.extend_from_slice(&x.to_le_bytes());
+    buffered(out, |out| {
+        out.write_all(&header)?;
+        out.write_all(&facets.to_le_bytes())?;
+        for facet in facets_with_normals(mesh) {
+            for x in facet.iter().flat_map(|v| v.to_array()) {
+                out.write_all(&x.to_le_bytes())?;
+            }
+            out.write_all(&[0, 0])?;
         }
-        bytes.extend_from_slice(&[0, 0]);
-    }
-    out.write_all(&bytes)
-        .map_err(|source| Error::Write { source })
+        Ok(())
+    })
 }
 
 /// Writes a mesh as ASCII STL, one solid named `geosynth`, numbers in the shortest form
@@ -101,20 +100,21 @@ pub fn write_stl_ascii(geometry: &Geometry, out: &mut impl Write) -> Result<()> 
 
 /// A mesh as ASCII STL.
 fn write_ascii(mesh: &TriMesh, out: &mut impl Write) -> Result<()> {
-    let mut text = String::from("solid geosynth\n");
-    for [n, a, b, c] in facets_with_normals(mesh) {
-        text.push_str(&format!(
-            "  facet normal {} {} {}\n    outer loop\n",
-            n.x, n.y, n.z
-        ));
-        for p in [a, b, c] {
-            text.push_str(&format!("      vertex {} {} {}\n", p.x, p.y, p.z));
+    buffered(out, |out| {
+        writeln!(out, "solid geosynth")?;
+        for [n, a, b, c] in facets_with_normals(mesh) {
+            writeln!(
+                out,
+                "  facet normal {} {} {}\n    outer loop",
+                n.x, n.y, n.z
+            )?;
+            for p in [a, b, c] {
+                writeln!(out, "      vertex {} {} {}", p.x, p.y, p.z)?;
+            }
+            writeln!(out, "    endloop\n  endfacet")?;
         }
-        text.push_str("    endloop\n  endfacet\n");
-    }
-    text.push_str("endsolid geosynth\n");
-    out.write_all(text.as_bytes())
-        .map_err(|source| Error::Write { source })
+        writeln!(out, "endsolid geosynth")
+    })
 }
 
 /// The mesh in `geometry`, unless STL cannot store it ([`check_storable`]).
