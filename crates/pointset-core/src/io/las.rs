@@ -222,6 +222,16 @@ pub(crate) fn read_las_at(bytes: &[u8], recentre_far: bool) -> Result<LasFile> {
             ),
         ));
     }
+    if h.point_offset > bytes.len() {
+        return Err(Error::UnexpectedEof {
+            format: FileFormat::Las,
+            location: Location::Byte(bytes.len() as u64),
+            what: format!(
+                "the points, which the header places at byte {}",
+                h.point_offset
+            ),
+        });
+    }
     if needed > u128::from(available) {
         return Err(Error::HeaderExceedsFile {
             format: FileFormat::Las,

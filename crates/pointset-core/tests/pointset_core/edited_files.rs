@@ -1,5 +1,5 @@
-//! Edited or cut-short PLY (binary and ASCII), OBJ, OFF and XYZ files, of meshes and of
-//! point sets with normals and colours (XYZ: point sets only): each is read as valid
+//! Edited or cut-short PLY (binary and ASCII), OBJ, OFF, XYZ and LAS files, of meshes and
+//! of point sets with normals and colours (XYZ and LAS: point sets only): each is read as valid
 //! geometry or refused with an error, never a panic. (STL and NRRD files have tests of
 //! their own like this one.)
 
@@ -12,7 +12,7 @@ use super::{random_mesh, read};
 
 /// The formats edited: the format, the PLY encoding (ignored by the others), a file name
 /// that says the format.
-const FORMATS: [(FileFormat, PlyEncoding, &str); 7] = [
+const FORMATS: [(FileFormat, PlyEncoding, &str); 8] = [
     (FileFormat::Ply, PlyEncoding::BinaryLittleEndian, "e.ply"),
     (FileFormat::Ply, PlyEncoding::BinaryBigEndian, "e.ply"),
     (FileFormat::Ply, PlyEncoding::Ascii, "e.ply"),
@@ -28,6 +28,7 @@ const FORMATS: [(FileFormat, PlyEncoding, &str); 7] = [
         PlyEncoding::Ascii,
         "e.xyzrgb",
     ),
+    (FileFormat::Las, PlyEncoding::Ascii, "e.las"),
 ];
 
 /// A random mesh, or its vertices as points with normals and colours.
@@ -58,7 +59,7 @@ proptest! {
     ) {
         let (format, encoding, name) = FORMATS[format];
         let options = WriteOptions::default().ply_encoding(encoding);
-        let mesh = mesh && !matches!(format, FileFormat::Xyz(_));
+        let mesh = mesh && !matches!(format, FileFormat::Xyz(_) | FileFormat::Las);
         let mut bytes = io::encode_geometry(&geometry(seed, mesh), format, &options).unwrap();
         let len = bytes.len();
         for (at, byte) in edits {

@@ -236,6 +236,16 @@ fn broken_files_are_refused_with_typed_errors() {
             "inside the 227-byte header",
         ),
         (edit(107, &2u32.to_le_bytes()), "declares 2 `point` records"),
+        // No points, placed past the end of the file.
+        (
+            {
+                let mut b = edit(96, &400u32.to_le_bytes());
+                b[107..111].copy_from_slice(&0u32.to_le_bytes());
+                b.truncate(300);
+                b
+            },
+            "ends early at byte 300 while reading the points, which the header places at byte 400",
+        ),
         (
             good[..good.len() - 1].to_vec(),
             "declares 1 `point` records",
