@@ -183,6 +183,26 @@ pub enum Error {
         /// Actual length.
         found: usize,
     },
+    /// A PLY list column built by hand whose offsets do not mark out a range of its items
+    /// for every record (they must not decrease, nor exceed the number of items).
+    #[error(
+        "PLY list `{property}` of `{element}`: record {record} spans items {start}..{end} \
+         of the {items} held"
+    )]
+    ListOutOfRange {
+        /// The element.
+        element: String,
+        /// The list property.
+        property: String,
+        /// The first record at fault.
+        record: usize,
+        /// Its first offset.
+        start: usize,
+        /// Its end offset.
+        end: usize,
+        /// How many items the column holds.
+        items: usize,
+    },
     /// Two point sets (or meshes) with different attribute layouts were combined.
     #[error("incompatible layouts: {reason}")]
     IncompatibleLayout {

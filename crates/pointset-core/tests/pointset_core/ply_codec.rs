@@ -501,3 +501,39 @@ fn documents_built_by_hand_with_missing_values_are_refused() {
         "{error:?}"
     );
 }
+
+#[test]
+fn list_offsets_outside_their_items_are_refused() {
+    let square = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+                  property float z\nelement face 2\nproperty list uchar int vertex_indices\n\
+                  end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
+    let good = read_ply(square.as_bytes()).unwrap();
+    assert!(geometry_from_document(&good).is_ok());
+    // Offsets that run past the items, and offsets that fall back.
+    for (offsets, record, start, end) in [
+        (vec![0, 3, 7], 1, 3, 7),
+        (vec![0, 4, 3], 1, 4, 3),
+        (vec![5, 3, 6], 0, 5, 3),
+    ] {
+        let mut doc = good.clone();
+        let face = &mut doc.elements[1].columns[0];
+        if let PlyColumn::List { offsets: o, .. } = face {
+            *o = offsets;
+        }
+        let errors = [
+            geometry_from_document(&doc).unwrap_err(),
+            write_ply(&doc, &mut Vec::new()).unwrap_err(),
+        ];
+        for error in errors {
+            let expected = Error::ListOutOfRange {
+                element: "face".into(),
+                property: "vertex_indices".into(),
+                record,
+                start,
+                end,
+                items: 6,
+            };
+            assert_eq!(error.to_string(), expected.to_string());
+        }
+    }
+}

@@ -13,10 +13,10 @@
 use glam::DVec3;
 
 use super::body::BodySink;
-use super::check_column_lengths;
 use super::to_geometry::{Declared, GeometrySink};
 use super::view::DocumentView;
 use super::{PlyColumn, PlyDocument, PlyEncoding, PropertyKind};
+use super::{check_column_lengths, check_list_offsets};
 use crate::Result;
 use crate::io::Geometry;
 
@@ -109,6 +109,9 @@ pub fn geometry_from_document_at(
     for element in &doc.elements {
         let lengths = element.columns.iter().map(PlyColumn::len);
         check_column_lengths(&element.name, element.count, &element.properties, lengths)?;
+        for (property, column) in element.properties.iter().zip(&element.columns) {
+            check_list_offsets(&element.name, property, column)?;
+        }
     }
     let elements = declared(doc);
     let mut sink = GeometrySink::new(&elements, recentre_far);

@@ -226,6 +226,28 @@ fn check_column_lengths(
     Ok(())
 }
 
+/// Checks that each record of a list column owns a range of its items: offsets that do
+/// not decrease and stay within the items held.
+fn check_list_offsets(element: &str, property: &PlyProperty, column: &PlyColumn) -> Result<()> {
+    let PlyColumn::List { offsets, items } = column else {
+        return Ok(());
+    };
+    let bad = offsets
+        .windows(2)
+        .position(|w| w[0] > w[1] || w[1] > items.len());
+    match bad {
+        None => Ok(()),
+        Some(record) => Err(crate::Error::ListOutOfRange {
+            element: element.to_string(),
+            property: property.name.clone(),
+            record,
+            start: offsets[record],
+            end: offsets[record + 1],
+            items: items.len(),
+        }),
+    }
+}
+
 /// A PLY file read straight into geometry.
 #[derive(Debug)]
 pub(crate) struct PlyGeometry {

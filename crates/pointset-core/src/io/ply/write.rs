@@ -2,9 +2,9 @@
 
 use std::io::Write;
 
-use super::check_column_lengths;
 use super::view::{ColumnView, DocumentView};
 use super::{PlyDocument, PlyEncoding, PropertyKind};
+use super::{check_column_lengths, check_list_offsets};
 use crate::{Error, Result, ScalarType};
 
 fn io(source: std::io::Error) -> Error {
@@ -22,6 +22,11 @@ pub(crate) fn write_view(doc: &DocumentView<'_>, out: &mut impl Write) -> Result
     for element in &doc.elements {
         let lengths = element.columns.iter().map(ColumnView::len);
         check_column_lengths(&element.name, element.count, &element.properties, lengths)?;
+        for (property, column) in element.properties.iter().zip(&element.columns) {
+            if let ColumnView::Stored(column) = column {
+                check_list_offsets(&element.name, property, column)?;
+            }
+        }
     }
     write_header(doc, out).map_err(io)?;
     let ascii = doc.encoding == PlyEncoding::Ascii;
