@@ -26,10 +26,11 @@
 //! other attributes and faces are not stored ([`super::FileFormat::unstored`]; a mesh is
 //! refused before writing).
 
-use std::io::Write;
+use std::io::{Read, Write};
 
 use glam::DVec3;
 
+use super::stream::ByteStream;
 use super::{FileFormat, Geometry, relative_positions};
 use crate::{Attribute, Error, Location, PointSet, Result, ScalarType};
 
@@ -209,8 +210,22 @@ pub fn read_las(bytes: &[u8]) -> Result<Geometry> {
 /// [`read_las`], with positions relative to an origin when `recentre_far` is set and the
 /// data lies far from the file's origin.
 pub(crate) fn read_las_at(bytes: &[u8], recentre_far: bool) -> Result<LasFile> {
-    let h = header(bytes)?;
-    let available = bytes.len().saturating_sub(h.point_offset) as u64;
+    read_las_from(bytes, bytes, bytes.len() as u64, recentre_far)
+}
+
+/// Reads a LAS file of `len` bytes from `reader`, which starts at its first byte; `head`
+/// holds the file's first bytes (the whole file, or at least its first 4 KiB, which hold
+/// any public header). The points are decoded as they are read: the file is never held
+/// whole.
+pub(crate) fn read_las_from(
+    reader: impl Read,
+    head: &[u8],
+    len: u64,
+    recentre_far: bool,
+) -> Result<LasFile> {
+    let h = header(head)?;
+    let point_offset = h.point_offset as u64;
+    let available = len.saturating_sub(point_offset);
     let needed = u128::from(h.count) * h.record_bytes as u128;
     if h.point_offset < h.header_size.max(HEADER_BYTES) {
         return Err(malformed(
@@ -222,15 +237,16 @@ pub(crate) fn read_las_at(bytes: &[u8], recentre_far: bool) -> Result<LasFile> {
             ),
         ));
     }
-    if h.point_offset > bytes.len() {
-        return Err(Error::UnexpectedEof {
-            format: FileFormat::Las,
-            location: Location::Byte(bytes.len() as u64),
-            what: format!(
-                "the points, which the header places at byte {}",
-                h.point_offset
-            ),
-        });
+    let ends_early = |at: u64, what: String| Error::UnexpectedEof {
+        format: FileFormat::Las,
+        location: Location::Byte(at),
+        what,
+    };
+    if point_offset > len {
+        return Err(ends_early(
+            len,
+            format!("the points, which the header places at byte {point_offset}"),
+        ));
     }
     if needed > u128::from(available) {
         return Err(Error::HeaderExceedsFile {
@@ -242,9 +258,13 @@ pub(crate) fn read_las_at(bytes: &[u8], recentre_far: bool) -> Result<LasFile> {
         });
     }
     let count = h.count as usize;
-    let records = bytes[h.point_offset..]
-        .chunks_exact(h.record_bytes)
-        .take(count);
+    let mut stream = ByteStream::new(reader, len);
+    if !stream.skip(point_offset)? {
+        return Err(ends_early(
+            stream.position(),
+            "the header and its records".into(),
+        ));
+    }
     let mut positions = Vec::with_capacity(count);
     let mut intensity = Vec::with_capacity(count);
     let mut class = Vec::with_capacity(count);
@@ -252,17 +272,21 @@ pub(crate) fn read_las_at(bytes: &[u8], recentre_far: bool) -> Result<LasFile> {
     let mut colours = Vec::with_capacity(if colours_at.is_some() { count } else { 0 });
     let class_at = if h.format >= 6 { 16 } else { 15 };
     let class_mask = if h.format >= 6 { 0xFF } else { 0x1F };
-    for r in records {
+    let mut r = vec![0u8; h.record_bytes];
+    for point in 0..count {
+        if !stream.read_exact(&mut r)? {
+            return Err(ends_early(stream.position(), format!("point {point}")));
+        }
         let raw = DVec3::new(
-            f64::from(le_i32(r, 0)),
-            f64::from(le_i32(r, 4)),
-            f64::from(le_i32(r, 8)),
+            f64::from(le_i32(&r, 0)),
+            f64::from(le_i32(&r, 4)),
+            f64::from(le_i32(&r, 8)),
         );
         positions.push(raw * h.scale + h.offset);
-        intensity.push(f32::from(le_u16(r, 12)));
+        intensity.push(f32::from(le_u16(&r, 12)));
         class.push(f32::from(r[class_at] & class_mask));
         if let Some(at) = colours_at {
-            colours.push([le_u16(r, at), le_u16(r, at + 2), le_u16(r, at + 4)]);
+            colours.push([le_u16(&r, at), le_u16(&r, at + 2), le_u16(&r, at + 4)]);
         }
     }
     let (positions, origin) = relative_positions(&positions, recentre_far);

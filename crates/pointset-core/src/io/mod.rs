@@ -22,6 +22,7 @@ mod off;
 pub mod ply;
 mod replace;
 mod stl;
+mod stream;
 mod xyz;
 
 use std::fmt;
@@ -457,9 +458,9 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 
 /// [`read_geometry`] with options (e.g. recentring georeferenced data).
 ///
-/// A PLY file is read through a buffer into the geometry's arrays; other files are read
-/// whole into memory first. Either way the result is what [`read_geometry_bytes_with`]
-/// gives for the file's bytes.
+/// PLY, binary STL and LAS files are read through a buffer into the geometry's arrays;
+/// other files (OBJ, OFF, XYZ, ASCII STL) are read whole into memory first. Either way the
+/// result is what [`read_geometry_bytes_with`] gives for the file's bytes.
 ///
 /// ```
 /// use pointset_core::io::{self, ReadOptions};
@@ -490,15 +491,24 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
         .read_to_end(&mut bytes)
         .map_err(at_path)?;
     if metadata.is_file()
-        && let Some(start) = ply_body_of_file(path, &bytes, metadata.len())?
+        && let Some((streamed, start)) = streamed_format(path, &bytes, metadata.len())?
     {
         file.seek(SeekFrom::Start(start)).map_err(at_path)?;
-        let read = ply::read_ply_geometry_from(file, metadata.len() - start, options.recentre_far)
-            .map_err(|error| match error {
-                Error::Read { source } => at_path(source),
-                other => other,
-            })?;
-        return Ok(loaded_ply(read));
+        let (len, recentre) = (metadata.len() - start, options.recentre_far);
+        let loaded = match streamed {
+            Streamed::Ply => ply::read_ply_geometry_from(file, len, recentre).map(loaded_ply),
+            Streamed::BinaryStl(count) => {
+                stl::read_binary(file, len, count, recentre).map(loaded_stl)
+            }
+            Streamed::Las => {
+                let head = bytes.get(start as usize..).unwrap_or(&[]);
+                las::read_las_from(file, head, len, recentre).map(loaded_las)
+            }
+        };
+        return loaded.map_err(|error| match error {
+            Error::Read { source } => at_path(source),
+            other => other,
+        });
     }
     file.read_to_end(&mut bytes).map_err(at_path)?;
     read_geometry_bytes_with(path, &bytes, options)
@@ -507,12 +517,20 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
 /// Bytes read from the start of a file to tell its format before reading the rest.
 const SNIFFED_BYTES: u64 = 4096;
 
-/// Where the PLY text of a regular file of `len` bytes starting with `head` begins (after a
-/// byte-order mark, if any), if [`read_geometry_bytes_with`] would read the whole file as
-/// PLY; such files are read from the file, not from a copy of it in memory. A file of
-/// another format, or one whose length is not that of its bytes (as in `/proc`), gives
-/// `None`; an extension that names another format is refused as the whole file would be.
-fn ply_body_of_file(path: &Path, head: &[u8], len: u64) -> Result<Option<u64>> {
+/// The formats read from a file through a buffer rather than from a copy of the whole file.
+enum Streamed {
+    Ply,
+    /// With its facet count.
+    BinaryStl(usize),
+    Las,
+}
+
+/// How a regular file of `len` bytes starting with `head` is streamed, and where its
+/// content begins (after a byte-order mark, if any), if [`read_geometry_bytes_with`] would
+/// read the whole file as PLY, binary STL or LAS. A file of another format, or one whose
+/// length is not that of its bytes (as in `/proc`), gives `None`; an extension that names
+/// another format is refused as the whole file would be.
+fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streamed, u64)>> {
     if len < head.len() as u64 {
         return Ok(None);
     }
@@ -522,14 +540,23 @@ fn ply_body_of_file(path: &Path, head: &[u8], len: u64) -> Result<Option<u64>> {
         } else {
             0
         };
-    let text = &head[skip..];
-    match FileFormat::sniff_head(text, len - skip as u64) {
-        Some(FileFormat::Ply) => {
-            format_of(path, Some(FileFormat::Ply))?;
-            Ok(Some(skip as u64))
-        }
-        _ => Ok(None),
-    }
+    let (content, len) = (&head[skip..], len - skip as u64);
+    let streamed = match FileFormat::sniff_head(content, len) {
+        Some(FileFormat::Ply) => Streamed::Ply,
+        Some(FileFormat::Las) => Streamed::Las,
+        Some(FileFormat::Stl) => match stl::binary_facet_count_of(content, len) {
+            Some(count) => Streamed::BinaryStl(count),
+            None => return Ok(None),
+        },
+        _ => return Ok(None),
+    };
+    let format = match streamed {
+        Streamed::Ply => FileFormat::Ply,
+        Streamed::BinaryStl(_) => FileFormat::Stl,
+        Streamed::Las => FileFormat::Las,
+    };
+    format_of(path, Some(format))?;
+    Ok(Some((streamed, skip as u64)))
 }
 
 /// Reads geometry held in memory; `path` names it in errors and picks the format.
@@ -574,17 +601,7 @@ pub fn read_geometry_bytes_with(
                 notes: file.notes,
             })
         }
-        FileFormat::Stl => {
-            let file = read_stl_at(bytes, recentre)?;
-            Ok(LoadedGeometry {
-                geometry: file.geometry,
-                format: FileFormat::Stl,
-                encoding: file.encoding.into(),
-                comments: file.comments,
-                origin: file.origin,
-                notes: file.notes,
-            })
-        }
+        FileFormat::Stl => Ok(loaded_stl(read_stl_at(bytes, recentre)?)),
         FileFormat::Xyz(columns) => {
             let file = read_xyz_at(bytes, columns, recentre)?;
             Ok(LoadedGeometry {
@@ -596,17 +613,7 @@ pub fn read_geometry_bytes_with(
                 notes: Vec::new(),
             })
         }
-        FileFormat::Las => {
-            let file = read_las_at(bytes, recentre)?;
-            Ok(LoadedGeometry {
-                geometry: file.geometry,
-                format: FileFormat::Las,
-                encoding: file.encoding,
-                comments: file.comments,
-                origin: file.origin,
-                notes: file.notes,
-            })
-        }
+        FileFormat::Las => Ok(loaded_las(read_las_at(bytes, recentre)?)),
     }
 }
 
@@ -619,6 +626,30 @@ fn loaded_ply(read: ply::PlyGeometry) -> LoadedGeometry {
         notes: read.notes,
         comments: read.comments,
         origin: read.origin,
+    }
+}
+
+/// An STL file's mesh as [`LoadedGeometry`].
+fn loaded_stl(file: stl::StlFile) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry: file.geometry,
+        format: FileFormat::Stl,
+        encoding: file.encoding.into(),
+        comments: file.comments,
+        origin: file.origin,
+        notes: file.notes,
+    }
+}
+
+/// A LAS file's points as [`LoadedGeometry`].
+fn loaded_las(file: las::LasFile) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry: file.geometry,
+        format: FileFormat::Las,
+        encoding: file.encoding,
+        comments: file.comments,
+        origin: file.origin,
+        notes: file.notes,
     }
 }
 

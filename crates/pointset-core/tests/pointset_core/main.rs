@@ -10,6 +10,7 @@ mod ply_codec;
 mod polygons;
 mod replaced_files;
 mod stl_codec;
+mod streamed_files;
 mod xyz_codec;
 
 use std::path::Path;

@@ -6,6 +6,8 @@ use pointset_core::io::{self, FileFormat, Geometry, WriteOptions};
 use pointset_core::{Attribute, Error, Location, PointSet, ScalarType, TriMesh};
 use proptest::prelude::*;
 
+use super::streamed_files::read_from_file_and_bytes;
+
 fn doc_with_all_types(encoding: PlyEncoding, values: &[f64]) -> PlyDocument {
     let n = values.len();
     let mut properties = Vec::new();
@@ -82,7 +84,7 @@ proptest! {
 }
 
 /// A point set or mesh with any mix of normals, UVs and attributes of every storage type.
-fn geometry_with_parts(
+pub(crate) fn geometry_with_parts(
     values: &[f32],
     normals: bool,
     uvs: bool,
@@ -360,71 +362,6 @@ proptest! {
             let (from_file, from_bytes) = read_from_file_and_bytes("x.ply", &bytes);
             prop_assert_eq!(from_file, from_bytes);
         }
-    }
-}
-
-/// `bytes` read by `read_geometry` from a file called `name` (PLY is read from the file
-/// through a buffer), and by `read_geometry_bytes` from memory, with errors as text.
-fn read_from_file_and_bytes(
-    name: &str,
-    bytes: &[u8],
-) -> (
-    Result<io::LoadedGeometry, String>,
-    Result<io::LoadedGeometry, String>,
-) {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join(name);
-    std::fs::write(&path, bytes).unwrap();
-    (
-        io::read_geometry(&path).map_err(|e| e.to_string()),
-        io::read_geometry_bytes(&path, bytes).map_err(|e| e.to_string()),
-    )
-}
-
-#[test]
-fn files_read_from_disk_equal_their_bytes_read_from_memory() {
-    let mesh = geometry_with_parts(&[0.5, -1.0, 2.0, 3.5, 4.0, -0.25, 7.0], true, true, 2, 5);
-    let mut files = Vec::new();
-    for encoding in PlyEncoding::ALL {
-        let options = WriteOptions::default().ply_encoding(encoding);
-        let ply = io::encode_geometry(&mesh, FileFormat::Ply, &options).unwrap();
-        // Behind a byte-order mark; longer than the bytes sniffed first; named as
-        // another format, or as none.
-        files.push((
-            "mark.ply",
-            [b"\xEF\xBB\xBF".as_slice(), &ply].concat(),
-            true,
-        ));
-        let mut long = ply.clone();
-        long.splice(
-            4..4,
-            b"comment "
-                .iter()
-                .chain(&[b'x'; 5000])
-                .chain(b"\n")
-                .copied(),
-        );
-        files.push(("long.ply", long, true));
-        files.push(("named.obj", ply.clone(), false));
-        files.push(("unnamed", ply.clone(), true));
-        files.push(("cut.ply", ply[..ply.len() - 3].to_vec(), false));
-    }
-    // A binary STL whose 80-byte header starts like a PLY file is an STL by its size, and
-    // the same with a byte-order mark before its header text.
-    let stl = io::encode_geometry(&mesh, FileFormat::Stl, &WriteOptions::default()).unwrap();
-    let mut like_ply = stl.clone();
-    like_ply[..4].copy_from_slice(b"ply\n");
-    files.push(("like_ply.stl", like_ply.clone(), true));
-    files.push(("like_ply.ply", like_ply.clone(), false));
-    files.push(("like_ply", like_ply, true));
-    let mut marked = stl;
-    marked[..7].copy_from_slice(b"\xEF\xBB\xBFply\n");
-    files.push(("marked.stl", marked.clone(), true));
-    files.push(("marked.ply", marked, false));
-    for (name, bytes, readable) in files {
-        let (from_file, from_bytes) = read_from_file_and_bytes(name, &bytes);
-        assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
-        assert_eq!(from_file, from_bytes, "{name}");
     }
 }
 

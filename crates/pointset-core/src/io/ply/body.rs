@@ -3,9 +3,9 @@
 use std::io::Read;
 
 use super::header::ParsedHeader;
-use super::stream::ByteStream;
 use super::{PlyColumn, PlyElement, PlyEncoding, PropertyKind};
 use crate::io::FileFormat;
+use crate::io::stream::ByteStream;
 use crate::{Error, Location, Result, ScalarType};
 
 /// A source of typed values, either ascii tokens or binary words.

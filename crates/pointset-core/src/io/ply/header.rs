@@ -2,9 +2,9 @@
 
 use std::io::Read;
 
-use super::stream::ByteStream;
 use super::{PlyEncoding, PlyProperty, PropertyKind};
 use crate::io::FileFormat;
+use crate::io::stream::ByteStream;
 use crate::{Error, Location, Result, ScalarType};
 
 /// A declared element before its data is read.

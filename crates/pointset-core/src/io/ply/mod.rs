@@ -9,12 +9,11 @@
 //! [`crate::io::read_geometry`] and [`crate::io::write_geometry`] go without a document:
 //! bodies are read straight into the geometry's arrays and written from them (`to_geometry`,
 //! `view`), by the same rules. `read_geometry` reads a PLY file through a 1 MiB buffer
-//! (`stream`), not from a copy of the whole file, so a 24-million-triangle mesh converts in
+//! (`io::stream`, shared with binary STL and LAS), not from a copy of the whole file, so a 24-million-triangle mesh converts in
 //! 0.45 GB instead of 2.2 GB (docs/performance.md).
 mod body;
 mod convert;
 mod header;
-mod stream;
 mod to_geometry;
 mod view;
 mod write;
@@ -31,7 +30,7 @@ use std::io::Read;
 
 use glam::DVec3;
 
-use stream::ByteStream;
+use super::stream::ByteStream;
 
 use crate::io::Geometry;
 use crate::{Result, ScalarType};

@@ -1,9 +1,12 @@
 //! Binary STL: an 80-byte header, a `u32` facet count, 50 bytes a facet.
 
+use std::io::Read;
+
 use glam::DVec3;
 
 use crate::io::FileFormat;
-use crate::{Error, Location};
+use crate::io::stream::ByteStream;
+use crate::{Error, Location, Result};
 
 /// Bytes before the first binary facet: an 80-byte header and the `u32` facet count.
 pub(super) const BINARY_HEADER_BYTES: usize = 84;
@@ -61,12 +64,85 @@ pub(super) fn binary_size_error(bytes: &[u8]) -> Error {
     }
 }
 
-/// The three corners of each facet of a binary STL whose size is already checked
-/// ([`binary_facet_count`]), decoded where they lie in `bytes` (a file read twice this way
-/// costs no copy of its corners).
-pub(super) fn binary_facets(bytes: &[u8]) -> impl Iterator<Item = [DVec3; 3]> + '_ {
-    let records = bytes.get(BINARY_HEADER_BYTES..).unwrap_or(&[]);
-    records.chunks_exact(BINARY_FACET_BYTES).map(|record| {
+/// The facets of a binary STL read one record at a time from a stream just past its
+/// 84-byte header: each facet's three corners (its stored normal is read past), with a
+/// count of the facets whose attribute bytes are not zero. A stream that ends early (a
+/// file cut short while it was read) or fails ends the iteration; [`BinaryFacets::finish`]
+/// then returns the error.
+pub(super) struct BinaryFacets<R> {
+    stream: ByteStream<R>,
+    /// The facets still to read.
+    left: usize,
+    /// The next facet's index.
+    facet: usize,
+    /// How many facets so far have nonzero attribute bytes.
+    attributed: usize,
+    error: Option<Error>,
+}
+
+impl<R: Read> BinaryFacets<R> {
+    /// The `count` facets of the binary STL of `len` bytes that `reader` starts, with the
+    /// file's 80-byte header.
+    pub(super) fn new(reader: R, len: u64, count: usize) -> Result<(Self, [u8; 80])> {
+        let mut stream = ByteStream::new(reader, len);
+        let mut header = [0u8; BINARY_HEADER_BYTES];
+        if !stream.read_exact(&mut header)? {
+            return Err(Error::UnexpectedEof {
+                format: FileFormat::Stl,
+                location: Location::Byte(stream.position()),
+                what: "the 84-byte binary header".into(),
+            });
+        }
+        let mut text = [0u8; 80];
+        text.copy_from_slice(&header[..80]);
+        let facets = BinaryFacets {
+            stream,
+            left: count,
+            facet: 0,
+            attributed: 0,
+            error: None,
+        };
+        Ok((facets, text))
+    }
+
+    /// After the iteration: how many facets had nonzero attribute bytes, or the error that
+    /// ended it.
+    pub(super) fn finish(self) -> Result<usize> {
+        self.error.map_or(Ok(self.attributed), Err)
+    }
+
+    /// The next record, or `None` with the error kept.
+    fn record(&mut self) -> Option<[u8; BINARY_FACET_BYTES]> {
+        let mut record = [0u8; BINARY_FACET_BYTES];
+        match self.stream.read_exact(&mut record) {
+            Ok(true) => Some(record),
+            Ok(false) => {
+                self.error = Some(Error::UnexpectedEof {
+                    format: FileFormat::Stl,
+                    location: Location::Byte(self.stream.position()),
+                    what: format!("facet {}", self.facet),
+                });
+                None
+            }
+            Err(error) => {
+                self.error = Some(error);
+                None
+            }
+        }
+    }
+}
+
+impl<R: Read> Iterator for BinaryFacets<R> {
+    type Item = [DVec3; 3];
+
+    fn next(&mut self) -> Option<[DVec3; 3]> {
+        if self.left == 0 || self.error.is_some() {
+            return None;
+        }
+        let record = self.record()?;
+        self.left -= 1;
+        self.facet += 1;
+        self.attributed += usize::from(record[48..50] != [0, 0]);
         // Bytes 0..12 are the stored normal, 12..48 the corners, 48..50 the attributes.
         let value = |at: usize| {
             let le: [u8; 4] = [record[at], record[at + 1], record[at + 2], record[at + 3]];
@@ -76,18 +152,8 @@ pub(super) fn binary_facets(bytes: &[u8]) -> impl Iterator<Item = [DVec3; 3]> + 
             let at = 12 + 12 * k;
             DVec3::new(value(at), value(at + 4), value(at + 8))
         };
-        [corner(0), corner(1), corner(2)]
-    })
-}
-
-/// How many facets of a binary STL (its size already checked) have nonzero attribute
-/// bytes, which some tools use for colours in encodings of their own.
-pub(super) fn facets_with_attributes(bytes: &[u8]) -> usize {
-    let records = bytes.get(BINARY_HEADER_BYTES..).unwrap_or(&[]);
-    records
-        .chunks_exact(BINARY_FACET_BYTES)
-        .filter(|record| record[48..50] != [0, 0])
-        .count()
+        Some([corner(0), corner(1), corner(2)])
+    }
 }
 
 /// The header as a comment when it is printable text (NULs and spaces trimmed).

@@ -35,14 +35,16 @@ mod ascii;
 mod binary;
 mod write;
 
+use std::io::{Cursor, Read, Seek, SeekFrom};
+
 use glam::DVec3;
 
 use super::{Geometry, origin_for};
 use crate::weld::PositionWelder;
 use crate::{Error, PointSet, Result, TriMesh};
 use ascii::ascii_corners;
+use binary::{BinaryFacets, binary_size_error, header_text};
 pub(crate) use binary::{binary_facet_count, binary_facet_count_of};
-use binary::{binary_facets, binary_size_error, facets_with_attributes, header_text};
 pub use write::{StlEncoding, write_stl, write_stl_ascii};
 pub(crate) use write::{check_storable, write_stl_at};
 
@@ -96,26 +98,7 @@ pub fn read_stl(bytes: &[u8]) -> Result<Geometry> {
 /// the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]).
 pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
     if let Some(count) = binary_facet_count(bytes) {
-        // Corners are decoded where they lie, twice when recentring (the box for the
-        // origin, then the welding), instead of copied: a scan of millions of facets welds
-        // in well under half the memory.
-        let origin = origin_for(binary_facets(bytes).flatten(), recentre_far);
-        let attributed = facets_with_attributes(bytes);
-        let notes = if attributed > 0 {
-            vec![format!(
-                "facet attribute bytes on {attributed} of {count} facets skipped (some tools \
-                 keep colours there, in no agreed encoding)"
-            )]
-        } else {
-            Vec::new()
-        };
-        Ok(StlFile {
-            geometry: Geometry::Mesh(weld(binary_facets(bytes), count, origin)?),
-            encoding: "binary_little_endian",
-            comments: header_text(&bytes[..80]),
-            origin,
-            notes,
-        })
+        read_binary(Cursor::new(bytes), bytes.len() as u64, count, recentre_far)
     } else if starts_like_ascii(bytes) && !bytes.contains(&0) {
         let (corners, names) = ascii_corners(bytes)?;
         let origin = origin_for(corners.iter().copied(), recentre_far);
@@ -130,6 +113,50 @@ pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
     } else {
         Err(binary_size_error(bytes))
     }
+}
+
+/// Reads a binary STL of `len` bytes and `count` facets (its size checked against them)
+/// from `reader`, which starts at the file's first byte. Facets are decoded from the
+/// stream as they are welded, so the file is never held whole; when recentring, the
+/// file is read twice (the box for the origin, then the welding).
+pub(crate) fn read_binary<R: Read + Seek>(
+    mut reader: R,
+    len: u64,
+    count: usize,
+    recentre_far: bool,
+) -> Result<StlFile> {
+    let start = reader
+        .stream_position()
+        .map_err(|source| Error::Read { source })?;
+    let origin = if recentre_far {
+        let (mut facets, _) = BinaryFacets::new(&mut reader, len, count)?;
+        let origin = origin_for(facets.by_ref().flatten(), recentre_far);
+        facets.finish()?;
+        reader
+            .seek(SeekFrom::Start(start))
+            .map_err(|source| Error::Read { source })?;
+        origin
+    } else {
+        DVec3::ZERO
+    };
+    let (mut facets, header) = BinaryFacets::new(&mut reader, len, count)?;
+    let mesh = weld(facets.by_ref(), count, origin);
+    let attributed = facets.finish()?;
+    let notes = if attributed > 0 {
+        vec![format!(
+            "facet attribute bytes on {attributed} of {count} facets skipped (some tools keep \
+             colours there, in no agreed encoding)"
+        )]
+    } else {
+        Vec::new()
+    };
+    Ok(StlFile {
+        geometry: Geometry::Mesh(mesh?),
+        encoding: "binary_little_endian",
+        comments: header_text(&header),
+        origin,
+        notes,
+    })
 }
 
 /// The mesh of `facets` (about `count` of them), its corners stored relative to `origin`

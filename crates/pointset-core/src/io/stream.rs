@@ -1,5 +1,6 @@
-//! The PLY reader's input: bytes in memory or a file, read through a buffer, with the
-//! position reached and the length the file had when it was opened.
+//! The binary readers' input (PLY, binary STL, LAS): bytes in memory or a file, read
+//! through a buffer, with the position reached and the length the file had when it was
+//! opened.
 
 use std::io::{ErrorKind, Read};
 
@@ -9,7 +10,7 @@ use crate::{Error, Result};
 const BUFFER_BYTES: usize = 1 << 20;
 
 /// A byte source read front to back through a buffer, counting what has been consumed.
-pub(super) struct ByteStream<R> {
+pub(crate) struct ByteStream<R> {
     reader: R,
     buffer: Vec<u8>,
     /// The unconsumed bytes are `buffer[start..end]`.
@@ -22,7 +23,7 @@ pub(super) struct ByteStream<R> {
 
 impl<'a> ByteStream<&'a [u8]> {
     /// The stream of bytes held in memory.
-    pub(super) fn of_bytes(bytes: &'a [u8]) -> Self {
+    pub(crate) fn of_bytes(bytes: &'a [u8]) -> Self {
         ByteStream::new(bytes, bytes.len() as u64)
     }
 }
@@ -30,7 +31,7 @@ impl<'a> ByteStream<&'a [u8]> {
 impl<R: Read> ByteStream<R> {
     /// A stream of `len` bytes read from `reader`. `len` bounds what the header may
     /// promise; if the reader ends earlier, reading stops there with a truncation error.
-    pub(super) fn new(reader: R, len: u64) -> Self {
+    pub(crate) fn new(reader: R, len: u64) -> Self {
         let capacity = usize::try_from(len).map_or(BUFFER_BYTES, |len| len.clamp(1, BUFFER_BYTES));
         ByteStream {
             reader,
@@ -43,29 +44,29 @@ impl<R: Read> ByteStream<R> {
     }
 
     /// Bytes consumed so far: the offset of the next byte.
-    pub(super) fn position(&self) -> u64 {
+    pub(crate) fn position(&self) -> u64 {
         self.position
     }
 
     /// The stream's length.
-    pub(super) fn len(&self) -> u64 {
+    pub(crate) fn len(&self) -> u64 {
         self.len
     }
 
     /// How many bytes the stream's length leaves after the position.
-    pub(super) fn remaining(&self) -> u64 {
+    pub(crate) fn remaining(&self) -> u64 {
         self.len.saturating_sub(self.position)
     }
 
     /// The bytes buffered at the position, without reading (possibly empty).
     #[inline]
-    pub(super) fn buffered(&self) -> &[u8] {
+    pub(crate) fn buffered(&self) -> &[u8] {
         &self.buffer[self.start..self.end]
     }
 
     /// The bytes buffered at the position, read from the source if none are (empty at
     /// the end).
-    pub(super) fn buffer(&mut self) -> Result<&[u8]> {
+    pub(crate) fn buffer(&mut self) -> Result<&[u8]> {
         if self.start == self.end {
             self.start = 0;
             self.end = 0;
@@ -85,20 +86,20 @@ impl<R: Read> ByteStream<R> {
 
     /// Moves past `n` buffered bytes.
     #[inline]
-    pub(super) fn consume(&mut self, n: usize) {
+    pub(crate) fn consume(&mut self, n: usize) {
         debug_assert!(n <= self.end - self.start);
         self.start += n;
         self.position += n as u64;
     }
 
     /// Whether the stream has no more bytes.
-    pub(super) fn at_end(&mut self) -> Result<bool> {
+    pub(crate) fn at_end(&mut self) -> Result<bool> {
         Ok(self.buffer()?.is_empty())
     }
 
     /// Consumes the longest run of bytes for which `take` holds, handing each buffered
     /// piece of it to `piece`.
-    pub(super) fn consume_while(
+    pub(crate) fn consume_while(
         &mut self,
         take: impl Fn(u8) -> bool,
         mut piece: impl FnMut(&[u8]),
@@ -115,8 +116,22 @@ impl<R: Read> ByteStream<R> {
         }
     }
 
+    /// Moves past the next `n` bytes; `false` if the stream ends first.
+    pub(crate) fn skip(&mut self, mut n: u64) -> Result<bool> {
+        while n > 0 {
+            let available = self.buffer()?.len();
+            if available == 0 {
+                return Ok(false);
+            }
+            let step = usize::try_from(n).map_or(available, |n| n.min(available));
+            self.consume(step);
+            n -= step as u64;
+        }
+        Ok(true)
+    }
+
     /// Fills `out` from the stream; `false` if the stream ends first.
-    pub(super) fn read_exact(&mut self, out: &mut [u8]) -> Result<bool> {
+    pub(crate) fn read_exact(&mut self, out: &mut [u8]) -> Result<bool> {
         let mut filled = 0;
         while filled < out.len() {
             let buffer = self.buffer()?;
@@ -136,13 +151,13 @@ impl<R: Read> ByteStream<R> {
 mod tests {
     #![allow(clippy::unwrap_used)]
 
-    use std::io::Read;
+    use std::io::{Cursor, Read, Seek, SeekFrom};
 
-    use glam::{Vec2, Vec3};
+    use glam::{DVec3, Vec2, Vec3};
     use proptest::prelude::*;
 
-    use super::super::{PlyEncoding, read_ply_geometry, read_ply_geometry_from};
-    use crate::io::{self, FileFormat, Geometry, WriteOptions};
+    use crate::io::ply::{PlyEncoding, read_ply_geometry, read_ply_geometry_from};
+    use crate::io::{self, FileFormat, Geometry, WriteOptions, las, stl};
     use crate::{Attribute, Error, PointSet, ScalarType, TriMesh};
 
     /// A point set or mesh with normals, UVs and an attribute of type `ty`, as chosen.
@@ -206,7 +221,7 @@ mod tests {
                     bytes.truncate(cut);
                 }
                 let len = bytes.len() as u64;
-                let reader = Trickle { bytes: &bytes, at_most };
+                let reader = Trickle::new(&bytes, at_most);
                 let streamed = read_ply_geometry_from(reader, len, true)
                     .map(|read| (read.geometry, read.origin, read.comments, read.notes))
                     .map_err(|e| e.to_string());
@@ -220,14 +235,85 @@ mod tests {
 
     /// A reader that hands out at most `at_most` bytes a read, as pipes and sockets may.
     struct Trickle<'a> {
-        bytes: &'a [u8],
+        bytes: Cursor<&'a [u8]>,
         at_most: usize,
+    }
+
+    impl<'a> Trickle<'a> {
+        fn new(bytes: &'a [u8], at_most: usize) -> Self {
+            Trickle {
+                bytes: Cursor::new(bytes),
+                at_most,
+            }
+        }
     }
 
     impl Read for Trickle<'_> {
         fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
             let n = out.len().min(self.at_most);
             self.bytes.read(&mut out[..n])
+        }
+    }
+
+    impl Seek for Trickle<'_> {
+        fn seek(&mut self, to: SeekFrom) -> std::io::Result<u64> {
+            self.bytes.seek(to)
+        }
+    }
+
+    proptest! {
+        /// Binary STL and LAS files read a few bytes at a time (records straddling
+        /// refills) give what they give read from memory, with and without recentring,
+        /// whole or with a corner made infinite or the points cut short.
+        #[test]
+        fn small_reads_of_stl_and_las_files_read_what_memory_reads(
+            side in 2u32..12,
+            far in any::<bool>(),
+            broken in any::<bool>(),
+            recentre in any::<bool>(),
+            at_most in 1usize..80,
+        ) {
+            let grid = (0..side * side).map(|i| {
+                Vec3::new((i % side) as f32, (i / side) as f32, (i % 3) as f32 * 0.5)
+            });
+            let points = PointSet::new(grid.collect()).unwrap();
+            let triangles = (0..side - 1)
+                .flat_map(|r| (0..side - 1).map(move |c| r * side + c))
+                .map(|i| [i, i + 1, i + side])
+                .collect();
+            let mesh = Geometry::Mesh(TriMesh::new(points.clone(), triangles).unwrap());
+            let origin = if far { DVec3::new(3e5, 4e6, 20.0) } else { DVec3::ZERO };
+            let mut stl = io::encode_geometry(&mesh, FileFormat::Stl, &WriteOptions::default())
+                .unwrap();
+            let options = WriteOptions::default().origin(origin);
+            let mut las = io::encode_geometry(&Geometry::Points(points), FileFormat::Las, &options)
+                .unwrap();
+            if broken {
+                // The first corner's x of the middle facet.
+                let at = 84 + 50 * ((stl.len() - 84) / 100) + 12;
+                stl[at..at + 4].copy_from_slice(&f32::INFINITY.to_le_bytes());
+                las.truncate(las.len() - 3);
+            }
+            let len = stl.len() as u64;
+            let count = stl::binary_facet_count(&stl).unwrap();
+            let trickled = stl::read_binary(Trickle::new(&stl, at_most), len, count, recentre)
+                .map(|file| (file.geometry, file.origin, file.comments, file.notes))
+                .map_err(|e| e.to_string());
+            let whole = stl::read_stl_at(&stl, recentre)
+                .map(|file| (file.geometry, file.origin, file.comments, file.notes))
+                .map_err(|e| e.to_string());
+            prop_assert_eq!(&trickled, &whole);
+            prop_assert_eq!(trickled.is_err(), broken);
+            let head = &las[..las.len().min(300)];
+            let len = las.len() as u64;
+            let trickled = las::read_las_from(Trickle::new(&las, at_most), head, len, recentre)
+                .map(|file| (file.geometry, file.origin, file.comments, file.notes))
+                .map_err(|e| e.to_string());
+            let whole = las::read_las_at(&las, recentre)
+                .map(|file| (file.geometry, file.origin, file.comments, file.notes))
+                .map_err(|e| e.to_string());
+            prop_assert_eq!(&trickled, &whole);
+            prop_assert_eq!(trickled.is_err(), broken);
         }
     }
 

@@ -1,0 +1,140 @@
+//! Files that `read_geometry` reads through a buffer instead of whole (PLY, binary STL,
+//! LAS) give what their bytes give read from memory: the same geometry, or the same error.
+
+use glam::Vec3;
+use pointset_core::io::ply::PlyEncoding;
+use pointset_core::io::{self, FileFormat, Geometry, WriteOptions};
+use pointset_core::{PointSet, TriMesh};
+
+use super::ply_codec::geometry_with_parts;
+
+/// `bytes` read by `read_geometry` from a file called `name` (PLY is read from the file
+/// through a buffer), and by `read_geometry_bytes` from memory, with errors as text.
+pub(crate) fn read_from_file_and_bytes(
+    name: &str,
+    bytes: &[u8],
+) -> (
+    Result<io::LoadedGeometry, String>,
+    Result<io::LoadedGeometry, String>,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    (
+        io::read_geometry(&path).map_err(|e| e.to_string()),
+        io::read_geometry_bytes(&path, bytes).map_err(|e| e.to_string()),
+    )
+}
+
+#[test]
+fn ply_files_read_from_disk_equal_their_bytes_read_from_memory() {
+    let mesh = geometry_with_parts(&[0.5, -1.0, 2.0, 3.5, 4.0, -0.25, 7.0], true, true, 2, 5);
+    let mut files = Vec::new();
+    for encoding in PlyEncoding::ALL {
+        let options = WriteOptions::default().ply_encoding(encoding);
+        let ply = io::encode_geometry(&mesh, FileFormat::Ply, &options).unwrap();
+        // Behind a byte-order mark; longer than the bytes sniffed first; named as
+        // another format, or as none.
+        files.push((
+            "mark.ply",
+            [b"\xEF\xBB\xBF".as_slice(), &ply].concat(),
+            true,
+        ));
+        let mut long = ply.clone();
+        long.splice(
+            4..4,
+            b"comment "
+                .iter()
+                .chain(&[b'x'; 5000])
+                .chain(b"\n")
+                .copied(),
+        );
+        files.push(("long.ply", long, true));
+        files.push(("named.obj", ply.clone(), false));
+        files.push(("unnamed", ply.clone(), true));
+        files.push(("cut.ply", ply[..ply.len() - 3].to_vec(), false));
+    }
+    // A binary STL whose 80-byte header starts like a PLY file is an STL by its size, and
+    // the same with a byte-order mark before its header text.
+    let stl = io::encode_geometry(&mesh, FileFormat::Stl, &WriteOptions::default()).unwrap();
+    let mut like_ply = stl.clone();
+    like_ply[..4].copy_from_slice(b"ply\n");
+    files.push(("like_ply.stl", like_ply.clone(), true));
+    files.push(("like_ply.ply", like_ply.clone(), false));
+    files.push(("like_ply", like_ply, true));
+    let mut marked = stl;
+    marked[..7].copy_from_slice(b"\xEF\xBB\xBFply\n");
+    files.push(("marked.stl", marked.clone(), true));
+    files.push(("marked.ply", marked, false));
+    for (name, bytes, readable) in files {
+        let (from_file, from_bytes) = read_from_file_and_bytes(name, &bytes);
+        assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
+        assert_eq!(from_file, from_bytes, "{name}");
+    }
+}
+
+#[test]
+fn stl_and_las_files_read_from_disk_equal_their_bytes_read_from_memory() {
+    // 1,600 facets and 1,681 points: more than the 4 KiB sniffed before the rest is read.
+    let side = 41u32;
+    let grid: Vec<Vec3> = (0..side * side)
+        .map(|i| Vec3::new((i % side) as f32, (i / side) as f32, (i % 5) as f32 * 0.5))
+        .collect();
+    let triangles = (0..side - 1)
+        .flat_map(|r| (0..side - 1).map(move |c| r * side + c))
+        .map(|i| [i, i + 1, i + side])
+        .collect();
+    let points = PointSet::new(grid).unwrap();
+    let mesh = Geometry::Mesh(TriMesh::new(points.clone(), triangles).unwrap());
+    let options = WriteOptions::default();
+    let stl = io::encode_geometry(&mesh, FileFormat::Stl, &options).unwrap();
+    let las = io::encode_geometry(&Geometry::Points(points), FileFormat::Las, &options).unwrap();
+    let far = WriteOptions::default().origin(glam::DVec3::new(4e5, 5e6, 30.0));
+    let far_las = io::encode_geometry(
+        &Geometry::Points(PointSet::new(vec![Vec3::ONE; 300]).unwrap()),
+        FileFormat::Las,
+        &far,
+    )
+    .unwrap();
+    let mut attributed = stl.clone();
+    attributed[84 + 50 * 7 + 48] = 5;
+    let mut not_finite = stl.clone();
+    not_finite[84 + 50 * 3 + 24..84 + 50 * 3 + 28].copy_from_slice(&f32::INFINITY.to_le_bytes());
+    let mut short_records = las.clone();
+    short_records.truncate(las.len() - 7);
+    let mut offset_past_end = las[..300].to_vec();
+    offset_past_end[96..100].copy_from_slice(&400u32.to_le_bytes());
+    offset_past_end[107..111].copy_from_slice(&0u32.to_le_bytes());
+    let files: Vec<(&str, Vec<u8>, bool)> = vec![
+        ("m.stl", stl.clone(), true),
+        ("unnamed", stl.clone(), true),
+        ("m.ply", stl.clone(), false),
+        ("attributed.stl", attributed, true),
+        ("not_finite.stl", not_finite, false),
+        ("cut.stl", stl[..stl.len() - 50].to_vec(), false),
+        ("p.las", las.clone(), true),
+        ("far.las", far_las, true),
+        (
+            "mark.las",
+            [b"\xEF\xBB\xBF".as_slice(), &las].concat(),
+            true,
+        ),
+        ("unnamed", las.clone(), true),
+        ("p.xyz", las.clone(), false),
+        ("short.las", short_records, false),
+        ("past_end.las", offset_past_end, false),
+    ];
+    for (name, bytes, readable) in files {
+        for recentre in [false, true] {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join(name);
+            std::fs::write(&path, &bytes).unwrap();
+            let options = io::ReadOptions::default().recentre_far(recentre);
+            let from_file = io::read_geometry_with(&path, &options).map_err(|e| e.to_string());
+            let from_bytes =
+                io::read_geometry_bytes_with(&path, &bytes, &options).map_err(|e| e.to_string());
+            assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
+            assert_eq!(from_file, from_bytes, "{name}, recentre {recentre}");
+        }
+    }
+}
