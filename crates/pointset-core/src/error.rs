@@ -264,14 +264,6 @@ pub enum Error {
     /// The run was cancelled through its [`crate::CancelFlag`].
     #[error("cancelled")]
     Cancelled,
-    /// An OBJ file that `tobj` could not load.
-    #[error("OBJ file {path} could not be loaded: {message}")]
-    Obj {
-        /// The file involved.
-        path: PathBuf,
-        /// tobj's description of the problem.
-        message: String,
-    },
 }
 
 /// Shorthand for results of this crate.

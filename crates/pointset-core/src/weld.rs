@@ -16,7 +16,7 @@ use crate::{Error, Result};
 /// 6 million lookups, and SipHash was most of their cost.
 #[derive(Debug, Default)]
 pub(crate) struct PositionWelder {
-    index: HashMap<PositionKey, u32, SeededPositionHash>,
+    index: HashMap<WordTriple, u32, SeededPositionHash>,
     positions: Vec<Vec3>,
 }
 
@@ -32,7 +32,7 @@ impl PositionWelder {
     /// The vertex at `p`, new if no earlier position equals it; an error once there are
     /// more distinct positions than `u32` indices can number.
     pub(crate) fn vertex(&mut self, p: Vec3) -> Result<u32> {
-        let key = PositionKey(
+        let key = WordTriple(
             p.to_array()
                 .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() }),
         );
@@ -54,11 +54,12 @@ impl PositionWelder {
     }
 }
 
-/// A position's three coordinate bit patterns, hashed as two words.
+/// Three 32-bit words hashed as two: a position's coordinate bit patterns, or an OBJ
+/// corner's position, texture coordinate and normal indices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct PositionKey([u32; 3]);
+pub(crate) struct WordTriple(pub(crate) [u32; 3]);
 
-impl Hash for PositionKey {
+impl Hash for WordTriple {
     fn hash<H: Hasher>(&self, state: &mut H) {
         let [x, y, z] = self.0;
         state.write_u64((u64::from(x) << 32) | u64::from(y));
@@ -69,7 +70,7 @@ impl Hash for PositionKey {
 /// Builds [`PositionHasher`]s from a seed drawn once per map from the standard library's
 /// random keys, so that no file can be crafted to collide on every run.
 #[derive(Debug, Clone)]
-struct SeededPositionHash(u64);
+pub(crate) struct SeededPositionHash(u64);
 
 impl Default for SeededPositionHash {
     fn default() -> Self {
@@ -85,11 +86,11 @@ impl BuildHasher for SeededPositionHash {
     }
 }
 
-/// A multiply-mix hasher for [`PositionKey`]: each word is folded in by an xor and a
+/// A multiply-mix hasher for [`WordTriple`]: each word is folded in by an xor and a
 /// multiplication by an odd constant, and `finish` spreads the bits over the whole word
 /// (the finalizer of MurmurHash3), since the table takes its bucket from the low bits and
 /// its tag from the high ones.
-struct PositionHasher(u64);
+pub(crate) struct PositionHasher(u64);
 
 impl PositionHasher {
     const MULTIPLIER: u64 = 0x9E37_79B9_7F4A_7C15;

@@ -33,7 +33,7 @@ use std::path::Path;
 pub use las::{read_las, write_las};
 use las::{read_las_at, write_las_at};
 pub use obj::{read_obj, write_obj};
-use obj::{read_obj_at, write_obj_at};
+use obj::{read_obj_from, write_obj_at};
 pub use off::{read_off, write_off};
 use off::{read_off_at, write_off_at};
 pub use replace::{FileReplacement, check_replaceable, replace_file, write_whole};
@@ -189,11 +189,24 @@ impl FileFormat {
     /// The format a file's content looks like, if any. A binary STL is recognised by its
     /// size (84 bytes plus 50 per facet its header declares), so pass the whole file.
     pub fn sniff(bytes: &[u8]) -> Option<Self> {
-        if let Some(format) = Self::sniff_head(bytes, bytes.len() as u64) {
-            return Some(format);
+        Self::sniff_start(bytes, bytes.len() as u64)
+    }
+
+    /// [`FileFormat::sniff`] of a file of `len` bytes that starts with `head`: the same
+    /// answer when `head` holds the whole file or at least its first [`SNIFFED_TEXT`]
+    /// bytes, since the checks look no further (the first text line within 4096 bytes,
+    /// and the 6 bytes from its first character for `solid`).
+    fn sniff_start(head: &[u8], len: u64) -> Option<Self> {
+        if las::looks_like_las(head) {
+            return Some(FileFormat::Las);
         }
-        let head = &bytes[..bytes.len().min(4096)];
-        let text = String::from_utf8_lossy(head);
+        if stl::binary_facet_count_of(head, len).is_some() {
+            return Some(FileFormat::Stl);
+        }
+        if head.starts_with(b"ply") && matches!(head.get(3), Some(b'\n' | b'\r')) {
+            return Some(FileFormat::Ply);
+        }
+        let text = String::from_utf8_lossy(&head[..head.len().min(4096)]);
         let first = text
             .lines()
             .map(str::trim)
@@ -208,25 +221,14 @@ impl FileFormat {
         if OBJ_KEYWORDS.contains(&word) {
             Some(FileFormat::Obj)
         } else {
-            stl::starts_like_ascii(bytes).then_some(FileFormat::Stl)
-        }
-    }
-
-    /// The formats a file's first bytes and its length tell on their own: LAS, binary STL
-    /// (by its size) and PLY. Where this answers, [`FileFormat::sniff`] of the whole file
-    /// answers the same.
-    fn sniff_head(head: &[u8], len: u64) -> Option<Self> {
-        if las::looks_like_las(head) {
-            Some(FileFormat::Las)
-        } else if stl::binary_facet_count_of(head, len).is_some() {
-            Some(FileFormat::Stl)
-        } else if head.starts_with(b"ply") && matches!(head.get(3), Some(b'\n' | b'\r')) {
-            Some(FileFormat::Ply)
-        } else {
-            None
+            stl::starts_like_ascii(head).then_some(FileFormat::Stl)
         }
     }
 }
+
+/// How many bytes from a file's start [`FileFormat::sniff_start`] needs: a text line found
+/// in the first 4096 bytes, and the word `solid` after it.
+const SNIFFED_TEXT: usize = 4096 + 6;
 
 /// A point set or a triangle mesh, as read from a file.
 #[derive(Debug, Clone, PartialEq)]
@@ -504,6 +506,7 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
                 let head = bytes.get(start as usize..).unwrap_or(&[]);
                 las::read_las_from(file, head, len, recentre).map(loaded_las)
             }
+            Streamed::Obj => read_obj_from(file, recentre).map(loaded_obj),
         };
         return loaded.map_err(|error| match error {
             Error::Read { source } => at_path(source),
@@ -514,15 +517,18 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
     read_geometry_bytes_with(path, &bytes, options)
 }
 
-/// Bytes read from the start of a file to tell its format before reading the rest.
-const SNIFFED_BYTES: u64 = 4096;
+/// Bytes read from the start of a file to tell its format before reading the rest: what
+/// sniffing needs, after a byte-order mark.
+const SNIFFED_BYTES: u64 = (BYTE_ORDER_MARK.len() + SNIFFED_TEXT) as u64;
 
-/// The formats read from a file through a buffer rather than from a copy of the whole file.
+/// The formats read from a file through a buffer rather than from a copy of the whole
+/// file.
 enum Streamed {
     Ply,
     /// With its facet count.
     BinaryStl(usize),
     Las,
+    Obj,
 }
 
 /// How a regular file of `len` bytes starting with `head` is streamed, and where its
@@ -541,19 +547,21 @@ fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streame
             0
         };
     let (content, len) = (&head[skip..], len - skip as u64);
-    let streamed = match FileFormat::sniff_head(content, len) {
+    let streamed = match FileFormat::sniff_start(content, len) {
         Some(FileFormat::Ply) => Streamed::Ply,
         Some(FileFormat::Las) => Streamed::Las,
         Some(FileFormat::Stl) => match stl::binary_facet_count_of(content, len) {
             Some(count) => Streamed::BinaryStl(count),
             None => return Ok(None),
         },
+        Some(FileFormat::Obj) => Streamed::Obj,
         _ => return Ok(None),
     };
     let format = match streamed {
         Streamed::Ply => FileFormat::Ply,
         Streamed::BinaryStl(_) => FileFormat::Stl,
         Streamed::Las => FileFormat::Las,
+        Streamed::Obj => FileFormat::Obj,
     };
     format_of(path, Some(format))?;
     Ok(Some((streamed, skip as u64)))
@@ -579,17 +587,7 @@ pub fn read_geometry_bytes_with(
     let recentre = options.recentre_far;
     match detect_format(path, bytes)? {
         FileFormat::Ply => Ok(loaded_ply(ply::read_ply_geometry(bytes, recentre)?)),
-        FileFormat::Obj => {
-            let (geometry, origin, notes) = read_obj_at(path, bytes, recentre)?;
-            Ok(LoadedGeometry {
-                geometry,
-                format: FileFormat::Obj,
-                encoding: "ascii".into(),
-                comments: Vec::new(),
-                origin,
-                notes,
-            })
-        }
+        FileFormat::Obj => Ok(loaded_obj(read_obj_from(bytes, recentre)?)),
         FileFormat::Off => {
             let file = read_off_at(bytes, recentre)?;
             Ok(LoadedGeometry {
@@ -638,6 +636,18 @@ fn loaded_stl(file: stl::StlFile) -> LoadedGeometry {
         comments: file.comments,
         origin: file.origin,
         notes: file.notes,
+    }
+}
+
+/// An OBJ file's geometry, origin and notes as [`LoadedGeometry`].
+fn loaded_obj((geometry, origin, notes): (Geometry, DVec3, Vec<String>)) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry,
+        format: FileFormat::Obj,
+        encoding: "ascii".into(),
+        comments: Vec::new(),
+        origin,
+        notes,
     }
 }
 

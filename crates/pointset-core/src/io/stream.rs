@@ -116,6 +116,20 @@ impl<R: Read> ByteStream<R> {
         }
     }
 
+    /// Reads the next line into `line` (emptied first), without its `\n`; `false` at the
+    /// end of the stream, where no line is left.
+    pub(crate) fn read_line(&mut self, line: &mut Vec<u8>) -> Result<bool> {
+        line.clear();
+        if self.at_end()? {
+            return Ok(false);
+        }
+        self.consume_while(|b| b != b'\n', |piece| line.extend_from_slice(piece))?;
+        if !self.at_end()? {
+            self.consume(1);
+        }
+        Ok(true)
+    }
+
     /// Moves past the next `n` bytes; `false` if the stream ends first.
     pub(crate) fn skip(&mut self, mut n: u64) -> Result<bool> {
         while n > 0 {

@@ -505,6 +505,12 @@ fn malformed_files_give_specific_errors() {
         (b"v 0 0 0\nv 1 0 0\nv 0 1 0\n# c\nf 1/1 2/1 3/1\n", 5),
         (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 0\n", 4),
         (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 a\n", 4),
+        // Refused by `tobj` before, without a line: a weight of 0, five numbers, four
+        // parts to a corner, text that is not UTF-8.
+        (b"v 0 0 0\nv 1 0 0 0\nv 0 1 0\nf 1 2 3\n", 2),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0 1 1\nf 1 2 3\n", 3),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n", 4),
+        (b"v 0 0 0\nv 1 0 0\nv 0 \xff 0\nf 1 2 3\n", 3),
     ] {
         let err = read("t.obj", text);
         assert!(
@@ -513,6 +519,15 @@ fn malformed_files_give_specific_errors() {
             String::from_utf8_lossy(text)
         );
     }
+    // What the in-house reader reads where `tobj` did otherwise: a comment after a `v`
+    // line's numbers, a line continued with `\`, a weight dividing the position, and a
+    // polyline of three points skipped (not read as a face).
+    let text = b"v 0 0 0 # origin\nv 2 0 0 2\nv 0 1 \\\n 0\nl 1 2 3\nf 1 2 3\n";
+    let loaded = read("w.obj", text).unwrap();
+    let mesh = loaded.geometry.mesh().unwrap();
+    assert_eq!(mesh.triangles(), &[[0, 1, 2]]);
+    assert_eq!(mesh.vertices().positions()[1], Vec3::X);
+    assert_eq!(mesh.vertices().positions()[2], Vec3::Y);
     // Relative indices and every corner form read.
     let corners = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf -3/1/1 2/1/1 3//1\n";
     assert_eq!(

@@ -69,11 +69,7 @@ pub(super) fn parse_header<R: Read>(stream: &mut ByteStream<R>) -> Result<Parsed
                 "header longer than 1 MiB without `end_header`",
             ));
         }
-        raw.clear();
-        stream.consume_while(|b| b != b'\n', |piece| raw.extend_from_slice(piece))?;
-        if !stream.at_end()? {
-            stream.consume(1);
-        }
+        stream.read_line(&mut raw)?;
         line_no += 1;
         let line = std::str::from_utf8(&raw)
             .map_err(|_| malformed(line_no, "header line is not valid text"))?
