@@ -86,6 +86,19 @@ impl ObjLines {
         }
     }
 
+    /// Every vertex's position ([`ObjLines::position`] of its `v` index); the `v` lines'
+    /// own arrays are freed, since nothing else needs them once faces made a mesh.
+    pub(super) fn take_vertex_positions(&mut self) -> Vec<DVec3> {
+        let positions = self
+            .vertices
+            .iter()
+            .map(|&[v, ..]| self.position(v))
+            .collect();
+        self.positions = Vec::new();
+        self.weights = None;
+        positions
+    }
+
     /// Reads an OBJ file's lines from `stream`.
     pub(super) fn read<R: Read>(stream: &mut ByteStream<R>) -> Result<Self> {
         let mut lines = ObjLines::default();
@@ -118,6 +131,8 @@ impl ObjLines {
                 }
             }
             if number < first {
+                // The numbering is done: free its table (about 30 bytes a vertex).
+                lines.numbering = HashMap::default();
                 return Ok(lines);
             }
             lines.line(&text, first)?;
