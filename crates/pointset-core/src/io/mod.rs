@@ -460,8 +460,8 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 
 /// [`read_geometry`] with options (e.g. recentring georeferenced data).
 ///
-/// PLY, binary STL and LAS files are read through a buffer into the geometry's arrays;
-/// other files (OBJ, OFF, XYZ, ASCII STL) are read whole into memory first. Either way the
+/// PLY, binary STL, LAS, OBJ and XYZ files are read through a buffer into the geometry's
+/// arrays; OFF and ASCII STL files are read whole into memory first. Either way the
 /// result is what [`read_geometry_bytes_with`] gives for the file's bytes.
 ///
 /// ```
@@ -507,6 +507,9 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
                 las::read_las_from(file, head, len, recentre).map(loaded_las)
             }
             Streamed::Obj => read_obj_from(file, recentre).map(loaded_obj),
+            Streamed::Xyz(columns) => {
+                xyz::read_xyz_from(file, columns, recentre).map(|file| loaded_xyz(file, columns))
+            }
         };
         return loaded.map_err(|error| match error {
             Error::Read { source } => at_path(source),
@@ -529,15 +532,16 @@ enum Streamed {
     BinaryStl(usize),
     Las,
     Obj,
+    Xyz(XyzColumns),
 }
 
 /// How a regular file of `len` bytes starting with `head` is streamed, and where its
-/// content begins (after a byte-order mark, if any), if [`read_geometry_bytes_with`] would
-/// read the whole file as PLY, binary STL or LAS. A file of another format, or one whose
-/// length is not that of its bytes (as in `/proc`), gives `None`; an extension that names
-/// another format is refused as the whole file would be.
+/// content begins (after a byte-order mark, if any), when [`read_geometry_bytes_with`]
+/// would read the whole file as PLY, binary STL, LAS, OBJ or XYZ. Any other file, or one
+/// whose length is not that of its bytes (as in `/proc`), gives `None` and is read whole;
+/// a name and content that disagree are refused as the whole file would be.
 fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streamed, u64)>> {
-    if len < head.len() as u64 {
+    if len == 0 || len < head.len() as u64 {
         return Ok(None);
     }
     let skip =
@@ -547,23 +551,17 @@ fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streame
             0
         };
     let (content, len) = (&head[skip..], len - skip as u64);
-    let streamed = match FileFormat::sniff_start(content, len) {
-        Some(FileFormat::Ply) => Streamed::Ply,
-        Some(FileFormat::Las) => Streamed::Las,
-        Some(FileFormat::Stl) => match stl::binary_facet_count_of(content, len) {
+    let streamed = match format_of(path, FileFormat::sniff_start(content, len))? {
+        FileFormat::Ply => Streamed::Ply,
+        FileFormat::Las => Streamed::Las,
+        FileFormat::Obj => Streamed::Obj,
+        FileFormat::Xyz(columns) => Streamed::Xyz(columns),
+        FileFormat::Stl => match stl::binary_facet_count_of(content, len) {
             Some(count) => Streamed::BinaryStl(count),
             None => return Ok(None),
         },
-        Some(FileFormat::Obj) => Streamed::Obj,
-        _ => return Ok(None),
+        FileFormat::Off => return Ok(None),
     };
-    let format = match streamed {
-        Streamed::Ply => FileFormat::Ply,
-        Streamed::BinaryStl(_) => FileFormat::Stl,
-        Streamed::Las => FileFormat::Las,
-        Streamed::Obj => FileFormat::Obj,
-    };
-    format_of(path, Some(format))?;
     Ok(Some((streamed, skip as u64)))
 }
 
@@ -600,17 +598,7 @@ pub fn read_geometry_bytes_with(
             })
         }
         FileFormat::Stl => Ok(loaded_stl(read_stl_at(bytes, recentre)?)),
-        FileFormat::Xyz(columns) => {
-            let file = read_xyz_at(bytes, columns, recentre)?;
-            Ok(LoadedGeometry {
-                geometry: file.geometry,
-                format: FileFormat::Xyz(columns),
-                encoding: "ascii".into(),
-                comments: file.comments,
-                origin: file.origin,
-                notes: Vec::new(),
-            })
-        }
+        FileFormat::Xyz(columns) => Ok(loaded_xyz(read_xyz_at(bytes, columns, recentre)?, columns)),
         FileFormat::Las => Ok(loaded_las(read_las_at(bytes, recentre)?)),
     }
 }
@@ -648,6 +636,18 @@ fn loaded_obj((geometry, origin, notes): (Geometry, DVec3, Vec<String>)) -> Load
         comments: Vec::new(),
         origin,
         notes,
+    }
+}
+
+/// An XYZ file's points as [`LoadedGeometry`].
+fn loaded_xyz(file: xyz::XyzFile, columns: XyzColumns) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry: file.geometry,
+        format: FileFormat::Xyz(columns),
+        encoding: "ascii".into(),
+        comments: file.comments,
+        origin: file.origin,
+        notes: Vec::new(),
     }
 }
 

@@ -130,6 +130,23 @@ impl<R: Read> ByteStream<R> {
         Ok(true)
     }
 
+    /// The next line as text, without its `\n` or a `\r` before it; `None` at the end of
+    /// the stream. A line that is not UTF-8 is refused with `not_text` of the offset of
+    /// its first bad byte.
+    pub(crate) fn read_text_line<'l>(
+        &mut self,
+        line: &'l mut Vec<u8>,
+        not_text: impl FnOnce(u64) -> Error,
+    ) -> Result<Option<&'l str>> {
+        let start = self.position;
+        if !self.read_line(line)? {
+            return Ok(None);
+        }
+        let text =
+            std::str::from_utf8(line).map_err(|e| not_text(start + e.valid_up_to() as u64))?;
+        Ok(Some(text.strip_suffix('\r').unwrap_or(text)))
+    }
+
     /// Moves past the next `n` bytes; `false` if the stream ends first.
     pub(crate) fn skip(&mut self, mut n: u64) -> Result<bool> {
         while n > 0 {
@@ -171,7 +188,7 @@ mod tests {
     use proptest::prelude::*;
 
     use crate::io::ply::{PlyEncoding, read_ply_geometry, read_ply_geometry_from};
-    use crate::io::{self, FileFormat, Geometry, WriteOptions, las, stl};
+    use crate::io::{self, FileFormat, Geometry, WriteOptions, las, obj, stl, xyz};
     use crate::{Attribute, Error, PointSet, ScalarType, TriMesh};
 
     /// A point set or mesh with normals, UVs and an attribute of type `ty`, as chosen.
@@ -328,6 +345,49 @@ mod tests {
                 .map_err(|e| e.to_string());
             prop_assert_eq!(&trickled, &whole);
             prop_assert_eq!(trickled.is_err(), broken);
+        }
+    }
+
+    proptest! {
+        /// OBJ and XYZ text read a few bytes at a time (lines straddling refills) gives
+        /// what it gives read from memory, edited or cut short.
+        #[test]
+        fn small_reads_of_obj_and_xyz_files_read_what_memory_reads(
+            values in proptest::collection::vec(-1e3f32..1e3, 3..10),
+            faces in 0usize..6,
+            edits in proptest::collection::vec((0usize..1000, any::<u8>()), 0..3),
+            cut in proptest::option::of(0usize..1000),
+            at_most in 1usize..12,
+        ) {
+            let geometry = geometry(&values, true, None, faces);
+            let columns = io::XyzColumns::Normals;
+            let points = Geometry::Points(geometry.points().clone());
+            let options = WriteOptions::default();
+            for (mut bytes, xyz) in [
+                (io::encode_geometry(&geometry, FileFormat::Obj, &options).unwrap(), false),
+                (io::encode_geometry(&points, FileFormat::Xyz(columns), &options).unwrap(), true),
+            ] {
+                for &(at, byte) in &edits {
+                    let len = bytes.len();
+                    bytes[at % len] = byte;
+                }
+                if let Some(cut) = cut {
+                    bytes.truncate(cut);
+                }
+                let read = |reader: Trickle<'_>| {
+                    if xyz {
+                        xyz::read_xyz_from(reader, columns, true)
+                            .map(|file| (file.geometry, file.origin, file.comments))
+                    } else {
+                        obj::read_obj_from(reader, true)
+                    }
+                    .map_err(|e| e.to_string())
+                };
+                prop_assert_eq!(
+                    read(Trickle::new(&bytes, at_most)),
+                    read(Trickle::new(&bytes, usize::MAX))
+                );
+            }
         }
     }
 

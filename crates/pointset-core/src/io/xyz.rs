@@ -14,11 +14,12 @@
 //! `//X,Y,Z`); blank lines are skipped. XYZ holds points only: a mesh is refused, since its
 //! faces would be lost.
 
-use std::io::Write;
+use std::io::{Read, Write};
 
 use glam::{DVec3, Vec3};
 
 use super::buffered::{buffered, comment_lines};
+use super::stream::ByteStream;
 use super::{FileFormat, Geometry, position_text, relative_positions, unit_colours};
 use crate::{Error, Location, PointSet, Result};
 
@@ -118,16 +119,28 @@ pub(crate) fn read_xyz_at(
     columns: XyzColumns,
     recentre_far: bool,
 ) -> Result<XyzFile> {
-    let text = std::str::from_utf8(bytes).map_err(|e| Error::Malformed {
+    read_xyz_from(bytes, columns, recentre_far)
+}
+
+/// [`read_xyz_at`] of the text `reader` gives, read line by line as it streams in.
+pub(crate) fn read_xyz_from(
+    reader: impl Read,
+    columns: XyzColumns,
+    recentre_far: bool,
+) -> Result<XyzFile> {
+    let not_text = |at| Error::Malformed {
         format: FileFormat::Xyz(columns),
-        location: Location::Byte(e.valid_up_to() as u64),
+        location: Location::Byte(at),
         message: "not valid UTF-8 text (an XYZ file is text)".into(),
-    })?;
+    };
+    let mut stream = ByteStream::new(reader, u64::MAX);
+    let mut raw = Vec::new();
     let mut comments = Vec::new();
     let mut width = None;
     let (mut positions, mut rest) = (Vec::new(), Vec::new());
-    for (i, line) in text.lines().enumerate() {
-        let number = i + 1;
+    let mut number = 0;
+    while let Some(line) = stream.read_text_line(&mut raw, not_text)? {
+        number += 1;
         if let Some(c) = comment(line) {
             comments.push(c.trim().to_string());
             continue;

@@ -1,5 +1,6 @@
 //! Files that `read_geometry` reads through a buffer instead of whole (PLY, binary STL,
-//! LAS) give what their bytes give read from memory: the same geometry, or the same error.
+//! LAS, OBJ, XYZ) give what their bytes give read from memory: the same geometry, or the
+//! same error.
 
 use glam::Vec3;
 use pointset_core::io::ply::PlyEncoding;
@@ -136,5 +137,49 @@ fn stl_and_las_files_read_from_disk_equal_their_bytes_read_from_memory() {
             assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
             assert_eq!(from_file, from_bytes, "{name}, recentre {recentre}");
         }
+    }
+}
+
+#[test]
+fn obj_and_xyz_files_read_from_disk_equal_their_bytes_read_from_memory() {
+    let mesh = geometry_with_parts(&[0.5, -1.0, 2.0, 3.5, 4.0, -0.25, 7.0], true, true, 0, 5);
+    let options = WriteOptions::default();
+    let obj = io::encode_geometry(&mesh, FileFormat::Obj, &options).unwrap();
+    let points = Geometry::Points(mesh.points().clone());
+    let xyz =
+        io::encode_geometry(&points, FileFormat::Xyz(io::XyzColumns::Normals), &options).unwrap();
+    let crlf = |text: &[u8]| {
+        String::from_utf8_lossy(text)
+            .replace('\n', "\r\n")
+            .into_bytes()
+    };
+    // Comments longer than the bytes sniffed before the rest is read.
+    let long = |text: &[u8]| [format!("# {}\n", "c".repeat(5000)).as_bytes(), text].concat();
+    let bad_text = |text: &[u8]| [text, b"\xff\xfe\n"].concat();
+    let mark = |text: &[u8]| [b"\xEF\xBB\xBF".as_slice(), text].concat();
+    let files: Vec<(&str, Vec<u8>, bool)> = vec![
+        ("m.obj", obj.clone(), true),
+        ("unnamed", obj.clone(), true),
+        ("m.ply", obj.clone(), false),
+        ("crlf.obj", crlf(&obj), true),
+        ("long.obj", long(&obj), true),
+        ("mark.obj", mark(&obj), true),
+        ("bad.obj", bad_text(&obj), false),
+        // The last corner loses its texture coordinate and normal: read without them.
+        ("cut.obj", obj[..obj.len() - 4].to_vec(), true),
+        ("p.xyzn", xyz.clone(), true),
+        ("p.xyz", xyz.clone(), true),
+        // Normals named as colours are read as colours: the name decides.
+        ("p.xyzrgb", xyz.clone(), true),
+        ("crlf.xyzn", crlf(&xyz), true),
+        ("long.xyzn", long(&xyz), true),
+        ("mark.xyzn", mark(&xyz), true),
+        ("bad.xyzn", bad_text(&xyz), false),
+        ("unnamed", xyz.clone(), false),
+    ];
+    for (name, bytes, readable) in files {
+        let (from_file, from_bytes) = read_from_file_and_bytes(name, &bytes);
+        assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
+        assert_eq!(from_file, from_bytes, "{name}");
     }
 }

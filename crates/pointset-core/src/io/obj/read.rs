@@ -109,16 +109,11 @@ impl ObjLines {
             text.clear();
             let first = number + 1;
             loop {
-                let start = stream.position();
-                if !stream.read_line(&mut raw)? {
+                let not_text = |at| malformed(number + 1, format!("not UTF-8 text (at byte {at})"));
+                let Some(line) = stream.read_text_line(&mut raw, not_text)? else {
                     break;
-                }
+                };
                 number += 1;
-                let line = std::str::from_utf8(&raw).map_err(|e| {
-                    let at = start + e.valid_up_to() as u64;
-                    malformed(number, format!("not UTF-8 text (at byte {at})"))
-                })?;
-                let line = line.trim_end_matches('\r');
                 match line.trim_end().strip_suffix('\\') {
                     Some(part) => {
                         text.push_str(part);
