@@ -460,8 +460,8 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 
 /// [`read_geometry`] with options (e.g. recentring georeferenced data).
 ///
-/// PLY, binary STL, LAS, OBJ and XYZ files are read through a buffer into the geometry's
-/// arrays; OFF and ASCII STL files are read whole into memory first. Either way the
+/// PLY, binary STL, LAS, OBJ, OFF and XYZ files are read through a buffer into the
+/// geometry's arrays; ASCII STL files are read whole into memory first. Either way the
 /// result is what [`read_geometry_bytes_with`] gives for the file's bytes.
 ///
 /// ```
@@ -507,6 +507,7 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
                 las::read_las_from(file, head, len, recentre).map(loaded_las)
             }
             Streamed::Obj => read_obj_from(file, recentre).map(loaded_obj),
+            Streamed::Off => off::read_off_from(file, len, recentre).map(loaded_off),
             Streamed::Xyz(columns) => {
                 xyz::read_xyz_from(file, columns, recentre).map(|file| loaded_xyz(file, columns))
             }
@@ -532,12 +533,14 @@ enum Streamed {
     BinaryStl(usize),
     Las,
     Obj,
+    Off,
     Xyz(XyzColumns),
 }
 
 /// How a regular file of `len` bytes starting with `head` is streamed, and where its
 /// content begins (after a byte-order mark, if any), when [`read_geometry_bytes_with`]
-/// would read the whole file as PLY, binary STL, LAS, OBJ or XYZ. Any other file, or one
+/// would read the whole file as PLY, binary STL, LAS, OBJ, OFF or XYZ. Any other file (an
+/// ASCII STL), or one
 /// whose length is not that of its bytes (as in `/proc`), gives `None` and is read whole;
 /// a name and content that disagree are refused as the whole file would be.
 fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streamed, u64)>> {
@@ -560,7 +563,7 @@ fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streame
             Some(count) => Streamed::BinaryStl(count),
             None => return Ok(None),
         },
-        FileFormat::Off => return Ok(None),
+        FileFormat::Off => Streamed::Off,
     };
     Ok(Some((streamed, skip as u64)))
 }
@@ -586,17 +589,7 @@ pub fn read_geometry_bytes_with(
     match detect_format(path, bytes)? {
         FileFormat::Ply => Ok(loaded_ply(ply::read_ply_geometry(bytes, recentre)?)),
         FileFormat::Obj => Ok(loaded_obj(read_obj_from(bytes, recentre)?)),
-        FileFormat::Off => {
-            let file = read_off_at(bytes, recentre)?;
-            Ok(LoadedGeometry {
-                geometry: file.geometry,
-                format: FileFormat::Off,
-                encoding: "ascii".into(),
-                comments: file.comments,
-                origin: file.origin,
-                notes: file.notes,
-            })
-        }
+        FileFormat::Off => Ok(loaded_off(read_off_at(bytes, recentre)?)),
         FileFormat::Stl => Ok(loaded_stl(read_stl_at(bytes, recentre)?)),
         FileFormat::Xyz(columns) => Ok(loaded_xyz(read_xyz_at(bytes, columns, recentre)?, columns)),
         FileFormat::Las => Ok(loaded_las(read_las_at(bytes, recentre)?)),
@@ -636,6 +629,18 @@ fn loaded_obj((geometry, origin, notes): (Geometry, DVec3, Vec<String>)) -> Load
         comments: Vec::new(),
         origin,
         notes,
+    }
+}
+
+/// An OFF file's geometry as [`LoadedGeometry`].
+fn loaded_off(file: off::OffFile) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry: file.geometry,
+        format: FileFormat::Off,
+        encoding: "ascii".into(),
+        comments: file.comments,
+        origin: file.origin,
+        notes: file.notes,
     }
 }
 

@@ -4,11 +4,12 @@
 //! say so ([`super::LoadedGeometry::notes`]). Vertex colours may be integers in `0..=255`
 //! or floats in `0..=1` (decided per file: any value above 1 means the integer range).
 
-use std::io::Write;
+use std::io::{Read, Write};
 
 use glam::{DVec3, Vec3};
 
 use super::buffered::{buffered, comment_lines};
+use super::stream::ByteStream;
 use super::{FileFormat, Geometry, position_text, relative_positions, unit_colours};
 use crate::{Error, Location, PointSet, Result, TriMesh, triangulate_polygon};
 
@@ -20,23 +21,69 @@ fn malformed(line: usize, message: impl Into<String>) -> Error {
     }
 }
 
-/// Non-empty, comment-stripped lines with their 1-based numbers and byte offsets.
-struct Lines<'a> {
-    inner: std::iter::Enumerate<std::str::Lines<'a>>,
+/// An OFF file's lines as they stream in: the non-empty ones with comments cut off, with
+/// their 1-based numbers, and the file's `#` comment lines gathered on the way.
+struct Lines<R> {
+    stream: ByteStream<R>,
+    line: Vec<u8>,
+    /// Lines read so far.
+    number: usize,
+    comments: Vec<String>,
 }
 
-impl<'a> Iterator for Lines<'a> {
-    type Item = (usize, Vec<&'a str>);
-    fn next(&mut self) -> Option<Self::Item> {
-        for (i, line) in self.inner.by_ref() {
-            let content = line.split('#').next().unwrap_or("");
-            let words: Vec<&str> = content.split_whitespace().collect();
-            if !words.is_empty() {
-                return Some((i + 1, words));
+impl<R: Read> Lines<R> {
+    fn new(reader: R, len: u64) -> Self {
+        Lines {
+            stream: ByteStream::new(reader, len),
+            line: Vec::new(),
+            number: 0,
+            comments: Vec::new(),
+        }
+    }
+
+    /// The next line with words before any `#`, and its number; `None` at the end.
+    fn next(&mut self) -> Result<Option<(usize, Vec<&str>)>> {
+        let not_text = |at| Error::Malformed {
+            format: FileFormat::Off,
+            location: Location::Byte(at),
+            message: "not valid UTF-8 text (binary OFF is not supported)".into(),
+        };
+        loop {
+            let Some(line) = self.stream.read_text_line(&mut self.line, not_text)? else {
+                return Ok(None);
+            };
+            self.number += 1;
+            if let Some(comment) = line.trim_start().strip_prefix('#') {
+                self.comments.push(comment.trim().to_string());
+            }
+            if words_before_comment(line).next().is_some() {
+                break;
             }
         }
-        None
+        // The line was checked as text above.
+        let line = std::str::from_utf8(&self.line).unwrap_or("");
+        Ok(Some((self.number, words_before_comment(line).collect())))
     }
+
+    /// The end of a file that stops early: where it ends, and what it lacked.
+    fn ended(&self, what: String) -> Error {
+        Error::UnexpectedEof {
+            format: FileFormat::Off,
+            location: Location::Line(self.number + 1),
+            what,
+        }
+    }
+
+    /// The comments of the whole file, the lines after the data read for theirs.
+    fn comments(mut self) -> Result<Vec<String>> {
+        while self.next()?.is_some() {}
+        Ok(self.comments)
+    }
+}
+
+/// The words of `line` before any `#`.
+fn words_before_comment(line: &str) -> std::str::SplitWhitespace<'_> {
+    line.split('#').next().unwrap_or("").split_whitespace()
 }
 
 fn numbers(line: usize, words: &[&str]) -> Result<Vec<f64>> {
@@ -70,21 +117,18 @@ pub(crate) struct OffFile {
 /// and the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]);
 /// returns the origin too, and notes on what was skipped.
 pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
-    let text = std::str::from_utf8(bytes).map_err(|e| Error::Malformed {
-        format: FileFormat::Off,
-        location: Location::Byte(e.valid_up_to() as u64),
-        message: "not valid UTF-8 text (binary OFF is not supported)".into(),
-    })?;
-    let comments = text
-        .lines()
-        .filter_map(|l| l.trim_start().strip_prefix('#'))
-        .map(|c| c.trim().to_string())
-        .collect();
-    let mut lines = Lines {
-        inner: text.lines().enumerate(),
+    read_off_from(bytes, bytes.len() as u64, recentre_far)
+}
+
+/// [`read_off_at`] of the `len` bytes of text `reader` gives, read line by line as they
+/// stream in.
+pub(crate) fn read_off_from(reader: impl Read, len: u64, recentre_far: bool) -> Result<OffFile> {
+    let mut lines = Lines::new(reader, len);
+    let Some((first_line, first)) = lines.next()? else {
+        return Err(malformed(1, "no OFF keyword"));
     };
-    let (first_line, first) = lines.next().ok_or_else(|| malformed(1, "no OFF keyword"))?;
-    let keyword = first[0];
+    let first: Vec<String> = first.iter().map(|w| w.to_string()).collect();
+    let keyword = first[0].as_str();
     let (has_normals, has_colors) = match keyword {
         "OFF" => (false, false),
         "NOFF" => (true, false),
@@ -101,9 +145,10 @@ pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
     let (count_line, count_words) = if first.len() > 1 {
         (first_line, first[1..].to_vec())
     } else {
-        lines
-            .next()
-            .ok_or_else(|| malformed(first_line + 1, "missing vertex/face counts"))?
+        match lines.next()? {
+            Some((line, words)) => (line, words.iter().map(|w| w.to_string()).collect()),
+            None => return Err(malformed(first_line + 1, "missing vertex/face counts")),
+        }
     };
     let counts: Vec<u64> = count_words
         .iter()
@@ -116,7 +161,7 @@ pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
     };
     // A vertex line needs at least 6 bytes ("0 0 0\n"), a face line at least 8 ("3 0 1 2\n").
     let needed = u128::from(nv) * 6 + u128::from(nf) * 8;
-    let available = bytes.len() as u64;
+    let available = len;
     if needed > u128::from(available) {
         return Err(Error::HeaderExceedsFile {
             format: FileFormat::Off,
@@ -141,11 +186,9 @@ pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
     let mut normals = Vec::with_capacity(if has_normals { nv } else { 0 });
     let mut raw_colors = Vec::new();
     for v in 0..nv {
-        let (line, words) = lines.next().ok_or_else(|| Error::UnexpectedEof {
-            format: FileFormat::Off,
-            location: Location::Line(text.lines().count() + 1),
-            what: format!("vertex {v} of {nv}"),
-        })?;
+        let Some((line, words)) = lines.next()? else {
+            return Err(lines.ended(format!("vertex {v} of {nv}")));
+        };
         let need = stride + if has_colors { 3 } else { 0 };
         if words.len() < need {
             return Err(malformed(line, format!("vertex line needs {need} numbers")));
@@ -170,11 +213,9 @@ pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
     let mut triangles = Vec::with_capacity(nf);
     let mut faces_with_values = 0;
     for face in 0..nf {
-        let (line, words) = lines.next().ok_or_else(|| Error::UnexpectedEof {
-            format: FileFormat::Off,
-            location: Location::Line(text.lines().count() + 1),
-            what: format!("face {face} of {nf}"),
-        })?;
+        let Some((line, words)) = lines.next()? else {
+            return Err(lines.ended(format!("face {face} of {nf}")));
+        };
         let n: usize = words[0]
             .parse()
             .map_err(|_| malformed(line, "face must start with its vertex count"))?;
@@ -224,7 +265,7 @@ pub(crate) fn read_off_at(bytes: &[u8], recentre_far: bool) -> Result<OffFile> {
     };
     Ok(OffFile {
         geometry,
-        comments,
+        comments: lines.comments()?,
         origin,
         notes,
     })

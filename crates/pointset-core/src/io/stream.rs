@@ -188,7 +188,7 @@ mod tests {
     use proptest::prelude::*;
 
     use crate::io::ply::{PlyEncoding, read_ply_geometry, read_ply_geometry_from};
-    use crate::io::{self, FileFormat, Geometry, WriteOptions, las, obj, stl, xyz};
+    use crate::io::{self, FileFormat, Geometry, WriteOptions, las, obj, off, stl, xyz};
     use crate::{Attribute, Error, PointSet, ScalarType, TriMesh};
 
     /// A point set or mesh with normals, UVs and an attribute of type `ty`, as chosen.
@@ -349,10 +349,10 @@ mod tests {
     }
 
     proptest! {
-        /// OBJ and XYZ text read a few bytes at a time (lines straddling refills) gives
-        /// what it gives read from memory, edited or cut short.
+        /// OBJ, OFF and XYZ text read a few bytes at a time (lines straddling refills)
+        /// gives what it gives read from memory, edited or cut short.
         #[test]
-        fn small_reads_of_obj_and_xyz_files_read_what_memory_reads(
+        fn small_reads_of_text_files_read_what_memory_reads(
             values in proptest::collection::vec(-1e3f32..1e3, 3..10),
             faces in 0usize..6,
             edits in proptest::collection::vec((0usize..1000, any::<u8>()), 0..3),
@@ -363,9 +363,10 @@ mod tests {
             let columns = io::XyzColumns::Normals;
             let points = Geometry::Points(geometry.points().clone());
             let options = WriteOptions::default();
-            for (mut bytes, xyz) in [
-                (io::encode_geometry(&geometry, FileFormat::Obj, &options).unwrap(), false),
-                (io::encode_geometry(&points, FileFormat::Xyz(columns), &options).unwrap(), true),
+            for (mut bytes, format) in [
+                (io::encode_geometry(&geometry, FileFormat::Obj, &options).unwrap(), FileFormat::Obj),
+                (io::encode_geometry(&geometry, FileFormat::Off, &options).unwrap(), FileFormat::Off),
+                (io::encode_geometry(&points, FileFormat::Xyz(columns), &options).unwrap(), FileFormat::Xyz(columns)),
             ] {
                 for &(at, byte) in &edits {
                     let len = bytes.len();
@@ -374,12 +375,14 @@ mod tests {
                 if let Some(cut) = cut {
                     bytes.truncate(cut);
                 }
+                let len = bytes.len() as u64;
                 let read = |reader: Trickle<'_>| {
-                    if xyz {
-                        xyz::read_xyz_from(reader, columns, true)
-                            .map(|file| (file.geometry, file.origin, file.comments))
-                    } else {
-                        obj::read_obj_from(reader, true)
+                    match format {
+                        FileFormat::Xyz(_) => xyz::read_xyz_from(reader, columns, true)
+                            .map(|file| (file.geometry, file.origin, file.comments)),
+                        FileFormat::Off => off::read_off_from(reader, len, true)
+                            .map(|file| (file.geometry, file.origin, file.comments)),
+                        _ => obj::read_obj_from(reader, true),
                     }
                     .map_err(|e| e.to_string())
                 };

@@ -1,6 +1,6 @@
 //! Files that `read_geometry` reads through a buffer instead of whole (PLY, binary STL,
-//! LAS, OBJ, XYZ) give what their bytes give read from memory: the same geometry, or the
-//! same error.
+//! LAS, OBJ, OFF, XYZ) give what their bytes give read from memory: the same geometry, or
+//! the same error.
 
 use glam::Vec3;
 use pointset_core::io::ply::PlyEncoding;
@@ -141,7 +141,7 @@ fn stl_and_las_files_read_from_disk_equal_their_bytes_read_from_memory() {
 }
 
 #[test]
-fn obj_and_xyz_files_read_from_disk_equal_their_bytes_read_from_memory() {
+fn text_files_read_from_disk_equal_their_bytes_read_from_memory() {
     let mesh = geometry_with_parts(&[0.5, -1.0, 2.0, 3.5, 4.0, -0.25, 7.0], true, true, 0, 5);
     let options = WriteOptions::default();
     let obj = io::encode_geometry(&mesh, FileFormat::Obj, &options).unwrap();
@@ -157,7 +157,19 @@ fn obj_and_xyz_files_read_from_disk_equal_their_bytes_read_from_memory() {
     let long = |text: &[u8]| [format!("# {}\n", "c".repeat(5000)).as_bytes(), text].concat();
     let bad_text = |text: &[u8]| [text, b"\xff\xfe\n"].concat();
     let mark = |text: &[u8]| [b"\xEF\xBB\xBF".as_slice(), text].concat();
+    let off = io::encode_geometry(&mesh, FileFormat::Off, &options).unwrap();
+    let off_comment = [off.as_slice(), b"# after the faces\n"].concat();
+    let off_huge = b"OFF\n1000000000 0 0\n0 0 0\n".to_vec();
     let files: Vec<(&str, Vec<u8>, bool)> = vec![
+        ("m.off", off.clone(), true),
+        ("unnamed", off.clone(), true),
+        ("crlf.off", crlf(&off), true),
+        ("long.off", long(&off), true),
+        ("mark.off", mark(&off), true),
+        ("comment.off", off_comment, true),
+        ("bad.off", bad_text(&off), false),
+        ("cut.off", off[..off.len() - 9].to_vec(), false),
+        ("huge.off", off_huge, false),
         ("m.obj", obj.clone(), true),
         ("unnamed", obj.clone(), true),
         ("m.ply", obj.clone(), false),
