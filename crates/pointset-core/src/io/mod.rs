@@ -27,20 +27,20 @@ mod xyz;
 
 use std::fmt;
 use std::fs::File;
-use std::io::{Read, Seek, SeekFrom};
+use std::io::{Cursor, Read, Seek, SeekFrom};
 use std::path::Path;
 
+use las::write_las_at;
 pub use las::{read_las, write_las};
-use las::{read_las_at, write_las_at};
 pub use obj::{read_obj, write_obj};
 use obj::{read_obj_from, write_obj_at};
+use off::write_off_at;
 pub use off::{read_off, write_off};
-use off::{read_off_at, write_off_at};
 pub use replace::{FileReplacement, check_replaceable, replace_file, write_whole};
 pub use stl::{StlEncoding, read_stl, write_stl, write_stl_ascii};
 use stl::{read_stl_at, write_stl_at};
+use xyz::write_xyz_at;
 pub use xyz::{XyzColumns, read_xyz, write_xyz};
-use xyz::{read_xyz_at, write_xyz_at};
 
 use glam::{DVec3, Vec3};
 
@@ -460,9 +460,9 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 
 /// [`read_geometry`] with options (e.g. recentring georeferenced data).
 ///
-/// PLY, binary STL, LAS, OBJ, OFF and XYZ files are read through a buffer into the
-/// geometry's arrays; ASCII STL files are read whole into memory first. Either way the
-/// result is what [`read_geometry_bytes_with`] gives for the file's bytes.
+/// Files are read through a buffer into the geometry's arrays (ASCII STL files are read
+/// whole into memory first, and so are pipes and other files that are not regular).
+/// Either way the result is what [`read_geometry_bytes_with`] gives for the file's bytes.
 ///
 /// ```
 /// use pointset_core::io::{self, ReadOptions};
@@ -493,29 +493,17 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
         .read_to_end(&mut bytes)
         .map_err(at_path)?;
     if metadata.is_file()
-        && let Some((streamed, start)) = streamed_format(path, &bytes, metadata.len())?
+        && let Some((format, start)) = format_of_file(path, &bytes, metadata.len())?
     {
         file.seek(SeekFrom::Start(start)).map_err(at_path)?;
-        let (len, recentre) = (metadata.len() - start, options.recentre_far);
-        let loaded = match streamed {
-            Streamed::Ply => ply::read_ply_geometry_from(file, len, recentre).map(loaded_ply),
-            Streamed::BinaryStl(count) => {
-                stl::read_binary(file, len, count, recentre).map(loaded_stl)
-            }
-            Streamed::Las => {
-                let head = bytes.get(start as usize..).unwrap_or(&[]);
-                las::read_las_from(file, head, len, recentre).map(loaded_las)
-            }
-            Streamed::Obj => read_obj_from(file, recentre).map(loaded_obj),
-            Streamed::Off => off::read_off_from(file, len, recentre).map(loaded_off),
-            Streamed::Xyz(columns) => {
-                xyz::read_xyz_from(file, columns, recentre).map(|file| loaded_xyz(file, columns))
-            }
-        };
-        return loaded.map_err(|error| match error {
-            Error::Read { source } => at_path(source),
-            other => other,
-        });
+        let head = bytes.get(start as usize..).unwrap_or(&[]);
+        let len = metadata.len() - start;
+        return read_as(format, file, head, len, options.recentre_far).map_err(
+            |error| match error {
+                Error::Read { source } => at_path(source),
+                other => other,
+            },
+        );
     }
     file.read_to_end(&mut bytes).map_err(at_path)?;
     read_geometry_bytes_with(path, &bytes, options)
@@ -525,25 +513,12 @@ pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Resu
 /// sniffing needs, after a byte-order mark.
 const SNIFFED_BYTES: u64 = (BYTE_ORDER_MARK.len() + SNIFFED_TEXT) as u64;
 
-/// The formats read from a file through a buffer rather than from a copy of the whole
-/// file.
-enum Streamed {
-    Ply,
-    /// With its facet count.
-    BinaryStl(usize),
-    Las,
-    Obj,
-    Off,
-    Xyz(XyzColumns),
-}
-
-/// How a regular file of `len` bytes starting with `head` is streamed, and where its
-/// content begins (after a byte-order mark, if any), when [`read_geometry_bytes_with`]
-/// would read the whole file as PLY, binary STL, LAS, OBJ, OFF or XYZ. Any other file (an
-/// ASCII STL), or one
-/// whose length is not that of its bytes (as in `/proc`), gives `None` and is read whole;
-/// a name and content that disagree are refused as the whole file would be.
-fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streamed, u64)>> {
+/// The format of a regular file of `len` bytes starting with `head`, and where its content
+/// begins (after a byte-order mark, if any), as [`read_geometry_bytes_with`] would find
+/// them from the whole file; `None` for an empty file, or one whose length is not that of
+/// its bytes (as in `/proc`), which are read whole. A name and content that disagree are
+/// refused as the whole file would be.
+fn format_of_file(path: &Path, head: &[u8], len: u64) -> Result<Option<(FileFormat, u64)>> {
     if len == 0 || len < head.len() as u64 {
         return Ok(None);
     }
@@ -553,19 +528,42 @@ fn streamed_format(path: &Path, head: &[u8], len: u64) -> Result<Option<(Streame
         } else {
             0
         };
-    let (content, len) = (&head[skip..], len - skip as u64);
-    let streamed = match format_of(path, FileFormat::sniff_start(content, len))? {
-        FileFormat::Ply => Streamed::Ply,
-        FileFormat::Las => Streamed::Las,
-        FileFormat::Obj => Streamed::Obj,
-        FileFormat::Xyz(columns) => Streamed::Xyz(columns),
-        FileFormat::Stl => match stl::binary_facet_count_of(content, len) {
-            Some(count) => Streamed::BinaryStl(count),
-            None => return Ok(None),
+    let format = format_of(
+        path,
+        FileFormat::sniff_start(&head[skip..], len - skip as u64),
+    )?;
+    Ok(Some((format, skip as u64)))
+}
+
+/// Reads `len` bytes of `format` from `reader`, which starts at their first byte; `head`
+/// holds their first bytes (all of them, or at least [`SNIFFED_TEXT`]). Every format is
+/// read as it streams in, except ASCII STL, which is read whole first.
+fn read_as<R: Read + Seek>(
+    format: FileFormat,
+    mut reader: R,
+    head: &[u8],
+    len: u64,
+    recentre: bool,
+) -> Result<LoadedGeometry> {
+    match format {
+        FileFormat::Ply => ply::read_ply_geometry_from(reader, len, recentre).map(loaded_ply),
+        FileFormat::Obj => read_obj_from(reader, len, recentre).map(loaded_obj),
+        FileFormat::Off => off::read_off_from(reader, len, recentre).map(loaded_off),
+        FileFormat::Xyz(columns) => {
+            xyz::read_xyz_from(reader, len, columns, recentre).map(|file| loaded_xyz(file, columns))
+        }
+        FileFormat::Las => las::read_las_from(reader, head, len, recentre).map(loaded_las),
+        FileFormat::Stl => match stl::binary_facet_count_of(head, len) {
+            Some(count) => stl::read_binary(reader, len, count, recentre).map(loaded_stl),
+            None => {
+                let mut bytes = Vec::new();
+                reader
+                    .read_to_end(&mut bytes)
+                    .map_err(|source| Error::Read { source })?;
+                read_stl_at(&bytes, recentre).map(loaded_stl)
+            }
         },
-        FileFormat::Off => Streamed::Off,
-    };
-    Ok(Some((streamed, skip as u64)))
+    }
 }
 
 /// Reads geometry held in memory; `path` names it in errors and picks the format.
@@ -585,15 +583,9 @@ pub fn read_geometry_bytes_with(
         });
     }
     let bytes = without_byte_order_mark(bytes);
-    let recentre = options.recentre_far;
-    match detect_format(path, bytes)? {
-        FileFormat::Ply => Ok(loaded_ply(ply::read_ply_geometry(bytes, recentre)?)),
-        FileFormat::Obj => Ok(loaded_obj(read_obj_from(bytes, recentre)?)),
-        FileFormat::Off => Ok(loaded_off(read_off_at(bytes, recentre)?)),
-        FileFormat::Stl => Ok(loaded_stl(read_stl_at(bytes, recentre)?)),
-        FileFormat::Xyz(columns) => Ok(loaded_xyz(read_xyz_at(bytes, columns, recentre)?, columns)),
-        FileFormat::Las => Ok(loaded_las(read_las_at(bytes, recentre)?)),
-    }
+    let format = detect_format(path, bytes)?;
+    let len = bytes.len() as u64;
+    read_as(format, Cursor::new(bytes), bytes, len, options.recentre_far)
 }
 
 /// A PLY file's geometry as [`LoadedGeometry`].

@@ -1,6 +1,6 @@
-//! The binary readers' input (PLY, binary STL, LAS): bytes in memory or a file, read
-//! through a buffer, with the position reached and the length the file had when it was
-//! opened.
+//! The readers' input: bytes in memory or a file, read through a buffer, with the
+//! position reached and the length the file had when it was opened (which bounds what a
+//! binary header may promise, and the buffer's size).
 
 use std::io::{ErrorKind, Read};
 
@@ -187,7 +187,7 @@ mod tests {
     use glam::{DVec3, Vec2, Vec3};
     use proptest::prelude::*;
 
-    use crate::io::ply::{PlyEncoding, read_ply_geometry, read_ply_geometry_from};
+    use crate::io::ply::{PlyEncoding, read_ply_geometry_from};
     use crate::io::{self, FileFormat, Geometry, WriteOptions, las, obj, off, stl, xyz};
     use crate::{Attribute, Error, PointSet, ScalarType, TriMesh};
 
@@ -256,7 +256,7 @@ mod tests {
                 let streamed = read_ply_geometry_from(reader, len, true)
                     .map(|read| (read.geometry, read.origin, read.comments, read.notes))
                     .map_err(|e| e.to_string());
-                let in_memory = read_ply_geometry(&bytes, true)
+                let in_memory = read_ply_geometry_from(bytes.as_slice(), len, true)
                     .map(|read| (read.geometry, read.origin, read.comments, read.notes))
                     .map_err(|e| e.to_string());
                 prop_assert_eq!(streamed, in_memory);
@@ -378,11 +378,11 @@ mod tests {
                 let len = bytes.len() as u64;
                 let read = |reader: Trickle<'_>| {
                     match format {
-                        FileFormat::Xyz(_) => xyz::read_xyz_from(reader, columns, true)
+                        FileFormat::Xyz(_) => xyz::read_xyz_from(reader, len, columns, true)
                             .map(|file| (file.geometry, file.origin, file.comments)),
                         FileFormat::Off => off::read_off_from(reader, len, true)
                             .map(|file| (file.geometry, file.origin, file.comments)),
-                        _ => obj::read_obj_from(reader, true),
+                        _ => obj::read_obj_from(reader, len, true),
                     }
                     .map_err(|e| e.to_string())
                 };
@@ -425,7 +425,7 @@ mod tests {
                 );
             }
             // The same bytes, whole, are read.
-            assert!(read_ply_geometry(&bytes, false).is_ok());
+            assert!(read_ply_geometry_from(bytes.as_slice(), bytes.len() as u64, false).is_ok());
         }
     }
 }

@@ -119,12 +119,14 @@ pub(crate) fn read_xyz_at(
     columns: XyzColumns,
     recentre_far: bool,
 ) -> Result<XyzFile> {
-    read_xyz_from(bytes, columns, recentre_far)
+    read_xyz_from(bytes, bytes.len() as u64, columns, recentre_far)
 }
 
-/// [`read_xyz_at`] of the text `reader` gives, read line by line as it streams in.
+/// [`read_xyz_at`] of the `len` bytes of text `reader` gives, read line by line as they
+/// stream in.
 pub(crate) fn read_xyz_from(
     reader: impl Read,
+    len: u64,
     columns: XyzColumns,
     recentre_far: bool,
 ) -> Result<XyzFile> {
@@ -133,7 +135,7 @@ pub(crate) fn read_xyz_from(
         location: Location::Byte(at),
         message: "not valid UTF-8 text (an XYZ file is text)".into(),
     };
-    let mut stream = ByteStream::new(reader, u64::MAX);
+    let mut stream = ByteStream::new(reader, len);
     let mut raw = Vec::new();
     let mut comments = Vec::new();
     let mut width = None;

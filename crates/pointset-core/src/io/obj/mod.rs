@@ -16,6 +16,7 @@
 //! many of them, a weight of 0, face corners that refer to elements not defined before
 //! them or have more than three parts, faces of fewer than three corners, comments after
 //! a face, and text that is not UTF-8. A line ending in `\` continues on the next.
+
 mod read;
 
 use std::io::{Read, Write};
@@ -66,18 +67,20 @@ fn dropped_notes(forms: &Forms, mesh: &TriMesh) -> Vec<String> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_obj(bytes: &[u8]) -> Result<Geometry> {
-    read_obj_from(bytes, false).map(|(geometry, _, _)| geometry)
+    read_obj_from(bytes, bytes.len() as u64, false).map(|(geometry, _, _)| geometry)
 }
 
-/// [`read_obj`] of the OBJ text `reader` gives, read as it streams in, with positions
-/// stored relative to an origin when `recentre_far` is set and the data lies far from the
-/// file's origin ([`super::ReadOptions::recentre_far`]); returns the origin too, and notes
-/// on what the file had that the mesh could not keep ([`super::LoadedGeometry::notes`]).
+/// [`read_obj`] of the `len` bytes of OBJ text `reader` gives, read as they stream in,
+/// with positions stored relative to an origin when `recentre_far` is set and the data
+/// lies far from the file's origin ([`super::ReadOptions::recentre_far`]); returns the
+/// origin too, and notes on what the file had that the mesh could not keep
+/// ([`super::LoadedGeometry::notes`]).
 pub(crate) fn read_obj_from(
     reader: impl Read,
+    len: u64,
     recentre_far: bool,
 ) -> Result<(Geometry, DVec3, Vec<String>)> {
-    let mut lines = ObjLines::read(&mut ByteStream::new(reader, u64::MAX))?;
+    let mut lines = ObjLines::read(&mut ByteStream::new(reader, len))?;
     if lines.vertices.is_empty() {
         return point_cloud(lines, recentre_far)
             .map(|(points, origin, notes)| (Geometry::Points(points), origin, notes));

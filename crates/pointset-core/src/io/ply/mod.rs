@@ -9,8 +9,9 @@
 //! [`crate::io::read_geometry`] and [`crate::io::write_geometry`] go without a document:
 //! bodies are read straight into the geometry's arrays and written from them (`to_geometry`,
 //! `view`), by the same rules. `read_geometry` reads a PLY file through a 1 MiB buffer
-//! (`io::stream`, shared with binary STL and LAS), not from a copy of the whole file, so a 24-million-triangle mesh converts in
-//! 0.45 GB instead of 2.2 GB (docs/performance.md).
+//! (`io::stream`, shared with the other readers), not from a copy of the whole file, so a
+//! 24-million-triangle mesh converts in 0.45 GB instead of 2.2 GB (docs/performance.md).
+
 mod body;
 mod convert;
 mod header;
@@ -31,7 +32,6 @@ use std::io::Read;
 use glam::DVec3;
 
 use super::stream::ByteStream;
-
 use crate::io::Geometry;
 use crate::{Result, ScalarType};
 
@@ -260,11 +260,6 @@ pub(crate) struct PlyGeometry {
     pub(crate) comments: Vec<String>,
     /// What the geometry leaves out ([`skipped_parts`]).
     pub(crate) notes: Vec<String>,
-}
-
-/// Reads a PLY file held in memory into a point set or mesh (see [`read_ply_geometry_from`]).
-pub(crate) fn read_ply_geometry(bytes: &[u8], recentre_far: bool) -> Result<PlyGeometry> {
-    read_ply_geometry_from(bytes, bytes.len() as u64, recentre_far)
 }
 
 /// Reads a PLY file of `len` bytes from `reader` into a point set or mesh, as [`read_ply`]
