@@ -10,8 +10,11 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use geosynth::core::io::{self, LoadedGeometry, ReadOptions};
+use geosynth::core::{ProgressUpdate, RunContext};
+use indicatif::ProgressBar;
 
-use crate::CliResult;
+use crate::output::bytes_bar;
+use crate::{CliResult, Globals};
 
 /// The boxed error every command returns.
 type BoxedError = Box<dyn Error + Send + Sync>;
@@ -53,12 +56,32 @@ pub(crate) fn named<E: Into<BoxedError>>(path: &Path) -> impl FnOnce(E) -> Boxed
     }
 }
 
-/// Reads a geometry file (PLY, OBJ, OFF, STL, XYZ) as every command does: georeferenced
-/// coordinates relative to an origin, at full precision (see
-/// [`ReadOptions::recentre_far`]); errors name the file.
-pub(crate) fn read_geometry(path: &Path) -> CliResult<LoadedGeometry> {
-    io::read_geometry_with(path, &ReadOptions::default().recentre_far(true)).map_err(named(path))
+/// Reads a geometry file (PLY, OBJ, OFF, STL, XYZ, LAS) as every command does:
+/// georeferenced coordinates relative to an origin, at full precision (see
+/// [`ReadOptions::recentre_far`]); errors name the file. A file of [`SHOWN_READ_BYTES`] or
+/// more shows a progress bar in bytes while it is read (none with `--quiet`).
+pub(crate) fn read_geometry(path: &Path, globals: Globals) -> CliResult<LoadedGeometry> {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    let bar = if size >= SHOWN_READ_BYTES {
+        bytes_bar(globals, "reading", size)
+    } else {
+        ProgressBar::hidden()
+    };
+    let sink = bar.clone();
+    let mut ctx = RunContext::new(0).with_progress(move |u: &ProgressUpdate<'_>| {
+        if let Some(total) = u.total {
+            sink.set_length(total);
+        }
+        sink.set_position(u.done);
+    });
+    let options = ReadOptions::default().recentre_far(true);
+    let loaded = io::read_geometry_in(path, &options, &mut ctx).map_err(named(path));
+    bar.finish_and_clear();
+    loaded
 }
+
+/// The size from which reading a file shows its progress: 64 MiB, about half a second.
+const SHOWN_READ_BYTES: u64 = 64 << 20;
 
 #[cfg(test)]
 mod tests {

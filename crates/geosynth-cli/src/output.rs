@@ -125,6 +125,22 @@ pub(crate) fn progress_bar(globals: Globals, total: u64, label: &str) -> Progres
     bar
 }
 
+/// A progress bar over `total` bytes, hidden with `--quiet` or when stderr is not a
+/// terminal.
+pub(crate) fn bytes_bar(globals: Globals, label: &str, total: u64) -> ProgressBar {
+    if globals.quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(total);
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg:>12} [{bar:30}] {bytes}/{total_bytes} {elapsed_precise}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(label.to_string());
+    bar
+}
+
 /// Writes `line` to stdout. A reader that has gone away (`geosynth info x.ply | head -3`)
 /// only wants no more output, so a broken pipe is not an error; other write errors are.
 pub(crate) fn print_line(line: &str) -> std::io::Result<()> {

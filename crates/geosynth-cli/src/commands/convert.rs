@@ -39,7 +39,7 @@ pub struct ConvertArgs {
 /// Runs `geosynth convert`.
 pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
-    let loaded = read_geometry(&args.input)?;
+    let loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     let is_mesh = loaded.geometry.mesh().is_some();
     check_geometry_output(&args.output, is_mesh, loaded.origin)?;

@@ -472,7 +472,7 @@ pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
         let text = info.text();
         return print(globals, args.json, &info, text);
     }
-    let loaded = read_geometry(path)?;
+    let loaded = read_geometry(path, globals)?;
     let info = FileInfo::new(path, &loaded);
     let text = info.text();
     print(globals, args.json, &info, text)

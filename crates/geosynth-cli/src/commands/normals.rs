@@ -82,7 +82,7 @@ fn undefined_note(undefined: usize, points: usize, neighbours: usize) -> Option<
 pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
-    let loaded = read_geometry(&args.input)?;
+    let loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     let points = match &loaded.geometry {
         Geometry::Points(points) => points,

@@ -284,7 +284,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     let params = args.grid.params(&file, &args.sign, given)?;
     let options = ReconstructInputOptions::of(args, &file)?;
     // Georeferenced points are reconstructed relative to an origin and written back there.
-    let loaded = read_geometry(&args.input)?;
+    let loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
     let input = prepared_input(args, loaded.geometry, &options, &params, globals)?;
@@ -582,7 +582,7 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     let params = args.grid.params(&file, &args.sign, given)?;
     let (sign, options) = args.sign.with_recorded(&file)?;
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
-    let mut loaded = read_geometry(&args.input)?;
+    let mut loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     if sign.orient_faces && loaded.geometry.mesh().is_none() {
         status(globals, no_faces_to_orient(&args.input));

@@ -134,7 +134,7 @@ fn load(path: &Path, args: &RenderArgs, globals: Globals) -> CliResult<Input> {
     }
     // A picture does not depend on where the data lies, so georeferenced files are read
     // relative to an origin, at full precision.
-    let loaded = read_geometry(path)?;
+    let loaded = read_geometry(path, globals)?;
     report_not_kept(globals, path, &loaded.notes);
     if loaded.geometry.points().is_empty() {
         status(

@@ -127,7 +127,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     let text = std::fs::read_to_string(&args.pairs)
         .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
     // Georeferenced inputs are warped relative to an origin and written back there.
-    let loaded = read_geometry(&args.input)?;
+    let loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(
         &args.output,

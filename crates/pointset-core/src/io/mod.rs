@@ -21,6 +21,7 @@ mod obj;
 mod off;
 pub mod ply;
 mod replace;
+mod reporting;
 mod stl;
 mod stream;
 mod xyz;
@@ -44,8 +45,9 @@ pub use xyz::{XyzColumns, read_xyz, write_xyz};
 
 use glam::{DVec3, Vec3};
 
-use crate::{Aabb, Attribute, COLOR_CHANNELS, Error, PointSet, Result, TriMesh};
+use crate::{Aabb, Attribute, COLOR_CHANNELS, Error, PointSet, Result, RunContext, TriMesh};
 use ply::PlyEncoding;
+use reporting::{ReportingReader, cancelled_read};
 
 /// The supported file formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -480,33 +482,76 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_geometry_with(path: impl AsRef<Path>, options: &ReadOptions) -> Result<LoadedGeometry> {
+    read_geometry_in(path, options, &mut RunContext::default())
+}
+
+/// [`read_geometry_with`] within a run: progress goes to `ctx` as bytes read out of the
+/// file's length (stage `"reading"`), and a cancelled run stops the read with
+/// [`Error::Cancelled`] (checked every megabyte or so).
+///
+/// ```
+/// use pointset_core::io::{self, ReadOptions};
+/// use pointset_core::{CancelFlag, Error, ProgressUpdate, RunContext};
+/// let path = std::env::temp_dir().join("pointset_core_doc_progress.xyz");
+/// std::fs::write(&path, "0 0 0\n1 0 0\n0 1 0\n")?;
+/// let (sender, reports) = std::sync::mpsc::channel();
+/// let mut ctx = RunContext::new(0)
+///     .with_progress(move |u: &ProgressUpdate<'_>| drop(sender.send((u.done, u.total))));
+/// let loaded = io::read_geometry_in(&path, &ReadOptions::default(), &mut ctx)?;
+/// assert_eq!(loaded.geometry.points().len(), 3);
+/// assert_eq!(reports.try_iter().last(), Some((18, Some(18))));
+/// // A cancelled run reads nothing.
+/// let cancel = CancelFlag::new();
+/// cancel.cancel();
+/// let mut ctx = RunContext::new(0).with_cancel_flag(cancel);
+/// let result = io::read_geometry_in(&path, &ReadOptions::default(), &mut ctx);
+/// assert!(matches!(result, Err(Error::Cancelled)));
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_geometry_in(
+    path: impl AsRef<Path>,
+    options: &ReadOptions,
+    ctx: &mut RunContext,
+) -> Result<LoadedGeometry> {
     let path = path.as_ref();
     let at_path = |source| Error::Io {
         path: path.to_path_buf(),
         source,
     };
-    let mut file = File::open(path).map_err(at_path)?;
+    let file = File::open(path).map_err(at_path)?;
     let metadata = file.metadata().map_err(at_path)?;
+    let (len, regular) = (metadata.len(), metadata.is_file());
+    // A pipe's length is not known ahead.
+    let mut file = ReportingReader::new(file, regular.then_some(len), ctx);
     let mut bytes = Vec::new();
     (&mut file)
         .take(SNIFFED_BYTES)
         .read_to_end(&mut bytes)
-        .map_err(at_path)?;
-    if metadata.is_file()
-        && let Some((format, start)) = format_of_file(path, &bytes, metadata.len())?
-    {
+        .map_err(|source| cancelled_read(Error::Read { source }))
+        .map_err(|error| read_error_at(error, path))?;
+    let result = if regular && let Some((format, start)) = format_of_file(path, &bytes, len)? {
         file.seek(SeekFrom::Start(start)).map_err(at_path)?;
         let head = bytes.get(start as usize..).unwrap_or(&[]);
-        let len = metadata.len() - start;
-        return read_as(format, file, head, len, options.recentre_far).map_err(
-            |error| match error {
-                Error::Read { source } => at_path(source),
-                other => other,
-            },
-        );
+        read_as(format, file, head, len - start, options.recentre_far)
+    } else {
+        match file.read_to_end(&mut bytes) {
+            Ok(_) => read_geometry_bytes_with(path, &bytes, options),
+            Err(source) => Err(Error::Read { source }),
+        }
+    };
+    result.map_err(|error| read_error_at(cancelled_read(error), path))
+}
+
+/// A read error as [`Error::Io`] naming `path`; other errors as they are.
+fn read_error_at(error: Error, path: &Path) -> Error {
+    match error {
+        Error::Read { source } => Error::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => other,
     }
-    file.read_to_end(&mut bytes).map_err(at_path)?;
-    read_geometry_bytes_with(path, &bytes, options)
 }
 
 /// Bytes read from the start of a file to tell its format before reading the rest: what

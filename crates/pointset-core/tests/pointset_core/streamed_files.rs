@@ -5,7 +5,7 @@
 use glam::Vec3;
 use pointset_core::io::ply::PlyEncoding;
 use pointset_core::io::{self, FileFormat, Geometry, WriteOptions};
-use pointset_core::{PointSet, TriMesh};
+use pointset_core::{CancelFlag, Error, PointSet, ProgressUpdate, RunContext, TriMesh};
 
 use super::ply_codec::geometry_with_parts;
 
@@ -194,4 +194,48 @@ fn text_files_read_from_disk_equal_their_bytes_read_from_memory() {
         assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
         assert_eq!(from_file, from_bytes, "{name}");
     }
+}
+
+#[test]
+fn long_reads_report_their_progress_and_stop_when_cancelled() {
+    // 5 MB of XYZ: the head sniffed first, then reads of a megabyte.
+    let text: String = (0..400_000)
+        .map(|i| format!("{i} {} 0.5\n", i % 7))
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("long.xyz");
+    std::fs::write(&path, &text).unwrap();
+    let len = text.len() as u64;
+    let (sender, reports) = std::sync::mpsc::channel();
+    let mut ctx = RunContext::new(0).with_progress(move |u: &ProgressUpdate<'_>| {
+        sender.send((u.stage.to_string(), u.done, u.total)).unwrap();
+    });
+    let loaded = io::read_geometry_in(&path, &io::ReadOptions::default(), &mut ctx).unwrap();
+    assert_eq!(loaded.geometry.points().len(), 400_000);
+    let reports: Vec<(String, u64, Option<u64>)> = reports.try_iter().collect();
+    assert!(reports.len() >= 6, "{reports:?}");
+    assert!(
+        reports
+            .iter()
+            .all(|(stage, _, total)| stage == "reading" && *total == Some(len))
+    );
+    assert!(reports.windows(2).all(|w| w[0].1 <= w[1].1), "{reports:?}");
+    assert_eq!(reports.last().map(|r| r.1), Some(len));
+    // Cancelled once more than a megabyte is in: the read stops at the next megabyte.
+    let cancel = CancelFlag::new();
+    let trigger = cancel.clone();
+    let (sender, reports) = std::sync::mpsc::channel();
+    let mut ctx =
+        RunContext::new(0)
+            .with_cancel_flag(cancel)
+            .with_progress(move |u: &ProgressUpdate<'_>| {
+                if u.done > 1 << 20 {
+                    trigger.cancel();
+                }
+                sender.send(u.done).unwrap();
+            });
+    let result = io::read_geometry_in(&path, &io::ReadOptions::default(), &mut ctx);
+    assert!(matches!(result, Err(Error::Cancelled)), "{result:?}");
+    let last = reports.try_iter().last().unwrap();
+    assert!(last > 1 << 20 && last <= 2 << 20 && last < len, "{last}");
 }
