@@ -333,7 +333,9 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     if let Some(note) = sign.note(&exemplar.mesh, stage.mesh_sign)? {
         status(globals, note);
     }
-    check_synthesis_fits(&stage, &exemplar, args.isosurface.is_some())?;
+    if let Some(note) = check_synthesis_fits(&stage, &exemplar, args.isosurface.is_some())? {
+        status(globals, note);
+    }
     let run = measured_run(exemplar.clone(), &stage, args.baseline, globals, |field| {
         if let Some(path) = &args.field {
             let grid = field.synthesis.distances()?;

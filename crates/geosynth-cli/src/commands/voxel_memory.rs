@@ -119,42 +119,81 @@ impl RunSizes {
 /// check refuses only runs that would not fit even then.
 const LEAST_COPY_SHARE: f64 = 0.1;
 
+/// The share the upfront note takes instead: the low end of what the five solids copy
+/// (0.4 to 0.6). A run that would not fit even at this share is most likely refused after
+/// its synthesis, and the note says so before the synthesis starts.
+const TYPICAL_COPY_SHARE: f64 = 0.4;
+
 /// Refuses a run that would not fit even on its most favourable showing, before anything
 /// runs: the fields, and a tenth ([`LEAST_COPY_SHARE`]) of the triangles a target of
 /// source-like density would copy. It catches the hopeless runs (a 512³ source beside a
 /// 512³ target: the source field alone needs 35 GB); the rest wait for the counted check
 /// after the synthesis (balls from a 16³ source to a 512³ target pass this estimate, 20 GB,
-/// and are refused after three minutes of synthesis at 4.2 billion copied triangles).
+/// and are refused after two to three minutes of synthesis at 4.2 billion copied
+/// triangles; the note of [`TYPICAL_COPY_SHARE`] warns of it before the synthesis).
 /// `isosurface_written`: whether `--isosurface` is written too.
+///
+/// A run that passes but would not fit at the share solids typically copy
+/// ([`TYPICAL_COPY_SHARE`]) gets a note to show before the synthesis: it will most likely
+/// be refused once its triangles are counted.
 pub fn check_synthesis_fits(
     stage: &VoxelSynth,
     exemplar: &VoxelExemplar,
     isosurface_written: bool,
-) -> CliResult {
+) -> CliResult<Option<String>> {
     let Some(memory) = machine_memory() else {
-        return Ok(());
+        return Ok(None);
     };
     let source = source_dims(exemplar, stage.source_resolution)?;
     let target = stage.params.target_dims;
-    let sizes = upfront_sizes(exemplar, source, target, isosurface_written);
+    let at_least = upfront_sizes(
+        exemplar,
+        source,
+        target,
+        isosurface_written,
+        LEAST_COPY_SHARE,
+    );
     let what = format!(
         "synthesizing a target of {} samples from a source of {} (at least about {} copied \
          triangles)",
         dims_text(target),
         dims_text(source),
-        sizes.copied_triangles
+        at_least.copied_triangles
     );
-    check_fits(&sizes, Copies::AtLeast, stage, memory, &what)
+    check_fits(&at_least, Copies::AtLeast, stage, memory, &what)?;
+    let typical = upfront_sizes(
+        exemplar,
+        source,
+        target,
+        isosurface_written,
+        TYPICAL_COPY_SHARE,
+    );
+    Ok(likely_refused(&typical, stage, memory))
 }
 
-/// The sizes [`check_synthesis_fits`] checks: the fields', and a tenth of the copied
-/// triangles at the exemplar's mean density ([`LEAST_COPY_SHARE`]; the triangles whose
-/// centroids lie in the exemplar's box, over the source samples).
+/// The note for a run whose `typical` sizes would not fit: what it would then need, and
+/// that the counted check after the synthesis will most likely refuse it.
+fn likely_refused(typical: &RunSizes, stage: &VoxelSynth, memory: (u64, u64)) -> Option<String> {
+    let (needed, advice) = shortfall(typical, Copies::AtLeast, stage, memory)?;
+    Some(format!(
+        "note: copying as solids typically do (about {} triangles), this run would need \
+         about {:.1} GB, more than the {:.1} GB available: it will most likely be refused \
+         once the synthesis has counted its triangles ({advice})",
+        typical.copied_triangles,
+        needed / 1e9,
+        memory.0 as f64 / 1e9
+    ))
+}
+
+/// The sizes [`check_synthesis_fits`] checks: the fields', and `share` of the copied
+/// triangles at the exemplar's mean density (the triangles whose centroids lie in the
+/// exemplar's box, over the source samples).
 fn upfront_sizes(
     exemplar: &VoxelExemplar,
     source: [usize; 3],
     target: [usize; 3],
     isosurface_written: bool,
+    share: f64,
 ) -> RunSizes {
     let [source_samples, target_samples] = [source, target].map(|d| d.iter().product::<usize>());
     let positions = exemplar.mesh.positions();
@@ -169,8 +208,7 @@ fn upfront_sizes(
                 .contains((corners[0] + corners[1] + corners[2]) / 3.0)
         })
         .count();
-    let copied =
-        LEAST_COPY_SHARE * in_box as f64 * target_samples as f64 / source_samples.max(1) as f64;
+    let copied = share * in_box as f64 * target_samples as f64 / source_samples.max(1) as f64;
     RunSizes {
         source_samples,
         target_samples,
@@ -237,25 +275,39 @@ fn check_fits(
     sizes: &RunSizes,
     copies: Copies,
     stage: &VoxelSynth,
-    (available, resident): (u64, u64),
+    memory: (u64, u64),
     what: &str,
 ) -> CliResult {
+    match shortfall(sizes, copies, stage, memory) {
+        None => Ok(()),
+        Some((needed, advice)) => Err(format!(
+            "{what} needs about {:.1} GB, more than the {:.1} GB this machine has available; \
+             {advice}",
+            needed / 1e9,
+            memory.0 as f64 / 1e9
+        )
+        .into()),
+    }
+}
+
+/// When `sizes` would not fit in `(available, resident)` bytes: the bytes they need beyond
+/// what the process holds, and which target dimensions would (or could) fit.
+fn shortfall(
+    sizes: &RunSizes,
+    copies: Copies,
+    stage: &VoxelSynth,
+    (available, resident): (u64, u64),
+) -> Option<(f64, String)> {
     let needed = (sizes.peak_bytes() - resident as f64).max(0.0);
     if needed <= available as f64 {
-        return Ok(());
+        return None;
     }
     let advice = match fitting_target(sizes, stage, available as f64 + resident as f64) {
         Some([x, y, z]) if copies == Copies::Counted => format!("--target-dims {x},{y},{z} fits"),
         Some([x, y, z]) => format!("at most --target-dims {x},{y},{z} could fit"),
         None => "no target fits beside this source; a lower --source-res needs less".into(),
     };
-    Err(format!(
-        "{what} needs about {:.1} GB, more than the {:.1} GB this machine has available; \
-         {advice}",
-        needed / 1e9,
-        available as f64 / 1e9
-    )
-    .into())
+    Some((needed, advice))
 }
 
 /// `x × y × z`.
@@ -388,6 +440,26 @@ mod tests {
     }
 
     #[test]
+    fn a_run_likely_too_large_gets_a_note_before_its_synthesis() {
+        let stage = stage([128; 3]);
+        // The balls' count, taken as what a typical share predicts.
+        assert_eq!(likely_refused(&BALLS, &stage, (2_000_000_000, 0)), None);
+        let note = likely_refused(&BALLS, &stage, (400_000_000, 0)).unwrap();
+        assert!(
+            note.starts_with("note: copying as solids typically do (about 7176153 triangles)"),
+            "{note}"
+        );
+        assert!(
+            note.contains("about 0.5 GB, more than the 0.4 GB available"),
+            "{note}"
+        );
+        assert!(
+            note.ends_with("(at most --target-dims 112,112,112 could fit)"),
+            "{note}"
+        );
+    }
+
+    #[test]
     fn the_upfront_estimate_stays_below_what_runs_copy() {
         // A lower estimate, and not a vacuous one (here 7–9% of the count).
         for volume in geosynth::fixtures::volumes::all(3).unwrap() {
@@ -401,7 +473,9 @@ mod tests {
                 ..VoxelSynth::default()
             };
             let source = source_dims(&exemplar, 24).unwrap();
-            let upfront = upfront_sizes(&exemplar, source, stage.params.target_dims, true);
+            let dims = stage.params.target_dims;
+            let upfront = upfront_sizes(&exemplar, source, dims, true, LEAST_COPY_SHARE);
+            let typical = upfront_sizes(&exemplar, source, dims, true, TYPICAL_COPY_SHARE);
             let field = stage
                 .synthesize_field(&exemplar, &mut RunContext::new(0))
                 .unwrap();
@@ -411,6 +485,13 @@ mod tests {
                 "{}: {} vs {copied}",
                 volume.name,
                 upfront.copied_triangles
+            );
+            // The note's share stays below what these runs copy too.
+            assert!(
+                typical.copied_triangles < copied,
+                "{}: {} vs {copied}",
+                volume.name,
+                typical.copied_triangles
             );
         }
     }
