@@ -38,8 +38,8 @@ use obj::{read_obj_from, write_obj_at};
 use off::write_off_at;
 pub use off::{read_off, write_off};
 pub use replace::{FileReplacement, check_replaceable, replace_file, write_whole};
+use stl::write_stl_at;
 pub use stl::{StlEncoding, read_stl, write_stl, write_stl_ascii};
-use stl::{read_stl_at, write_stl_at};
 use xyz::write_xyz_at;
 pub use xyz::{XyzColumns, read_xyz, write_xyz};
 
@@ -462,9 +462,9 @@ pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
 
 /// [`read_geometry`] with options (e.g. recentring georeferenced data).
 ///
-/// Files are read through a buffer into the geometry's arrays (ASCII STL files are read
-/// whole into memory first, and so are pipes and other files that are not regular).
-/// Either way the result is what [`read_geometry_bytes_with`] gives for the file's bytes.
+/// Files are read through a buffer into the geometry's arrays (pipes and other files that
+/// are not regular are read whole into memory first). Either way the result is what
+/// [`read_geometry_bytes_with`] gives for the file's bytes.
 ///
 /// ```
 /// use pointset_core::io::{self, ReadOptions};
@@ -582,10 +582,10 @@ fn format_of_file(path: &Path, head: &[u8], len: u64) -> Result<Option<(FileForm
 
 /// Reads `len` bytes of `format` from `reader`, which starts at their first byte; `head`
 /// holds their first bytes (all of them, or at least [`SNIFFED_TEXT`]). Every format is
-/// read as it streams in, except ASCII STL, which is read whole first.
+/// read as it streams in.
 fn read_as<R: Read + Seek>(
     format: FileFormat,
-    mut reader: R,
+    reader: R,
     head: &[u8],
     len: u64,
     recentre: bool,
@@ -598,16 +598,7 @@ fn read_as<R: Read + Seek>(
             xyz::read_xyz_from(reader, len, columns, recentre).map(|file| loaded_xyz(file, columns))
         }
         FileFormat::Las => las::read_las_from(reader, head, len, recentre).map(loaded_las),
-        FileFormat::Stl => match stl::binary_facet_count_of(head, len) {
-            Some(count) => stl::read_binary(reader, len, count, recentre).map(loaded_stl),
-            None => {
-                let mut bytes = Vec::new();
-                reader
-                    .read_to_end(&mut bytes)
-                    .map_err(|source| Error::Read { source })?;
-                read_stl_at(&bytes, recentre).map(loaded_stl)
-            }
-        },
+        FileFormat::Stl => stl::read_stl_from(reader, head, len, recentre).map(loaded_stl),
     }
 }
 

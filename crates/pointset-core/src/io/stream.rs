@@ -349,12 +349,12 @@ mod tests {
     }
 
     proptest! {
-        /// OBJ, OFF and XYZ text read a few bytes at a time (lines straddling refills)
-        /// gives what it gives read from memory, edited or cut short.
+        /// OBJ, OFF, XYZ and ASCII STL text read a few bytes at a time (lines straddling
+        /// refills) gives what it gives read from memory, edited or cut short.
         #[test]
         fn small_reads_of_text_files_read_what_memory_reads(
             values in proptest::collection::vec(-1e3f32..1e3, 3..10),
-            faces in 0usize..6,
+            faces in 1usize..6,
             edits in proptest::collection::vec((0usize..1000, any::<u8>()), 0..3),
             cut in proptest::option::of(0usize..1000),
             at_most in 1usize..12,
@@ -363,10 +363,12 @@ mod tests {
             let columns = io::XyzColumns::Normals;
             let points = Geometry::Points(geometry.points().clone());
             let options = WriteOptions::default();
+            let ascii_stl = WriteOptions::default().stl_encoding(io::StlEncoding::Ascii);
             for (mut bytes, format) in [
                 (io::encode_geometry(&geometry, FileFormat::Obj, &options).unwrap(), FileFormat::Obj),
                 (io::encode_geometry(&geometry, FileFormat::Off, &options).unwrap(), FileFormat::Off),
                 (io::encode_geometry(&points, FileFormat::Xyz(columns), &options).unwrap(), FileFormat::Xyz(columns)),
+                (io::encode_geometry(&geometry, FileFormat::Stl, &ascii_stl).unwrap(), FileFormat::Stl),
             ] {
                 for &(at, byte) in &edits {
                     let len = bytes.len();
@@ -381,6 +383,8 @@ mod tests {
                         FileFormat::Xyz(_) => xyz::read_xyz_from(reader, len, columns, true)
                             .map(|file| (file.geometry, file.origin, file.comments)),
                         FileFormat::Off => off::read_off_from(reader, len, true)
+                            .map(|file| (file.geometry, file.origin, file.comments)),
+                        FileFormat::Stl => stl::read_stl_from(reader, &bytes, len, true)
                             .map(|file| (file.geometry, file.origin, file.comments)),
                         _ => obj::read_obj_from(reader, len, true),
                     }

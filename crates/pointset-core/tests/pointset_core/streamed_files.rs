@@ -157,10 +157,35 @@ fn text_files_read_from_disk_equal_their_bytes_read_from_memory() {
     let long = |text: &[u8]| [format!("# {}\n", "c".repeat(5000)).as_bytes(), text].concat();
     let bad_text = |text: &[u8]| [text, b"\xff\xfe\n"].concat();
     let mark = |text: &[u8]| [b"\xEF\xBB\xBF".as_slice(), text].concat();
+    let stl_options = WriteOptions::default().stl_encoding(io::StlEncoding::Ascii);
+    let stl = io::encode_geometry(&mesh, FileFormat::Stl, &stl_options).unwrap();
+    let late = stl.len() - 20;
+    let with_byte = |at: usize, byte: u8| {
+        let mut text = stl.clone();
+        text[at] = byte;
+        text
+    };
+    let syntax_then = |byte: u8| {
+        let mut text = with_byte(late, byte);
+        let at = 40 + text[40..].iter().position(|&b| b == b'v').unwrap();
+        text[at] = b'w';
+        text
+    };
+    let blank = [vec![b' '; 5000], stl.clone()].concat();
     let off = io::encode_geometry(&mesh, FileFormat::Off, &options).unwrap();
     let off_comment = [off.as_slice(), b"# after the faces\n"].concat();
     let off_huge = b"OFF\n1000000000 0 0\n0 0 0\n".to_vec();
     let files: Vec<(&str, Vec<u8>, bool)> = vec![
+        // ASCII STL: a NUL byte anywhere makes the file binary (of the wrong size), and
+        // text that is not UTF-8 anywhere is refused before what the text says.
+        ("a.stl", stl.clone(), true),
+        ("mark.stl", mark(&stl), true),
+        ("crlf.stl", crlf(&stl), true),
+        ("nul.stl", with_byte(late, 0), false),
+        ("syntax_nul.stl", syntax_then(0), false),
+        ("syntax_not_text.stl", syntax_then(0xff), false),
+        ("blank.stl", blank, true),
+        ("cut.stl", stl[..stl.len() / 2].to_vec(), false),
         ("m.off", off.clone(), true),
         ("unnamed", off.clone(), true),
         ("crlf.off", crlf(&off), true),

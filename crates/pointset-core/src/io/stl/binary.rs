@@ -32,17 +32,18 @@ fn declared_facets(bytes: &[u8]) -> Option<usize> {
     usize::try_from(u32::from_le_bytes(count)).ok()
 }
 
-/// Why `bytes` are not a binary STL of the size its header declares.
-pub(super) fn binary_size_error(bytes: &[u8]) -> Error {
-    let Some(count) = declared_facets(bytes) else {
+/// Why a file of `len` bytes that starts with `head` (at least its first 84 bytes, if it
+/// has them) is not a binary STL of the size its header declares.
+pub(super) fn binary_size_error_of(head: &[u8], len: u64) -> Error {
+    let Some(count) = declared_facets(head) else {
         return Error::UnexpectedEof {
             format: FileFormat::Stl,
-            location: Location::Byte(bytes.len() as u64),
+            location: Location::Byte(len),
             what: "the 84-byte binary header (80 bytes of text and the facet count)".into(),
         };
     };
     let needed = (count as u128) * BINARY_FACET_BYTES as u128;
-    let available = (bytes.len() - BINARY_HEADER_BYTES) as u128;
+    let available = u128::from(len) - BINARY_HEADER_BYTES as u128;
     if needed > available {
         Error::HeaderExceedsFile {
             format: FileFormat::Stl,

@@ -10,7 +10,9 @@
 //! back as a degenerate triangle ([`TriMesh::degenerate_faces`]).
 //!
 //! Text files may use `\r\n` line ends (and, through [`super::read_geometry`], start with
-//! a UTF-8 byte-order mark).
+//! a UTF-8 byte-order mark). Both encodings are read as they stream in: binary facets one
+//! record at a time, welded as they come; ASCII facets word by word into corners, welded
+//! once all are read.
 //!
 //! The facet normals are read past, not used: the corners' order (counter-clockwise seen
 //! from outside) is what the rest of the library takes as orientation, as most tools do, and
@@ -43,7 +45,7 @@ use super::{Geometry, origin_for};
 use crate::weld::PositionWelder;
 use crate::{Error, PointSet, Result, TriMesh};
 use ascii::ascii_corners;
-use binary::{BinaryFacets, binary_size_error, header_text};
+use binary::{BinaryFacets, binary_size_error_of, header_text};
 pub(crate) use binary::{binary_facet_count, binary_facet_count_of};
 pub use write::{StlEncoding, write_stl, write_stl_ascii};
 pub(crate) use write::{check_storable, write_stl_at};
@@ -97,22 +99,47 @@ pub fn read_stl(bytes: &[u8]) -> Result<Geometry> {
 /// [`read_stl`], with positions stored relative to an origin when `recentre_far` is set and
 /// the data lies far from the file's origin ([`super::ReadOptions::recentre_far`]).
 pub(crate) fn read_stl_at(bytes: &[u8], recentre_far: bool) -> Result<StlFile> {
-    if let Some(count) = binary_facet_count(bytes) {
-        read_binary(Cursor::new(bytes), bytes.len() as u64, count, recentre_far)
-    } else if starts_like_ascii(bytes) && !bytes.contains(&0) {
-        let (corners, names) = ascii_corners(bytes)?;
-        let origin = origin_for(corners.iter().copied(), recentre_far);
-        let facets = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]);
-        Ok(StlFile {
-            geometry: Geometry::Mesh(weld(facets, corners.len() / 3, origin)?),
-            encoding: "ascii",
-            comments: names,
-            origin,
-            notes: Vec::new(),
-        })
-    } else {
-        Err(binary_size_error(bytes))
+    read_stl_from(Cursor::new(bytes), bytes, bytes.len() as u64, recentre_far)
+}
+
+/// [`read_stl_at`] of the `len` bytes `reader` gives, from their first; `head` holds the
+/// first of them (all, or at least the first text line and 6 bytes past its start). Both
+/// encodings are read as they stream in, except an ASCII file whose head is all blank,
+/// which is read whole.
+pub(crate) fn read_stl_from<R: Read + Seek>(
+    mut reader: R,
+    head: &[u8],
+    len: u64,
+    recentre_far: bool,
+) -> Result<StlFile> {
+    if let Some(count) = binary_facet_count_of(head, len) {
+        return read_binary(reader, len, count, recentre_far);
     }
+    let whole = head.len() as u64 == len;
+    match head.iter().position(|b| !b.is_ascii_whitespace()) {
+        Some(s) if whole || s + 6 <= head.len() => {}
+        None if whole => {}
+        _ => {
+            let mut bytes = Vec::new();
+            reader
+                .read_to_end(&mut bytes)
+                .map_err(|source| Error::Read { source })?;
+            return read_stl_at(&bytes, recentre_far);
+        }
+    }
+    if !starts_like_ascii(head) {
+        return Err(binary_size_error_of(head, len));
+    }
+    let (corners, names) = ascii_corners(reader, head, len)?;
+    let origin = origin_for(corners.iter().copied(), recentre_far);
+    let facets = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]);
+    Ok(StlFile {
+        geometry: Geometry::Mesh(weld(facets, corners.len() / 3, origin)?),
+        encoding: "ascii",
+        comments: names,
+        origin,
+        notes: Vec::new(),
+    })
 }
 
 /// Reads a binary STL of `len` bytes and `count` facets (its size checked against them)
