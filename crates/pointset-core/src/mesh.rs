@@ -224,6 +224,22 @@ impl TriMesh {
         self.vertices.set_normals(Some(normals))
     }
 
+    /// Whether some vertices share a position: whether [`Self::welded`] would merge any.
+    /// It sorts a copy of the positions' bits (12 bytes a vertex) instead of building the
+    /// welded mesh.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::{PointSet, TriMesh};
+    /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(-0.0, 0.0, 0.0)];
+    /// let mesh = TriMesh::new(PointSet::new(p)?, vec![[0, 1, 2], [3, 2, 1]])?;
+    /// assert!(mesh.has_coincident_vertices()); // -0 and 0 are one position
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn has_coincident_vertices(&self) -> bool {
+        crate::weld::any_coincident(self.positions())
+    }
+
     /// The mesh with the vertices that share a position merged into the first of them.
     /// Files that split vertices along UV or normal seams (OBJ readers do, and this one
     /// too) describe the same surface with more vertices, and their [`Self::topology`]
