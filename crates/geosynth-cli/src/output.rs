@@ -109,32 +109,29 @@ pub(crate) fn report_not_kept(globals: Globals, path: &Path, notes: &[String]) {
 
 /// A progress bar over `total` steps, hidden with `--quiet` or when stderr is not a terminal.
 pub(crate) fn progress_bar(globals: Globals, total: u64, label: &str) -> ProgressBar {
-    if globals.quiet {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(total);
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed_precise}")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar.set_message(label.to_string());
+    let bar = styled_bar(globals, total, label, "{pos}/{len}");
     // The clock keeps running between updates: a long first step (a large exemplar's
     // preparation) would otherwise show a frozen 00:00:00.
-    bar.enable_steady_tick(std::time::Duration::from_millis(500));
+    if !bar.is_hidden() {
+        bar.enable_steady_tick(std::time::Duration::from_millis(500));
+    }
     bar
 }
 
 /// A progress bar over `total` bytes, hidden with `--quiet` or when stderr is not a
 /// terminal.
 pub(crate) fn bytes_bar(globals: Globals, label: &str, total: u64) -> ProgressBar {
+    styled_bar(globals, total, label, "{bytes}/{total_bytes}")
+}
+
+/// A bar labelled `label` over `total`, showing `counts` (an indicatif template part).
+fn styled_bar(globals: Globals, total: u64, label: &str, counts: &str) -> ProgressBar {
     if globals.quiet {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(total);
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg:>12} [{bar:30}] {bytes}/{total_bytes} {elapsed_precise}")
-    {
+    let template = format!("{{msg:>12}} [{{bar:30}}] {counts} {{elapsed_precise}}");
+    if let Ok(style) = ProgressStyle::with_template(&template) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_message(label.to_string());

@@ -224,6 +224,19 @@ mod tests {
         )
     }
 
+    /// `bytes` with each `(at, byte)` edit made (at `at` modulo the length), then cut to
+    /// `cut` bytes if given.
+    fn edited(mut bytes: Vec<u8>, edits: &[(usize, u8)], cut: Option<usize>) -> Vec<u8> {
+        for &(at, byte) in edits {
+            let len = bytes.len();
+            bytes[at % len] = byte;
+        }
+        if let Some(cut) = cut {
+            bytes.truncate(cut);
+        }
+        bytes
+    }
+
     proptest! {
         /// Read a few bytes at a time, so that tokens, words, lines and the header
         /// straddle refills, a file gives what it gives read from memory: the same
@@ -242,15 +255,8 @@ mod tests {
             let geometry = geometry(&values, normals, ty, faces);
             for encoding in PlyEncoding::ALL {
                 let options = WriteOptions::default().ply_encoding(encoding);
-                let mut bytes = io::encode_geometry(&geometry, FileFormat::Ply, &options)
-                    .unwrap();
-                for &(at, byte) in &edits {
-                    let len = bytes.len();
-                    bytes[at % len] = byte;
-                }
-                if let Some(cut) = cut {
-                    bytes.truncate(cut);
-                }
+                let bytes = io::encode_geometry(&geometry, FileFormat::Ply, &options).unwrap();
+                let bytes = edited(bytes, &edits, cut);
                 let len = bytes.len() as u64;
                 let reader = Trickle::new(&bytes, at_most);
                 let streamed = read_ply_geometry_from(reader, len, true)
@@ -364,19 +370,13 @@ mod tests {
             let points = Geometry::Points(geometry.points().clone());
             let options = WriteOptions::default();
             let ascii_stl = WriteOptions::default().stl_encoding(io::StlEncoding::Ascii);
-            for (mut bytes, format) in [
+            for (bytes, format) in [
                 (io::encode_geometry(&geometry, FileFormat::Obj, &options).unwrap(), FileFormat::Obj),
                 (io::encode_geometry(&geometry, FileFormat::Off, &options).unwrap(), FileFormat::Off),
                 (io::encode_geometry(&points, FileFormat::Xyz(columns), &options).unwrap(), FileFormat::Xyz(columns)),
                 (io::encode_geometry(&geometry, FileFormat::Stl, &ascii_stl).unwrap(), FileFormat::Stl),
             ] {
-                for &(at, byte) in &edits {
-                    let len = bytes.len();
-                    bytes[at % len] = byte;
-                }
-                if let Some(cut) = cut {
-                    bytes.truncate(cut);
-                }
+                let bytes = edited(bytes, &edits, cut);
                 let len = bytes.len() as u64;
                 let read = |reader: Trickle<'_>| {
                     match format {

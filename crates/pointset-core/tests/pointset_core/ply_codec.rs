@@ -359,8 +359,10 @@ proptest! {
                 let b = through_document(&bytes, recentre).map_err(|e| e.to_string());
                 prop_assert_eq!(&a, &b);
             }
-            let (from_file, from_bytes) = read_from_file_and_bytes("x.ply", &bytes);
-            prop_assert_eq!(from_file, from_bytes);
+            for recentre in [false, true] {
+                let (from_file, from_bytes) = read_from_file_and_bytes("x.ply", &bytes, recentre);
+                prop_assert_eq!(from_file, from_bytes);
+            }
         }
     }
 }

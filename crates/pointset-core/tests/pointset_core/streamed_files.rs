@@ -9,11 +9,12 @@ use pointset_core::{CancelFlag, Error, PointSet, ProgressUpdate, RunContext, Tri
 
 use super::ply_codec::geometry_with_parts;
 
-/// `bytes` read by `read_geometry` from a file called `name` (PLY is read from the file
-/// through a buffer), and by `read_geometry_bytes` from memory, with errors as text.
+/// `bytes` read by `read_geometry_with` from a file called `name` (read through a buffer)
+/// and by `read_geometry_bytes_with` from memory, with errors as text.
 pub(crate) fn read_from_file_and_bytes(
     name: &str,
     bytes: &[u8],
+    recentre: bool,
 ) -> (
     Result<io::LoadedGeometry, String>,
     Result<io::LoadedGeometry, String>,
@@ -21,10 +22,23 @@ pub(crate) fn read_from_file_and_bytes(
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(name);
     std::fs::write(&path, bytes).unwrap();
+    let options = io::ReadOptions::default().recentre_far(recentre);
     (
-        io::read_geometry(&path).map_err(|e| e.to_string()),
-        io::read_geometry_bytes(&path, bytes).map_err(|e| e.to_string()),
+        io::read_geometry_with(&path, &options).map_err(|e| e.to_string()),
+        io::read_geometry_bytes_with(&path, bytes, &options).map_err(|e| e.to_string()),
     )
+}
+
+/// Each file, with and without recentring, read both ways: the same geometry or error,
+/// and readable or not as the list says.
+fn check_files(files: Vec<(&str, Vec<u8>, bool)>) {
+    for (name, bytes, readable) in files {
+        for recentre in [false, true] {
+            let (from_file, from_bytes) = read_from_file_and_bytes(name, &bytes, recentre);
+            assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
+            assert_eq!(from_file, from_bytes, "{name}, recentre {recentre}");
+        }
+    }
 }
 
 #[test]
@@ -67,11 +81,7 @@ fn ply_files_read_from_disk_equal_their_bytes_read_from_memory() {
     marked[..7].copy_from_slice(b"\xEF\xBB\xBFply\n");
     files.push(("marked.stl", marked.clone(), true));
     files.push(("marked.ply", marked, false));
-    for (name, bytes, readable) in files {
-        let (from_file, from_bytes) = read_from_file_and_bytes(name, &bytes);
-        assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
-        assert_eq!(from_file, from_bytes, "{name}");
-    }
+    check_files(files);
 }
 
 #[test]
@@ -125,19 +135,7 @@ fn stl_and_las_files_read_from_disk_equal_their_bytes_read_from_memory() {
         ("short.las", short_records, false),
         ("past_end.las", offset_past_end, false),
     ];
-    for (name, bytes, readable) in files {
-        for recentre in [false, true] {
-            let dir = tempfile::tempdir().unwrap();
-            let path = dir.path().join(name);
-            std::fs::write(&path, &bytes).unwrap();
-            let options = io::ReadOptions::default().recentre_far(recentre);
-            let from_file = io::read_geometry_with(&path, &options).map_err(|e| e.to_string());
-            let from_bytes =
-                io::read_geometry_bytes_with(&path, &bytes, &options).map_err(|e| e.to_string());
-            assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
-            assert_eq!(from_file, from_bytes, "{name}, recentre {recentre}");
-        }
-    }
+    check_files(files);
 }
 
 #[test]
@@ -214,11 +212,7 @@ fn text_files_read_from_disk_equal_their_bytes_read_from_memory() {
         ("bad.xyzn", bad_text(&xyz), false),
         ("unnamed", xyz.clone(), false),
     ];
-    for (name, bytes, readable) in files {
-        let (from_file, from_bytes) = read_from_file_and_bytes(name, &bytes);
-        assert_eq!(from_file.is_ok(), readable, "{name}: {from_file:?}");
-        assert_eq!(from_file, from_bytes, "{name}");
-    }
+    check_files(files);
 }
 
 #[test]
