@@ -26,12 +26,12 @@
 //! other attributes and faces are not stored ([`super::FileFormat::unstored`]; a mesh is
 //! refused before writing).
 
-use std::io::{Read, Write};
+use std::io::{Cursor, Read, Seek, SeekFrom, Write};
 
 use glam::DVec3;
 
 use super::stream::ByteStream;
-use super::{FileFormat, Geometry, relative_positions};
+use super::{FileFormat, Geometry, origin_for};
 use crate::{Attribute, Error, Location, PointSet, Result, ScalarType};
 
 /// The smallest public header: LAS 1.0 to 1.2.
@@ -210,15 +210,16 @@ pub fn read_las(bytes: &[u8]) -> Result<Geometry> {
 /// [`read_las`], with positions relative to an origin when `recentre_far` is set and the
 /// data lies far from the file's origin.
 pub(crate) fn read_las_at(bytes: &[u8], recentre_far: bool) -> Result<LasFile> {
-    read_las_from(bytes, bytes, bytes.len() as u64, recentre_far)
+    read_las_from(Cursor::new(bytes), bytes, bytes.len() as u64, recentre_far)
 }
 
 /// Reads a LAS file of `len` bytes from `reader`, which starts at its first byte; `head`
 /// holds the file's first bytes (the whole file, or at least its first 4 KiB, which hold
 /// any public header). The points are decoded as they are read: the file is never held
-/// whole.
-pub(crate) fn read_las_from(
-    reader: impl Read,
+/// whole. With `recentre_far` the records are read twice, the first time for the origin,
+/// so that no position is held in double precision.
+pub(crate) fn read_las_from<R: Read + Seek>(
+    mut reader: R,
     head: &[u8],
     len: u64,
     recentre_far: bool,
@@ -237,11 +238,6 @@ pub(crate) fn read_las_from(
             ),
         ));
     }
-    let ends_early = |at: u64, what: String| Error::UnexpectedEof {
-        format: FileFormat::Las,
-        location: Location::Byte(at),
-        what,
-    };
     if point_offset > len {
         return Err(ends_early(
             len,
@@ -258,13 +254,30 @@ pub(crate) fn read_las_from(
         });
     }
     let count = h.count as usize;
-    let mut stream = ByteStream::new(reader, len);
-    if !stream.skip(point_offset)? {
-        return Err(ends_early(
-            stream.position(),
-            "the header and its records".into(),
-        ));
-    }
+    let position = |r: &[u8]| {
+        let raw = [0, 4, 8].map(|at| f64::from(le_i32(r, at)));
+        DVec3::from_array(raw) * h.scale + h.offset
+    };
+    let mut record = vec![0u8; h.record_bytes];
+    // The origin needs every position first: a first pass over the records finds it,
+    // instead of holding each position in double precision (24 bytes a point).
+    let start = reader
+        .stream_position()
+        .map_err(|source| Error::Read { source })?;
+    let origin = if recentre_far {
+        let mut records = PointRecords::new(&mut reader, len, point_offset, count)?;
+        let origin = origin_for(
+            std::iter::from_fn(|| records.next(&mut record).map(position)),
+            true,
+        );
+        records.finish()?;
+        reader
+            .seek(SeekFrom::Start(start))
+            .map_err(|source| Error::Read { source })?;
+        origin
+    } else {
+        DVec3::ZERO
+    };
     let mut positions = Vec::with_capacity(count);
     let mut intensity = Vec::with_capacity(count);
     let mut class = Vec::with_capacity(count);
@@ -272,24 +285,16 @@ pub(crate) fn read_las_from(
     let mut colours = Vec::with_capacity(if colours_at.is_some() { count } else { 0 });
     let class_at = if h.format >= 6 { 16 } else { 15 };
     let class_mask = if h.format >= 6 { 0xFF } else { 0x1F };
-    let mut r = vec![0u8; h.record_bytes];
-    for point in 0..count {
-        if !stream.read_exact(&mut r)? {
-            return Err(ends_early(stream.position(), format!("point {point}")));
-        }
-        let raw = DVec3::new(
-            f64::from(le_i32(&r, 0)),
-            f64::from(le_i32(&r, 4)),
-            f64::from(le_i32(&r, 8)),
-        );
-        positions.push(raw * h.scale + h.offset);
-        intensity.push(f32::from(le_u16(&r, 12)));
+    let mut records = PointRecords::new(&mut reader, len, point_offset, count)?;
+    while let Some(r) = records.next(&mut record) {
+        positions.push((position(r) - origin).as_vec3());
+        intensity.push(f32::from(le_u16(r, 12)));
         class.push(f32::from(r[class_at] & class_mask));
         if let Some(at) = colours_at {
-            colours.push([le_u16(&r, at), le_u16(&r, at + 2), le_u16(&r, at + 4)]);
+            colours.push([le_u16(r, at), le_u16(r, at + 2), le_u16(r, at + 4)]);
         }
     }
-    let (positions, origin) = relative_positions(&positions, recentre_far);
+    records.finish()?;
     let mut points = PointSet::new(positions)?;
     points.set_attribute(Attribute::new("intensity", intensity).with_storage(ScalarType::U16))?;
     points.set_attribute(Attribute::new("classification", class).with_storage(ScalarType::U8))?;
@@ -320,6 +325,75 @@ pub(crate) fn read_las_from(
         comments,
         notes: skipped(&h),
     })
+}
+
+/// A LAS file's point records read one at a time from a stream, after skipping to the
+/// first; a stream that ends early or fails ends them, and [`PointRecords::finish`] then
+/// returns the error.
+struct PointRecords<R> {
+    stream: ByteStream<R>,
+    /// The records still to read.
+    left: usize,
+    /// The next record's index.
+    point: usize,
+    error: Option<Error>,
+}
+
+impl<R: Read> PointRecords<R> {
+    /// The `count` records of the LAS file of `len` bytes that `reader` starts, from byte
+    /// `point_offset`.
+    fn new(reader: R, len: u64, point_offset: u64, count: usize) -> Result<Self> {
+        let mut stream = ByteStream::new(reader, len);
+        if !stream.skip(point_offset)? {
+            return Err(ends_early(
+                stream.position(),
+                "the header and its records".into(),
+            ));
+        }
+        Ok(PointRecords {
+            stream,
+            left: count,
+            point: 0,
+            error: None,
+        })
+    }
+
+    /// The next record, read into `record`; `None` at the end or with the error kept.
+    fn next<'r>(&mut self, record: &'r mut [u8]) -> Option<&'r [u8]> {
+        if self.left == 0 || self.error.is_some() {
+            return None;
+        }
+        match self.stream.read_exact(record) {
+            Ok(true) => {
+                self.left -= 1;
+                self.point += 1;
+                Some(record)
+            }
+            Ok(false) => {
+                let at = self.stream.position();
+                self.error = Some(ends_early(at, format!("point {}", self.point)));
+                None
+            }
+            Err(error) => {
+                self.error = Some(error);
+                None
+            }
+        }
+    }
+
+    /// After the records: the error that ended them early, if one did.
+    fn finish(self) -> Result<()> {
+        self.error.map_or(Ok(()), Err)
+    }
+}
+
+/// The error of a file that ends at byte `at`, before `what`.
+fn ends_early(at: u64, what: String) -> Error {
+    Error::UnexpectedEof {
+        format: FileFormat::Las,
+        location: Location::Byte(at),
+        what,
+    }
 }
 
 /// What the point set does not keep of a file with header `h`.
