@@ -26,11 +26,11 @@
 //! other attributes and faces are not stored ([`super::FileFormat::unstored`]; a mesh is
 //! refused before writing).
 
-use std::io::{Cursor, Read, Seek, SeekFrom, Write};
+use std::io::{Cursor, Read, Seek, Write};
 
 use glam::DVec3;
 
-use super::stream::ByteStream;
+use super::stream::{ByteStream, rewound};
 use super::{FileFormat, Geometry, origin_for};
 use crate::{Attribute, Error, Location, PointSet, Result, ScalarType};
 
@@ -261,20 +261,14 @@ pub(crate) fn read_las_from<R: Read + Seek>(
     let mut record = vec![0u8; h.record_bytes];
     // The origin needs every position first: a first pass over the records finds it,
     // instead of holding each position in double precision (24 bytes a point).
-    let start = reader
-        .stream_position()
-        .map_err(|source| Error::Read { source })?;
     let origin = if recentre_far {
-        let mut records = PointRecords::new(&mut reader, len, point_offset, count)?;
-        let origin = origin_for(
-            std::iter::from_fn(|| records.next(&mut record).map(position)),
-            true,
-        );
-        records.finish()?;
-        reader
-            .seek(SeekFrom::Start(start))
-            .map_err(|source| Error::Read { source })?;
-        origin
+        rewound(&mut reader, |reader| {
+            let mut records = PointRecords::new(reader, len, point_offset, count)?;
+            let positions = std::iter::from_fn(|| records.next(&mut record).map(position));
+            let origin = origin_for(positions, true);
+            records.finish()?;
+            Ok(origin)
+        })?
     } else {
         DVec3::ZERO
     };

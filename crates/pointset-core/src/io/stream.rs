@@ -2,7 +2,7 @@
 //! position reached and the length the file had when it was opened (which bounds what a
 //! binary header may promise, and the buffer's size).
 
-use std::io::{ErrorKind, Read};
+use std::io::{ErrorKind, Read, Seek, SeekFrom};
 
 use crate::{Error, Result};
 
@@ -176,6 +176,20 @@ impl<R: Read> ByteStream<R> {
         }
         Ok(true)
     }
+}
+
+/// Runs `pass` over `reader` and puts the reader back where it stood: the first pass over
+/// a file read twice (for the origin of its positions, before reading them relative to
+/// it).
+pub(crate) fn rewound<R: Read + Seek, T>(
+    reader: &mut R,
+    pass: impl FnOnce(&mut R) -> Result<T>,
+) -> Result<T> {
+    let read = |source| Error::Read { source };
+    let start = reader.stream_position().map_err(read)?;
+    let out = pass(reader)?;
+    reader.seek(SeekFrom::Start(start)).map_err(read)?;
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -37,10 +37,11 @@ mod ascii;
 mod binary;
 mod write;
 
-use std::io::{Cursor, Read, Seek, SeekFrom};
+use std::io::{Cursor, Read, Seek};
 
 use glam::DVec3;
 
+use super::stream::rewound;
 use super::{Geometry, origin_for};
 use crate::weld::PositionWelder;
 use crate::{Error, PointSet, Result, TriMesh};
@@ -152,17 +153,13 @@ pub(crate) fn read_binary<R: Read + Seek>(
     count: usize,
     recentre_far: bool,
 ) -> Result<StlFile> {
-    let start = reader
-        .stream_position()
-        .map_err(|source| Error::Read { source })?;
     let origin = if recentre_far {
-        let (mut facets, _) = BinaryFacets::new(&mut reader, len, count)?;
-        let origin = origin_for(facets.by_ref().flatten(), recentre_far);
-        facets.finish()?;
-        reader
-            .seek(SeekFrom::Start(start))
-            .map_err(|source| Error::Read { source })?;
-        origin
+        rewound(&mut reader, |reader| {
+            let (mut facets, _) = BinaryFacets::new(reader, len, count)?;
+            let origin = origin_for(facets.by_ref().flatten(), true);
+            facets.finish()?;
+            Ok(origin)
+        })?
     } else {
         DVec3::ZERO
     };
