@@ -99,39 +99,43 @@ impl ObjLines {
         positions
     }
 
-    /// Reads an OBJ file's lines from `stream`.
+    /// Reads an OBJ file's lines from `stream`. A line ending in `\` continues on the
+    /// next: such lines are joined (errors name the first of them); the others are read
+    /// where they lie.
     pub(super) fn read<R: Read>(stream: &mut ByteStream<R>) -> Result<Self> {
         let mut lines = ObjLines::default();
-        let (mut raw, mut text) = (Vec::new(), String::new());
-        let mut number = 0;
+        let (mut raw, mut joined) = (Vec::new(), String::new());
+        let (mut number, mut first) = (0, 1);
         loop {
-            // A line ending in `\` continues on the next; errors name its first line.
-            text.clear();
-            let first = number + 1;
-            loop {
-                let not_text = |at| malformed(number + 1, format!("not UTF-8 text (at byte {at})"));
-                let Some(line) = stream.read_text_line(&mut raw, not_text)? else {
-                    break;
-                };
-                number += 1;
-                match line.trim_end().strip_suffix('\\') {
-                    Some(part) => {
-                        text.push_str(part);
-                        text.push(' ');
-                    }
-                    None => {
-                        text.push_str(line);
-                        break;
-                    }
+            let not_text = |at| malformed(number + 1, format!("not UTF-8 text (at byte {at})"));
+            let Some(line) = stream.read_text_line(&mut raw, not_text)? else {
+                break;
+            };
+            number += 1;
+            match line.trim_end().strip_suffix('\\') {
+                Some(part) => {
+                    joined.push_str(part);
+                    joined.push(' ');
+                }
+                None if joined.is_empty() => {
+                    lines.line(line, number)?;
+                    first = number + 1;
+                }
+                None => {
+                    joined.push_str(line);
+                    lines.line(&joined, first)?;
+                    joined.clear();
+                    first = number + 1;
                 }
             }
-            if number < first {
-                // The numbering is done: free its table (about 30 bytes a vertex).
-                lines.numbering = HashMap::default();
-                return Ok(lines);
-            }
-            lines.line(&text, first)?;
         }
+        // A continuation on the last line ends with the file.
+        if !joined.is_empty() {
+            lines.line(&joined, first)?;
+        }
+        // The numbering is done: free its table (about 30 bytes a vertex).
+        lines.numbering = HashMap::default();
+        Ok(lines)
     }
 
     /// Reads one (logical) line, the `number`th of the file.
