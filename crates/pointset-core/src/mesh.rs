@@ -609,6 +609,13 @@ pub(crate) mod tests {
         assert!(!fan.is_closed_manifold());
     }
 
+    /// `triangles` on `n` vertices spaced along x: meshes whose connectivity is all that
+    /// counts.
+    fn mesh_on_a_line(n: u32, triangles: &[[u32; 3]]) -> TriMesh {
+        let positions = (0..n).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect();
+        TriMesh::new(PointSet::new(positions).unwrap(), triangles.to_vec()).unwrap()
+    }
+
     proptest::proptest! {
         /// The edge counts agree with a count by hash map over random triangle soups
         /// (borders, flips, fans, repeated and degenerate triangles).
@@ -616,9 +623,7 @@ pub(crate) mod tests {
         fn topology_counts_edges_as_a_hash_map_does(
             triangles in proptest::collection::vec(proptest::array::uniform3(0u32..9), 0..40),
         ) {
-            let v = PointSet::new((0..9).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect())
-                .unwrap();
-            let t = TriMesh::new(v, triangles.clone()).unwrap().topology();
+            let t = mesh_on_a_line(9, &triangles).topology();
             let mut uses: std::collections::HashMap<(u32, u32), (usize, usize)> =
                 std::collections::HashMap::new();
             for tri in &triangles {
@@ -644,9 +649,7 @@ pub(crate) mod tests {
         fn duplicate_faces_agree_with_a_scan_of_every_pair(
             triangles in proptest::collection::vec(proptest::array::uniform3(0u32..5), 0..30),
         ) {
-            let v = PointSet::new((0..5).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect())
-                .unwrap();
-            let mesh = TriMesh::new(v, triangles.clone()).unwrap();
+            let mesh = mesh_on_a_line(5, &triangles);
             let sorted = |t: [u32; 3]| {
                 let mut c = t;
                 c.sort_unstable();
