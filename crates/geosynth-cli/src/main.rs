@@ -2,6 +2,7 @@
 
 mod commands;
 mod input_file;
+mod interrupt;
 mod json_report;
 mod memory;
 mod output;
@@ -70,6 +71,7 @@ pub(crate) struct Globals {
 }
 
 fn main() -> ExitCode {
+    interrupt::install();
     let matches = Cli::command().get_matches();
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(cli) => cli,
@@ -116,6 +118,7 @@ fn main() -> ExitCode {
         Command::Fixtures(args) => commands::fixtures::run(&args, globals),
         Command::Demo(args) => commands::demo::run(&args, globals),
     };
+    interrupt::wait_if_stopping();
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

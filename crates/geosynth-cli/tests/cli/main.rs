@@ -13,6 +13,8 @@ mod params;
 mod quilt;
 mod quilt_maps;
 mod remesh;
+#[cfg(unix)]
+mod signals;
 mod surfaces;
 mod voxel;
 

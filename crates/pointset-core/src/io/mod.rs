@@ -37,7 +37,9 @@ pub use obj::{read_obj, write_obj};
 use obj::{read_obj_from, write_obj_at};
 use off::write_off_at;
 pub use off::{read_off, write_off};
-pub use replace::{FileReplacement, check_replaceable, replace_file, write_whole};
+pub use replace::{
+    FileReplacement, abandon_replacements, check_replaceable, replace_file, write_whole,
+};
 use stl::write_stl_at;
 pub use stl::{StlEncoding, read_stl, write_stl, write_stl_ascii};
 use xyz::write_xyz_at;

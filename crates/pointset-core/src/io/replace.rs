@@ -10,7 +10,9 @@
 //! beside the output (a folder the user may not write, but a file they may), and where
 //! the output is not a regular file (a device such as `/dev/null`, a pipe), it is written
 //! in place, as before. A process killed while writing leaves its temporary file
-//! (`.NAME.geosynth-PID-N.tmp`) behind, and the output untouched.
+//! (`.NAME.geosynth-PID-N.tmp`) behind, and the output untouched, unless something
+//! calls [`abandon_replacements`] before the process ends (the `geosynth` tool does on
+//! Ctrl-C, `SIGTERM` and `SIGHUP`; nothing can on `SIGKILL`).
 //!
 //! Unlike writing in place, a replaced file is a new file: other hard links to the old
 //! one keep the old bytes, its owner is the writing user, extended attributes are not
@@ -22,9 +24,77 @@ use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, ErrorKind, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
 /// Numbers the temporary files this process makes, so threads never share one.
 static NEXT_TEMPORARY: AtomicU64 = AtomicU64::new(0);
+
+/// The replacements of this process that are neither committed nor dropped yet, and
+/// whether [`abandon_replacements`] has been called.
+static UNFINISHED: Mutex<Unfinished> = Mutex::new(Unfinished {
+    replacements: Vec::new(),
+    abandoned: false,
+});
+
+/// What [`UNFINISHED`] holds.
+struct Unfinished {
+    /// Each unfinished replacement's temporary file and target.
+    replacements: Vec<(PathBuf, PathBuf)>,
+    abandoned: bool,
+}
+
+impl Unfinished {
+    /// The registry, locked. A thread that panicked holding it left it consistent (every
+    /// change is one push, removal or assignment), so a poisoned lock is taken as it is.
+    fn lock() -> MutexGuard<'static, Unfinished> {
+        UNFINISHED.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// `Err(Interrupted)` once the replacements were abandoned.
+    fn check_open(&self) -> std::io::Result<()> {
+        if self.abandoned {
+            return Err(std::io::Error::new(
+                ErrorKind::Interrupted,
+                "the process is stopping: its unfinished files were removed",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Forgets `temporary` (made by this process), if it is listed.
+    fn forget(&mut self, temporary: &Path) {
+        self.replacements.retain(|(listed, _)| listed != temporary);
+    }
+}
+
+/// Removes the temporary file of every [`FileReplacement`] of this process that is not
+/// yet committed or dropped, and makes every later [`FileReplacement::create`] and
+/// [`FileReplacement::commit`] fail with [`ErrorKind::Interrupted`], so that no output
+/// is replaced afterwards. Returns the outputs whose temporary files it removed: they
+/// keep what they held, or stay absent.
+///
+/// Meant for the handler of a signal that ends the process (Ctrl-C), so that no
+/// temporary file stays behind; there is no undoing it. A commit that has begun renaming
+/// finishes first, and its output is whole. Files written in place (devices, pipes, an
+/// output in a folder the user may not write) have no temporary file and are left as
+/// they are.
+///
+/// ```no_run
+/// // In a handler of Ctrl-C, just before the process ends:
+/// for output in pointset_core::io::abandon_replacements() {
+///     eprintln!("stopped: {} was not written", output.display());
+/// }
+/// std::process::exit(130);
+/// ```
+pub fn abandon_replacements() -> Vec<PathBuf> {
+    let mut unfinished = Unfinished::lock();
+    unfinished.abandoned = true;
+    std::mem::take(&mut unfinished.replacements)
+        .into_iter()
+        .filter(|(temporary, _)| std::fs::remove_file(temporary).is_ok())
+        .map(|(_, target)| target)
+        .collect()
+}
 
 /// A file being written to replace `target` as a whole; see the module docs. Dropped
 /// without [`FileReplacement::commit`], it removes its temporary file and leaves the
@@ -66,22 +136,34 @@ impl FileReplacement {
             return Self::in_place(target);
         }
         let temporary = temporary_path(&target);
+        // Made and listed under one lock, so that abandoning never misses a file.
+        let mut unfinished = Unfinished::lock();
+        unfinished.check_open()?;
         match OpenOptions::new()
             .write(true)
             .create_new(true)
             .open(&temporary)
         {
             Ok(file) => {
-                if let Some(metadata) = existing {
-                    file.set_permissions(metadata.permissions())?;
-                }
-                Ok(FileReplacement {
+                let listed = (temporary.clone(), target.clone());
+                unfinished.replacements.push(listed);
+                drop(unfinished);
+                let replacement = FileReplacement {
                     file: BufWriter::new(file),
                     temporary: Some(temporary),
                     target,
-                })
+                };
+                if let Some(metadata) = existing {
+                    // On failure the replacement is dropped, which removes the file.
+                    replacement
+                        .file
+                        .get_ref()
+                        .set_permissions(metadata.permissions())?;
+                }
+                Ok(replacement)
             }
             Err(e) if e.kind() == ErrorKind::PermissionDenied && existing.is_some() => {
+                drop(unfinished);
                 Self::in_place(target)
             }
             Err(e) => Err(e),
@@ -98,16 +180,24 @@ impl FileReplacement {
     }
 
     /// Flushes the written bytes and puts them in the target's place.
+    /// Fails with [`ErrorKind::Interrupted`], leaving the target as it was, once
+    /// [`abandon_replacements`] has been called.
     pub fn commit(mut self) -> std::io::Result<()> {
         self.file.flush()?;
-        if let Some(temporary) = self.temporary.take()
-            && let Err(e) = std::fs::rename(&temporary, &self.target)
-        {
+        let Some(temporary) = self.temporary.take() else {
+            return Ok(());
+        };
+        // Renamed under the lock, so that abandoning waits for a rename begun.
+        let mut unfinished = Unfinished::lock();
+        unfinished.forget(&temporary);
+        let renamed = unfinished
+            .check_open()
+            .and_then(|()| std::fs::rename(&temporary, &self.target));
+        if renamed.is_err() {
             // Not renamed: the temporary file must not stay behind.
             let _ = std::fs::remove_file(&temporary);
-            return Err(e);
         }
-        Ok(())
+        renamed
     }
 }
 
@@ -133,9 +223,10 @@ impl Seek for FileReplacement {
 
 impl Drop for FileReplacement {
     fn drop(&mut self) {
-        if let Some(temporary) = &self.temporary {
+        if let Some(temporary) = self.temporary.take() {
+            Unfinished::lock().forget(&temporary);
             // Nothing to report to: the write already failed, and the target is untouched.
-            let _ = std::fs::remove_file(temporary);
+            let _ = std::fs::remove_file(&temporary);
         }
     }
 }

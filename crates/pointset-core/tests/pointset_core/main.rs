@@ -5,6 +5,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod edited_files;
+#[path = "../shared/file_names.rs"]
+mod file_names;
 mod las_codec;
 mod ply_codec;
 mod polygons;

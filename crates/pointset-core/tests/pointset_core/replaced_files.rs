@@ -2,21 +2,12 @@
 //! `write_geometry`).
 
 use std::io::Write;
-use std::path::Path;
 
 use glam::Vec3;
 use pointset_core::io::{self, FileReplacement, Geometry, WriteOptions, replace_file};
 use pointset_core::{Attribute, Error, PointSet};
 
-/// The names in `dir`, sorted.
-fn names(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
+use crate::file_names::names;
 
 /// A writer that fails after `bytes` bytes, as a full disk would.
 fn failing_after(bytes: usize) -> impl FnOnce(&mut FileReplacement) -> std::io::Result<()> {
