@@ -98,6 +98,42 @@ pub enum Error {
 }
 
 impl Error {
+    /// Whether the run was cancelled through its [`RunContext`](crate::RunContext)'s
+    /// cancel flag, whichever crate noticed it: what a caller that cancels runs tells
+    /// apart from failures.
+    ///
+    /// ```
+    /// use geosynth::reconstruct::{FieldParams, Reconstruct};
+    /// use geosynth::{fixtures, RunContext, Stage};
+    ///
+    /// let points = fixtures::sphere_points(500)?;
+    /// let mut ctx = RunContext::new(0);
+    /// ctx.cancel_flag().cancel();
+    /// let stopped = Reconstruct { params: FieldParams::default() }.run(points, &mut ctx);
+    /// assert!(stopped.is_err_and(|e| e.is_cancelled()));
+    /// # Ok::<(), geosynth::Error>(())
+    /// ```
+    pub fn is_cancelled(&self) -> bool {
+        use distance_field::FieldError;
+        use mls_surface::MlsError;
+        use patch_quilt::QuiltError;
+        use pointset_core::Error::Cancelled;
+        use voxel_dfsynth::VoxelError;
+        let field = |e: &FieldError| matches!(e, FieldError::Core(Cancelled));
+        let mls = |e: &MlsError| matches!(e, MlsError::Core(Cancelled));
+        match self {
+            Error::Core(e) => matches!(e, Cancelled),
+            Error::Mls(e) => mls(e),
+            Error::Field(e) => field(e),
+            Error::Tps(e) => matches!(e, tps_warp::TpsError::Core(Cancelled)),
+            Error::Quilt(QuiltError::Core(Cancelled))
+            | Error::Voxel(VoxelError::Core(Cancelled)) => true,
+            Error::Quilt(QuiltError::Mls(e)) => mls(e),
+            Error::Quilt(QuiltError::Field(e)) | Error::Voxel(VoxelError::Field(e)) => field(e),
+            _ => false,
+        }
+    }
+
     /// A range error for parameter `name`.
     pub(crate) fn invalid<T>(
         name: &'static str,
@@ -114,3 +150,48 @@ impl Error {
 
 /// Shorthand for results of the facade.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use distance_field::FieldError;
+    use mls_surface::MlsError;
+    use patch_quilt::QuiltError;
+    use pointset_core::Error::{Cancelled, EmptyInput};
+    use voxel_dfsynth::VoxelError;
+
+    use super::*;
+
+    #[test]
+    fn a_cancellation_is_found_through_every_crate_that_passes_it_on() {
+        let field = || FieldError::Core(Cancelled);
+        let mls = || MlsError::Core(Cancelled);
+        let cancelled = [
+            Error::Core(Cancelled),
+            Error::Mls(mls()),
+            Error::Field(field()),
+            Error::Tps(tps_warp::TpsError::Core(Cancelled)),
+            Error::Quilt(QuiltError::Core(Cancelled)),
+            Error::Quilt(QuiltError::Mls(mls())),
+            Error::Quilt(QuiltError::Field(field())),
+            Error::Voxel(VoxelError::Core(Cancelled)),
+            Error::Voxel(VoxelError::Field(field())),
+        ];
+        for error in cancelled {
+            assert!(error.is_cancelled(), "{error:?}");
+        }
+        let empty = || EmptyInput {
+            what: "the point set".into(),
+        };
+        let failed = [
+            Error::Core(empty()),
+            Error::Field(FieldError::Core(empty())),
+            Error::Quilt(QuiltError::Mls(MlsError::Core(empty()))),
+            Error::NoSurface {
+                reason: "no crossing".into(),
+            },
+        ];
+        for error in failed {
+            assert!(!error.is_cancelled(), "{error:?}");
+        }
+    }
+}

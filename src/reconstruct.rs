@@ -8,7 +8,7 @@
 //! (exactly) into an [`SdfGrid`].
 
 use distance_field::{
-    GridSpec, MeshSign, MeshSurface, PointSign, PointWinding, SdfGrid, WindingSigned,
+    FarSigns, GridSpec, MeshSign, MeshSurface, PointSign, PointWinding, SdfGrid, WindingSigned,
     sdf_isosurface,
 };
 use glam::Vec3;
@@ -176,6 +176,17 @@ impl FieldParams {
 /// surface would be undefined nearly everywhere, and the grid would fall back to distances
 /// to single samples.
 pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfGrid> {
+    signed_distance_in(geometry, params, &mut RunContext::new(0))
+}
+
+/// [`signed_distance`] within a run: the grid's layers are reported as they are sampled
+/// (stage [`distance_field::SAMPLING_STAGE`]), and a cancelled run stops within a few
+/// layers with an error for which [`Error::is_cancelled`] holds.
+pub fn signed_distance_in(
+    geometry: &Geometry,
+    params: &FieldParams,
+    ctx: &mut RunContext,
+) -> Result<SdfGrid> {
     params.validate()?;
     let spec = params.grid_for(geometry)?;
     let band = params.band * spec.spacing;
@@ -211,7 +222,14 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
             }
         }
     };
-    Ok(SdfGrid::from_surface(surface.as_ref(), &spec, band)?)
+    let far_signs = FarSigns::default();
+    Ok(SdfGrid::from_surface_in(
+        surface.as_ref(),
+        &spec,
+        band,
+        far_signs,
+        ctx,
+    )?)
 }
 
 /// Stage: geometry → signed distance grid.
@@ -233,11 +251,7 @@ impl Stage for SignedDistance {
     }
 
     fn run(&self, input: Geometry, ctx: &mut RunContext) -> Result<SdfGrid> {
-        ctx.check_cancelled()?;
-        ctx.report(self.name(), 0, Some(1));
-        let sdf = signed_distance(&input, &self.params)?;
-        ctx.report(self.name(), 1, Some(1));
-        Ok(sdf)
+        signed_distance_in(&input, &self.params, ctx)
     }
 }
 
@@ -245,6 +259,10 @@ impl Stage for SignedDistance {
 ///
 /// Errors: those of [`signed_distance`], and [`Error::NoSurface`] when the field never
 /// crosses zero (an empty mesh is not a reconstruction).
+///
+/// Progress: the field's layers as they are sampled ([`distance_field::SAMPLING_STAGE`]),
+/// then [`ISO_SURFACE_STAGE`]. A cancelled run stops within a few layers
+/// ([`Error::is_cancelled`]).
 ///
 /// ```
 /// use geosynth::reconstruct::{FieldParams, Reconstruct};
@@ -335,19 +353,26 @@ fn zero_set(
     params: &FieldParams,
     ctx: &mut RunContext,
 ) -> Result<TriMesh> {
-    ctx.check_cancelled()?;
-    let sdf = ctx.timed(&format!("{stage}: distance field"), |_| {
-        signed_distance(geometry, params)
+    let sdf = ctx.timed(&format!("{stage}: distance field"), |ctx| {
+        signed_distance_in(geometry, params, ctx)
     })?;
     ctx.check_cancelled()?;
     let source = match geometry {
         Geometry::Mesh(_) => "the mesh",
         Geometry::Points(_) => "the MLS surface of the points",
     };
-    ctx.timed(&format!("{stage}: iso-surface"), |_| {
+    ctx.report(ISO_SURFACE_STAGE, 0, Some(1));
+    let mesh = ctx.timed(&format!("{stage}: iso-surface"), |_| {
         surface_of(&sdf, source)
-    })
+    })?;
+    ctx.report(ISO_SURFACE_STAGE, 1, Some(1));
+    Ok(mesh)
 }
+
+/// The stage name [`Reconstruct`] and [`Remesh`] report the extraction of the zero set
+/// under (0 of 1, then 1 of 1), after the field's layers
+/// ([`distance_field::SAMPLING_STAGE`]).
+pub const ISO_SURFACE_STAGE: &str = "iso-surface";
 
 /// Median sample spacings from every point beyond which [`ReconstructOpen`] cuts by
 /// default (`geosynth reconstruct --trim` alone). Below about 2 the gaps of a random

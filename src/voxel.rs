@@ -50,7 +50,7 @@
 
 use std::path::Path;
 
-use distance_field::{GridSpec, MeshSign, MeshSurface, SdfGrid, closed_isosurface, nrrd};
+use distance_field::{FarSigns, GridSpec, MeshSign, MeshSurface, SdfGrid, closed_isosurface, nrrd};
 use glam::DVec3;
 use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, RunContext, Stage, TriMesh};
@@ -185,6 +185,18 @@ pub fn source_field(
     resolution: usize,
     sign: MeshSign,
 ) -> Result<SdfGrid> {
+    source_field_in(exemplar, resolution, sign, &mut RunContext::new(0))
+}
+
+/// [`source_field`] within a run: its layers are reported as they are sampled
+/// ([`distance_field::SAMPLING_STAGE`]), and a cancelled run stops within a few layers
+/// ([`Error::is_cancelled`]).
+pub fn source_field_in(
+    exemplar: &VoxelExemplar,
+    resolution: usize,
+    sign: MeshSign,
+    ctx: &mut RunContext,
+) -> Result<SdfGrid> {
     if !(4..=512).contains(&resolution) {
         return Err(Error::InvalidParameter {
             name: "source resolution",
@@ -195,7 +207,10 @@ pub fn source_field(
     let spec = GridSpec::covering(exemplar.bounds, resolution, 0.0)?;
     let surface = MeshSurface::new(&exemplar.mesh)?.with_sign(sign);
     let diagonal = exemplar.bounds.extent().length().max(2.0 * spec.spacing);
-    Ok(SdfGrid::from_surface(&surface, &spec, diagonal)?)
+    let far_signs = FarSigns::default();
+    Ok(SdfGrid::from_surface_in(
+        &surface, &spec, diagonal, far_signs, ctx,
+    )?)
 }
 
 /// Samples along x, y, z of [`source_field`] at `resolution`.
@@ -263,8 +278,8 @@ impl VoxelSynth {
         input: &VoxelExemplar,
         ctx: &mut RunContext,
     ) -> Result<SynthesizedField> {
-        let source = ctx.timed("source field", |_| {
-            source_field(input, self.source_resolution, self.mesh_sign)
+        let source = ctx.timed("source field", |ctx| {
+            source_field_in(input, self.source_resolution, self.mesh_sign, ctx)
         })?;
         let synthesis = synthesize(&source, &self.params, ctx)?;
         Ok(SynthesizedField { source, synthesis })

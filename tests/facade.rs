@@ -379,6 +379,69 @@ fn a_randomly_sampled_sphere_reconstructs_as_one_sphere() {
 }
 
 #[test]
+fn reconstruction_reports_the_field_then_the_surface_and_stops_when_cancelled() {
+    use std::sync::{Arc, Mutex};
+
+    use geosynth::core::{CancelFlag, ProgressUpdate};
+    use geosynth::reconstruct::{FieldParams, ISO_SURFACE_STAGE, Reconstruct};
+    use geosynth::sdf::SAMPLING_STAGE;
+    use geosynth::{RunContext, Stage};
+
+    let stage = Reconstruct {
+        params: FieldParams::default().resolution(40),
+    };
+    let points = fixtures::sphere_points(2000).unwrap();
+    // Each report as (stage, done, total); the run cancels itself once `cancel_after`
+    // layers are reported, if given.
+    let run = |cancel_after: Option<u64>| {
+        let reports = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&reports);
+        let flag = CancelFlag::new();
+        let cancel = flag.clone();
+        let mut ctx = RunContext::new(0).with_cancel_flag(flag).with_progress(
+            move |u: &ProgressUpdate<'_>| {
+                sink.lock()
+                    .unwrap()
+                    .push((u.stage.to_string(), u.done, u.total));
+                if cancel_after.is_some_and(|n| u.done >= n) {
+                    cancel.cancel();
+                }
+            },
+        );
+        let result = stage.run(points.clone(), &mut ctx);
+        let reports = reports.lock().unwrap().clone();
+        (result, reports)
+    };
+
+    let (mesh, reports) = run(None);
+    assert!(mesh.unwrap().topology().is_closed_manifold());
+    let stages: Vec<&str> = reports.iter().map(|(s, _, _)| s.as_str()).collect();
+    let layers = stages.iter().take_while(|s| **s == SAMPLING_STAGE).count();
+    assert!(layers > 3, "{reports:?}");
+    assert_eq!(&stages[layers..], [ISO_SURFACE_STAGE, ISO_SURFACE_STAGE]);
+    let (_, last_layer, total) = &reports[layers - 1];
+    assert_eq!(
+        Some(*last_layer),
+        *total,
+        "every layer sampled: {reports:?}"
+    );
+
+    let (stopped, reports) = run(Some(1));
+    assert!(stopped.is_err_and(|e| e.is_cancelled()));
+    assert_eq!(
+        reports.len(),
+        2,
+        "the first layers, then the stop: {reports:?}"
+    );
+    // Failures are not cancellations.
+    let refused = Reconstruct {
+        params: FieldParams::default().resolution(1),
+    }
+    .run(points, &mut RunContext::new(0));
+    assert!(refused.is_err_and(|e| !e.is_cancelled()));
+}
+
+#[test]
 fn noisy_normals_reconstruct_without_specks() {
     use geosynth::reconstruct::{FieldParams, Reconstruct};
     use geosynth::{RunContext, Stage};

@@ -88,4 +88,4 @@ pub use iso::{closed_isosurface, isosurface, sdf_isosurface};
 pub use mesh_surface::{MeshHit, MeshSign, MeshSurface};
 pub use point_winding::{PointSign, PointWinding, WindingSigned};
 pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};
-pub use sdf::{GridSpec, SdfGrid};
+pub use sdf::{GridSpec, SAMPLING_STAGE, SdfGrid};

@@ -1,7 +1,7 @@
 //! Signed distance + gradient grids sampled from any [`Surface`] (paper 000 §5.1 `D(S)`).
 
 use glam::{Vec3, Vec4};
-use pointset_core::{Aabb, BandAnswer, Grid3, Surface};
+use pointset_core::{Aabb, BandAnswer, Grid3, RunContext, Surface};
 use rayon::prelude::*;
 
 use crate::error::{FieldError, Result, positive};
@@ -13,6 +13,15 @@ const MAX_BLOCK: usize = 8;
 
 /// Blocks of fewer nodes per side than this are not prepared: too few queries share it.
 const MIN_BLOCK: usize = 3;
+
+/// Layers (nodes of one `k`) [`SdfGrid::from_surface_in`] samples between two progress
+/// reports and checks for cancellation: their block rows keep every worker busy (four
+/// layers of a 96-node grid are 48 of them), and the workers wait for each other only
+/// once per four layers.
+const LAYERS_PER_REPORT: usize = 4;
+
+/// The stage name [`SdfGrid::from_surface_in`] reports progress under.
+pub const SAMPLING_STAGE: &str = "distance field";
 
 /// Nodes per side of the blocks that share one preparation of `surface` on a grid of
 /// `spacing`: as many as its [`Surface::preparation_reach`] (half a block's diagonal)
@@ -230,6 +239,44 @@ impl SdfGrid {
         band: f32,
         far_signs: FarSigns,
     ) -> Result<Self> {
+        Self::from_surface_in(surface, spec, band, far_signs, &mut RunContext::new(0))
+    }
+
+    /// [`SdfGrid::from_surface_with`] within a run: reports the layers sampled (nodes of
+    /// one `k`, out of `spec.dims[2]`) under [`SAMPLING_STAGE`] every few layers, and
+    /// stops with `pointset_core::Error::Cancelled` at the next report once the run is
+    /// cancelled. The grid is the same as without a run, whatever the threads.
+    ///
+    /// ```
+    /// use distance_field::{FarSigns, FieldError, GridSpec, MeshSurface, SdfGrid};
+    /// use glam::Vec3;
+    /// use pointset_core::{Aabb, PointSet, ProgressUpdate, RunContext, TriMesh};
+    ///
+    /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+    /// let tet = TriMesh::new(PointSet::new(p)?, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])?;
+    /// let surface = MeshSurface::new(&tet)?;
+    /// let spec = GridSpec::covering(Aabb::new(Vec3::ZERO, Vec3::ONE), 24, 0.2)?;
+    ///
+    /// // A bar would follow the layers: 0, 4, 8, … out of 24.
+    /// let mut ctx = RunContext::new(0).with_progress(|u: &ProgressUpdate<'_>| {
+    ///     assert!(u.done <= 24 && u.total == Some(24));
+    /// });
+    /// let sdf = SdfGrid::from_surface_in(&surface, &spec, 0.5, FarSigns::default(), &mut ctx)?;
+    /// assert_eq!(sdf, SdfGrid::from_surface(&surface, &spec, 0.5)?);
+    ///
+    /// // A cancelled run stops before the next layers.
+    /// ctx.cancel_flag().cancel();
+    /// let stopped = SdfGrid::from_surface_in(&surface, &spec, 0.5, FarSigns::default(), &mut ctx);
+    /// assert!(matches!(stopped, Err(FieldError::Core(pointset_core::Error::Cancelled))));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn from_surface_in(
+        surface: &(impl Surface + ?Sized),
+        spec: &GridSpec,
+        band: f32,
+        far_signs: FarSigns,
+        ctx: &mut RunContext,
+    ) -> Result<Self> {
         positive("band", band)?;
         positive("spacing", spec.spacing)?;
         if band <= spec.spacing {
@@ -240,22 +287,30 @@ impl SdfGrid {
             });
         }
         let grid = Grid3::new(spec.dims, spec.origin, spec.spacing, Vec4::ZERO)?;
-        let [nx, ny, _] = spec.dims;
+        let [nx, ny, nz] = spec.dims;
         let mut data = grid.into_data();
         // Square blocks of nodes in x and y share one preparation of the surface (when it
-        // gains from one), and are sampled in parallel.
+        // gains from one), and are sampled in parallel, a few layers at a time.
         let block = prepared_block(surface, spec.spacing);
         let blocks = (block.unwrap_or(MAX_BLOCK), block.is_some());
-        data.par_chunks_mut(nx * ny)
-            .enumerate()
-            .for_each(|(k, layer)| {
-                layer
-                    .par_chunks_mut(nx * blocks.0)
-                    .enumerate()
-                    .for_each(|(block_row, rows)| {
-                        sample_block_row(surface, spec, band, blocks, (block_row, k), rows);
-                    });
-            });
+        ctx.report(SAMPLING_STAGE, 0, Some(nz as u64));
+        for (group, layers) in data.chunks_mut(nx * ny * LAYERS_PER_REPORT).enumerate() {
+            ctx.check_cancelled()?;
+            let first = group * LAYERS_PER_REPORT;
+            layers
+                .par_chunks_mut(nx * ny)
+                .enumerate()
+                .for_each(|(dk, layer)| {
+                    layer.par_chunks_mut(nx * blocks.0).enumerate().for_each(
+                        |(block_row, rows)| {
+                            let at = (block_row, first + dk);
+                            sample_block_row(surface, spec, band, blocks, at, rows);
+                        },
+                    );
+                });
+            let done = (first + LAYERS_PER_REPORT).min(nz);
+            ctx.report(SAMPLING_STAGE, done as u64, Some(nz as u64));
+        }
         let far = data.iter().filter(|v| v.x == UNKNOWN).count();
         let undefined = fill_far_signs(&mut data, spec, band, surface, far_signs);
         Ok(Self {

@@ -246,6 +246,65 @@ fn sdf_from_a_point_set_surface_matches_the_sphere_near_the_surface() {
 }
 
 #[test]
+fn sampling_reports_its_layers_and_stops_when_cancelled() {
+    use std::sync::{Arc, Mutex};
+
+    use distance_field::{FarSigns, SAMPLING_STAGE};
+    use pointset_core::{ProgressUpdate, RunContext};
+
+    let spec =
+        GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 30, 0.25).unwrap();
+    let nz = spec.dims[2] as u64;
+    let sampled = |ctx: &mut RunContext| {
+        SdfGrid::from_surface_in(&AnalyticSphere(1.0), &spec, 0.3, FarSigns::default(), ctx)
+    };
+    // The reports climb from 0 to every layer; the grid is the one sampled without a run.
+    let reports = Arc::new(Mutex::new(Vec::new()));
+    let sink = Arc::clone(&reports);
+    let mut ctx = RunContext::new(0).with_progress(move |u: &ProgressUpdate<'_>| {
+        assert_eq!((u.stage, u.total), (SAMPLING_STAGE, Some(nz)));
+        sink.lock().unwrap().push(u.done);
+    });
+    let sdf = sampled(&mut ctx).unwrap();
+    assert_eq!(
+        sdf,
+        SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, 0.3).unwrap()
+    );
+    let done = reports.lock().unwrap().clone();
+    assert_eq!((done.first(), done.last()), (Some(&0), Some(&nz)));
+    assert!(done.windows(2).all(|w| w[0] < w[1]), "{done:?}");
+    assert!(done.len() > 3, "{done:?}");
+
+    // Cancelled after the first layers are reported, it samples no more of them.
+    let flag = pointset_core::CancelFlag::new();
+    let cancel = flag.clone();
+    let reports = Arc::new(Mutex::new(Vec::new()));
+    let sink = Arc::clone(&reports);
+    let mut ctx =
+        RunContext::new(0)
+            .with_cancel_flag(flag)
+            .with_progress(move |u: &ProgressUpdate<'_>| {
+                sink.lock().unwrap().push(u.done);
+                if u.done > 0 {
+                    cancel.cancel();
+                }
+            });
+    let stopped = sampled(&mut ctx);
+    assert!(
+        matches!(
+            stopped,
+            Err(FieldError::Core(pointset_core::Error::Cancelled))
+        ),
+        "{stopped:?}"
+    );
+    assert_eq!(
+        reports.lock().unwrap().len(),
+        2,
+        "one group of layers, then the stop"
+    );
+}
+
+#[test]
 fn grid_filling_does_not_depend_on_thread_count() {
     let mesh = random_mesh(5, 60);
     let surface = MeshSurface::new(&mesh).unwrap();

@@ -9,7 +9,7 @@ use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, orient_normals, plane_radius};
 use geosynth::reconstruct::{
-    FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance,
+    FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
     trim_to_mesh,
 };
 use geosynth::sdf::{MeshSign, PointSign, PointWinding, nrrd};
@@ -23,7 +23,7 @@ use crate::input_file::read_geometry;
 use crate::json_report::write_json_report;
 use crate::memory::available_bytes;
 use crate::output::{
-    check_geometry_output, check_output_paths, report_not_kept, spinner, status,
+    check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
     write_geometry_file,
 };
 use crate::params_file::{
@@ -303,8 +303,8 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
         );
     }
     check_grid_fits(&params, &input)?;
-    let bar = spinner(globals, "reconstructing");
-    let mut ctx = RunContext::new(0);
+    // The bar follows the stages: the field's layers, then the iso-surface.
+    let (mut ctx, bar) = progress_context(globals, 0, "reconstructing", true);
     let mut mesh = reconstructed(&input, &params, options.trim, &mut ctx)?;
     let points = input.points();
     // Measured only when a piece's size is asked about (`--drop-pieces`, the note).
@@ -604,9 +604,9 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
         loaded.geometry = io::Geometry::Mesh(mesh);
     }
     check_grid_fits(&params, &loaded.geometry)?;
-    let bar = spinner(globals, "sampling distances");
+    let (mut ctx, bar) = progress_context(globals, 0, "sampling distances", false);
     let start = Instant::now();
-    let sdf = signed_distance(&loaded.geometry, &params)?;
+    let sdf = signed_distance_in(&loaded.geometry, &params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let offset = loaded.origin;

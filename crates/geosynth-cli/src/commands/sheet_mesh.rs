@@ -45,15 +45,16 @@ pub fn nodes_across(length: f32, spacing: f32) -> usize {
 }
 
 /// A mesh of the sheet sampled by `points` ([`ReconstructOpen`] with the default kernel and
-/// trim, at [`sheet_resolution`]), the grid's resolution, and the seconds it took.
-pub fn sheet_mesh(points: PointSet) -> CliResult<(TriMesh, usize, f64)> {
+/// trim, at [`sheet_resolution`]), the grid's resolution, and the seconds it took; `ctx`
+/// gets the stage's progress.
+pub fn sheet_mesh(points: PointSet, ctx: &mut RunContext) -> CliResult<(TriMesh, usize, f64)> {
     let start = Instant::now();
     let resolution = sheet_resolution(&points)?;
     let stage = ReconstructOpen {
         params: FieldParams::default().resolution(resolution),
         ..Default::default()
     };
-    let mesh = stage.run(points, &mut RunContext::new(0))?;
+    let mesh = stage.run(points, ctx)?;
     Ok((mesh, resolution, start.elapsed().as_secs_f64()))
 }
 

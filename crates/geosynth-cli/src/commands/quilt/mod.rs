@@ -26,7 +26,7 @@ use super::sheet_mesh::sheet_mesh;
 use crate::input_file::named;
 use crate::json_report::write_json_report;
 use crate::output::{
-    check_geometry_output, check_output_paths, report_not_kept, spinner, status,
+    check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
     write_geometry_file,
 };
 use crate::params_file::{
@@ -192,8 +192,8 @@ fn write_sheet_mesh(
     options: &WriteOptions,
     globals: Globals,
 ) -> CliResult<Value> {
-    let bar = spinner(globals, "meshing");
-    let (mesh, resolution, seconds) = sheet_mesh(points)?;
+    let (mut ctx, bar) = progress_context(globals, 0, "meshing", false);
+    let (mesh, resolution, seconds) = sheet_mesh(points, &mut ctx)?;
     bar.finish_and_clear();
     write_geometry_file(path, &Geometry::Mesh(mesh.clone()), options)?;
     let topology = mesh.topology();
