@@ -9,6 +9,8 @@ use std::process::{Command, Output};
 mod demo;
 mod files;
 mod height_files;
+#[cfg(unix)]
+mod locked_folders;
 mod params;
 mod quilt;
 mod quilt_maps;
@@ -64,6 +66,16 @@ impl Scratch {
     /// The path of `name` in the folder.
     fn path(&self, name: &str) -> PathBuf {
         self.0.path().join(name)
+    }
+
+    /// The names in the folder, sorted.
+    fn names(&self) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(self.0.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
     }
 }
 

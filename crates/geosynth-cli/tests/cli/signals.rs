@@ -14,16 +14,6 @@ use super::{Scratch, arg, write_with_defaults};
 /// 0.3 s in the test's build, a hundred times as long as sending the signal takes.
 const POINTS: usize = 2_000_000;
 
-/// The names in the scratch folder, sorted.
-fn names(dir: &Scratch) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir.0.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
-
 #[test]
 fn a_signal_while_writing_keeps_the_old_output_and_leaves_no_temporary_file() {
     let dir = Scratch::new();
@@ -42,7 +32,8 @@ fn a_signal_while_writing_keeps_the_old_output_and_leaves_no_temporary_file() {
             .spawn()
             .unwrap();
         // Wait for the temporary file beside the output, then signal.
-        while !names(&dir)
+        while !dir
+            .names()
             .iter()
             .any(|n| n.starts_with(".out.xyz.geosynth-"))
         {
@@ -68,7 +59,7 @@ fn a_signal_while_writing_keeps_the_old_output_and_leaves_no_temporary_file() {
             )),
             "{stderr}"
         );
-        assert_eq!(names(&dir), ["in.ply", "out.xyz"], "SIG{signal}");
+        assert_eq!(dir.names(), ["in.ply", "out.xyz"], "SIG{signal}");
         assert_eq!(std::fs::read_to_string(&out).unwrap(), "earlier run");
     }
     // Undisturbed, the same run replaces the output.
