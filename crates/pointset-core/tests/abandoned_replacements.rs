@@ -7,7 +7,7 @@
 
 use std::io::{ErrorKind, Write};
 
-use pointset_core::io::{FileReplacement, abandon_replacements, write_whole};
+use pointset_core::io::{ABANDONED, FileReplacement, abandon_replacements, write_whole};
 
 #[path = "shared/file_names.rs"]
 mod file_names;
@@ -41,18 +41,16 @@ fn abandoning_removes_unfinished_files_and_stops_every_later_replacement() {
 
     // Nothing is replaced afterwards: the unfinished writers fail to commit, new ones
     // fail to start, and the outputs keep what they held.
-    let refused = replacing.commit().unwrap_err();
-    assert_eq!(refused.kind(), ErrorKind::Interrupted);
-    assert_eq!(
-        creating.commit().unwrap_err().kind(),
-        ErrorKind::Interrupted
-    );
-    let started = FileReplacement::create(&fresh).unwrap_err();
-    assert_eq!(started.kind(), ErrorKind::Interrupted);
-    assert_eq!(
-        write_whole(&done, "after").unwrap_err().kind(),
-        ErrorKind::Interrupted
-    );
+    let refusals = [
+        replacing.commit().unwrap_err(),
+        creating.commit().unwrap_err(),
+        FileReplacement::create(&fresh).unwrap_err(),
+        write_whole(&done, "after").unwrap_err(),
+    ];
+    for refusal in refusals {
+        assert_eq!(refusal.kind(), ErrorKind::Other);
+        assert_eq!(refusal.to_string(), ABANDONED);
+    }
     assert_eq!(std::fs::read_to_string(&kept).unwrap(), "earlier run");
     assert_eq!(std::fs::read_to_string(&done).unwrap(), "committed before");
     assert_eq!(names(dir.path()), ["done.ply", "kept.ply"]);

@@ -38,7 +38,7 @@ use obj::{read_obj_from, write_obj_at};
 use off::write_off_at;
 pub use off::{read_off, write_off};
 pub use replace::{
-    FileReplacement, abandon_replacements, check_replaceable, replace_file, write_whole,
+    ABANDONED, FileReplacement, abandon_replacements, check_replaceable, replace_file, write_whole,
 };
 use stl::write_stl_at;
 pub use stl::{StlEncoding, read_stl, write_stl, write_stl_ascii};

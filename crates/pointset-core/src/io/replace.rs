@@ -50,13 +50,11 @@ impl Unfinished {
         UNFINISHED.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// `Err(Interrupted)` once the replacements were abandoned.
+    /// An error ([`ABANDONED`]) once the replacements were abandoned. Not
+    /// `ErrorKind::Interrupted`, which callers may retry.
     fn check_open(&self) -> std::io::Result<()> {
         if self.abandoned {
-            return Err(std::io::Error::new(
-                ErrorKind::Interrupted,
-                "the process is stopping: its unfinished files were removed",
-            ));
+            return Err(std::io::Error::other(ABANDONED));
         }
         Ok(())
     }
@@ -67,11 +65,16 @@ impl Unfinished {
     }
 }
 
+/// What [`FileReplacement::create`] and [`FileReplacement::commit`] fail with (as an
+/// [`ErrorKind::Other`] error) after [`abandon_replacements`].
+pub const ABANDONED: &str = "the process is stopping: its unfinished files were removed";
+
 /// Removes the temporary file of every [`FileReplacement`] of this process that is not
-/// yet committed or dropped, and makes every later [`FileReplacement::create`] and
-/// [`FileReplacement::commit`] fail with [`ErrorKind::Interrupted`], so that no output
-/// is replaced afterwards. Returns the outputs whose temporary files it removed: they
-/// keep what they held, or stay absent.
+/// yet committed or dropped, and makes every later replacement through a temporary file
+/// fail ([`FileReplacement::create`] and [`FileReplacement::commit`] return an
+/// [`ErrorKind::Other`] error saying [`ABANDONED`]), so that no output is replaced
+/// afterwards. Returns the outputs whose temporary files it removed: they keep what they
+/// held, or stay absent.
 ///
 /// Meant for the handler of a signal that ends the process (Ctrl-C), so that no
 /// temporary file stays behind; there is no undoing it. A commit that has begun renaming
@@ -180,8 +183,8 @@ impl FileReplacement {
     }
 
     /// Flushes the written bytes and puts them in the target's place.
-    /// Fails with [`ErrorKind::Interrupted`], leaving the target as it was, once
-    /// [`abandon_replacements`] has been called.
+    /// Fails ([`ABANDONED`]), leaving the target as it was, once [`abandon_replacements`]
+    /// has been called.
     pub fn commit(mut self) -> std::io::Result<()> {
         self.file.flush()?;
         let Some(temporary) = self.temporary.take() else {
