@@ -1,6 +1,7 @@
 //! Surface kernels: MLS projection throughput, the MLS surface read as a height field,
 //! signed distance grids from a mesh and from a point set (signed either way), winding
-//! numbers of meshes and point clouds, iso-surface extraction.
+//! numbers of meshes and point clouds, iso-surface extraction, normals of unoriented
+//! points (fitted by PCA, oriented by propagation).
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -12,7 +13,7 @@ use std::hint::black_box;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use geosynth::core::rng;
 use geosynth::fixtures;
-use geosynth::mls::{MlsParams, MlsSurface};
+use geosynth::mls::{MlsParams, MlsSurface, NORMAL_NEIGHBOURS, fit_normals, orient_normals};
 use geosynth::sdf::{
     GridSpec, MeshSign, MeshSurface, PointWinding, SdfGrid, WindingSigned, sdf_isosurface,
 };
@@ -192,8 +193,38 @@ fn mesh_surface_build(c: &mut Criterion) {
     group.finish();
 }
 
+/// `geosynth normals` on 200,000 points of a torus: the PCA fit of every point's
+/// neighbourhood, and the orientation of normals whose signs are random (as fits come).
+fn point_normals(c: &mut Criterion) {
+    let points = fixtures::torus_points(200_000, 1.0, 0.35, 3).expect("benchmark setup");
+    let unoriented =
+        geosynth::core::PointSet::new(points.positions().to_vec()).expect("benchmark setup");
+    let mut g = rng::rng_from_seed(4);
+    let signs = points
+        .normals()
+        .expect("normals")
+        .iter()
+        .map(|&n| if g.random_bool(0.5) { n } else { -n })
+        .collect();
+    let mixed = unoriented
+        .clone()
+        .with_normals(signs)
+        .expect("benchmark setup");
+    let mut group = c.benchmark_group("normals_200k_points");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(200_000));
+    group.bench_function("fit", |b| {
+        b.iter(|| fit_normals(black_box(&unoriented), NORMAL_NEIGHBOURS))
+    });
+    group.bench_function("orient", |b| {
+        b.iter(|| orient_normals(black_box(&mixed), Vec3::Z))
+    });
+    group.finish();
+}
+
 criterion_group!(
     benches,
+    point_normals,
     mls_projection,
     mls_top_heights,
     sdf_grids,

@@ -97,13 +97,14 @@ pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
 pub use orientation::{
-    LIKELY_UNORIENTED, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS, orient_normals,
-    orientation_disagreement,
+    LIKELY_UNORIENTED, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS, ORIENTING_STAGE,
+    orient_normals, orient_normals_in, orientation_disagreement,
 };
 pub use params::MlsParams;
 pub use pca::{
-    Covariance, MIN_NORMAL_DEFINITENESS, NORMAL_NEIGHBOURS, NormalFit, PLANE_RADIUS_MAX_NEIGHBOURS,
-    estimate_normals, fit_normals, plane_radius, surface_variation,
+    Covariance, FITTING_STAGE, MIN_NORMAL_DEFINITENESS, NORMAL_NEIGHBOURS, NormalFit,
+    PLANE_RADIUS_MAX_NEIGHBOURS, estimate_normals, fit_normals, fit_normals_in, plane_radius,
+    surface_variation,
 };
 pub use ray::{RayHit, Snap, SnapMethod};
 pub use relax::{RelaxParams, Relaxed, nearest_neighbour_spread, relax};

@@ -10,7 +10,8 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use glam::Vec3;
-use pointset_core::{KdIndex, PointSet};
+use pointset_core::{KdIndex, PointSet, RunContext};
+use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
 
@@ -88,7 +89,89 @@ const MIN_EDGE_COSINE: f32 = 0.25;
 const ROOT_MIN_COSINE: f32 = 0.5;
 
 /// An edge of [`orient_normals`]' graph: the other end and the cost of crossing.
-type Edge = (usize, u32);
+type Edge = (u32, u32);
+
+/// A slot of [`OrientationGraph::build`]'s table of nearest neighbours with no usable edge.
+const NO_EDGE: Edge = (u32::MAX, u32::MAX);
+
+/// [`orient_normals`]' graph: every usable edge between a point and one of its
+/// [`ORIENTATION_GRAPH_NEIGHBOURS`] nearest neighbours, listed from both ends, each
+/// point's list sorted and without repeats, all in one array.
+struct OrientationGraph {
+    /// Where each point's edges start in `edges`; one more entry, the end.
+    starts: Vec<usize>,
+    /// Every point's edges, one point after another.
+    edges: Vec<Edge>,
+}
+
+impl OrientationGraph {
+    /// The graph of `positions` (at most `u32::MAX` of them) with `normals`, indexed by
+    /// `index`. The neighbours are found in parallel; the graph does not depend on the
+    /// threads.
+    fn build(positions: &[Vec3], normals: &[Vec3], index: &KdIndex) -> Result<Self> {
+        const SLOTS: usize = ORIENTATION_GRAPH_NEIGHBOURS + 1;
+        let n = positions.len();
+        let mut near = vec![NO_EDGE; n * SLOTS];
+        near.par_chunks_mut(SLOTS)
+            .enumerate()
+            .try_for_each(|(i, slots)| -> Result<()> {
+                let found = index.nearest(positions[i], SLOTS)?;
+                let usable = found.iter().filter_map(|neighbour| {
+                    let cost = edge_cost(positions, normals, i, neighbour.index)?;
+                    Some((neighbour.index as u32, cost))
+                });
+                for (slot, edge) in slots.iter_mut().zip(usable) {
+                    *slot = edge;
+                }
+                Ok(())
+            })?;
+        let listed = || {
+            near.chunks(SLOTS).enumerate().flat_map(|(i, slots)| {
+                let usable = slots.iter().take_while(|&&edge| edge != NO_EDGE);
+                usable.map(move |&(j, cost)| (i, j as usize, cost))
+            })
+        };
+        let mut starts = vec![0usize; n + 1];
+        for (i, j, _) in listed() {
+            starts[i + 1] += 1;
+            starts[j + 1] += 1;
+        }
+        for i in 0..n {
+            starts[i + 1] += starts[i];
+        }
+        let mut edges = vec![NO_EDGE; starts[n]];
+        let mut filled = starts[..n].to_vec();
+        for (i, j, cost) in listed() {
+            edges[filled[i]] = (j as u32, cost);
+            filled[i] += 1;
+            edges[filled[j]] = (i as u32, cost);
+            filled[j] += 1;
+        }
+        drop(near);
+        // Each list sorted, its repeats (both ends among each other's neighbours) dropped,
+        // and the lists moved together.
+        let mut kept = 0;
+        for i in 0..n {
+            let (first, end) = (starts[i], starts[i + 1]);
+            edges[first..end].sort_unstable();
+            starts[i] = kept;
+            for read in first..end {
+                if kept == starts[i] || edges[kept - 1] != edges[read] {
+                    edges[kept] = edges[read];
+                    kept += 1;
+                }
+            }
+        }
+        starts[n] = kept;
+        edges.truncate(kept);
+        Ok(Self { starts, edges })
+    }
+
+    /// The edges of point `i`.
+    fn edges_of(&self, i: usize) -> &[Edge] {
+        &self.edges[self.starts[i]..self.starts[i + 1]]
+    }
+}
 
 /// The cost of carrying the orientation from `i` to `j`: `1 − |n_i · n_j|` (Hoppe et al.)
 /// plus the share of the edge that runs along the normals, so that links within one sheet
@@ -160,25 +243,60 @@ fn edge_cost(positions: &[Vec3], normals: &[Vec3], i: usize, j: usize) -> Option
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn orient_normals(points: &PointSet, up: Vec3) -> Result<PointSet> {
+    orient_normals_in(points, up, &mut RunContext::new(0))
+}
+
+/// Points [`orient_normals_in`] orients between two progress reports and checks for
+/// cancellation.
+const ORIENT_REPORT_EVERY: u64 = 1 << 16;
+
+/// The stage name [`orient_normals_in`] reports progress under.
+pub const ORIENTING_STAGE: &str = "orienting normals";
+
+/// [`orient_normals`] within a run: 0 once the graph is being built, then the points
+/// reached by the propagation every 65,536 points and at the end, out of all, under
+/// [`ORIENTING_STAGE`]; a cancelled run stops at the next report with
+/// `MlsError::Core(pointset_core::Error::Cancelled)`. The result is the same, bit for
+/// bit.
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::{ORIENTING_STAGE, orient_normals_in};
+/// use pointset_core::{PointSet, ProgressUpdate, RunContext};
+///
+/// let p: Vec<Vec3> = (0..400).map(|i| Vec3::new((i % 20) as f32, (i / 20) as f32, 0.0)).collect();
+/// let signs = (0..400).map(|i| if i % 3 == 0 { -Vec3::Z } else { Vec3::Z }).collect();
+/// let mixed = PointSet::new(p)?.with_normals(signs)?;
+/// let mut last = 0;
+/// let mut ctx = RunContext::new(0).with_progress(move |u: &ProgressUpdate<'_>| {
+///     assert!(u.stage == ORIENTING_STAGE && u.done >= last && u.total == Some(400));
+///     last = u.done;
+/// });
+/// let up = orient_normals_in(&mixed, Vec3::Z, &mut ctx)?;
+/// assert!(up.normals().ok_or("no normals")?.iter().all(|n| n.z > 0.0));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn orient_normals_in(points: &PointSet, up: Vec3, ctx: &mut RunContext) -> Result<PointSet> {
     let normals = points.normals().ok_or(MlsError::MissingNormals)?;
     let positions = points.positions();
+    if u32::try_from(positions.len()).is_err() {
+        return Err(MlsError::InvalidParameter {
+            name: "points",
+            value: positions.len().to_string(),
+            expected: "at most 2^32 − 1 points to orient",
+        });
+    }
+    let total = positions.len() as u64;
+    ctx.check_cancelled()?;
+    ctx.report(ORIENTING_STAGE, 0, Some(total));
     let index = KdIndex::new(positions)?;
-    let mut edges: Vec<Vec<Edge>> = vec![Vec::new(); positions.len()];
-    for (i, &p) in positions.iter().enumerate() {
-        for n in index.nearest(p, ORIENTATION_GRAPH_NEIGHBOURS + 1)? {
-            if let Some(cost) = edge_cost(positions, normals, i, n.index) {
-                edges[i].push((n.index, cost));
-                edges[n.index].push((i, cost));
-            }
-        }
-    }
-    for list in &mut edges {
-        list.sort_unstable();
-        list.dedup();
-    }
-    // Roots in order of height along `up` (index breaks ties).
+    let graph = OrientationGraph::build(positions, normals, &index)?;
+    drop(index);
+    ctx.check_cancelled()?;
+    // Roots in order of height along `up` (index breaks ties: the order is total, so an
+    // unstable sort gives the one order there is).
     let mut by_height: Vec<usize> = (0..positions.len()).collect();
-    by_height.sort_by(|&a, &b| {
+    by_height.par_sort_unstable_by(|&a, &b| {
         positions[b]
             .dot(up)
             .total_cmp(&positions[a].dot(up))
@@ -186,6 +304,7 @@ pub fn orient_normals(points: &PointSet, up: Vec3) -> Result<PointSet> {
     });
     let mut oriented: Vec<Vec3> = normals.to_vec();
     let mut done = vec![false; positions.len()];
+    let mut reached = Reached { ctx, count: 0 };
     // A root must face clearly up or down (|n · up| ≥ ROOT_MIN_COSINE) for "face up" to
     // decide its sign: the tip of a petal is often highest and faces sideways. Parts
     // without such a point are rooted at their highest point afterwards.
@@ -196,7 +315,7 @@ pub fn orient_normals(points: &PointSet, up: Vec3) -> Result<PointSet> {
         if done[root] {
             continue;
         }
-        let part = propagate(root, &edges, &mut oriented, &mut done);
+        let part = propagate(root, &graph, &mut oriented, &mut done, &mut reached)?;
         // Which way the part faces: its root's normal toward `up`, or, for a part with no
         // point facing up or down (a stem), outward from the part's centroid at the root.
         let facing = if normals[root].dot(up).abs() >= ROOT_MIN_COSINE * up.length() {
@@ -211,9 +330,31 @@ pub fn orient_normals(points: &PointSet, up: Vec3) -> Result<PointSet> {
             }
         }
     }
+    reached.ctx.report(ORIENTING_STAGE, total, Some(total));
     let mut out = points.clone();
     out.set_normals(Some(oriented))?;
     Ok(out)
+}
+
+/// How many points the propagation has reached, reported to a run every
+/// [`ORIENT_REPORT_EVERY`].
+struct Reached<'a> {
+    ctx: &'a mut RunContext,
+    count: u64,
+}
+
+impl Reached<'_> {
+    /// Counts one more point; at every [`ORIENT_REPORT_EVERY`]-th, reports them all and
+    /// stops a cancelled run.
+    fn one_more(&mut self, total: usize) -> Result<()> {
+        self.count += 1;
+        if self.count.is_multiple_of(ORIENT_REPORT_EVERY) {
+            self.ctx.check_cancelled()?;
+            self.ctx
+                .report(ORIENTING_STAGE, self.count, Some(total as u64));
+        }
+        Ok(())
+    }
 }
 
 /// Prim's algorithm over (cost, node, parent) from `root` through the parts of the graph
@@ -221,26 +362,93 @@ pub fn orient_normals(points: &PointSet, up: Vec3) -> Result<PointSet> {
 /// part's points in the order reached.
 fn propagate(
     root: usize,
-    edges: &[Vec<Edge>],
+    graph: &OrientationGraph,
     oriented: &mut [Vec3],
     done: &mut [bool],
-) -> Vec<usize> {
+    reached: &mut Reached<'_>,
+) -> Result<Vec<usize>> {
     let mut part = Vec::new();
-    let mut frontier = BinaryHeap::from([Reverse((0u32, root, root))]);
+    // Points fit in `u32` (checked by the caller): the heap's entries are 12 bytes.
+    let mut frontier = BinaryHeap::from([Reverse((0u32, root as u32, root as u32))]);
     while let Some(Reverse((_, node, parent))) = frontier.pop() {
+        let (node, parent) = (node as usize, parent as usize);
         if done[node] {
             continue;
         }
         done[node] = true;
         part.push(node);
+        reached.one_more(done.len())?;
         if oriented[node].dot(oriented[parent]) < 0.0 {
             oriented[node] = -oriented[node];
         }
-        for &(next, cost) in &edges[node] {
-            if !done[next] {
-                frontier.push(Reverse((cost, next, node)));
+        for &(next, cost) in graph.edges_of(node) {
+            if !done[next as usize] {
+                frontier.push(Reverse((cost, next, node as u32)));
             }
         }
     }
-    part
+    Ok(part)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// The graph as the first version built it: a list per point, both ends of every
+    /// usable edge pushed, each list sorted and its repeats dropped.
+    fn listed_graph(positions: &[Vec3], normals: &[Vec3]) -> Vec<Vec<Edge>> {
+        let index = KdIndex::new(positions).unwrap();
+        let mut lists: Vec<Vec<Edge>> = vec![Vec::new(); positions.len()];
+        for (i, &p) in positions.iter().enumerate() {
+            for n in index.nearest(p, ORIENTATION_GRAPH_NEIGHBOURS + 1).unwrap() {
+                if let Some(cost) = edge_cost(positions, normals, i, n.index) {
+                    lists[i].push((n.index as u32, cost));
+                    lists[n.index].push((i as u32, cost));
+                }
+            }
+        }
+        for list in &mut lists {
+            list.sort_unstable();
+            list.dedup();
+        }
+        lists
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Points near a wavy sheet (many usable edges, some left out for running along
+        /// the normals or bending too far), some coincident.
+        #[test]
+        fn the_graph_lists_every_usable_edge_from_both_ends_once(
+            samples in prop::collection::vec(
+                (0.0f32..4.0, 0.0f32..4.0, -0.3f32..0.3, -1.0f32..1.0, any::<bool>()),
+                2..300,
+            ),
+        ) {
+            let positions: Vec<Vec3> = samples
+                .iter()
+                .map(|&(x, y, z, _, _)| Vec3::new(x, y, (2.0 * x).sin() + z * (y % 1.0)))
+                .collect();
+            let normals: Vec<Vec3> = samples
+                .iter()
+                .map(|&(_, _, _, tilt, flip)| {
+                    let n = Vec3::new(tilt, 0.3 * tilt, 1.0).normalize();
+                    if flip { -n } else { n }
+                })
+                .collect();
+            let index = KdIndex::new(&positions).unwrap();
+            let graph = OrientationGraph::build(&positions, &normals, &index).unwrap();
+            let lists = listed_graph(&positions, &normals);
+            prop_assert_eq!(graph.starts.len(), positions.len() + 1);
+            prop_assert_eq!(graph.edges.len(), lists.iter().map(Vec::len).sum::<usize>());
+            for (i, list) in lists.iter().enumerate() {
+                prop_assert_eq!(graph.edges_of(i), list.as_slice(), "point {}", i);
+            }
+        }
+    }
 }

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use nalgebra::{Matrix3, SymmetricEigen};
-use pointset_core::{KdIndex, PointSet};
+use pointset_core::{KdIndex, PointSet, RunContext};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
@@ -184,6 +184,35 @@ pub fn estimate_normals(points: &PointSet, k: usize) -> Result<PointSet> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn fit_normals(points: &PointSet, k: usize) -> Result<NormalFit> {
+    fit_normals_in(points, k, &mut RunContext::new(0))
+}
+
+/// Points [`fit_normals_in`] fits between two progress reports and checks for
+/// cancellation: a few milliseconds of work.
+const FIT_CHUNK: usize = 1 << 16;
+
+/// The stage name [`fit_normals_in`] reports progress under.
+pub const FITTING_STAGE: &str = "fitting normals";
+
+/// [`fit_normals`] within a run: the points fitted are reported under [`FITTING_STAGE`]
+/// every 65,536 points, and a cancelled run stops there with
+/// `MlsError::Core(pointset_core::Error::Cancelled)`. The fit is the same, bit for bit.
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::{FITTING_STAGE, fit_normals, fit_normals_in};
+/// use pointset_core::{PointSet, ProgressUpdate, RunContext};
+///
+/// let p: Vec<Vec3> = (0..900).map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0)).collect();
+/// let points = PointSet::new(p)?;
+/// let mut ctx = RunContext::new(0).with_progress(|u: &ProgressUpdate<'_>| {
+///     assert_eq!((u.stage, u.total), (FITTING_STAGE, Some(900)));
+/// });
+/// let fit = fit_normals_in(&points, 12, &mut ctx)?;
+/// assert_eq!(fit.points, fit_normals(&points, 12)?.points);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn fit_normals_in(points: &PointSet, k: usize, ctx: &mut RunContext) -> Result<NormalFit> {
     if k < 3 {
         return Err(MlsError::InvalidParameter {
             name: "k",
@@ -205,17 +234,25 @@ pub fn fit_normals(points: &PointSet, k: usize) -> Result<NormalFit> {
     }
     let positions = points.positions();
     let index = KdIndex::new(positions)?;
-    let fits = positions
-        .par_iter()
-        .enumerate()
-        .map(|(i, &p)| {
-            let nn = index.nearest(p, k)?;
-            Covariance::of(positions, nn.iter().map(|n| n.index))
-                .map(|c| (c.eigenvectors[0], c.defines_normal()))
-                .filter(|(n, _)| n.is_normalized())
-                .ok_or(MlsError::DegenerateNormal { index: i })
-        })
-        .collect::<Result<Vec<(Vec3, bool)>>>()?;
+    let total = Some(positions.len() as u64);
+    let mut fits: Vec<(Vec3, bool)> = Vec::with_capacity(positions.len());
+    for (chunk, part) in positions.chunks(FIT_CHUNK).enumerate() {
+        ctx.check_cancelled()?;
+        let first = chunk * FIT_CHUNK;
+        let fitted = part
+            .par_iter()
+            .enumerate()
+            .map(|(d, &p)| {
+                let nn = index.nearest(p, k)?;
+                Covariance::of(positions, nn.iter().map(|n| n.index))
+                    .map(|c| (c.eigenvectors[0], c.defines_normal()))
+                    .filter(|(n, _)| n.is_normalized())
+                    .ok_or(MlsError::DegenerateNormal { index: first + d })
+            })
+            .collect::<Result<Vec<(Vec3, bool)>>>()?;
+        fits.extend(fitted);
+        ctx.report(FITTING_STAGE, fits.len() as u64, total);
+    }
     let undefined = fits
         .iter()
         .enumerate()

@@ -705,6 +705,78 @@ fn estimated_normals_are_the_analytic_ones_up_to_sign_and_orientation_fixes_the_
     ));
 }
 
+/// Runs `work` in a context that records every report as (stage, done, total) and, once
+/// a report's count reaches `cancel_at`, cancels the run; returns its result and the
+/// reports.
+fn recorded<T>(
+    cancel_at: Option<u64>,
+    work: impl FnOnce(&mut pointset_core::RunContext) -> T,
+) -> (T, Vec<(String, u64, Option<u64>)>) {
+    use std::sync::{Arc, Mutex};
+    let reports = Arc::new(Mutex::new(Vec::new()));
+    let sink = Arc::clone(&reports);
+    let flag = pointset_core::CancelFlag::new();
+    let cancel = flag.clone();
+    let mut ctx = pointset_core::RunContext::new(0)
+        .with_cancel_flag(flag)
+        .with_progress(move |u: &pointset_core::ProgressUpdate<'_>| {
+            sink.lock()
+                .unwrap()
+                .push((u.stage.to_string(), u.done, u.total));
+            if cancel_at.is_some_and(|at| u.done >= at) {
+                cancel.cancel();
+            }
+        });
+    let result = work(&mut ctx);
+    let reports = reports.lock().unwrap().clone();
+    (result, reports)
+}
+
+#[test]
+fn normals_report_their_progress_and_stop_when_cancelled() {
+    use mls_surface::{FITTING_STAGE, ORIENTING_STAGE, fit_normals_in, orient_normals_in};
+    // 300 × 300 points on a rolling sheet: more than two reports' worth of each stage.
+    let n = 90_000u64;
+    let grid: Vec<Vec3> = (0..n as usize)
+        .map(|i| {
+            let (x, y) = ((i % 300) as f32 * 0.02, (i / 300) as f32 * 0.02);
+            Vec3::new(x, y, 0.2 * (3.0 * x).sin())
+        })
+        .collect();
+    let bare = PointSet::new(grid).unwrap();
+    let counts = |reports: &[(String, u64, Option<u64>)], stage: &str| -> Vec<u64> {
+        reports
+            .iter()
+            .filter(|(s, _, total)| s == stage && *total == Some(n))
+            .map(|r| r.1)
+            .collect()
+    };
+
+    let (fit, reports) = recorded(None, |ctx| fit_normals_in(&bare, 12, ctx));
+    let fit = fit.unwrap();
+    assert_eq!(fit.points, fit_normals(&bare, 12).unwrap().points);
+    assert_eq!(counts(&reports, FITTING_STAGE), [65_536, n]);
+    let (oriented, reports) = recorded(None, |ctx| orient_normals_in(&fit.points, Vec3::Z, ctx));
+    assert_eq!(
+        oriented.unwrap(),
+        orient_normals(&fit.points, Vec3::Z).unwrap()
+    );
+    assert_eq!(counts(&reports, ORIENTING_STAGE), [0, 65_536, n]);
+
+    // Cancelled at the first report, each stops at the next check.
+    let cancelled = |e: &MlsError| matches!(e, MlsError::Core(pointset_core::Error::Cancelled));
+    let (stopped, reports) = recorded(Some(1), |ctx| fit_normals_in(&bare, 12, ctx));
+    assert!(stopped.is_err_and(|e| cancelled(&e)));
+    assert_eq!(reports.len(), 1);
+    let (stopped, reports) = recorded(Some(0), |ctx| orient_normals_in(&fit.points, Vec3::Z, ctx));
+    assert!(stopped.is_err_and(|e| cancelled(&e)));
+    assert_eq!(
+        reports.len(),
+        1,
+        "the graph's report, then the stop: {reports:?}"
+    );
+}
+
 #[test]
 fn neighbourhoods_on_one_line_or_one_point_are_said_to_define_no_normal() {
     let cov = |points: &[Vec3]| Covariance::of(points, 0..points.len()).unwrap();

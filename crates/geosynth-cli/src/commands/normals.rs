@@ -4,12 +4,14 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use geosynth::core::io::{Geometry, WriteOptions};
-use geosynth::mls::{NORMAL_NEIGHBOURS, fit_normals, orient_normals, orientation_disagreement};
+use geosynth::mls::{
+    NORMAL_NEIGHBOURS, fit_normals_in, orient_normals_in, orientation_disagreement,
+};
 use glam::{DVec3, Vec3};
 
 use crate::input_file::read_geometry;
 use crate::output::{
-    check_geometry_output, check_output_paths, report_not_kept, spinner, status,
+    check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
     write_geometry_file,
 };
 use crate::{CliResult, Globals};
@@ -95,9 +97,10 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
             .into());
         }
     };
-    let bar = spinner(globals, "estimating normals");
-    let fit = fit_normals(points, args.neighbours)?;
-    let oriented = orient_normals(&fit.points, args.up.vector())?;
+    // The bar follows the stages: the fit, then the orientation.
+    let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
+    let fit = fit_normals_in(points, args.neighbours, &mut ctx)?;
+    let oriented = orient_normals_in(&fit.points, args.up.vector(), &mut ctx)?;
     bar.finish_and_clear();
     let neighbours = args.neighbours.min(points.len());
     if let Some(note) = undefined_note(fit.undefined.len(), points.len(), neighbours) {
