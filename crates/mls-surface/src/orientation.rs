@@ -10,6 +10,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use glam::Vec3;
+use pointset_core::spatial::z_order;
 use pointset_core::{KdIndex, PointSet, RunContext};
 use rayon::prelude::*;
 
@@ -111,10 +112,13 @@ impl OrientationGraph {
     fn build(positions: &[Vec3], normals: &[Vec3], index: &KdIndex) -> Result<Self> {
         const SLOTS: usize = ORIENTATION_GRAPH_NEIGHBOURS + 1;
         let n = positions.len();
+        // The table lists the points along the Z-order curve, so that consecutive queries
+        // share the index's caches; the lists below are sorted, so the graph is the same.
+        let order = z_order(positions);
         let mut near = vec![NO_EDGE; n * SLOTS];
         near.par_chunks_mut(SLOTS)
-            .enumerate()
-            .try_for_each(|(i, slots)| -> Result<()> {
+            .zip(order.par_iter())
+            .try_for_each(|(slots, &i)| -> Result<()> {
                 let found = index.nearest(positions[i], SLOTS)?;
                 let usable = found.iter().filter_map(|neighbour| {
                     let cost = edge_cost(positions, normals, i, neighbour.index)?;
@@ -126,7 +130,7 @@ impl OrientationGraph {
                 Ok(())
             })?;
         let listed = || {
-            near.chunks(SLOTS).enumerate().flat_map(|(i, slots)| {
+            near.chunks(SLOTS).zip(&order).flat_map(|(slots, &i)| {
                 let usable = slots.iter().take_while(|&&edge| edge != NO_EDGE);
                 usable.map(move |&(j, cost)| (i, j as usize, cost))
             })

@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 use nalgebra::{Matrix3, SymmetricEigen};
+use pointset_core::spatial::z_order;
 use pointset_core::{KdIndex, PointSet, RunContext};
 use rayon::prelude::*;
 
@@ -235,23 +236,26 @@ pub fn fit_normals_in(points: &PointSet, k: usize, ctx: &mut RunContext) -> Resu
     let positions = points.positions();
     let index = KdIndex::new(positions)?;
     let total = Some(positions.len() as u64);
-    let mut fits: Vec<(Vec3, bool)> = Vec::with_capacity(positions.len());
-    for (chunk, part) in positions.chunks(FIT_CHUNK).enumerate() {
+    let mut fits: Vec<(Vec3, bool)> = vec![(Vec3::ZERO, false); positions.len()];
+    // Asked along the Z-order curve, so that consecutive queries share the index's caches.
+    let order = z_order(positions);
+    for (chunk, part) in order.chunks(FIT_CHUNK).enumerate() {
         ctx.check_cancelled()?;
-        let first = chunk * FIT_CHUNK;
         let fitted = part
             .par_iter()
-            .enumerate()
-            .map(|(d, &p)| {
-                let nn = index.nearest(p, k)?;
+            .map(|&i| {
+                let nn = index.nearest(positions[i], k)?;
                 Covariance::of(positions, nn.iter().map(|n| n.index))
                     .map(|c| (c.eigenvectors[0], c.defines_normal()))
                     .filter(|(n, _)| n.is_normalized())
-                    .ok_or(MlsError::DegenerateNormal { index: first + d })
+                    .ok_or(MlsError::DegenerateNormal { index: i })
             })
             .collect::<Result<Vec<(Vec3, bool)>>>()?;
-        fits.extend(fitted);
-        ctx.report(FITTING_STAGE, fits.len() as u64, total);
+        for (&i, fit) in part.iter().zip(fitted) {
+            fits[i] = fit;
+        }
+        let done = (chunk * FIT_CHUNK + part.len()) as u64;
+        ctx.report(FITTING_STAGE, done, total);
     }
     let undefined = fits
         .iter()
