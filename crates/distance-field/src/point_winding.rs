@@ -46,6 +46,7 @@
 //! against 19–175 (2–7 components). Margins of 0 and 0.25 did worse than 0.1.
 
 use glam::{DVec3, Vec3};
+use pointset_core::spatial::z_order;
 use pointset_core::{Aabb, BandAnswer, KdIndex, PointSet, Surface, SurfacePoint};
 use rayon::prelude::*;
 
@@ -205,15 +206,23 @@ impl PointWinding {
 /// as many nearest (module docs). A sample with fewer than half of [`AREA_NEIGHBOURS`]
 /// such neighbours gets 0: one facing against its neighbours, or any sample of a cloud of
 /// fewer than five. Normals need not be unit length; a zero normal faces every way and
-/// measures distances in 3D. Parallel over the samples; the result does not depend on the
-/// thread count.
+/// measures distances in 3D. Parallel over the samples, asked along the Z-order curve
+/// (`pointset_core::spatial::z_order`, which keeps the index's caches warm on clouds
+/// stored in random order); the result does not depend on the thread count or the order.
+/// Errors: a normal count other than the positions'.
 pub fn sample_areas(positions: &[Vec3], normals: &[Vec3], index: &KdIndex) -> Result<Vec<f32>> {
-    positions
+    if normals.len() != positions.len() {
+        return Err(FieldError::InvalidParameter {
+            name: "normals",
+            value: format!("{} for {} positions", normals.len(), positions.len()),
+            expected: "one normal per position",
+        });
+    }
+    let order = z_order(positions);
+    let in_order = order
         .par_iter()
-        .zip(normals)
-        .enumerate()
-        .map(|(i, (&p, n))| {
-            let n = n.normalize_or_zero();
+        .map(|&i| {
+            let (p, n) = (positions[i], normals[i].normalize_or_zero());
             let mut tangential: Vec<f32> = index
                 .nearest(p, 2 * AREA_NEIGHBOURS + 1)?
                 .into_iter()
@@ -242,7 +251,12 @@ pub fn sample_areas(positions: &[Vec3], normals: &[Vec3], index: &KdIndex) -> Re
                 0.0
             })
         })
-        .collect()
+        .collect::<Result<Vec<f32>>>()?;
+    let mut areas = vec![0.0; positions.len()];
+    for (&i, area) in order.iter().zip(in_order) {
+        areas[i] = area;
+    }
+    Ok(areas)
 }
 
 /// A surface whose distances and closest points are another surface's, and whose signs
@@ -475,6 +489,13 @@ mod tests {
         let areas = PointWinding::new(&cloud).unwrap().areas();
         assert_eq!(areas[17], 0.0);
         assert!(areas.iter().enumerate().all(|(i, a)| i == 17 || *a > 0.0));
+        // One normal short is an error, not a panic or a shorter list.
+        let index = KdIndex::new(cloud.positions()).unwrap();
+        let short = &cloud.normals().unwrap()[1..];
+        assert!(matches!(
+            sample_areas(cloud.positions(), short, &index),
+            Err(FieldError::InvalidParameter { name: "normals", .. })
+        ));
     }
 
     #[test]
