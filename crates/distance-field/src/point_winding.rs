@@ -494,7 +494,10 @@ mod tests {
         let short = &cloud.normals().unwrap()[1..];
         assert!(matches!(
             sample_areas(cloud.positions(), short, &index),
-            Err(FieldError::InvalidParameter { name: "normals", .. })
+            Err(FieldError::InvalidParameter {
+                name: "normals",
+                ..
+            })
         ));
     }
 

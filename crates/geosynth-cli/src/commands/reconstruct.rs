@@ -7,7 +7,7 @@ use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
-use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, orient_normals, plane_radius};
+use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, orient_normals_in, plane_radius};
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
     trim_to_mesh,
@@ -238,7 +238,9 @@ fn prepared_input(
                 status(globals, no_faces_to_orient(&args.input));
             }
             if options.orient_normals {
-                points = orient_normals(&points, Vec3::Z)?;
+                let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
+                points = orient_normals_in(&points, Vec3::Z, &mut ctx)?;
+                bar.finish_and_clear();
             }
             if let Some(note) = super::unoriented_normals_note(&points, None) {
                 status(globals, note);
