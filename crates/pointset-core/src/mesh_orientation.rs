@@ -119,8 +119,15 @@ impl TriMesh {
     /// # Ok::<(), pointset_core::Error>(())
     /// ```
     pub fn consistently_oriented(&self) -> Result<(TriMesh, Reorientation)> {
-        // Adjacency by position: vertices a file split along UV seams are one here.
-        let welded = self.welded()?;
+        // Adjacency by position: vertices a file split along UV seams are one here. A mesh
+        // without such vertices welds to itself (the same indices), so it is not copied.
+        let welded_copy;
+        let welded = if self.has_coincident_vertices() {
+            welded_copy = self.welded()?;
+            &welded_copy
+        } else {
+            self
+        };
         let triangles = welded.triangles();
         let edges = EdgeFaces::new(triangles)?;
         let mut flip: Vec<Option<bool>> = vec![None; triangles.len()];
@@ -297,6 +304,39 @@ mod tests {
             &fixed.triangles()[12..],
             &t.iter().map(|v| v.map(|i| i + 8)).collect::<Vec<_>>()[..]
         );
+    }
+
+    #[test]
+    fn triangles_meet_by_position_where_the_file_split_their_vertices() {
+        // A square's two triangles, the second turned, with and without their own copies
+        // of the shared diagonal (as files split vertices along UV seams).
+        let shared = TriMesh::new(
+            PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y]).unwrap(),
+            vec![[0, 1, 2], [0, 3, 2]],
+        )
+        .unwrap();
+        let split = TriMesh::new(
+            PointSet::new(vec![
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::ONE,
+                Vec3::ZERO,
+                Vec3::ONE,
+                Vec3::Y,
+            ])
+            .unwrap(),
+            vec![[0, 1, 2], [3, 5, 4]],
+        )
+        .unwrap();
+        assert!(split.has_coincident_vertices() && !shared.has_coincident_vertices());
+        for (mesh, turned) in [(&shared, [0, 2, 3]), (&split, [3, 4, 5])] {
+            let (fixed, change) = mesh.consistently_oriented().unwrap();
+            // They agree once the second is turned (a tie: the first one's way is kept).
+            assert_eq!(fixed.triangles()[1], turned);
+            assert_eq!((change.flipped_faces, change.parts), (1, 1));
+            // The vertices are the file's, split or not.
+            assert_eq!(fixed.vertices(), mesh.vertices());
+        }
     }
 
     #[test]
