@@ -97,8 +97,8 @@ pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
 pub use orientation::{
-    LIKELY_UNORIENTED, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS, ORIENTING_STAGE,
-    orient_normals, orient_normals_in, orientation_disagreement,
+    LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,
+    ORIENTING_STAGE, orient_normals, orient_normals_in, orientation_disagreement,
 };
 pub use params::MlsParams;
 pub use pca::{

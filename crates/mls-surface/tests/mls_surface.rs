@@ -734,7 +734,9 @@ fn recorded<T>(
 
 #[test]
 fn normals_report_their_progress_and_stop_when_cancelled() {
-    use mls_surface::{FITTING_STAGE, ORIENTING_STAGE, fit_normals_in, orient_normals_in};
+    use mls_surface::{
+        FITTING_STAGE, LINKING_STAGE, ORIENTING_STAGE, fit_normals_in, orient_normals_in,
+    };
     // 300 × 300 points on a rolling sheet: more than two reports' worth of each stage.
     let n = 90_000u64;
     let grid: Vec<Vec3> = (0..n as usize)
@@ -761,6 +763,7 @@ fn normals_report_their_progress_and_stop_when_cancelled() {
         oriented.unwrap(),
         orient_normals(&fit.points, Vec3::Z).unwrap()
     );
+    assert_eq!(counts(&reports, LINKING_STAGE), [65_536, n]);
     assert_eq!(counts(&reports, ORIENTING_STAGE), [0, 65_536, n]);
 
     // Cancelled at the first report, each stops at the next check.
