@@ -1,7 +1,7 @@
 //! Geometry textures (paper 000 §3): oriented points, a box, a reference plane.
 
 use glam::{Vec2, Vec3};
-use pointset_core::{Aabb, HeightField, PointSet};
+use pointset_core::{Aabb, HeightField, PointSet, RunContext};
 
 use crate::error::{QuiltError, Result};
 use crate::params::OutputSize;
@@ -233,8 +233,14 @@ impl GeometryTexture {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn with_oriented_normals(&self) -> Result<Self> {
+        self.with_oriented_normals_in(&mut RunContext::new(0))
+    }
+
+    /// [`GeometryTexture::with_oriented_normals`] within a run: progress and cancellation
+    /// as [`mls_surface::orient_normals_in`] reports and checks them.
+    pub fn with_oriented_normals_in(&self, ctx: &mut RunContext) -> Result<Self> {
         Ok(Self {
-            points: mls_surface::orient_normals(&self.points, Vec3::Z)?,
+            points: mls_surface::orient_normals_in(&self.points, Vec3::Z, ctx)?,
             ..self.clone()
         })
     }

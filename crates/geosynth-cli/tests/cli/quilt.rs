@@ -498,3 +498,51 @@ fn quilt_reads_a_y_up_exemplar_when_told_and_hints_at_trouble() {
     xs.dedup();
     assert!(xs.len() > 1000, "{} distinct x values", xs.len());
 }
+
+#[test]
+fn orient_normals_repairs_an_exemplar_whose_normals_came_unoriented() {
+    use geosynth::core::PointSet;
+    use geosynth::core::io::{Geometry, WriteOptions, read_geometry, write_geometry};
+    let dir = Scratch::new();
+    let bumpy = read_geometry(geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"))
+        .unwrap()
+        .geometry;
+    // The bumpy fixture without its comments, every third normal turned when `turn`.
+    let write = |name: &str, turn: bool| {
+        let points = bumpy.points();
+        let normals = points.normals().unwrap().iter().enumerate();
+        let signed = normals.map(|(i, &n)| if turn && i % 3 == 0 { -n } else { n });
+        let exemplar = PointSet::new(points.positions().to_vec())
+            .unwrap()
+            .with_normals(signed.collect())
+            .unwrap();
+        let path = dir.path(name);
+        let geometry = Geometry::Points(exemplar);
+        write_geometry(&path, &geometry, &WriteOptions::default()).unwrap();
+        arg(&path)
+    };
+    let (kept, turned) = (write("kept.ply", false), write("turned.ply", true));
+    let quilt = |input: &str, out: &str, more: &[&str]| {
+        let out = arg(&dir.path(out));
+        let run = [
+            "quilt",
+            input,
+            "-o",
+            &out,
+            "--scale",
+            "1.2",
+            "--resolution",
+            "24",
+        ];
+        ok(&[&run[..], &["--no-quality"], more].concat())
+    };
+    let note = "the normals look unoriented";
+    assert!(quilt(&turned, "as_read.ply", &[]).contains(note));
+    assert!(!quilt(&kept, "kept_out.ply", &[]).contains(note));
+    let said = quilt(&turned, "oriented_out.ply", &["--orient-normals"]);
+    assert!(!said.contains(note), "{said}");
+    // Orienting turns every sign back: the quilt is the one of the fixture's own normals.
+    let bytes = |name: &str| std::fs::read(dir.path(name)).unwrap();
+    assert!(bytes("oriented_out.ply") == bytes("kept_out.ply"));
+    assert!(bytes("as_read.ply") != bytes("kept_out.ply"));
+}

@@ -125,10 +125,13 @@ fn run_params(args: &QuiltArgs, file: &ParamsFile, given: GivenFlags) -> CliResu
 fn load(
     args: &QuiltArgs,
     options: &InputOptions,
+    globals: Globals,
 ) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
     let (mut file, frame) = read_texture(args, options)?;
     if options.orient_normals {
-        file.texture = file.texture.with_oriented_normals()?;
+        let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
+        file.texture = file.texture.with_oriented_normals_in(&mut ctx)?;
+        bar.finish_and_clear();
     }
     Ok((file, frame))
 }
@@ -277,7 +280,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
     let params = run_params(args, &params_file, given)?;
     let input_options = InputOptions::of(args, &params_file)?;
-    let (file, heightfield_frame) = load(args, &input_options)?;
+    let (file, heightfield_frame) = load(args, &input_options, globals)?;
     if let Some(mesh) = &args.mesh {
         // Georeferenced exemplars are written back in place: can the mesh's format say so?
         check_geometry_output(mesh, true, file.origin)?;
