@@ -6,15 +6,16 @@
 //! to say why. [`orientation_disagreement`] measures that, so tools can warn before a
 //! long run, and [`orient_normals`] repairs it by propagation.
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+mod frontier;
+mod graph;
 
 use glam::Vec3;
-use pointset_core::spatial::z_order;
 use pointset_core::{KdIndex, PointSet, RunContext};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
+use frontier::{Entry, Frontier};
+use graph::OrientationGraph;
 
 /// Nearest neighbours each normal is compared with.
 pub const ORIENTATION_NEIGHBOURS: usize = 6;
@@ -76,143 +77,9 @@ pub fn orientation_disagreement(points: &PointSet) -> Result<f32> {
 /// Neighbours each point is joined to in [`orient_normals`]' graph.
 pub const ORIENTATION_GRAPH_NEIGHBOURS: usize = 8;
 
-/// The largest share of a graph edge's length that may run along either end's normal in
-/// [`orient_normals`]: neighbours on one sheet lie nearly in each other's tangent plane,
-/// while two sheets facing each other across a thin gap lie along the normal.
-const MAX_EDGE_ACROSS: f32 = 0.5;
-
-/// The smallest `|n_i · n_j|` of an edge of [`orient_normals`]' graph: normals nearly at
-/// right angles (a stem standing on a base) say nothing about which way either faces.
-const MIN_EDGE_COSINE: f32 = 0.25;
-
 /// The smallest `|cos|` between a root's normal and `up` in [`orient_normals`], where a
 /// part of the graph has such a point.
 const ROOT_MIN_COSINE: f32 = 0.5;
-
-/// An edge of [`orient_normals`]' graph: the other end and the cost of crossing.
-type Edge = (u32, u32);
-
-/// A slot of [`OrientationGraph::build`]'s table of nearest neighbours with no usable edge.
-const NO_EDGE: Edge = (u32::MAX, u32::MAX);
-
-/// [`orient_normals`]' graph: every usable edge between a point and one of its
-/// [`ORIENTATION_GRAPH_NEIGHBOURS`] nearest neighbours, listed from both ends, each
-/// point's list sorted and without repeats, all in one array.
-struct OrientationGraph {
-    /// Where each point's edges start in `edges`; one more entry, the end.
-    starts: Vec<usize>,
-    /// Every point's edges, one point after another.
-    edges: Vec<Edge>,
-}
-
-impl OrientationGraph {
-    /// The graph of `positions` (at most `u32::MAX` of them) with `normals`, indexed by
-    /// `index`. The neighbours are found in parallel; the graph does not depend on the
-    /// threads.
-    ///
-    /// The points' neighbours are reported to `ctx` under [`LINKING_STAGE`] every
-    /// [`ORIENT_REPORT_EVERY`] points, and a cancelled run stops there.
-    fn build(
-        positions: &[Vec3],
-        normals: &[Vec3],
-        index: &KdIndex,
-        ctx: &mut RunContext,
-    ) -> Result<Self> {
-        const SLOTS: usize = ORIENTATION_GRAPH_NEIGHBOURS + 1;
-        const CHUNK: usize = ORIENT_REPORT_EVERY as usize;
-        let n = positions.len();
-        // The table lists the points along the Z-order curve, so that consecutive queries
-        // share the index's caches; the lists below are sorted, so the graph is the same.
-        let order = z_order(positions);
-        let mut near = vec![NO_EDGE; n * SLOTS];
-        let chunks = near.chunks_mut(SLOTS * CHUNK).zip(order.chunks(CHUNK));
-        for (chunk, (table, points)) in chunks.enumerate() {
-            ctx.check_cancelled()?;
-            table
-                .par_chunks_mut(SLOTS)
-                .zip(points.par_iter())
-                .try_for_each(|(slots, &i)| -> Result<()> {
-                    let found = index.nearest(positions[i], SLOTS)?;
-                    let usable = found.iter().filter_map(|neighbour| {
-                        let cost = edge_cost(positions, normals, i, neighbour.index)?;
-                        Some((neighbour.index as u32, cost))
-                    });
-                    for (slot, edge) in slots.iter_mut().zip(usable) {
-                        *slot = edge;
-                    }
-                    Ok(())
-                })?;
-            let done = (chunk * CHUNK + points.len()) as u64;
-            ctx.report(LINKING_STAGE, done, Some(n as u64));
-        }
-        let listed = || {
-            near.chunks(SLOTS).zip(&order).flat_map(|(slots, &i)| {
-                let usable = slots.iter().take_while(|&&edge| edge != NO_EDGE);
-                usable.map(move |&(j, cost)| (i, j as usize, cost))
-            })
-        };
-        let mut starts = vec![0usize; n + 1];
-        for (i, j, _) in listed() {
-            starts[i + 1] += 1;
-            starts[j + 1] += 1;
-        }
-        for i in 0..n {
-            starts[i + 1] += starts[i];
-        }
-        let mut edges = vec![NO_EDGE; starts[n]];
-        let mut filled = starts[..n].to_vec();
-        for (i, j, cost) in listed() {
-            edges[filled[i]] = (j as u32, cost);
-            filled[i] += 1;
-            edges[filled[j]] = (i as u32, cost);
-            filled[j] += 1;
-        }
-        drop(near);
-        // Each list sorted, its repeats (both ends among each other's neighbours) dropped,
-        // and the lists moved together.
-        let mut kept = 0;
-        for i in 0..n {
-            let (first, end) = (starts[i], starts[i + 1]);
-            edges[first..end].sort_unstable();
-            starts[i] = kept;
-            for read in first..end {
-                if kept == starts[i] || edges[kept - 1] != edges[read] {
-                    edges[kept] = edges[read];
-                    kept += 1;
-                }
-            }
-        }
-        starts[n] = kept;
-        edges.truncate(kept);
-        Ok(Self { starts, edges })
-    }
-
-    /// The edges of point `i`.
-    fn edges_of(&self, i: usize) -> &[Edge] {
-        &self.edges[self.starts[i]..self.starts[i + 1]]
-    }
-}
-
-/// The cost of carrying the orientation from `i` to `j`: `1 − |n_i · n_j|` (Hoppe et al.)
-/// plus the share of the edge that runs along the normals, so that links within one sheet
-/// are taken before links that jump between sheets; `None` for edges that run mostly along
-/// the normals. Scaled to integers for the heap.
-fn edge_cost(positions: &[Vec3], normals: &[Vec3], i: usize, j: usize) -> Option<u32> {
-    let offset = positions[j] - positions[i];
-    let length = offset.length();
-    if i == j || length <= 0.0 {
-        return None;
-    }
-    let across = offset
-        .dot(normals[i])
-        .abs()
-        .max(offset.dot(normals[j]).abs())
-        / length;
-    let agreement = normals[i].dot(normals[j]).abs();
-    let bend = (1.0 - agreement).max(0.0);
-    (across <= MAX_EDGE_ACROSS && agreement >= MIN_EDGE_COSINE)
-        .then_some(((bend + across) * 1e6) as u32)
-}
 
 /// The normals' signs made consistent by propagation, after Hoppe et al. 1992 (*Surface
 /// reconstruction from unorganized points*, §3.3): over the graph joining each point to
@@ -325,8 +192,11 @@ pub fn orient_normals_in(points: &PointSet, up: Vec3, ctx: &mut RunContext) -> R
             .total_cmp(&positions[a].dot(up))
             .then(a.cmp(&b))
     });
-    let mut oriented: Vec<Vec3> = normals.to_vec();
+    // The propagation works in the graph's numbering: `oriented[r]` is the normal of the
+    // point at rank `r`.
+    let mut oriented: Vec<Vec3> = graph.order.iter().map(|&i| normals[i as usize]).collect();
     let mut done = vec![false; positions.len()];
+    let mut frontier = Frontier::new(positions.len());
     let mut reached = Reached { ctx, count: 0 };
     // A root must face clearly up or down (|n · up| ≥ ROOT_MIN_COSINE) for "face up" to
     // decide its sign: the tip of a petal is often highest and faces sideways. Parts
@@ -335,24 +205,35 @@ pub fn orient_normals_in(points: &PointSet, up: Vec3, ctx: &mut RunContext) -> R
         .iter()
         .filter(|&&i| normals[i].dot(up).abs() >= ROOT_MIN_COSINE * up.length());
     for &root in steep.chain(&by_height) {
-        if done[root] {
+        let root_rank = graph.rank_of[root];
+        if done[root_rank as usize] {
             continue;
         }
-        let part = propagate(root, &graph, &mut oriented, &mut done, &mut reached)?;
+        let mut tree = Tree {
+            graph: &graph,
+            oriented: &mut oriented,
+            done: &mut done,
+            frontier: &mut frontier,
+        };
+        let part = tree.grow(root_rank, &mut reached)?;
+        let root_normal = oriented[root_rank as usize];
         // Which way the part faces: its root's normal toward `up`, or, for a part with no
         // point facing up or down (a stem), outward from the part's centroid at the root.
         let facing = if normals[root].dot(up).abs() >= ROOT_MIN_COSINE * up.length() {
-            oriented[root].dot(up)
+            root_normal.dot(up)
         } else {
-            let centroid = part.iter().map(|&i| positions[i]).sum::<Vec3>() / part.len() as f32;
-            oriented[root].dot(positions[root] - centroid)
+            let at = |&rank: &u32| positions[graph.order[rank as usize] as usize];
+            let centroid = part.iter().map(at).sum::<Vec3>() / part.len() as f32;
+            root_normal.dot(positions[root] - centroid)
         };
         if facing < 0.0 {
-            for &i in &part {
-                oriented[i] = -oriented[i];
+            for &rank in &part {
+                oriented[rank as usize] = -oriented[rank as usize];
             }
         }
     }
+    let oriented = graph.rank_of.iter().map(|&rank| oriented[rank as usize]);
+    let oriented: Vec<Vec3> = oriented.collect();
     reached.ctx.report(ORIENTING_STAGE, total, Some(total));
     let mut out = points.clone();
     out.set_normals(Some(oriented))?;
@@ -380,99 +261,46 @@ impl Reached<'_> {
     }
 }
 
-/// Prim's algorithm over (cost, node, parent) from `root` through the parts of the graph
-/// not yet `done`: each normal reached is turned to agree with its parent's. Returns the
-/// part's points in the order reached.
-fn propagate(
-    root: usize,
-    graph: &OrientationGraph,
-    oriented: &mut [Vec3],
-    done: &mut [bool],
-    reached: &mut Reached<'_>,
-) -> Result<Vec<usize>> {
-    let mut part = Vec::new();
-    // Points fit in `u32` (checked by the caller): the heap's entries are 12 bytes.
-    let mut frontier = BinaryHeap::from([Reverse((0u32, root as u32, root as u32))]);
-    while let Some(Reverse((_, node, parent))) = frontier.pop() {
-        let (node, parent) = (node as usize, parent as usize);
-        if done[node] {
-            continue;
-        }
-        done[node] = true;
-        part.push(node);
-        reached.one_more(done.len())?;
-        if oriented[node].dot(oriented[parent]) < 0.0 {
-            oriented[node] = -oriented[node];
-        }
-        for &(next, cost) in graph.edges_of(node) {
-            if !done[next as usize] {
-                frontier.push(Reverse((cost, next, node as u32)));
-            }
-        }
-    }
-    Ok(part)
+/// A minimum spanning tree of the part of the graph around a root, grown by Prim's
+/// algorithm through the points not yet `done` (ties to the point with the lower index in
+/// the point set, then to the parent with the lower index), each normal reached turned to
+/// agree with its parent's. Everything else is numbered by the graph's ranks.
+struct Tree<'a> {
+    graph: &'a OrientationGraph,
+    oriented: &'a mut [Vec3],
+    done: &'a mut [bool],
+    frontier: &'a mut Frontier,
 }
 
-#[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used)]
-
-    use proptest::prelude::*;
-
-    use super::*;
-
-    /// The graph as the first version built it: a list per point, both ends of every
-    /// usable edge pushed, each list sorted and its repeats dropped.
-    fn listed_graph(positions: &[Vec3], normals: &[Vec3]) -> Vec<Vec<Edge>> {
-        let index = KdIndex::new(positions).unwrap();
-        let mut lists: Vec<Vec<Edge>> = vec![Vec::new(); positions.len()];
-        for (i, &p) in positions.iter().enumerate() {
-            for n in index.nearest(p, ORIENTATION_GRAPH_NEIGHBOURS + 1).unwrap() {
-                if let Some(cost) = edge_cost(positions, normals, i, n.index) {
-                    lists[i].push((n.index as u32, cost));
-                    lists[n.index].push((i as u32, cost));
+impl Tree<'_> {
+    /// Grows the tree from `root`; returns its points in the order reached.
+    fn grow(&mut self, root: u32, reached: &mut Reached<'_>) -> Result<Vec<u32>> {
+        let mut part = Vec::new();
+        let index = self.graph.order[root as usize];
+        self.frontier.offer(Entry {
+            key: (0, index, index),
+            point: root,
+            parent: root,
+        });
+        while let Some(reached_by) = self.frontier.pop() {
+            let (node, index) = (reached_by.point, reached_by.key.1);
+            let (at, from) = (node as usize, reached_by.parent as usize);
+            self.done[at] = true;
+            part.push(node);
+            reached.one_more(self.done.len())?;
+            if self.oriented[at].dot(self.oriented[from]) < 0.0 {
+                self.oriented[at] = -self.oriented[at];
+            }
+            for &(next, cost) in self.graph.edges_of(node) {
+                if !self.done[next as usize] {
+                    self.frontier.offer(Entry {
+                        key: (cost, self.graph.order[next as usize], index),
+                        point: next,
+                        parent: node,
+                    });
                 }
             }
         }
-        for list in &mut lists {
-            list.sort_unstable();
-            list.dedup();
-        }
-        lists
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
-
-        /// Points near a wavy sheet (many usable edges, some left out for running along
-        /// the normals or bending too far), some coincident.
-        #[test]
-        fn the_graph_lists_every_usable_edge_from_both_ends_once(
-            samples in prop::collection::vec(
-                (0.0f32..4.0, 0.0f32..4.0, -0.3f32..0.3, -1.0f32..1.0, any::<bool>()),
-                2..300,
-            ),
-        ) {
-            let positions: Vec<Vec3> = samples
-                .iter()
-                .map(|&(x, y, z, _, _)| Vec3::new(x, y, (2.0 * x).sin() + z * (y % 1.0)))
-                .collect();
-            let normals: Vec<Vec3> = samples
-                .iter()
-                .map(|&(_, _, _, tilt, flip)| {
-                    let n = Vec3::new(tilt, 0.3 * tilt, 1.0).normalize();
-                    if flip { -n } else { n }
-                })
-                .collect();
-            let index = KdIndex::new(&positions).unwrap();
-            let mut ctx = RunContext::new(0);
-            let graph = OrientationGraph::build(&positions, &normals, &index, &mut ctx).unwrap();
-            let lists = listed_graph(&positions, &normals);
-            prop_assert_eq!(graph.starts.len(), positions.len() + 1);
-            prop_assert_eq!(graph.edges.len(), lists.iter().map(Vec::len).sum::<usize>());
-            for (i, list) in lists.iter().enumerate() {
-                prop_assert_eq!(graph.edges_of(i), list.as_slice(), "point {}", i);
-            }
-        }
+        Ok(part)
     }
 }
