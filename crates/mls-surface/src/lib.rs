@@ -86,6 +86,7 @@
 mod cluster;
 mod error;
 mod heights;
+mod index_match;
 mod orientation;
 mod params;
 mod pca;
@@ -98,13 +99,14 @@ pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
 pub use orientation::{
     LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,
-    ORIENTING_STAGE, orient_normals, orient_normals_in, orientation_disagreement,
+    ORIENTING_STAGE, orient_normals, orient_normals_in, orient_normals_with,
+    orientation_disagreement, orientation_disagreement_with,
 };
 pub use params::MlsParams;
 pub use pca::{
     Covariance, FITTING_STAGE, MIN_NORMAL_DEFINITENESS, NORMAL_NEIGHBOURS, NormalFit,
-    PLANE_RADIUS_MAX_NEIGHBOURS, estimate_normals, fit_normals, fit_normals_in, plane_radius,
-    surface_variation,
+    PLANE_RADIUS_MAX_NEIGHBOURS, estimate_normals, fit_normals, fit_normals_in, fit_normals_with,
+    plane_radius, surface_variation,
 };
 pub use ray::{RayHit, Snap, SnapMethod};
 pub use relax::{RelaxParams, Relaxed, nearest_neighbour_spread, relax};

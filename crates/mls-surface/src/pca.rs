@@ -8,6 +8,7 @@ use pointset_core::{KdIndex, PointSet, RunContext};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
+use crate::index_match::check_index_of;
 
 /// Eigen-decomposition of a 3×3 covariance: eigenvalues ascending and matching unit vectors.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -214,27 +215,39 @@ pub const FITTING_STAGE: &str = "fitting normals";
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn fit_normals_in(points: &PointSet, k: usize, ctx: &mut RunContext) -> Result<NormalFit> {
-    if k < 3 {
-        return Err(MlsError::InvalidParameter {
-            name: "k",
-            value: k.to_string(),
-            expected: "at least 3 neighbours",
-        });
-    }
-    if points.is_empty() {
-        return Err(MlsError::EmptyInput {
-            what: "the point set",
-        });
-    }
-    if points.len() < 3 {
-        return Err(MlsError::InvalidParameter {
-            name: "points",
-            value: points.len().to_string(),
-            expected: "at least 3 points to fit a tangent plane to",
-        });
-    }
+    check_fit(points, k)?;
+    let index = KdIndex::new(points.positions())?;
+    fit_normals_with(&index, points, k, ctx)
+}
+
+/// [`fit_normals_in`] with an `index` of `points`' positions that the caller built
+/// (`KdIndex::new(points.positions())`), so that one index serves the fit, the
+/// orientation ([`crate::orient_normals_with`]) and its check
+/// ([`crate::orientation_disagreement_with`]): on 12 million points each index takes
+/// seconds to build. The fit is the same, bit for bit. Errors as [`fit_normals`]'s, and
+/// an index of other positions.
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::{fit_normals, fit_normals_with};
+/// use pointset_core::{KdIndex, PointSet, RunContext};
+///
+/// let p: Vec<Vec3> = (0..900).map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0)).collect();
+/// let points = PointSet::new(p)?;
+/// let index = KdIndex::new(points.positions())?;
+/// let fit = fit_normals_with(&index, &points, 12, &mut RunContext::new(0))?;
+/// assert_eq!(fit.points, fit_normals(&points, 12)?.points);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn fit_normals_with(
+    index: &KdIndex,
+    points: &PointSet,
+    k: usize,
+    ctx: &mut RunContext,
+) -> Result<NormalFit> {
+    check_fit(points, k)?;
+    check_index_of(index, points)?;
     let positions = points.positions();
-    let index = KdIndex::new(positions)?;
     let total = Some(positions.len() as u64);
     let mut fits: Vec<(Vec3, bool)> = vec![(Vec3::ZERO, false); positions.len()];
     // Asked along the Z-order curve, so that consecutive queries share the index's caches.
@@ -268,6 +281,30 @@ pub fn fit_normals_in(points: &PointSet, k: usize, ctx: &mut RunContext) -> Resu
         points: points.clone().with_normals(normals)?,
         undefined,
     })
+}
+
+/// The input checks of [`fit_normals`]: `k` of at least 3, at least 3 points.
+fn check_fit(points: &PointSet, k: usize) -> Result<()> {
+    if k < 3 {
+        return Err(MlsError::InvalidParameter {
+            name: "k",
+            value: k.to_string(),
+            expected: "at least 3 neighbours",
+        });
+    }
+    if points.is_empty() {
+        return Err(MlsError::EmptyInput {
+            what: "the point set",
+        });
+    }
+    if points.len() < 3 {
+        return Err(MlsError::InvalidParameter {
+            name: "points",
+            value: points.len().to_string(),
+            expected: "at least 3 points to fit a tangent plane to",
+        });
+    }
+    Ok(())
 }
 
 /// The most neighbours [`plane_radius`] gathers around a point looking for a plane.

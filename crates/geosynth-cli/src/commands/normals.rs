@@ -3,9 +3,10 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
+use geosynth::core::KdIndex;
 use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::mls::{
-    NORMAL_NEIGHBOURS, fit_normals_in, orient_normals_in, orientation_disagreement,
+    NORMAL_NEIGHBOURS, fit_normals_with, orient_normals_with, orientation_disagreement_with,
 };
 use glam::{DVec3, Vec3};
 
@@ -99,9 +100,14 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     };
     // The bar follows the stages: the fit, then the orientation.
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
-    let fit = fit_normals_in(points, args.neighbours, &mut ctx)?;
-    let oriented = orient_normals_in(&fit.points, args.up.vector(), &mut ctx)?;
+    // One index of the positions serves the fit, the orientation and its check.
+    let index = KdIndex::new(points.positions())?;
+    let fit = fit_normals_with(&index, points, args.neighbours, &mut ctx)?;
+    let oriented = orient_normals_with(&index, &fit.points, args.up.vector(), &mut ctx)?;
     bar.finish_and_clear();
+    let disagreement = orientation_disagreement_with(&index, &oriented)?;
+    drop(index);
+    let count = oriented.len();
     let neighbours = args.neighbours.min(points.len());
     if let Some(note) = undefined_note(fit.undefined.len(), points.len(), neighbours) {
         status(globals, note);
@@ -113,14 +119,13 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
             args.up
         ))
         .origin(loaded.origin);
-    write_geometry_file(&args.output, &Geometry::Points(oriented.clone()), &options)?;
-    let disagreement = orientation_disagreement(&oriented)?;
+    write_geometry_file(&args.output, &Geometry::Points(oriented), &options)?;
     status(
         globals,
         format!(
             "wrote {} ({} points; {:.1}% face away from most neighbours)",
             args.output.display(),
-            oriented.len(),
+            count,
             100.0 * disagreement
         ),
     );
