@@ -81,6 +81,11 @@ impl KdIndex {
     /// Builds the index; errors if any point is NaN or infinite, the points span more
     /// than [`crate::MAX_SPAN`] (their squared distances would overflow), or there are more
     /// than `u32::MAX` points.
+    ///
+    /// From 262,144 points the tree is built on the current `rayon` pool (`kiddo`'s
+    /// parallel construction): the same tree as on one thread, so the same answers, ties
+    /// included (tested on a lattice of repeated points). 12 million points: 3.8 s on one
+    /// thread, 2.7 s on two.
     pub fn new(points: &[Vec3]) -> Result<Self> {
         crate::error::check_finite_vec3(points, "indexed point")?;
         crate::check_span(points, "indexed points")?;
