@@ -87,7 +87,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
     let loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
-    let points = match &loaded.geometry {
+    let points = match loaded.geometry {
         Geometry::Points(points) => points,
         Geometry::Mesh(_) => {
             return Err(format!(
@@ -102,16 +102,19 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
     // One index of the positions serves the fit, the orientation and its check.
     let index = KdIndex::new(points.positions())?;
-    let fit = fit_normals_with(&index, points, args.neighbours, &mut ctx)?;
+    let fit = fit_normals_with(&index, &points, args.neighbours, &mut ctx)?;
+    // The fit holds a copy of every point: the one read is not needed any more.
+    let count = points.len();
+    drop(points);
     let oriented = orient_normals_with(&index, &fit.points, args.up.vector(), &mut ctx)?;
     bar.finish_and_clear();
     let disagreement = orientation_disagreement_with(&index, &oriented)?;
     drop(index);
-    let count = oriented.len();
-    let neighbours = args.neighbours.min(points.len());
-    if let Some(note) = undefined_note(fit.undefined.len(), points.len(), neighbours) {
+    let neighbours = args.neighbours.min(count);
+    if let Some(note) = undefined_note(fit.undefined.len(), count, neighbours) {
         status(globals, note);
     }
+    drop(fit);
     let options = WriteOptions::default()
         .comment(format!(
             "normals estimated by geosynth from {neighbours} nearest neighbours and oriented \

@@ -25,20 +25,27 @@ pub(super) type Edge = (u32, u32);
 const NO_EDGE: Edge = (u32::MAX, u32::MAX);
 
 /// [`super::orient_normals`]' graph: every usable edge between a point and one of its
-/// [`ORIENTATION_GRAPH_NEIGHBOURS`] nearest neighbours, listed once from each end, all in
-/// one array. The points are numbered by their rank along the Z-order curve (`order`),
-/// so that points near each other in space are near each other in every array the
-/// propagation walks: on points stored in random order, their own numbering sends
-/// almost every step of it to memory the processor has not cached.
+/// [`ORIENTATION_GRAPH_NEIGHBOURS`] nearest neighbours, listed once from each end. The
+/// points are numbered by their rank along the Z-order curve (`order`), so that points
+/// near each other in space are near each other in every array the propagation walks: on
+/// points stored in random order, their own numbering sends almost every step of it to
+/// memory the processor has not cached.
+///
+/// A point's edges are the row of its own nearest neighbours (`near`) followed by the
+/// edges from points that have it among theirs while it does not have them (`reverse`):
+/// the table of neighbours is kept as half of the graph instead of being copied into it.
 pub(super) struct OrientationGraph {
     /// The point at each rank.
     pub(super) order: Vec<u32>,
     /// The rank of each point.
     pub(super) rank_of: Vec<u32>,
-    /// Where each rank's edges start in `edges`; one more entry, the end.
-    starts: Vec<usize>,
-    /// Every rank's edges, one rank after another.
-    edges: Vec<Edge>,
+    /// Each rank's usable edges to its own nearest neighbours.
+    near: NearTable,
+    /// Where each rank's edges in `reverse` start; one more entry, the end.
+    reverse_starts: Vec<usize>,
+    /// Every rank's edges from points whose rows list it while its row does not list
+    /// them, one rank after another.
+    reverse: Vec<Edge>,
 }
 
 impl OrientationGraph {
@@ -71,7 +78,10 @@ impl OrientationGraph {
                 .zip(points.par_iter())
                 .try_for_each(|(slots, &i)| -> Result<()> {
                     let i = i as usize;
-                    let found = index.nearest(positions[i], NearTable::SLOTS)?;
+                    // The point itself and its neighbours. At most `SLOTS` of them are
+                    // usable: the point itself never is, and if it is not among those
+                    // found, they all lie where it lies, and edges of no length are not.
+                    let found = index.nearest(positions[i], NearTable::SLOTS + 1)?;
                     let usable = found.iter().filter_map(|neighbour| {
                         let cost = edge_cost(positions, normals, i, neighbour.index)?;
                         Some((rank_of[neighbour.index], cost))
@@ -84,59 +94,56 @@ impl OrientationGraph {
             let done = (chunk * CHUNK + points.len()) as u64;
             ctx.report(LINKING_STAGE, done, Some(n as u64));
         }
-        // Each row's edges go into its own list, and into the other end's list unless the
-        // other end's row has the same edge (the cost is symmetric) to put there itself.
-        let listed = || {
+        // The edges a row lists whose other end's row does not list them back (the cost
+        // is symmetric, so a listed edge back is the same edge).
+        let one_way = || {
             (0..n as u32).flat_map(|r| {
                 let near = &near;
-                near.row(r)
-                    .iter()
-                    .map(move |&(s, cost)| (r, s, cost, !near.lists(s, r)))
+                let row = near.row(r).iter();
+                row.filter(move |&&(s, _)| !near.lists(s, r))
+                    .map(move |&(s, cost)| (r, s, cost))
             })
         };
-        let mut starts = vec![0usize; n + 1];
-        for (r, s, _, both) in listed() {
-            starts[r as usize + 1] += 1;
-            if both {
-                starts[s as usize + 1] += 1;
-            }
+        // Counted per rank, summed into where each rank's edges end, and filled from
+        // there backwards: each rank's entry ends where its edges start.
+        let mut reverse_starts = vec![0usize; n + 1];
+        for (_, s, _) in one_way() {
+            reverse_starts[s as usize] += 1;
         }
-        for r in 0..n {
-            starts[r + 1] += starts[r];
+        for r in 1..=n {
+            reverse_starts[r] += reverse_starts[r - 1];
         }
-        let mut edges = vec![NO_EDGE; starts[n]];
-        let mut filled = starts[..n].to_vec();
-        for (r, s, cost, both) in listed() {
-            let (r, s) = (r as usize, s as usize);
-            edges[filled[r]] = (s as u32, cost);
-            filled[r] += 1;
-            if both {
-                edges[filled[s]] = (r as u32, cost);
-                filled[s] += 1;
-            }
+        let mut reverse = vec![NO_EDGE; reverse_starts[n]];
+        for (r, s, cost) in one_way() {
+            let end = &mut reverse_starts[s as usize];
+            *end -= 1;
+            reverse[*end] = (r, cost);
         }
         Ok(Self {
             order,
             rank_of,
-            starts,
-            edges,
+            near,
+            reverse_starts,
+            reverse,
         })
     }
 
     /// The edges of the point at `rank`, in no particular order.
-    pub(super) fn edges_of(&self, rank: u32) -> &[Edge] {
-        let rank = rank as usize;
-        &self.edges[self.starts[rank]..self.starts[rank + 1]]
+    pub(super) fn edges_of(&self, rank: u32) -> impl Iterator<Item = &Edge> {
+        let at = rank as usize;
+        let reverse = &self.reverse[self.reverse_starts[at]..self.reverse_starts[at + 1]];
+        self.near.row(rank).iter().chain(reverse)
     }
 }
 
-/// Each ranked point's usable edges to its nearest neighbours (itself among them, never
-/// usable), a row of [`NearTable::SLOTS`] per rank, [`NO_EDGE`] after the last.
+/// Each ranked point's usable edges to its nearest neighbours, a row of
+/// [`NearTable::SLOTS`] per rank, [`NO_EDGE`] after the last.
 struct NearTable(Vec<Edge>);
 
 impl NearTable {
-    /// Neighbours asked per point: the graph's, and the point itself.
-    const SLOTS: usize = ORIENTATION_GRAPH_NEIGHBOURS + 1;
+    /// The most usable edges a point has to its own nearest neighbours: one per
+    /// neighbour of the graph.
+    const SLOTS: usize = ORIENTATION_GRAPH_NEIGHBOURS;
 
     /// The usable edges of the point at `rank`.
     fn row(&self, rank: u32) -> &[Edge] {
@@ -229,16 +236,15 @@ mod tests {
             let mut ctx = RunContext::new(0);
             let graph = OrientationGraph::build(&positions, &normals, &index, &mut ctx).unwrap();
             let lists = listed_graph(&positions, &normals);
-            prop_assert_eq!(graph.starts.len(), positions.len() + 1);
-            prop_assert_eq!(graph.edges.len(), lists.iter().map(Vec::len).sum::<usize>());
+            prop_assert_eq!(graph.reverse_starts.len(), positions.len() + 1);
             for (i, list) in lists.iter().enumerate() {
                 prop_assert_eq!(graph.order[graph.rank_of[i] as usize] as usize, i);
                 let mut by_point: Vec<Edge> = graph
                     .edges_of(graph.rank_of[i])
-                    .iter()
                     .map(|&(rank, cost)| (graph.order[rank as usize], cost))
                     .collect();
                 by_point.sort_unstable();
+                // Sorted and compared whole: no edge twice, none missing.
                 prop_assert_eq!(by_point, list.clone(), "point {}", i);
             }
         }

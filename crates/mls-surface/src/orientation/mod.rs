@@ -222,11 +222,11 @@ pub fn orient_normals_with(
     ctx.report(ORIENTING_STAGE, 0, Some(total));
     // Roots in order of height along `up` (index breaks ties: the order is total, so an
     // unstable sort gives the one order there is).
-    let mut by_height: Vec<usize> = (0..positions.len()).collect();
+    let mut by_height: Vec<u32> = (0..total as u32).collect();
     by_height.par_sort_unstable_by(|&a, &b| {
-        positions[b]
+        positions[b as usize]
             .dot(up)
-            .total_cmp(&positions[a].dot(up))
+            .total_cmp(&positions[a as usize].dot(up))
             .then(a.cmp(&b))
     });
     // The propagation works in the graph's numbering: `oriented[r]` is the normal of the
@@ -240,8 +240,9 @@ pub fn orient_normals_with(
     // without such a point are rooted at their highest point afterwards.
     let steep = by_height
         .iter()
-        .filter(|&&i| normals[i].dot(up).abs() >= ROOT_MIN_COSINE * up.length());
+        .filter(|&&i| normals[i as usize].dot(up).abs() >= ROOT_MIN_COSINE * up.length());
     for &root in steep.chain(&by_height) {
+        let root = root as usize;
         let root_rank = graph.rank_of[root];
         if done[root_rank as usize] {
             continue;
@@ -269,11 +270,17 @@ pub fn orient_normals_with(
             }
         }
     }
-    let oriented = graph.rank_of.iter().map(|&rank| oriented[rank as usize]);
-    let oriented: Vec<Vec3> = oriented.collect();
+    let by_point: Vec<Vec3> = graph
+        .rank_of
+        .iter()
+        .map(|&rank| oriented[rank as usize])
+        .collect();
+    // Freed before the points are copied: on millions of points the graph is the
+    // largest thing the run holds.
+    drop((graph, oriented, done, frontier, by_height));
     reached.ctx.report(ORIENTING_STAGE, total, Some(total));
     let mut out = points.clone();
-    out.set_normals(Some(oriented))?;
+    out.set_normals(Some(by_point))?;
     Ok(out)
 }
 
