@@ -2,9 +2,10 @@
 
 use std::path::Path;
 
+use geosynth::core::RunContext;
 use geosynth::core::io::write_whole;
 use serde::Serialize;
-use serde_json::{Number, Value};
+use serde_json::{Number, Value, json};
 
 use crate::CliResult;
 use crate::memory::peak_resident_bytes;
@@ -34,6 +35,15 @@ pub fn write_json_report(path: &Path, command: &str, report: &impl Serialize) ->
     shorten_single_precision(&mut value);
     let text = serde_json::to_string_pretty(&value)?;
     write_whole(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
+}
+
+/// A run's stage timings as report entries, `{"stage": NAME, "seconds": S}` in the order
+/// the stages first ran.
+pub fn timings_json(ctx: &RunContext) -> Value {
+    ctx.timings()
+        .iter()
+        .map(|(stage, d)| json!({ "stage": stage, "seconds": d.as_secs_f64() }))
+        .collect()
 }
 
 /// Rewrites, throughout `value`, every non-integer number that equals an `f32` as the

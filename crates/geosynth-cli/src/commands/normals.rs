@@ -1,6 +1,7 @@
 //! `geosynth normals`: estimate and orient the normals of a point set.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 use geosynth::core::KdIndex;
@@ -9,8 +10,10 @@ use geosynth::mls::{
     NORMAL_NEIGHBOURS, fit_normals_with, orient_normals_with, orientation_disagreement_with,
 };
 use glam::{DVec3, Vec3};
+use serde_json::json;
 
 use crate::input_file::read_geometry;
+use crate::json_report::{timings_json, write_json_report};
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
     write_geometry_file,
@@ -55,6 +58,11 @@ pub struct NormalsArgs {
     /// the signs spread from there (for a closed scan: outward).
     #[arg(long, value_enum, default_value_t = UpArg::Z)]
     up: UpArg,
+    /// Also write a JSON report: the counts, the share of points facing away from most
+    /// neighbours, each stage's seconds (reading, indexing, fitting, orienting, checking,
+    /// writing) and the peak memory.
+    #[arg(long, value_name = "R.json")]
+    report: Option<PathBuf>,
 }
 
 /// Parses `--neighbours`: a whole number of at least 3, the fewest points a plane is
@@ -83,9 +91,11 @@ fn undefined_note(undefined: usize, points: usize, neighbours: usize) -> Option<
 
 /// Runs `geosynth normals`.
 pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
-    check_output_paths([args.output.as_path()], [])?;
+    check_output_paths([args.output.as_path()], args.report.as_deref())?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
+    let started = Instant::now();
     let loaded = read_geometry(&args.input, globals)?;
+    let read_time = started.elapsed();
     report_not_kept(globals, &args.input, &loaded.notes);
     let points = match loaded.geometry {
         Geometry::Points(points) => points,
@@ -100,18 +110,27 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     };
     // The bar follows the stages: the fit, then the orientation.
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
+    ctx.record_timing("reading", read_time);
     // One index of the positions serves the fit, the orientation and its check.
-    let index = KdIndex::new(points.positions())?;
-    let fit = fit_normals_with(&index, &points, args.neighbours, &mut ctx)?;
+    let index = ctx.timed("indexing", |_| KdIndex::new(points.positions()))?;
+    let fit = ctx.timed("fitting normals", |ctx| {
+        fit_normals_with(&index, &points, args.neighbours, ctx)
+    })?;
     // The fit holds a copy of every point: the one read is not needed any more.
     let count = points.len();
     drop(points);
-    let oriented = orient_normals_with(&index, &fit.points, args.up.vector(), &mut ctx)?;
+    let up = args.up.vector();
+    let oriented = ctx.timed("orienting normals", |ctx| {
+        orient_normals_with(&index, &fit.points, up, ctx)
+    })?;
     bar.finish_and_clear();
-    let disagreement = orientation_disagreement_with(&index, &oriented)?;
+    let disagreement = ctx.timed("checking the orientation", |_| {
+        orientation_disagreement_with(&index, &oriented)
+    })?;
     drop(index);
     let neighbours = args.neighbours.min(count);
-    if let Some(note) = undefined_note(fit.undefined.len(), count, neighbours) {
+    let undefined = fit.undefined.len();
+    if let Some(note) = undefined_note(undefined, count, neighbours) {
         status(globals, note);
     }
     drop(fit);
@@ -122,7 +141,22 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
             args.up
         ))
         .origin(loaded.origin);
-    write_geometry_file(&args.output, &Geometry::Points(oriented), &options)?;
+    ctx.timed("writing", |_| {
+        write_geometry_file(&args.output, &Geometry::Points(oriented), &options)
+    })?;
+    if let Some(path) = &args.report {
+        let report = json!({
+            "input": args.input.display().to_string(),
+            "output": args.output.display().to_string(),
+            "points": count,
+            "neighbours": neighbours,
+            "up": format!("+{:?}", args.up),
+            "undefined_normals": undefined,
+            "facing_away_share": disagreement,
+            "timings": timings_json(&ctx),
+        });
+        write_json_report(path, "normals", &report)?;
+    }
     status(
         globals,
         format!(

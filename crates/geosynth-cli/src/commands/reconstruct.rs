@@ -20,7 +20,7 @@ use serde_json::{Value, json};
 
 use super::{SignArgs, check_oriented_points, no_faces_to_orient};
 use crate::input_file::read_geometry;
-use crate::json_report::write_json_report;
+use crate::json_report::{timings_json, write_json_report};
 use crate::memory::available_bytes;
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
@@ -101,14 +101,6 @@ fn write_report(
     report["params"] = serde_json::to_value(params)?;
     report[INPUT_OPTIONS_KEY] = serde_json::to_value(input_options)?;
     write_json_report(path, command, &report)
-}
-
-/// Stage timings as report entries.
-fn timings_json(ctx: &RunContext) -> Value {
-    ctx.timings()
-        .iter()
-        .map(|(stage, d)| json!({ "stage": stage, "seconds": d.as_secs_f64() }))
-        .collect()
 }
 
 /// Arguments of `geosynth reconstruct`.

@@ -3,7 +3,8 @@
 use std::path::Path;
 
 use crate::{
-    Scratch, arg, assert_closed, geosynth, info_json, ok, refused, tiny_voxel, write_with_defaults,
+    Scratch, arg, assert_closed, assert_peak_memory, geosynth, info_json, ok, refused, tiny_voxel,
+    write_with_defaults,
 };
 
 #[test]
@@ -85,20 +86,24 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
     refused(&["normals", &arg(&mesh), "-o", "x.ply"], "is a mesh");
 }
 
-#[test]
-fn scan_lines_too_far_apart_for_the_neighbours_or_the_kernel_get_notes() {
-    // An XYZ scan of the plane z = 0.1 x in lines 0.5 apart, sampled every 0.01 along
-    // them: 12 neighbours lie on one line, which fixes no normal.
-    let dir = Scratch::new();
-    let scan = dir.path("scan.xyz");
+/// An XYZ scan of the plane z = 0.1 x in 10 lines 0.5 apart, sampled every 0.01 along
+/// them (2000 points): 12 neighbours lie on one line, which fixes no normal.
+fn write_scan_lines(path: &Path) {
     let lines: String = (0..2000)
         .map(|i| {
             let (x, y) = ((i % 200) as f32 * 0.01, (i / 200) as f32 * 0.5);
             format!("{x} {y} {}\n", 0.1 * x)
         })
         .collect();
-    std::fs::write(&scan, lines).unwrap();
-    let out = dir.path("scan.xyzn");
+    std::fs::write(path, lines).unwrap();
+}
+
+#[test]
+fn scan_lines_too_far_apart_for_the_neighbours_or_the_kernel_get_notes() {
+    let dir = Scratch::new();
+    let scan = dir.path("scan.xyz");
+    write_scan_lines(&scan);
+    let (out, report) = (dir.path("scan.xyzn"), dir.path("normals.json"));
     let normals = |neighbours: &str| {
         let said = ok(&[
             "normals",
@@ -107,24 +112,68 @@ fn scan_lines_too_far_apart_for_the_neighbours_or_the_kernel_get_notes() {
             &arg(&out),
             "--neighbours",
             neighbours,
+            "--report",
+            &arg(&report),
         ]);
         let read = geosynth::core::io::read_geometry(&out).unwrap().geometry;
-        (said, read.points().normals().unwrap().to_vec())
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (said, read.points().normals().unwrap().to_vec(), json)
     };
     // The plane's unit normal, facing up.
     let up = glam::Vec3::new(-0.1, 0.0, 1.0).normalize();
-    let (said, estimated) = normals("12");
+    let (said, estimated, json) = normals("12");
     assert!(said.contains("2000 of 2000 points (100.0%)"), "{said}");
     assert!(said.contains("--neighbours"), "{said}");
+    // The report counts what the note says, names each stage and the peak memory.
+    assert_eq!(json["command"], "normals");
+    assert_eq!(json["points"], 2000);
+    assert_eq!(json["neighbours"], 12);
+    assert_eq!(json["up"], "+Z");
+    assert_eq!(json["undefined_normals"], 2000);
+    assert_eq!(json["output"], arg(&out));
+    let stages: Vec<&str> = json["timings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            assert!(t["seconds"].as_f64().unwrap() >= 0.0, "{t}");
+            t["stage"].as_str().unwrap()
+        })
+        .collect();
+    let expected = [
+        "reading",
+        "indexing",
+        "fitting normals",
+        "orienting normals",
+        "checking the orientation",
+        "writing",
+    ];
+    assert_eq!(stages, expected);
+    assert_peak_memory(&json);
     let off = estimated.iter().filter(|n| n.dot(up) < 0.9).count();
     assert!(
         off > 200,
         "{off} of the arbitrary normals are off the plane's"
     );
     // Neighbourhoods that reach the next lines find the plane, and nothing is noted.
-    let (said, estimated) = normals("160");
+    let (said, estimated, json) = normals("160");
     assert!(!said.contains("note"), "{said}");
     assert!(estimated.iter().all(|n| n.dot(up) > 0.999));
+    assert_eq!(json["undefined_normals"], 0);
+    assert_eq!(json["facing_away_share"], 0.0);
+    // The report may not overwrite the output.
+    refused(
+        &[
+            "normals",
+            &arg(&scan),
+            "-o",
+            &arg(&out),
+            "--report",
+            &arg(&out),
+        ],
+        "given for two of the outputs",
+    );
     refused(
         &[
             "normals",
