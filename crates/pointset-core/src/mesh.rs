@@ -1,5 +1,7 @@
 //! Triangle meshes.
 
+use std::borrow::Cow;
+
 use glam::{Vec2, Vec3};
 
 use crate::weld::PositionWelder;
@@ -272,6 +274,32 @@ impl TriMesh {
             .map(|t| t.map(|v| remap[v as usize]))
             .collect();
         TriMesh::new(PointSet::new(welder.into_positions())?, triangles)
+    }
+
+    /// [`Self::welded`] where it would merge some vertices; otherwise the mesh itself,
+    /// borrowed (welding would give the same positions in the same order and the same
+    /// triangles, so a copy would only double what a caller holds). The borrowed mesh
+    /// keeps its normals, UVs and attributes; a welded one has none.
+    ///
+    /// ```
+    /// use std::borrow::Cow;
+    /// use glam::Vec3;
+    /// use pointset_core::{PointSet, TriMesh};
+    /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::Y];
+    /// let shared = TriMesh::new(PointSet::new(p)?, vec![[0, 1, 2], [0, 2, 3]])?;
+    /// assert!(matches!(shared.welded_where_needed()?, Cow::Borrowed(_)));
+    /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::ONE, Vec3::ZERO, Vec3::ONE, Vec3::Y];
+    /// let split = TriMesh::new(PointSet::new(p)?, vec![[0, 1, 2], [3, 4, 5]])?;
+    /// let welded = split.welded_where_needed()?;
+    /// assert_eq!(welded.triangles(), shared.triangles());
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn welded_where_needed(&self) -> Result<Cow<'_, TriMesh>> {
+        if self.has_coincident_vertices() {
+            self.welded().map(Cow::Owned)
+        } else {
+            Ok(Cow::Borrowed(self))
+        }
     }
 
     /// Edge and component counts: what `geosynth info` reports and what tests check for

@@ -119,15 +119,8 @@ impl TriMesh {
     /// # Ok::<(), pointset_core::Error>(())
     /// ```
     pub fn consistently_oriented(&self) -> Result<(TriMesh, Reorientation)> {
-        // Adjacency by position: vertices a file split along UV seams are one here. A mesh
-        // without such vertices welds to itself (the same indices), so it is not copied.
-        let welded_copy;
-        let welded = if self.has_coincident_vertices() {
-            welded_copy = self.welded()?;
-            &welded_copy
-        } else {
-            self
-        };
+        // Adjacency by position: vertices a file split along UV seams are one here.
+        let welded = self.welded_where_needed()?;
         let triangles = welded.triangles();
         let edges = EdgeFaces::new(triangles)?;
         let mut flip: Vec<Option<bool>> = vec![None; triangles.len()];

@@ -3,8 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use geosynth::core::MeshTopology;
 use geosynth::core::io::{Geometry, LoadedGeometry};
-use geosynth::core::{MeshTopology, TriMesh};
 use geosynth::imagery;
 use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
 use geosynth::sdf::nrrd;
@@ -135,19 +135,12 @@ impl FileInfo {
         let g = &loaded.geometry;
         let points = g.points();
         let bbox = g.bounding_box();
-        // Welded only when welding merges something: otherwise the welded mesh is the
-        // mesh, and building it would double what `info` holds.
-        let coincident = g.mesh().is_some_and(TriMesh::has_coincident_vertices);
-        let welded = g
-            .mesh()
-            .filter(|_| coincident)
-            .and_then(|m| m.welded().ok());
-        let duplicates = match (g.mesh(), &welded) {
-            (Some(_), Some(welded)) => welded.duplicate_faces(),
-            (Some(mesh), None) if !coincident => mesh.duplicate_faces(),
-            // No mesh, or one whose weld failed (more positions than `u32` numbers).
-            _ => Vec::new(),
-        };
+        // A weld fails only with more positions than `u32` numbers: then no duplicates
+        // and no welded topology are reported.
+        let welded = g.mesh().and_then(|m| m.welded_where_needed().ok());
+        let duplicates = welded
+            .as_ref()
+            .map_or_else(Vec::new, |welded| welded.duplicate_faces());
         Self {
             path: path.display().to_string(),
             format: loaded.format.to_string(),

@@ -194,7 +194,7 @@ impl SignArgs {
     /// (triangles inside other parts). `None` otherwise.
     pub fn note(&self, mesh: &TriMesh, rule: MeshSign) -> CliResult<Option<String>> {
         // By position: seams where a file splits its vertices (UVs) are not openings.
-        let topology = mesh.welded()?.topology();
+        let topology = mesh.welded_where_needed()?.topology();
         if topology.misoriented_edges > 0 && !self.orient_faces {
             return Ok(Some(format!(
                 "note: {} edges join triangles that disagree on which side is out, so \
