@@ -99,8 +99,8 @@ pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
 pub use orientation::{
     LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,
-    ORIENTING_STAGE, orient_normals, orient_normals_in, orient_normals_with,
-    orientation_disagreement, orientation_disagreement_with,
+    ORIENTING_STAGE, fit_oriented_normals_with, orient_normals, orient_normals_in,
+    orient_normals_with, orientation_disagreement, orientation_disagreement_with,
 };
 pub use params::MlsParams;
 pub use pca::{

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
 use crate::index_match::check_index_of;
+use crate::orientation::FoundNeighbours;
 
 /// Eigen-decomposition of a 3×3 covariance: eigenvalues ascending and matching unit vectors.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -247,27 +248,48 @@ pub fn fit_normals_with(
 ) -> Result<NormalFit> {
     check_fit(points, k)?;
     check_index_of(index, points)?;
+    // Asked along the Z-order curve, so that consecutive queries share the index's caches.
+    let order = z_order(points.positions());
+    fit_along(index, points.clone(), k, &order, None, ctx)
+}
+
+/// The fit of [`fit_normals_with`], after its checks, into `points` (which `index` was
+/// built from): each point's `k` nearest neighbours asked in `order` (every point once),
+/// reported and cancelled as [`fit_normals_in`] says. With `found`, the neighbours the orientation's graph needs are kept for it, row
+/// by row in `order` ([`FoundNeighbours::row_from`]).
+pub(crate) fn fit_along(
+    index: &KdIndex,
+    points: PointSet,
+    k: usize,
+    order: &[usize],
+    mut found: Option<&mut FoundNeighbours>,
+    ctx: &mut RunContext,
+) -> Result<NormalFit> {
     let positions = points.positions();
     let total = Some(positions.len() as u64);
+    let keep = found.is_some();
     let mut fits: Vec<(Vec3, bool)> = vec![(Vec3::ZERO, false); positions.len()];
-    // Asked along the Z-order curve, so that consecutive queries share the index's caches.
-    let order = z_order(positions);
     for (chunk, part) in order.chunks(FIT_CHUNK).enumerate() {
         ctx.check_cancelled()?;
         let fitted = part
             .par_iter()
             .map(|&i| {
                 let nn = index.nearest(positions[i], k)?;
-                Covariance::of(positions, nn.iter().map(|n| n.index))
+                let fit = Covariance::of(positions, nn.iter().map(|n| n.index))
                     .map(|c| (c.eigenvectors[0], c.defines_normal()))
                     .filter(|(n, _)| n.is_normalized())
-                    .ok_or(MlsError::DegenerateNormal { index: i })
+                    .ok_or(MlsError::DegenerateNormal { index: i })?;
+                Ok((fit, keep.then(|| FoundNeighbours::row_from(&nn, i, k))))
             })
-            .collect::<Result<Vec<(Vec3, bool)>>>()?;
-        for (&i, fit) in part.iter().zip(fitted) {
+            .collect::<Result<Vec<_>>>()?;
+        let first_rank = chunk * FIT_CHUNK;
+        for (at, (&i, (fit, row))) in part.iter().zip(fitted).enumerate() {
             fits[i] = fit;
+            if let (Some(found), Some(row)) = (found.as_deref_mut(), row) {
+                found.set_row(first_rank + at, row);
+            }
         }
-        let done = (chunk * FIT_CHUNK + part.len()) as u64;
+        let done = (first_rank + part.len()) as u64;
         ctx.report(FITTING_STAGE, done, total);
     }
     let undefined = fits
@@ -278,13 +300,13 @@ pub fn fit_normals_with(
         .collect();
     let normals = fits.into_iter().map(|(n, _)| n).collect();
     Ok(NormalFit {
-        points: points.clone().with_normals(normals)?,
+        points: points.with_normals(normals)?,
         undefined,
     })
 }
 
 /// The input checks of [`fit_normals`]: `k` of at least 3, at least 3 points.
-fn check_fit(points: &PointSet, k: usize) -> Result<()> {
+pub(crate) fn check_fit(points: &PointSet, k: usize) -> Result<()> {
     if k < 3 {
         return Err(MlsError::InvalidParameter {
             name: "k",

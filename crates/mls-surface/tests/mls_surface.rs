@@ -574,6 +574,40 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Sheets of lattice points (many equidistant neighbours, some repeated) or random
+    /// points, any `k` and `up`: fitting and orienting in one pass gives what the two
+    /// steps give, bit for bit.
+    #[test]
+    fn fitting_and_orienting_at_once_is_the_two_steps(
+        seed in any::<u64>(),
+        n in 3usize..400,
+        lattice in any::<bool>(),
+        k in 3usize..20,
+        up in prop::sample::select(vec![Vec3::Z, Vec3::Y, -Vec3::X, Vec3::new(0.3, -0.2, 0.9)]),
+    ) {
+        use mls_surface::{fit_normals_with, fit_oriented_normals_with, orient_normals_with};
+        let mut g = rng::rng_from_seed(seed);
+        let positions: Vec<Vec3> = (0..n)
+            .map(|_| {
+                let (x, y): (f32, f32) = (g.random_range(0.0..8.0), g.random_range(0.0..8.0));
+                let (x, y) = if lattice { (x.floor(), y.floor()) } else { (x, y) };
+                Vec3::new(x, y, 0.3 * x.sin() * y.cos())
+            })
+            .collect();
+        let points = PointSet::new(positions).unwrap();
+        let index = KdIndex::new(points.positions()).unwrap();
+        let mut ctx = pointset_core::RunContext::new(0);
+        let fit = fit_normals_with(&index, &points, k, &mut ctx).unwrap();
+        let two_steps = orient_normals_with(&index, &fit.points, up, &mut ctx).unwrap();
+        let at_once = fit_oriented_normals_with(&index, points, k, up, &mut ctx).unwrap();
+        prop_assert_eq!(at_once.points, two_steps);
+        prop_assert_eq!(at_once.undefined, fit.undefined);
+    }
+}
+
 #[test]
 fn relaxation_evens_out_a_clumpy_sampling() {
     let reference = sphere(8000, 1.0);
@@ -735,7 +769,8 @@ fn recorded<T>(
 #[test]
 fn normals_report_their_progress_and_stop_when_cancelled() {
     use mls_surface::{
-        FITTING_STAGE, LINKING_STAGE, ORIENTING_STAGE, fit_normals_in, orient_normals_in,
+        FITTING_STAGE, LINKING_STAGE, ORIENTING_STAGE, fit_normals_in, fit_oriented_normals_with,
+        orient_normals_in,
     };
     // 300 × 300 points on a rolling sheet: more than two reports' worth of each stage.
     let n = 90_000u64;
@@ -765,6 +800,27 @@ fn normals_report_their_progress_and_stop_when_cancelled() {
     );
     assert_eq!(counts(&reports, LINKING_STAGE), [65_536, n]);
     assert_eq!(counts(&reports, ORIENTING_STAGE), [0, 65_536, n]);
+    // Both at once: the three stages reported in turn, each half timed.
+    let index = KdIndex::new(bare.positions()).unwrap();
+    let (both, reports) = recorded(None, |ctx| {
+        let both = fit_oriented_normals_with(&index, bare.clone(), 12, Vec3::Z, ctx);
+        let timed: Vec<&str> = ctx
+            .timings()
+            .iter()
+            .map(|(name, _)| name.as_str())
+            .collect();
+        assert_eq!(timed, [FITTING_STAGE, ORIENTING_STAGE]);
+        both
+    });
+    assert_eq!(
+        both.unwrap().points,
+        orient_normals(&fit.points, Vec3::Z).unwrap()
+    );
+    let stages: Vec<&str> = reports.iter().map(|r| r.0.as_str()).collect();
+    let mut in_turn = stages.clone();
+    in_turn.dedup();
+    assert_eq!(in_turn, [FITTING_STAGE, LINKING_STAGE, ORIENTING_STAGE]);
+    assert_eq!(counts(&reports, LINKING_STAGE), [65_536, n]);
 
     // Cancelled at the first report, each stops at the next check.
     let cancelled = |e: &MlsError| matches!(e, MlsError::Core(pointset_core::Error::Cancelled));
@@ -778,6 +834,11 @@ fn normals_report_their_progress_and_stop_when_cancelled() {
         1,
         "the graph's report, then the stop: {reports:?}"
     );
+    let (stopped, reports) = recorded(Some(n), |ctx| {
+        fit_oriented_normals_with(&index, bare.clone(), 12, Vec3::Z, ctx)
+    });
+    assert!(stopped.is_err_and(|e| cancelled(&e)));
+    assert_eq!(reports.last().map(|r| r.0.as_str()), Some(FITTING_STAGE));
 }
 
 #[test]

@@ -6,9 +6,7 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::KdIndex;
 use geosynth::core::io::{Geometry, WriteOptions};
-use geosynth::mls::{
-    NORMAL_NEIGHBOURS, fit_normals_with, orient_normals_with, orientation_disagreement_with,
-};
+use geosynth::mls::{NORMAL_NEIGHBOURS, fit_oriented_normals_with, orientation_disagreement_with};
 use glam::{DVec3, Vec3};
 use serde_json::json;
 
@@ -113,19 +111,13 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     ctx.record_timing("reading", read_time);
     // One index of the positions serves the fit, the orientation and its check.
     let index = ctx.timed("indexing", |_| KdIndex::new(points.positions()))?;
-    let fit = ctx.timed("fitting normals", |ctx| {
-        fit_normals_with(&index, &points, args.neighbours, ctx)
-    })?;
-    // The fit holds a copy of every point: the one read is not needed any more.
     let count = points.len();
-    drop(points);
-    let up = args.up.vector();
-    let oriented = ctx.timed("orienting normals", |ctx| {
-        orient_normals_with(&index, &fit.points, up, ctx)
-    })?;
+    // Recorded under "fitting normals" and "orienting normals".
+    let fit =
+        fit_oriented_normals_with(&index, points, args.neighbours, args.up.vector(), &mut ctx)?;
     bar.finish_and_clear();
     let disagreement = ctx.timed("checking the orientation", |_| {
-        orientation_disagreement_with(&index, &oriented)
+        orientation_disagreement_with(&index, &fit.points)
     })?;
     drop(index);
     let neighbours = args.neighbours.min(count);
@@ -133,7 +125,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     if let Some(note) = undefined_note(undefined, count, neighbours) {
         status(globals, note);
     }
-    drop(fit);
+    let oriented = fit.points;
     let options = WriteOptions::default()
         .comment(format!(
             "normals estimated by geosynth from {neighbours} nearest neighbours and oriented \

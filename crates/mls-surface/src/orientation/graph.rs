@@ -1,8 +1,7 @@
 //! The graph the orientation propagates over, numbered along the Z-order curve.
 
 use glam::Vec3;
-use pointset_core::spatial::z_order;
-use pointset_core::{KdIndex, RunContext};
+use pointset_core::{KdIndex, Neighbour, RunContext};
 use rayon::prelude::*;
 
 use super::{LINKING_STAGE, ORIENT_REPORT_EVERY, ORIENTATION_GRAPH_NEIGHBOURS};
@@ -23,6 +22,72 @@ pub(super) type Edge = (u32, u32);
 
 /// A slot of [`OrientationGraph::build`]'s table of nearest neighbours with no usable edge.
 const NO_EDGE: Edge = (u32::MAX, u32::MAX);
+
+/// The first slot of a row of [`FoundNeighbours`] whose neighbours the fit could not tell.
+const UNSEARCHED: Edge = (u32::MAX, 0);
+
+/// Each ranked point's neighbours in the graph, as a fit of normals found them
+/// ([`crate::pca::fit_along`]), so that [`OrientationGraph::build`] need not search again:
+/// a row of [`NearTable::SLOTS`] per rank holding the neighbours' indices in the point
+/// set (the second half of each slot unused), [`NO_EDGE`] after the last; a row starting
+/// with [`UNSEARCHED`] is searched by the graph. The graph turns the rows into its own in
+/// place, so keeping them costs no memory the graph does not take anyway.
+pub(crate) struct FoundNeighbours(Vec<Edge>);
+
+impl FoundNeighbours {
+    /// The nearest points the graph asks for around each point: the point itself and a
+    /// neighbour for each slot.
+    const ASKED: usize = NearTable::SLOTS + 1;
+
+    /// Rows for `n` points, none searched yet.
+    pub(crate) fn unsearched(n: usize) -> Self {
+        Self(vec![UNSEARCHED; n * NearTable::SLOTS])
+    }
+
+    /// The row of the point `point` from `nearest`, the answer of
+    /// `index.nearest(positions[point], asked)`: the points the graph's own question
+    /// (the [`Self::ASKED`] nearest) would get, without the point itself, when the answer
+    /// settles them, or an [`UNSEARCHED`] row.
+    ///
+    /// It settles them when it is the same question, when it holds every point of the
+    /// set (fewer than asked) and the graph's question would too, or when it holds more and its [`Self::ASKED`]-th
+    /// nearest is strictly nearer than the next: the nearest are then one set whatever
+    /// order the index finds equidistant points in, and the graph depends only on the
+    /// set. Ties there (lattices) leave the row to the graph's own search.
+    pub(crate) fn row_from(
+        nearest: &[Neighbour],
+        point: usize,
+        asked: usize,
+    ) -> [Edge; NearTable::SLOTS] {
+        let every_point = nearest.len() < asked && nearest.len() <= Self::ASKED;
+        let settled = asked == Self::ASKED
+            || every_point
+            || (nearest.len() > Self::ASKED
+                && nearest[Self::ASKED - 1].distance_squared
+                    < nearest[Self::ASKED].distance_squared);
+        let mut row = [NO_EDGE; NearTable::SLOTS];
+        if !settled {
+            row[0] = UNSEARCHED;
+            return row;
+        }
+        // When the point itself is not among them, they all lie where it lies and none is
+        // usable, so dropping the last changes nothing.
+        let others = nearest
+            .iter()
+            .take(Self::ASKED)
+            .filter(|n| n.index != point);
+        for (slot, n) in row.iter_mut().zip(others) {
+            *slot = (n.index as u32, 0);
+        }
+        row
+    }
+
+    /// Sets the row of the point at `rank`.
+    pub(crate) fn set_row(&mut self, rank: usize, row: [Edge; NearTable::SLOTS]) {
+        let first = rank * NearTable::SLOTS;
+        self.0[first..first + NearTable::SLOTS].copy_from_slice(&row);
+    }
+}
 
 /// [`super::orient_normals`]' graph: every usable edge between a point and one of its
 /// [`ORIENTATION_GRAPH_NEIGHBOURS`] nearest neighbours, listed once from each end. The
@@ -50,26 +115,30 @@ pub(super) struct OrientationGraph {
 
 impl OrientationGraph {
     /// The graph of `positions` (at most `u32::MAX` of them) with `normals`, indexed by
-    /// `index`. The neighbours are found in parallel; the graph does not depend on the
-    /// threads.
+    /// `index`, its points ranked by `order` (`z_order(positions)`). Each rank's
+    /// neighbours are those `found` holds for it, or, where it holds none, found here in
+    /// parallel; the graph does not depend on which, nor on the threads.
     ///
-    /// The points' neighbours are reported to `ctx` under [`LINKING_STAGE`] every
+    /// The points linked are reported to `ctx` under [`LINKING_STAGE`] every
     /// [`ORIENT_REPORT_EVERY`] points, and a cancelled run stops there.
     pub(super) fn build(
         positions: &[Vec3],
         normals: &[Vec3],
         index: &KdIndex,
+        order: Vec<usize>,
+        found: FoundNeighbours,
         ctx: &mut RunContext,
     ) -> Result<Self> {
         const CHUNK: usize = ORIENT_REPORT_EVERY as usize;
         let n = positions.len();
         // The caller checked that the points fit in `u32`.
-        let order: Vec<u32> = z_order(positions).into_iter().map(|i| i as u32).collect();
+        let order: Vec<u32> = order.into_iter().map(|i| i as u32).collect();
         let mut rank_of = vec![0u32; n];
         for (rank, &point) in order.iter().enumerate() {
             rank_of[point as usize] = rank as u32;
         }
-        let mut near = NearTable(vec![NO_EDGE; n * NearTable::SLOTS]);
+        // Each row of neighbours' indices becomes, in place, the row of usable edges.
+        let mut near = NearTable(found.0);
         let rows = near.0.chunks_mut(NearTable::SLOTS * CHUNK);
         for (chunk, (table, points)) in rows.zip(order.chunks(CHUNK)).enumerate() {
             ctx.check_cancelled()?;
@@ -78,14 +147,13 @@ impl OrientationGraph {
                 .zip(points.par_iter())
                 .try_for_each(|(slots, &i)| -> Result<()> {
                     let i = i as usize;
-                    // The point itself and its neighbours. At most `SLOTS` of them are
-                    // usable: the point itself never is, and if it is not among those
-                    // found, they all lie where it lies, and edges of no length are not.
-                    let found = index.nearest(positions[i], NearTable::SLOTS + 1)?;
-                    let usable = found.iter().filter_map(|neighbour| {
-                        let cost = edge_cost(positions, normals, i, neighbour.index)?;
-                        Some((rank_of[neighbour.index], cost))
+                    let (neighbours, count) = neighbours_of(slots, i, positions, index)?;
+                    let usable = neighbours[..count].iter().filter_map(|&j| {
+                        let j = j as usize;
+                        let cost = edge_cost(positions, normals, i, j)?;
+                        Some((rank_of[j], cost))
                     });
+                    slots.fill(NO_EDGE);
                     for (slot, edge) in slots.iter_mut().zip(usable) {
                         *slot = edge;
                     }
@@ -134,6 +202,39 @@ impl OrientationGraph {
         let reverse = &self.reverse[self.reverse_starts[at]..self.reverse_starts[at + 1]];
         self.near.row(rank).iter().chain(reverse)
     }
+}
+
+/// The indices of the neighbours the point `i` is linked to from its row `slots` of
+/// [`FoundNeighbours`], and how many there are: those the row holds, or, for an
+/// [`UNSEARCHED`] row, the [`FoundNeighbours::ASKED`] nearest (the point itself among
+/// them, unless they all lie where it lies: edges of no length are not usable, and the
+/// point's own never is).
+fn neighbours_of(
+    slots: &[Edge],
+    i: usize,
+    positions: &[Vec3],
+    index: &KdIndex,
+) -> Result<([u32; FoundNeighbours::ASKED], usize)> {
+    let mut neighbours = [u32::MAX; FoundNeighbours::ASKED];
+    let mut count = 0;
+    let mut hold = |indices: &mut dyn Iterator<Item = u32>| {
+        for (slot, j) in neighbours.iter_mut().zip(indices) {
+            *slot = j;
+            count += 1;
+        }
+    };
+    if slots[0] == UNSEARCHED {
+        let nearest = index.nearest(positions[i], FoundNeighbours::ASKED)?;
+        hold(&mut nearest.iter().map(|n| n.index as u32));
+    } else {
+        hold(
+            &mut slots
+                .iter()
+                .take_while(|&&slot| slot != NO_EDGE)
+                .map(|&(j, _)| j),
+        );
+    }
+    Ok((neighbours, count))
 }
 
 /// Each ranked point's usable edges to its nearest neighbours, a row of
@@ -185,6 +286,7 @@ fn edge_cost(positions: &[Vec3], normals: &[Vec3], i: usize, j: usize) -> Option
 mod tests {
     #![allow(clippy::unwrap_used)]
 
+    use pointset_core::spatial::z_order;
     use proptest::prelude::*;
 
     use super::*;
@@ -209,8 +311,122 @@ mod tests {
         lists
     }
 
+    /// Every point's edges, by the points' own indices, sorted.
+    fn edges_by_point(graph: &OrientationGraph) -> Vec<Vec<Edge>> {
+        let by_point = |i: usize| {
+            let mut edges: Vec<Edge> = graph
+                .edges_of(graph.rank_of[i])
+                .map(|&(rank, cost)| (graph.order[rank as usize], cost))
+                .collect();
+            edges.sort_unstable();
+            edges
+        };
+        (0..graph.rank_of.len()).map(by_point).collect()
+    }
+
+    /// A point, its 6 neighbours at distance 1 along the axes and 5 of the 12 at √2:
+    /// the 9 nearest (the point itself among them) end among the ones at √2.
+    fn tied_at_the_ninth() -> Vec<Vec3> {
+        let mut p = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Y,
+            Vec3::Z,
+            -Vec3::Z,
+        ];
+        p.extend(
+            [
+                (1., 1., 0.),
+                (1., -1., 0.),
+                (-1., 1., 0.),
+                (0., 1., 1.),
+                (0., -1., -1.),
+            ]
+            .map(Vec3::from),
+        );
+        p
+    }
+
+    #[test]
+    fn a_fit_settles_the_rows_it_can_and_leaves_the_rest_unsearched() {
+        let tied = tied_at_the_ninth();
+        let index = KdIndex::new(&tied).unwrap();
+        let row = |asked: usize| {
+            FoundNeighbours::row_from(&index.nearest(Vec3::ZERO, asked).unwrap(), 0, asked)
+        };
+        // The same question as the graph's: the 8 others it finds, whichever they are.
+        let same = row(FoundNeighbours::ASKED);
+        assert!(same.iter().all(|&(j, _)| j != 0 && j != u32::MAX));
+        // More asked, all 12 found (fewer than asked), but the 9th and 10th are equally
+        // far: the graph must choose for itself.
+        assert_eq!(row(15)[0], UNSEARCHED);
+        assert_eq!(row(11)[0], UNSEARCHED);
+        // Fewer asked than the graph asks: unsettled.
+        assert_eq!(row(6)[0], UNSEARCHED);
+        // Without the tie (the last point moved out to distance 3): settled, the 8
+        // nearest others.
+        let mut apart = tied;
+        apart[11] = Vec3::new(0.0, 0.0, 3.0);
+        apart[10] = Vec3::new(0.0, 2.0, 2.0);
+        apart[9] = Vec3::new(0.0, 2.0, 0.0);
+        let index = KdIndex::new(&apart).unwrap();
+        let nearest = index.nearest(Vec3::ZERO, 15).unwrap();
+        let mut held: Vec<u32> = FoundNeighbours::row_from(&nearest, 0, 15)
+            .iter()
+            .map(|&(j, _)| j)
+            .collect();
+        held.sort_unstable();
+        assert_eq!(held, [1, 2, 3, 4, 5, 6, 7, 8]);
+        // Every point of a small set found, as the graph's own question would find them.
+        let few = &apart[..5];
+        let index = KdIndex::new(few).unwrap();
+        let nearest = index.nearest(Vec3::ZERO, 12).unwrap();
+        let few_row = FoundNeighbours::row_from(&nearest, 0, 12);
+        assert_eq!(
+            few_row[..4].iter().map(|&(j, _)| j).collect::<Vec<_>>(),
+            [1, 2, 3, 4]
+        );
+        assert_eq!(few_row[4], NO_EDGE);
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Points on a coarse lattice, many of them repeated, so that the 9th and 10th
+        /// nearest are often equally far and a fit's neighbours do not settle the graph's:
+        /// the graph built from a fit's rows of any `k` is the graph built by searching.
+        #[test]
+        fn rows_from_a_fit_give_the_graph_a_search_gives(
+            cells in prop::collection::vec((0u8..6, 0u8..6, 0u8..2, -1.0f32..1.0), 3..200),
+            k in 3usize..16,
+        ) {
+            let positions: Vec<Vec3> = cells
+                .iter()
+                .map(|&(x, y, z, _)| Vec3::new(f32::from(x), f32::from(y), 0.25 * f32::from(z)))
+                .collect();
+            let normals: Vec<Vec3> = cells
+                .iter()
+                .map(|&(_, _, _, tilt)| Vec3::new(tilt, 0.2, 1.0).normalize())
+                .collect();
+            let index = KdIndex::new(&positions).unwrap();
+            let order = z_order(&positions);
+            let mut found = FoundNeighbours::unsearched(positions.len());
+            for (rank, &i) in order.iter().enumerate() {
+                let nearest = index.nearest(positions[i], k).unwrap();
+                found.set_row(rank, FoundNeighbours::row_from(&nearest, i, k));
+            }
+            let mut ctx = RunContext::new(0);
+            let from_fit =
+                OrientationGraph::build(&positions, &normals, &index, order.clone(), found, &mut ctx)
+                    .unwrap();
+            let unsearched = FoundNeighbours::unsearched(positions.len());
+            let searched =
+                OrientationGraph::build(&positions, &normals, &index, order, unsearched, &mut ctx)
+                    .unwrap();
+            prop_assert_eq!(edges_by_point(&from_fit), edges_by_point(&searched));
+        }
 
         /// Points near a wavy sheet (many usable edges, some left out for running along
         /// the normals or bending too far), some coincident.
@@ -234,18 +450,17 @@ mod tests {
                 .collect();
             let index = KdIndex::new(&positions).unwrap();
             let mut ctx = RunContext::new(0);
-            let graph = OrientationGraph::build(&positions, &normals, &index, &mut ctx).unwrap();
+            let unsearched = FoundNeighbours::unsearched(positions.len());
+            let order = z_order(&positions);
+            let graph =
+                OrientationGraph::build(&positions, &normals, &index, order, unsearched, &mut ctx)
+                    .unwrap();
             let lists = listed_graph(&positions, &normals);
             prop_assert_eq!(graph.reverse_starts.len(), positions.len() + 1);
             for (i, list) in lists.iter().enumerate() {
                 prop_assert_eq!(graph.order[graph.rank_of[i] as usize] as usize, i);
-                let mut by_point: Vec<Edge> = graph
-                    .edges_of(graph.rank_of[i])
-                    .map(|&(rank, cost)| (graph.order[rank as usize], cost))
-                    .collect();
-                by_point.sort_unstable();
                 // Sorted and compared whole: no edge twice, none missing.
-                prop_assert_eq!(by_point, list.clone(), "point {}", i);
+                prop_assert_eq!(&edges_by_point(&graph)[i], list, "point {}", i);
             }
         }
 

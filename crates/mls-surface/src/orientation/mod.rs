@@ -6,16 +6,20 @@
 //! to say why. [`orientation_disagreement`] measures that, so tools can warn before a
 //! long run, and [`orient_normals`] repairs it by propagation.
 
+mod fitted;
 mod frontier;
 mod graph;
 
 use glam::Vec3;
+use pointset_core::spatial::z_order;
 use pointset_core::{KdIndex, PointSet, RunContext};
 use rayon::prelude::*;
 
 use crate::error::{MlsError, Result};
 use crate::index_match::check_index_of;
+pub use fitted::fit_oriented_normals_with;
 use frontier::{Entry, Frontier};
+pub(crate) use graph::FoundNeighbours;
 use graph::OrientationGraph;
 
 /// Nearest neighbours each normal is compared with.
@@ -216,8 +220,32 @@ pub fn orient_normals_with(
     let normals = check_orient(points)?;
     check_index_of(index, points)?;
     let positions = points.positions();
+    let unsearched = FoundNeighbours::unsearched(positions.len());
+    let graph = OrientationGraph::build(
+        positions,
+        normals,
+        index,
+        z_order(positions),
+        unsearched,
+        ctx,
+    )?;
+    let by_point = propagate(positions, normals, graph, up, ctx)?;
+    let mut out = points.clone();
+    out.set_normals(Some(by_point))?;
+    Ok(out)
+}
+
+/// The normals of the points at `positions` made consistent over `graph`, as
+/// [`orient_normals`] describes, by point; reported under [`ORIENTING_STAGE`] as
+/// [`orient_normals_in`] says. The graph is freed before the result is returned.
+fn propagate(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    graph: OrientationGraph,
+    up: Vec3,
+    ctx: &mut RunContext,
+) -> Result<Vec<Vec3>> {
     let total = positions.len() as u64;
-    let graph = OrientationGraph::build(positions, normals, index, ctx)?;
     ctx.check_cancelled()?;
     ctx.report(ORIENTING_STAGE, 0, Some(total));
     // Roots in order of height along `up` (index breaks ties: the order is total, so an
@@ -275,19 +303,23 @@ pub fn orient_normals_with(
         .iter()
         .map(|&rank| oriented[rank as usize])
         .collect();
-    // Freed before the points are copied: on millions of points the graph is the
-    // largest thing the run holds.
+    // Freed before the caller copies the normals into the points: on millions of points
+    // the graph is the largest thing the run holds.
     drop((graph, oriented, done, frontier, by_height));
     reached.ctx.report(ORIENTING_STAGE, total, Some(total));
-    let mut out = points.clone();
-    out.set_normals(Some(by_point))?;
-    Ok(out)
+    Ok(by_point)
 }
 
 /// The input checks of [`orient_normals`]: normals, at most `u32::MAX` points. Returns
 /// the normals.
 fn check_orient(points: &PointSet) -> Result<&[Vec3]> {
     let normals = points.normals().ok_or(MlsError::MissingNormals)?;
+    check_countable(points)?;
+    Ok(normals)
+}
+
+/// That the graph can number `points`: at most `u32::MAX` of them.
+fn check_countable(points: &PointSet) -> Result<()> {
     if u32::try_from(points.len()).is_err() {
         return Err(MlsError::InvalidParameter {
             name: "points",
@@ -295,7 +327,7 @@ fn check_orient(points: &PointSet) -> Result<&[Vec3]> {
             expected: "at most 2^32 − 1 points to orient",
         });
     }
-    Ok(normals)
+    Ok(())
 }
 
 /// How many points the propagation has reached, reported to a run every
