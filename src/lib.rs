@@ -13,6 +13,7 @@
 //! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |
 //! | [`voxel`] | `voxel-dfsynth` | paper 001: distance-field block matching and synthesis, the `VoxelSynth` stage |
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage, and `SampleHeights` to write a quilted height field back as one |
+//! | [`normals`] | (facade) | stage: bare points → points with oriented normals |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid; trimming open scans |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
@@ -42,9 +43,9 @@
 //!
 //! ## Cookbook: a bare scan to a mesh
 //!
-//! Positions alone (an XYZ scan) get normals by local PCA, oriented by propagation, and
-//! become a closed mesh; an open scan would be trimmed with
-//! [`reconstruct::trim_to_samples`].
+//! Positions alone (an XYZ scan) get normals by local PCA, oriented by propagation
+//! ([`normals::EstimateNormals`]), and become a closed mesh; an open scan would be trimmed
+//! with [`reconstruct::trim_to_samples`].
 //!
 //! ```
 //! use geosynth::core::PointSet;
@@ -54,6 +55,7 @@
 //!
 //! let scan = geosynth::fixtures::sphere_points(2000)?;
 //! let bare = PointSet::new(scan.positions().to_vec())?;
+//! // The two steps one by one; `EstimateNormals` does both in one stage.
 //! let estimated = estimate_normals(&bare, NORMAL_NEIGHBOURS)?;
 //! let oriented = orient_normals(&estimated, glam::Vec3::Z)?;
 //! let stage = Reconstruct { params: FieldParams::default().resolution(32) };
@@ -129,6 +131,7 @@
 mod error;
 pub mod fixtures;
 pub mod imagery;
+pub mod normals;
 pub mod preview;
 pub mod quilt;
 pub mod reconstruct;

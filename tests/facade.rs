@@ -721,3 +721,84 @@ fn trimming_cuts_the_continuation_past_an_open_sheet_and_keeps_its_gaps_bridged(
     assert!(trim_to_samples(&mesh, sheet.positions(), f32::NAN).is_err());
     assert!(trim_to_samples(&mesh, &[], 1.0).is_err());
 }
+
+#[test]
+fn the_bunny_scan_gets_its_normals_back_from_its_positions_alone() {
+    use geosynth::core::testdata::shared_data;
+    use geosynth::mls::{FITTING_STAGE, ORIENTING_STAGE};
+    use geosynth::normals::EstimateNormals;
+    use geosynth::{RunContext, Stage};
+    let Some(path) = shared_data("bunny_normals", "pointsets/bunny16k_normals.ply") else {
+        return;
+    };
+    let scanned = io::read_geometry(&path).unwrap().geometry.points().clone();
+    let truth = scanned.normals().unwrap();
+    let bare = geosynth::core::PointSet::new(scanned.positions().to_vec()).unwrap();
+    let mut ctx = RunContext::new(0);
+    let fit = EstimateNormals::default()
+        .run(bare.clone(), &mut ctx)
+        .unwrap();
+    assert!(fit.undefined.is_empty());
+    assert_eq!(fit.points.positions(), bare.positions());
+    let estimated = fit.points.normals().unwrap();
+    // The scan's own normals are smoother than 12-neighbour planes, but every estimate
+    // faces their way, and most lie close to them.
+    let cosines: Vec<f32> = estimated
+        .iter()
+        .zip(truth)
+        .map(|(e, t)| e.dot(*t))
+        .collect();
+    assert!(cosines.iter().all(|&c| c > 0.0), "a normal faces inward");
+    let close = cosines.iter().filter(|&&c| c > 0.9).count();
+    assert!(
+        close * 100 > 95 * cosines.len(),
+        "{close} of {}",
+        cosines.len()
+    );
+    let timed: Vec<&str> = ctx
+        .timings()
+        .iter()
+        .map(|(name, _)| name.as_str())
+        .collect();
+    assert_eq!(timed, [FITTING_STAGE, ORIENTING_STAGE]);
+    // Toward -Y the root is the lowest point, whose outward normal faces -Y: a closed
+    // scan comes out facing outward whichever way `up` points.
+    let down = EstimateNormals {
+        up: -Vec3::Y,
+        ..Default::default()
+    };
+    let outward = down.run(bare, &mut RunContext::new(0)).unwrap();
+    assert_eq!(outward.points.normals().unwrap(), estimated);
+}
+
+#[test]
+fn estimate_normals_refuses_too_few_neighbours_and_no_direction_by_name() {
+    use geosynth::normals::EstimateNormals;
+    use geosynth::{RunContext, Stage};
+    let sphere = fixtures::sphere_points(500).unwrap();
+    let run = |stage: EstimateNormals| {
+        stage
+            .run(sphere.clone(), &mut RunContext::new(0))
+            .unwrap_err()
+            .to_string()
+    };
+    let few = run(EstimateNormals {
+        neighbours: 2,
+        ..Default::default()
+    });
+    assert!(few.contains("`k` = 2"), "{few}");
+    for up in [
+        Vec3::ZERO,
+        Vec3::new(f32::NAN, 0.0, 1.0),
+        Vec3::new(0.0, f32::INFINITY, 0.0),
+    ] {
+        let message = run(EstimateNormals {
+            up,
+            ..Default::default()
+        });
+        assert!(
+            message.contains("`up`") && message.contains("non-zero"),
+            "{message}"
+        );
+    }
+}

@@ -7,6 +7,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use geosynth::mls::{ClusterParams, MlsParams, RelaxParams as MlsRelaxParams};
+use geosynth::normals::EstimateNormals;
 use geosynth::quilt::{Method, OutputSize, QuiltParams, WarpTargets};
 use geosynth::reconstruct::FieldParams;
 use geosynth::sdf::{FarSigns, GridSpec, MeshSign, PointSign};
@@ -181,6 +182,7 @@ fn every_parameter_type_reads_an_empty_document_as_its_default() {
     empty_is_default::<VoxelParams>();
     empty_is_default::<QualityParams>();
     empty_is_default::<VoxelRelaxParams>();
+    empty_is_default::<EstimateNormals>();
 }
 
 #[test]
@@ -204,6 +206,19 @@ fn the_remaining_types_survive_json() {
         .rings(1)
         .step(0.3);
     assert_eq!(round_trip(&voxel_relax), voxel_relax);
+    let normals = EstimateNormals {
+        neighbours: 20,
+        up: Vec3::new(0.0, -1.0, 0.5),
+    };
+    assert_eq!(round_trip(&normals), normals);
+    let partial: EstimateNormals = serde_json::from_str(r#"{ "up": [1.0, 0.0, 0.0] }"#).unwrap();
+    assert_eq!(
+        partial,
+        EstimateNormals {
+            up: Vec3::X,
+            ..Default::default()
+        }
+    );
     let spec = GridSpec {
         dims: [3, 4, 5],
         origin: Vec3::new(-1.0, 0.5, 2.0),

@@ -946,3 +946,26 @@ fn plane_radius_is_the_spacing_on_a_surface_and_the_gap_between_scan_lines() {
     let spacing = index.median_spacing().unwrap();
     assert!(r > 0.5 * spacing && r < 2.0 * spacing, "{r} vs {spacing}");
 }
+
+#[test]
+fn orienting_toward_no_direction_is_refused_by_name() {
+    use mls_surface::fit_oriented_normals_with;
+    let sheet = sphere(300, 1.0);
+    let index = KdIndex::new(sheet.positions()).unwrap();
+    for up in [
+        Vec3::ZERO,
+        Vec3::new(0.0, f32::NAN, 1.0),
+        Vec3::splat(f32::NEG_INFINITY),
+    ] {
+        let is_up = |e: MlsError| matches!(e, MlsError::InvalidParameter { name: "up", .. });
+        assert!(is_up(orient_normals(&sheet, up).unwrap_err()));
+        let mut ctx = pointset_core::RunContext::new(0);
+        let both = fit_oriented_normals_with(&index, sheet.clone(), 12, up, &mut ctx);
+        assert!(is_up(both.unwrap_err()));
+    }
+    // Any other length is a direction.
+    assert_eq!(
+        orient_normals(&sheet, 40.0 * Vec3::Z).unwrap(),
+        orient_normals(&sheet, Vec3::Z).unwrap()
+    );
+}

@@ -6,7 +6,9 @@ use glam::Vec3;
 use pointset_core::spatial::z_order;
 use pointset_core::{KdIndex, PointSet, RunContext};
 
-use super::{FoundNeighbours, ORIENTING_STAGE, OrientationGraph, check_countable, propagate};
+use super::{
+    FoundNeighbours, ORIENTING_STAGE, OrientationGraph, check_countable, check_up, propagate,
+};
 use crate::error::{MlsError, Result};
 use crate::index_match::check_index_of;
 use crate::pca::{FITTING_STAGE, NormalFit, check_fit, fit_along};
@@ -24,7 +26,7 @@ use crate::pca::{FITTING_STAGE, NormalFit, check_fit, fit_along};
 /// each half is recorded in `ctx`'s timings under those two stage names. A cancelled run
 /// stops at the next report. Errors as the two functions': `k` below 3, fewer than 3
 /// points, a non-finite position, an index of other positions, more than `u32::MAX`
-/// points.
+/// points, an `up` that is zero or not finite.
 ///
 /// ```
 /// use glam::Vec3;
@@ -58,6 +60,7 @@ pub fn fit_oriented_normals_with(
 ) -> Result<NormalFit> {
     check_fit(&points, k)?;
     check_countable(&points)?;
+    check_up(up)?;
     check_index_of(index, &points)?;
     let order = z_order(points.positions());
     let mut found = FoundNeighbours::unsearched(points.len());

@@ -139,7 +139,7 @@ const ROOT_MIN_COSINE: f32 = 0.5;
 /// propagation crosses between them; not isolated). [`orientation_disagreement`] cannot
 /// see that, since each piece is consistent in itself.
 ///
-/// Errors: no normals, a non-finite position.
+/// Errors: no normals, a non-finite position, an `up` that is zero or not finite.
 ///
 /// ```
 /// use glam::Vec3;
@@ -200,7 +200,7 @@ pub const LINKING_STAGE: &str = "linking neighbours";
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn orient_normals_in(points: &PointSet, up: Vec3, ctx: &mut RunContext) -> Result<PointSet> {
-    check_orient(points)?;
+    check_orient(points, up)?;
     ctx.check_cancelled()?;
     orient_normals_with(&KdIndex::new(points.positions())?, points, up, ctx)
 }
@@ -217,7 +217,7 @@ pub fn orient_normals_with(
     up: Vec3,
     ctx: &mut RunContext,
 ) -> Result<PointSet> {
-    let normals = check_orient(points)?;
+    let normals = check_orient(points, up)?;
     check_index_of(index, points)?;
     let positions = points.positions();
     let unsearched = FoundNeighbours::unsearched(positions.len());
@@ -310,12 +310,26 @@ fn propagate(
     Ok(by_point)
 }
 
-/// The input checks of [`orient_normals`]: normals, at most `u32::MAX` points. Returns
-/// the normals.
-fn check_orient(points: &PointSet) -> Result<&[Vec3]> {
+/// The input checks of [`orient_normals`]: normals, at most `u32::MAX` points, a
+/// direction `up`. Returns the normals.
+fn check_orient(points: &PointSet, up: Vec3) -> Result<&[Vec3]> {
     let normals = points.normals().ok_or(MlsError::MissingNormals)?;
     check_countable(points)?;
+    check_up(up)?;
     Ok(normals)
+}
+
+/// That `up` is a direction: finite and not zero.
+fn check_up(up: Vec3) -> Result<()> {
+    if up.is_finite() && up.length_squared() > 0.0 {
+        Ok(())
+    } else {
+        Err(MlsError::InvalidParameter {
+            name: "up",
+            value: format!("{up}"),
+            expected: "a finite, non-zero direction",
+        })
+    }
 }
 
 /// That the graph can number `points`: at most `u32::MAX` of them.
