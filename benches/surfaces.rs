@@ -11,9 +11,12 @@ mod common;
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use geosynth::core::rng;
+use geosynth::core::{KdIndex, RunContext, rng};
 use geosynth::fixtures;
-use geosynth::mls::{MlsParams, MlsSurface, NORMAL_NEIGHBOURS, fit_normals, orient_normals};
+use geosynth::mls::{
+    MlsParams, MlsSurface, NORMAL_NEIGHBOURS, fit_normals, fit_normals_with,
+    fit_oriented_normals_with, orient_normals, orient_normals_with,
+};
 use geosynth::sdf::{
     GridSpec, MeshSign, MeshSurface, PointWinding, SdfGrid, WindingSigned, sdf_isosurface,
 };
@@ -218,6 +221,23 @@ fn point_normals(c: &mut Criterion) {
     });
     group.bench_function("orient", |b| {
         b.iter(|| orient_normals(black_box(&mixed), Vec3::Z))
+    });
+    // `geosynth normals`: one index, the fit and the orientation one after the other, or
+    // in one pass that hands the fit's neighbours to the orientation's graph.
+    let index = KdIndex::new(unoriented.positions()).expect("benchmark setup");
+    let mut ctx = RunContext::new(0);
+    group.bench_function("fit_then_orient", |b| {
+        b.iter(|| {
+            let fit =
+                fit_normals_with(&index, black_box(&unoriented), NORMAL_NEIGHBOURS, &mut ctx)?;
+            orient_normals_with(&index, &fit.points, Vec3::Z, &mut ctx)
+        })
+    });
+    group.bench_function("fit_and_orient", |b| {
+        b.iter(|| {
+            let points = black_box(&unoriented).clone();
+            fit_oriented_normals_with(&index, points, NORMAL_NEIGHBOURS, Vec3::Z, &mut ctx)
+        })
     });
     group.finish();
 }
