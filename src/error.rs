@@ -85,6 +85,16 @@ pub enum Error {
         /// What was found instead.
         reason: String,
     },
+    /// A warp sent the point at `index` beyond single precision: the spline's targets lie
+    /// too far from their sources.
+    #[error(
+        "the spline sends point {index} beyond single precision; its targets lie too far \
+         from their sources"
+    )]
+    WarpOverflow {
+        /// The first such point, by its index in the point set or mesh.
+        index: usize,
+    },
     /// A rendering or pipeline parameter is out of range.
     #[error("parameter `{name}` = {value} is out of range: expected {expected}")]
     InvalidParameter {

@@ -15,6 +15,7 @@
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage, and `SampleHeights` to write a quilted height field back as one |
 //! | [`normals`] | (facade) | stage: bare points → points with oriented normals |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid; trimming open scans |
+//! | [`warp`] | (facade) | stage: a point set or mesh moved by a thin-plate spline |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
 //! | [`imagery`] | (facade) | textures and height fields from PNG/JPEG/raw `f32` files |
@@ -136,6 +137,7 @@ pub mod preview;
 pub mod quilt;
 pub mod reconstruct;
 pub mod voxel;
+pub mod warp;
 
 /// Shared types, I/O and spatial indices (the `pointset-core` crate).
 pub use pointset_core as core;

@@ -802,3 +802,88 @@ fn estimate_normals_refuses_too_few_neighbours_and_no_direction_by_name() {
         );
     }
 }
+
+#[test]
+fn an_affine_warp_moves_points_and_turns_normals_as_the_map_does() {
+    use geosynth::core::{Attribute, PointSet, TriMesh};
+    use geosynth::tps::{ThinPlateSpline, TpsParams};
+    use geosynth::warp::{Warp, warp_geometry};
+    use geosynth::{RunContext, Stage};
+    use glam::{Mat3, Vec2};
+    // A shear, a stretch and a turn, and a shift: a spline through pairs of an affine map
+    // is that map, so the reference is the map itself and its inverse transpose.
+    let map = Mat3::from_cols(
+        Vec3::new(1.5, 0.2, 0.0),
+        Vec3::new(-0.3, 0.8, 0.1),
+        Vec3::new(0.0, 0.4, 1.2),
+    );
+    let shift = Vec3::new(0.5, -2.0, 1.0);
+    let sources: Vec<Vec3> = (0..12)
+        .map(|i| {
+            Vec3::new(
+                (i % 3) as f32,
+                ((i / 3) % 2) as f32 * 1.5,
+                (i / 6) as f32 - 0.3 * (i % 2) as f32,
+            )
+        })
+        .collect();
+    let targets: Vec<Vec3> = sources.iter().map(|&p| map * p + shift).collect();
+    let spline = ThinPlateSpline::fit(&sources, &targets, &TpsParams::default()).unwrap();
+    let sphere = fixtures::sphere_points(400).unwrap();
+    let heights: Vec<f32> = sphere.positions().iter().map(|p| p.y).collect();
+    let labelled = sphere
+        .clone()
+        .with_attribute(Attribute::new("height", heights.clone()))
+        .unwrap();
+    let warped = warp_geometry(&spline, Geometry::Points(labelled)).unwrap();
+    let warped = warped.points();
+    let turn = map.inverse().transpose();
+    let pairs = sphere.positions().iter().zip(sphere.normals().unwrap());
+    for ((p, n), (q, m)) in pairs.zip(warped.positions().iter().zip(warped.normals().unwrap())) {
+        assert!((*q - (map * *p + shift)).length() < 1e-4, "{p} -> {q}");
+        assert!((*m - (turn * *n).normalize()).length() < 1e-4, "{n} -> {m}");
+    }
+    assert_eq!(warped.attribute("height").unwrap().values(), &heights[..]);
+    // A mesh keeps its triangles and UVs; the stage is the function.
+    let ico = fixtures::icosphere_mesh(2).unwrap();
+    let uvs: Vec<Vec2> = ico
+        .positions()
+        .iter()
+        .map(|p| Vec2::new(p.x, p.z))
+        .collect();
+    let ico = ico.with_uvs(uvs.clone()).unwrap();
+    let stage = Warp {
+        spline: spline.clone(),
+    };
+    let out = stage
+        .run(Geometry::Mesh(ico.clone()), &mut RunContext::new(0))
+        .unwrap();
+    let mesh: &TriMesh = out.mesh().unwrap();
+    assert_eq!(mesh.triangles(), ico.triangles());
+    assert_eq!(mesh.uvs().unwrap(), &uvs[..]);
+    assert_eq!(
+        out,
+        warp_geometry(&spline, Geometry::Mesh(ico.clone())).unwrap()
+    );
+    // A cancelled run does not start.
+    let mut ctx = RunContext::new(0);
+    ctx.cancel_flag().cancel();
+    assert!(
+        stage
+            .run(Geometry::Mesh(ico), &mut ctx)
+            .is_err_and(|e| e.is_cancelled())
+    );
+    // Targets so far that points leave single precision: refused, naming the first.
+    let far = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let thrown = [Vec3::new(0.0, 0.0, 3e38), Vec3::X, Vec3::Y];
+    let wild = ThinPlateSpline::fit(&far, &thrown, &TpsParams::default()).unwrap();
+    let at = [Vec3::new(0.1, 0.1, 0.0), Vec3::new(-5.0, -5.0, 0.0)];
+    let first = at.iter().position(|p| !wild.eval(*p).is_finite());
+    assert!(first.is_some());
+    let points = PointSet::new(at.to_vec()).unwrap();
+    let refused = warp_geometry(&wild, Geometry::Points(points)).unwrap_err();
+    assert!(
+        matches!(refused, geosynth::Error::WarpOverflow { index } if Some(index) == first),
+        "{refused}"
+    );
+}

@@ -140,7 +140,10 @@ fn main() -> ExitCode {
 }
 
 /// Errors of CLI commands: any library error, with context.
-pub(crate) type CliResult<T = ()> = Result<T, Box<dyn std::error::Error + Send + Sync>>;
+pub(crate) type CliResult<T = ()> = Result<T, CliError>;
+
+/// The error of every command: anything that can say what went wrong.
+pub(crate) type CliError = Box<dyn std::error::Error + Send + Sync>;
 
 /// Creates a directory and its parents, naming it in the error.
 pub(crate) fn create_dir(dir: &PathBuf) -> CliResult {

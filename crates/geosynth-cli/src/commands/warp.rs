@@ -3,16 +3,16 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use geosynth::core::io::{Geometry, WriteOptions};
-use geosynth::core::{PointSet, TriMesh};
+use geosynth::core::io::WriteOptions;
 use geosynth::tps::{ThinPlateSpline, TpsError, TpsParams};
+use geosynth::warp::warp_geometry;
 use glam::{DVec3, Vec3};
 
 use crate::input_file::read_geometry;
 use crate::output::{
     check_geometry_output, check_output_paths, report_not_kept, status, write_geometry_file,
 };
-use crate::{CliResult, Globals};
+use crate::{CliError, CliResult, Globals};
 
 /// Arguments of `geosynth warp`.
 #[derive(Debug, Args)]
@@ -105,22 +105,6 @@ fn fit_spline(pairs: &Pairs, path: &Path, smoothing: f64) -> CliResult<ThinPlate
     })
 }
 
-/// A copy of `points` with new positions and normals (attributes kept).
-fn rebuild(
-    points: &PointSet,
-    positions: Vec<Vec3>,
-    normals: Option<Vec<Vec3>>,
-) -> CliResult<PointSet> {
-    let mut out = PointSet::new(positions)?;
-    if let Some(n) = normals {
-        out = out.with_normals(n)?;
-    }
-    for a in points.attributes() {
-        out.set_attribute(a.clone())?;
-    }
-    Ok(out)
-}
-
 /// Runs `geosynth warp`.
 pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
@@ -136,29 +120,18 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     )?;
     let pairs = parse_pairs(&text, &args.pairs, loaded.origin)?;
     let spline = fit_spline(&pairs, &args.pairs, args.smoothing)?;
-    let geometry = loaded.geometry;
-    let points = geometry.points();
-    let (moved, normals) = spline.warp(points.positions(), points.normals());
-    if let Some(index) = moved.iter().position(|p| !p.is_finite()) {
-        return Err(format!(
-            "the spline through {} sends point {index} of {} beyond single precision; its \
+    let out = warp_geometry(&spline, loaded.geometry).map_err(|e| -> CliError {
+        match e {
+            geosynth::Error::WarpOverflow { index } => format!(
+                "the spline through {} sends point {index} of {} beyond single precision; its \
              targets lie too far from their sources",
-            args.pairs.display(),
-            args.input.display()
-        )
-        .into());
-    }
-    let warped = rebuild(points, moved, normals)?;
-    let out = match &geometry {
-        Geometry::Points(_) => Geometry::Points(warped),
-        Geometry::Mesh(m) => {
-            let mut mesh = TriMesh::new(warped, m.triangles().to_vec())?;
-            if let Some(uvs) = m.uvs() {
-                mesh = mesh.with_uvs(uvs.to_vec())?;
-            }
-            Geometry::Mesh(mesh)
+                args.pairs.display(),
+                args.input.display()
+            )
+            .into(),
+            other => other.into(),
         }
-    };
+    })?;
     let options = WriteOptions::default()
         .comment(format!(
             "warped by {} pairs from {}",
