@@ -89,12 +89,13 @@ pub fn orient_faces(mesh: TriMesh) -> CliResult<(TriMesh, String)> {
 
 /// Refuses a point set read from `path` whose normals its MLS surface cannot use: none at
 /// all, or some without a direction ([`PointSet::directionless_normals`]: zero normals a
-/// tool wrote where it computed none).
-pub fn check_oriented_points(points: &PointSet, path: &Path) -> CliResult {
+/// tool wrote where it computed none). `remedy` names what estimates them (a flag, or
+/// another command).
+pub fn check_oriented_points(points: &PointSet, path: &Path, remedy: &str) -> CliResult {
     if points.normals().is_none() {
         return Err(format!(
             "{}: the points have no normals, and their MLS surface needs oriented points \
-             (`geosynth normals` estimates and orients them)",
+             ({remedy} estimates and orients them)",
             path.display()
         )
         .into());
@@ -103,8 +104,8 @@ pub fn check_oriented_points(points: &PointSet, path: &Path) -> CliResult {
         0 => Ok(()),
         zero => Err(format!(
             "{}: {zero} of the {} normals are zero (unset by the tool that wrote them), and \
-             the MLS surface needs a direction at every point (`geosynth normals` estimates \
-             them all anew)",
+             the MLS surface needs a direction at every point ({remedy} estimates them all \
+             anew)",
             path.display(),
             points.len()
         )

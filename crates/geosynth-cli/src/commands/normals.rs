@@ -65,7 +65,7 @@ pub struct NormalsArgs {
 
 /// Parses `--neighbours`: a whole number of at least 3, the fewest points a plane is
 /// fitted to.
-fn parse_neighbours(s: &str) -> Result<usize, String> {
+pub(super) fn parse_neighbours(s: &str) -> Result<usize, String> {
     match s.parse::<usize>() {
         Ok(k) if k >= 3 => Ok(k),
         _ => Err(format!("`{s}` is not a whole number of at least 3")),
@@ -74,14 +74,19 @@ fn parse_neighbours(s: &str) -> Result<usize, String> {
 
 /// A note when some points' neighbourhoods define no normal
 /// ([`geosynth::mls::NormalFit::undefined`]): their normals, and the orientation spread
-/// through them, are arbitrary.
-fn undefined_note(undefined: usize, points: usize, neighbours: usize) -> Option<String> {
+/// through them, are arbitrary. `flag` is the option that sets the neighbours.
+pub(super) fn undefined_note(
+    undefined: usize,
+    points: usize,
+    neighbours: usize,
+    flag: &str,
+) -> Option<String> {
     (undefined > 0).then(|| {
         format!(
             "note: {undefined} of {points} points ({:.1}%) have {neighbours} nearest \
              neighbours that fix no normal (along one line, at one place, or spread alike \
              every way): theirs are arbitrary. Scan lines sampled far more densely along \
-             than across do that; --neighbours large enough to reach the next line fixes it",
+             than across do that; {flag} large enough to reach the next line fixes it",
             100.0 * undefined as f64 / points as f64
         )
     })
@@ -122,7 +127,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     drop(index);
     let neighbours = args.neighbours.min(count);
     let undefined = fit.undefined.len();
-    if let Some(note) = undefined_note(undefined, count, neighbours) {
+    if let Some(note) = undefined_note(undefined, count, neighbours, "--neighbours") {
         status(globals, note);
     }
     let oriented = fit.points;

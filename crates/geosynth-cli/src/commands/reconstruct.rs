@@ -7,7 +7,10 @@ use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
-use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, orient_normals_in, plane_radius};
+use geosynth::mls::{
+    MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, fit_oriented_normals_with, orient_normals_in,
+    plane_radius,
+};
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
     trim_to_mesh,
@@ -18,6 +21,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
+use super::normals::{parse_neighbours, undefined_note};
 use super::{SignArgs, check_oriented_points, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
@@ -118,8 +122,20 @@ pub struct ReconstructArgs {
     /// Make the normal signs consistent by propagation from the side facing +Z before
     /// reconstructing (for normals estimated without orientation); unreliable on
     /// interlinked thin tubes (docs/mls-surface.md).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "estimate_normals")]
     orient_normals: bool,
+    /// Estimate the points' normals first, as `geosynth normals` does: fitted to each
+    /// point's K nearest neighbours (`--estimate-normals` alone: 12) and oriented by
+    /// propagation toward +Z; for bare scans (XYZ files of positions), and replacing any
+    /// normals the points have.
+    #[arg(
+        long,
+        value_name = "K",
+        num_args = 0..=1,
+        default_missing_value = "12",
+        value_parser = parse_neighbours
+    )]
+    estimate_normals: Option<usize>,
     /// For open scans (a façade, a terrain, a quilted sheet): cut the surface where it runs
     /// on past the scan's border, beyond this many median sample spacings from every point
     /// (`--trim` alone: 2, `DEFAULT_TRIM_SPACINGS`). Gaps inside the scan stay bridged.
@@ -150,6 +166,8 @@ const DROP_PIECES_SPACINGS: f32 = 12.0;
 struct ReconstructInputOptions {
     /// `--orient-normals`.
     orient_normals: bool,
+    /// `--estimate-normals`, in neighbours (unset: the points' own normals).
+    estimate_normals: Option<usize>,
     /// `--trim`, in median sample spacings (unset: no trim).
     trim: Option<f32>,
     /// `--drop-pieces`, in median sample spacings (unset: every piece kept).
@@ -160,6 +178,9 @@ struct ReconstructInputOptions {
 
 impl RecordedInput for ReconstructInputOptions {
     fn check(&self) -> Result<(), String> {
+        if let Some(k) = self.estimate_normals {
+            parse_neighbours(&k.to_string()).map_err(|e| format!("estimate_normals: {e}"))?;
+        }
         check_positive("trim", self.trim, "number of spacings")?;
         check_positive("drop_pieces", self.drop_pieces, "number of spacings")
     }
@@ -171,8 +192,12 @@ impl ReconstructInputOptions {
         let recorded: Self = file.input_options()?;
         check_positive("--trim", args.trim, "number of spacings")?;
         check_positive("--drop-pieces", args.drop_pieces, "number of spacings")?;
+        let estimate_normals = args.estimate_normals.or(recorded.estimate_normals);
         Ok(Self {
-            orient_normals: args.orient_normals || recorded.orient_normals,
+            // Estimated normals come oriented.
+            orient_normals: (args.orient_normals || recorded.orient_normals)
+                && estimate_normals.is_none(),
+            estimate_normals,
             trim: args.trim.or(recorded.trim),
             drop_pieces: args.drop_pieces.or(recorded.drop_pieces),
             orient_faces: args.sign.orient_faces || recorded.orient_faces,
@@ -191,10 +216,15 @@ fn prepared_input(
 ) -> CliResult<Geometry> {
     match geometry {
         Geometry::Mesh(mesh) => {
-            if options.orient_normals {
+            let flag = if options.estimate_normals.is_some() {
+                Some("--estimate-normals estimates")
+            } else {
+                options.orient_normals.then_some("--orient-normals orients")
+            };
+            if let Some(flag) = flag {
                 return Err(format!(
-                    "{} is a mesh: --orient-normals orients a point set's normals, and a \
-                     mesh's sides come from its faces (--orient-faces turns them to agree)",
+                    "{} is a mesh: {flag} a point set's normals, and a mesh's sides come \
+                     from its faces (--orient-faces turns them to agree)",
                     args.input.display()
                 )
                 .into());
@@ -225,7 +255,10 @@ fn prepared_input(
             Ok(Geometry::Mesh(mesh))
         }
         Geometry::Points(mut points) => {
-            check_oriented_points(&points, &args.input)?;
+            if let Some(neighbours) = options.estimate_normals {
+                points = estimated_normals(points, neighbours, globals)?;
+            }
+            check_oriented_points(&points, &args.input, "--estimate-normals")?;
             if options.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
             }
@@ -243,6 +276,25 @@ fn prepared_input(
             Ok(Geometry::Points(points))
         }
     }
+}
+
+/// `points` with normals fitted to `neighbours` nearest and oriented toward +Z, as
+/// `geosynth normals` estimates them; notes the points whose neighbourhoods define none.
+fn estimated_normals(points: PointSet, neighbours: usize, globals: Globals) -> CliResult<PointSet> {
+    let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
+    let count = points.len();
+    let index = KdIndex::new(points.positions())?;
+    let fit = fit_oriented_normals_with(&index, points, neighbours, Vec3::Z, &mut ctx)?;
+    bar.finish_and_clear();
+    if let Some(note) = undefined_note(
+        fit.undefined.len(),
+        count,
+        neighbours.min(count),
+        "--estimate-normals K",
+    ) {
+        status(globals, note);
+    }
+    Ok(fit.points)
 }
 
 /// The closed (or, with `trim` in median sample spacings, trimmed) surface of `input`.
@@ -582,7 +634,7 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
         status(globals, no_faces_to_orient(&args.input));
     }
     if let io::Geometry::Points(points) = &loaded.geometry {
-        check_oriented_points(points, &args.input)?;
+        check_oriented_points(points, &args.input, "`geosynth normals`")?;
         if let Some(note) = line_gap_note(points, params.kernel, false)? {
             status(globals, note);
         }

@@ -68,6 +68,10 @@ fn a_mesh_is_remeshed_closed_on_its_own_surface() {
         &[&args[..], &["--orient-normals"]].concat(),
         "is a mesh: --orient-normals orients a point set's normals, and a mesh's sides",
     );
+    refused(
+        &[&args[..], &["--estimate-normals"]].concat(),
+        "is a mesh: --estimate-normals estimates a point set's normals, and a mesh's sides",
+    );
     let bare = dir.path("bare.ply");
     write_with_defaults(
         &bare,
@@ -76,6 +80,16 @@ fn a_mesh_is_remeshed_closed_on_its_own_surface() {
     refused(
         &["reconstruct", &arg(&bare), "-o", &arg(&out)],
         &format!("{}: the points have no normals", bare.display()),
+    );
+    // Each command names its own way to estimate them.
+    refused(
+        &["reconstruct", &arg(&bare), "-o", &arg(&out)],
+        "(--estimate-normals estimates and orients them)",
+    );
+    let field = dir.path("bare.nrrd");
+    refused(
+        &["sdf", &arg(&bare), "-o", &arg(&field)],
+        "(`geosynth normals` estimates and orients them)",
     );
 }
 

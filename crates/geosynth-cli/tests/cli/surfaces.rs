@@ -42,7 +42,7 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
     let mesh = dir.path().join("mesh.ply");
     refused(
         &["reconstruct", &arg(&bare), "-o", "x.ply"],
-        "geosynth normals",
+        "--estimate-normals estimates and orients them",
     );
     let said = ok(&[
         "reconstruct",
@@ -307,6 +307,49 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
     ]);
     assert!(!said.contains("look unoriented"), "{said}");
     assert_closed(&probe, 0, "a torus");
+    // The positions alone: `--estimate-normals` fits and orients them first, and the
+    // surface is the torus again; the report records the neighbours, and `--params`
+    // reading it estimates them again. Fewer than 3 neighbours are refused.
+    let bare = dir.path().join("bare.xyz");
+    let positions = geosynth::core::PointSet::new(torus.points().positions().to_vec()).unwrap();
+    write_with_defaults(&bare, &geosynth::core::io::Geometry::Points(positions));
+    let report = dir.path().join("estimated.json");
+    let estimate = |extra: &[&str]| {
+        let args = [
+            &[
+                "reconstruct",
+                bare.to_str().unwrap(),
+                "-o",
+                probe.to_str().unwrap(),
+            ][..],
+            extra,
+        ]
+        .concat();
+        ok(&args)
+    };
+    estimate(&[
+        "--resolution",
+        "40",
+        "--estimate-normals",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_closed(&probe, 0, "a torus from its positions alone");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["input_options"]["estimate_normals"], 12);
+    let replayed = estimate(&["--params", report.to_str().unwrap()]);
+    assert!(!replayed.contains("no normals"), "{replayed}");
+    assert_closed(&probe, 0, "the torus again, from the report");
+    let too_few = [
+        "reconstruct",
+        bare.to_str().unwrap(),
+        "-o",
+        probe.to_str().unwrap(),
+        "--estimate-normals",
+        "2",
+    ];
+    refused(&too_few, "at least 3");
 
     let field = dir.path().join("torus.nrrd");
     ok(&[
