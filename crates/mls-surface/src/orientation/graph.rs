@@ -163,13 +163,22 @@ impl OrientationGraph {
             ctx.report(LINKING_STAGE, done, Some(n as u64));
         }
         // The edges a row lists whose other end's row does not list them back (the cost
-        // is symmetric, so a listed edge back is the same edge).
+        // is symmetric, so a listed edge back is the same edge): found in parallel, a bit
+        // per slot (a row has at most 8), then read in rank order.
+        const _: () = assert!(NearTable::SLOTS <= 8);
+        let unlisted: Vec<u8> = (0..n as u32)
+            .into_par_iter()
+            .map(|r| {
+                let row = near.row(r).iter().enumerate();
+                row.filter(|&(_, &(s, _))| !near.lists(s, r))
+                    .fold(0u8, |bits, (slot, _)| bits | (1 << slot))
+            })
+            .collect();
         let one_way = || {
-            (0..n as u32).flat_map(|r| {
-                let near = &near;
-                let row = near.row(r).iter();
-                row.filter(move |&&(s, _)| !near.lists(s, r))
-                    .map(move |&(s, cost)| (r, s, cost))
+            unlisted.iter().zip(0u32..).flat_map(|(&bits, r)| {
+                let row = near.row(r).iter().enumerate();
+                row.filter(move |&(slot, _)| bits & (1 << slot) != 0)
+                    .map(move |(_, &(s, cost))| (r, s, cost))
             })
         };
         // Counted per rank, summed into where each rank's edges end, and filled from

