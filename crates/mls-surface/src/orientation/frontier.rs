@@ -26,6 +26,10 @@ pub(super) struct Entry {
 /// [`Frontier::slot`] of a point with no entry.
 const ABSENT: u32 = u32::MAX;
 
+/// [`Frontier::slot`] of a point popped: reached by the propagation. (Entries sit below
+/// it: the heap never holds every point, and there are at most `u32::MAX` of them.)
+const REACHED: u32 = u32::MAX - 1;
+
 /// Children per node of the heap.
 const ARITY: usize = 4;
 
@@ -33,7 +37,8 @@ const ARITY: usize = 4;
 pub(super) struct Frontier {
     /// A 4-ary min-heap of entries, at most one per point.
     heap: Vec<Entry>,
-    /// Where each point's entry sits in `heap`; [`ABSENT`] for none.
+    /// Where each point's entry sits in `heap`; [`ABSENT`] for none yet, [`REACHED`] once
+    /// popped. One array for both, so that an offer reads one place.
     slot: Vec<u32>,
 }
 
@@ -47,10 +52,17 @@ impl Frontier {
         }
     }
 
-    /// Keeps `entry` if its point has no entry yet or a greater one.
+    /// Whether `point` has been popped.
+    pub(super) fn reached(&self, point: u32) -> bool {
+        self.slot[point as usize] == REACHED
+    }
+
+    /// Keeps `entry` if its point has not been popped and has no entry yet or a greater
+    /// one.
     pub(super) fn offer(&mut self, entry: Entry) {
         let point = entry.point as usize;
         match self.slot[point] {
+            REACHED => {}
             ABSENT => {
                 self.heap.push(entry);
                 self.rise(self.heap.len() - 1);
@@ -65,7 +77,7 @@ impl Frontier {
         }
     }
 
-    /// Takes out the least entry; its point has no entry afterwards.
+    /// Takes out the least entry; its point is reached afterwards.
     pub(super) fn pop(&mut self) -> Option<Entry> {
         let last = self.heap.pop()?;
         let least = match self.heap.first_mut() {
@@ -76,7 +88,7 @@ impl Frontier {
             }
             None => last,
         };
-        self.slot[least.point as usize] = ABSENT;
+        self.slot[least.point as usize] = REACHED;
         Some(least)
     }
 
@@ -141,7 +153,7 @@ mod tests {
         }
     }
 
-    /// What the propagation asks of a frontier: offers into points not yet popped.
+    /// What the propagation asks of a frontier: offers, and pops.
     #[derive(Debug, Clone)]
     enum Step {
         Offer { cost: u32, point: u32, parent: u32 },
@@ -167,11 +179,11 @@ mod tests {
             let mut popped = [false; 40];
             for step in steps {
                 match step {
+                    // Offers into popped points too: the frontier ignores them, as the
+                    // reference skips them when they come up.
                     Step::Offer { cost, point, parent } => {
-                        if !popped[point as usize] {
-                            frontier.offer(entry(cost, point, parent));
-                            every_offer.push(Reverse(entry(cost, point, parent)));
-                        }
+                        frontier.offer(entry(cost, point, parent));
+                        every_offer.push(Reverse(entry(cost, point, parent)));
                     }
                     Step::Pop => {
                         let first_per_point = std::iter::from_fn(|| every_offer.pop())
@@ -185,6 +197,9 @@ mod tests {
                     }
                 }
                 prop_assert!(frontier.heap.len() <= 40);
+                for (point, &done) in (0u32..).zip(&popped) {
+                    prop_assert_eq!(frontier.reached(point), done);
+                }
                 for (at, entry) in frontier.heap.iter().enumerate() {
                     prop_assert_eq!(frontier.slot[entry.point as usize] as usize, at);
                 }

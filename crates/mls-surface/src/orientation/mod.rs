@@ -252,7 +252,6 @@ fn propagate(
     // The propagation works in the graph's numbering: `oriented[r]` is the normal of the
     // point at rank `r`.
     let mut oriented: Vec<Vec3> = graph.order.iter().map(|&i| normals[i as usize]).collect();
-    let mut done = vec![false; positions.len()];
     let mut frontier = Frontier::new(positions.len());
     let mut reached = Reached { ctx, count: 0 };
     // A root must face clearly up or down (|n · up| ≥ ROOT_MIN_COSINE) for "face up" to
@@ -264,13 +263,12 @@ fn propagate(
     for &root in steep.chain(&by_height) {
         let root = root as usize;
         let root_rank = graph.rank_of[root];
-        if done[root_rank as usize] {
+        if frontier.reached(root_rank) {
             continue;
         }
         let mut tree = Tree {
             graph: &graph,
             oriented: &mut oriented,
-            done: &mut done,
             frontier: &mut frontier,
         };
         let part = tree.grow(root_rank, &mut reached)?;
@@ -297,7 +295,7 @@ fn propagate(
         .collect();
     // Freed before the caller copies the normals into the points: on millions of points
     // the graph is the largest thing the run holds.
-    drop((graph, oriented, done, frontier, by_height));
+    drop((graph, oriented, frontier, by_height));
     reached.ctx.report(ORIENTING_STAGE, total, Some(total));
     Ok(by_point)
 }
@@ -384,13 +382,12 @@ impl Reached<'_> {
 }
 
 /// A minimum spanning tree of the part of the graph around a root, grown by Prim's
-/// algorithm through the points not yet `done` (ties to the point with the lower index in
+/// algorithm through the points the frontier has not reached (ties to the point with the lower index in
 /// the point set, then to the parent with the lower index), each normal reached turned to
 /// agree with its parent's. Everything else is numbered by the graph's ranks.
 struct Tree<'a> {
     graph: &'a OrientationGraph,
     oriented: &'a mut [Vec3],
-    done: &'a mut [bool],
     frontier: &'a mut Frontier,
 }
 
@@ -407,14 +404,13 @@ impl Tree<'_> {
         while let Some(reached_by) = self.frontier.pop() {
             let (node, index) = (reached_by.point, reached_by.key.1);
             let (at, from) = (node as usize, reached_by.parent as usize);
-            self.done[at] = true;
             part.push(node);
-            reached.one_more(self.done.len())?;
+            reached.one_more(self.oriented.len())?;
             if self.oriented[at].dot(self.oriented[from]) < 0.0 {
                 self.oriented[at] = -self.oriented[at];
             }
             for &(next, cost) in self.graph.edges_of(node) {
-                if !self.done[next as usize] {
+                if !self.frontier.reached(next) {
                     self.frontier.offer(Entry {
                         key: (cost, self.graph.order[next as usize], index),
                         point: next,
