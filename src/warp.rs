@@ -22,7 +22,8 @@ use crate::error::{Error, Result};
 /// use glam::Vec3;
 ///
 /// // Pairs that stretch x twice over: the spline through them is that stretch.
-/// let sources: Vec<Vec3> = (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32)).collect();
+/// let corner = |i: u32| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32);
+/// let sources: Vec<Vec3> = (0..8).map(corner).collect();
 /// let targets: Vec<Vec3> = sources.iter().map(|p| Vec3::new(2.0 * p.x, p.y, p.z)).collect();
 /// let spline = ThinPlateSpline::fit(&sources, &targets, &TpsParams::default())?;
 /// let sphere = Geometry::Points(geosynth::fixtures::sphere_points(500)?);

@@ -255,8 +255,9 @@ pub fn fit_normals_with(
 
 /// The fit of [`fit_normals_with`], after its checks, into `points` (which `index` was
 /// built from): each point's `k` nearest neighbours asked in `order` (every point once),
-/// reported and cancelled as [`fit_normals_in`] says. With `found`, the neighbours the orientation's graph needs are kept for it, row
-/// by row in `order` ([`FoundNeighbours::row_from`]).
+/// reported and cancelled as [`fit_normals_in`] says. With `found`, the neighbours the
+/// orientation's graph needs are kept for it, row by row in `order`
+/// ([`FoundNeighbours::row_from`]).
 pub(crate) fn fit_along(
     index: &KdIndex,
     points: PointSet,

@@ -267,7 +267,10 @@ fn prepared_input(
                 points = orient_normals_in(&points, Vec3::Z, &mut ctx)?;
                 bar.finish_and_clear();
             }
-            if let Some(note) = super::unoriented_normals_note(&points, None) {
+            // Normals estimated here come oriented; the note would suggest --orient-normals.
+            if options.estimate_normals.is_none()
+                && let Some(note) = super::unoriented_normals_note(&points, None)
+            {
                 status(globals, note);
             }
             if let Some(note) = line_gap_note(&points, params.kernel, options.trim.is_some())? {

@@ -50,10 +50,11 @@ impl FoundNeighbours {
     /// settles them, or an [`UNSEARCHED`] row.
     ///
     /// It settles them when it is the same question, when it holds every point of the
-    /// set (fewer than asked) and the graph's question would too, or when it holds more and its [`Self::ASKED`]-th
-    /// nearest is strictly nearer than the next: the nearest are then one set whatever
-    /// order the index finds equidistant points in, and the graph depends only on the
-    /// set. Ties there (lattices) leave the row to the graph's own search.
+    /// set (fewer than asked) and the graph's question would too, or when it holds more
+    /// and its [`Self::ASKED`]-th nearest is strictly nearer than the next: the nearest
+    /// are then one set whatever order the index finds equidistant points in, and the
+    /// graph depends only on the set. Ties there (lattices) leave the row to the graph's
+    /// own search.
     pub(crate) fn row_from(
         nearest: &[Neighbour],
         point: usize,

@@ -382,9 +382,10 @@ impl Reached<'_> {
 }
 
 /// A minimum spanning tree of the part of the graph around a root, grown by Prim's
-/// algorithm through the points the frontier has not reached (ties to the point with the lower index in
-/// the point set, then to the parent with the lower index), each normal reached turned to
-/// agree with its parent's. Everything else is numbered by the graph's ranks.
+/// algorithm through the points the frontier has not reached (ties to the point with the
+/// lower index in the point set, then to the parent with the lower index), each normal
+/// reached turned to agree with its parent's. Everything else is numbered by the graph's
+/// ranks.
 struct Tree<'a> {
     graph: &'a OrientationGraph,
     oriented: &'a mut [Vec3],
