@@ -1,12 +1,16 @@
 //! `geosynth normals`: estimate and orient the normals of a point set.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 use geosynth::core::KdIndex;
+use geosynth::core::PointSet;
 use geosynth::core::io::{Geometry, WriteOptions};
-use geosynth::mls::{NORMAL_NEIGHBOURS, fit_oriented_normals_with, orientation_disagreement_with};
+use geosynth::mls::{
+    NORMAL_NEIGHBOURS, fit_oriented_normals_with, orient_normals_with,
+    orientation_disagreement_with,
+};
 use glam::{DVec3, Vec3};
 use serde_json::json;
 
@@ -42,7 +46,8 @@ impl UpArg {
 /// Arguments of `geosynth normals`.
 #[derive(Debug, Args)]
 pub struct NormalsArgs {
-    /// Point set (.ply, .obj, .off, .xyz, .las); normals it has are replaced.
+    /// Point set (.ply, .obj, .off, .xyz, .las); normals it has are replaced (or, with
+    /// `--keep-directions`, kept and oriented).
     input: PathBuf,
     /// Output point set with normals (.ply, .obj, .off, .xyz or .xyzn).
     #[arg(short, long)]
@@ -56,6 +61,11 @@ pub struct NormalsArgs {
     /// the signs spread from there (for a closed scan: outward).
     #[arg(long, value_enum, default_value_t = UpArg::Z)]
     up: UpArg,
+    /// Keep the directions of the normals the file has and only make their signs
+    /// consistent (for normals another tool estimated without orienting them, or a
+    /// scanner's): `--neighbours` is then unused.
+    #[arg(long, conflicts_with = "neighbours")]
+    keep_directions: bool,
     /// Also write a JSON report: the counts, the share of points facing away from most
     /// neighbours, each stage's seconds (reading, indexing, fitting, orienting, checking,
     /// writing) and the peak memory.
@@ -92,6 +102,25 @@ pub(super) fn undefined_note(
     })
 }
 
+/// Refuses, for `--keep-directions`, a point set read from `path` without a direction at
+/// every point.
+fn check_directions(points: &PointSet, path: &Path) -> CliResult {
+    let zero = match points.normals() {
+        None => points.len(),
+        Some(_) => points.directionless_normals(),
+    };
+    if zero == 0 {
+        return Ok(());
+    }
+    Err(format!(
+        "{}: {zero} of the {} points have no normal direction to keep (none in the file, \
+         or zero); without --keep-directions `normals` fits them all",
+        path.display(),
+        points.len()
+    )
+    .into())
+}
+
 /// Runs `geosynth normals`.
 pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], args.report.as_deref())?;
@@ -117,26 +146,43 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     // One index of the positions serves the fit, the orientation and its check.
     let index = ctx.timed("indexing", |_| KdIndex::new(points.positions()))?;
     let count = points.len();
-    // Recorded under "fitting normals" and "orienting normals".
-    let fit =
-        fit_oriented_normals_with(&index, points, args.neighbours, args.up.vector(), &mut ctx)?;
+    let up = args.up.vector();
+    // With the neighbours fitted to and how many define no normal, unless kept.
+    let (oriented, fitted) = if args.keep_directions {
+        check_directions(&points, &args.input)?;
+        let oriented = ctx.timed("orienting normals", |ctx| {
+            orient_normals_with(&index, &points, up, ctx)
+        })?;
+        (oriented, None)
+    } else {
+        // Recorded under "fitting normals" and "orienting normals".
+        let fit = fit_oriented_normals_with(&index, points, args.neighbours, up, &mut ctx)?;
+        let neighbours = args.neighbours.min(count);
+        (fit.points, Some((neighbours, fit.undefined.len())))
+    };
     bar.finish_and_clear();
     let disagreement = ctx.timed("checking the orientation", |_| {
-        orientation_disagreement_with(&index, &fit.points)
+        orientation_disagreement_with(&index, &oriented)
     })?;
     drop(index);
-    let neighbours = args.neighbours.min(count);
-    let undefined = fit.undefined.len();
-    if let Some(note) = undefined_note(undefined, count, neighbours, "--neighbours") {
-        status(globals, note);
-    }
-    let oriented = fit.points;
-    let options = WriteOptions::default()
-        .comment(format!(
-            "normals estimated by geosynth from {neighbours} nearest neighbours and oriented \
-             toward +{:?}",
+    let comment = match fitted {
+        Some((neighbours, undefined)) => {
+            if let Some(note) = undefined_note(undefined, count, neighbours, "--neighbours") {
+                status(globals, note);
+            }
+            format!(
+                "normals estimated by geosynth from {neighbours} nearest neighbours and \
+                 oriented toward +{:?}",
+                args.up
+            )
+        }
+        None => format!(
+            "normals as read, their signs made consistent by geosynth toward +{:?}",
             args.up
-        ))
+        ),
+    };
+    let options = WriteOptions::default()
+        .comment(comment)
         .origin(loaded.origin);
     ctx.timed("writing", |_| {
         write_geometry_file(&args.output, &Geometry::Points(oriented), &options)
@@ -146,9 +192,10 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
             "input": args.input.display().to_string(),
             "output": args.output.display().to_string(),
             "points": count,
-            "neighbours": neighbours,
+            "directions": if fitted.is_some() { "fitted" } else { "kept" },
+            "neighbours": fitted.map(|(neighbours, _)| neighbours),
             "up": format!("+{:?}", args.up),
-            "undefined_normals": undefined,
+            "undefined_normals": fitted.map(|(_, undefined)| undefined),
             "facing_away_share": disagreement,
             "timings": timings_json(&ctx),
         });

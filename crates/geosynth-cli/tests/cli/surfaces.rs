@@ -86,6 +86,67 @@ fn bare_and_open_scans_get_normals_and_trimmed_meshes() {
     refused(&["normals", &arg(&mesh), "-o", "x.ply"], "is a mesh");
 }
 
+#[test]
+fn keep_directions_orients_the_normals_a_file_has_without_refitting_them() {
+    use geosynth::core::io::{Geometry, read_geometry};
+    let dir = Scratch::new();
+    // The torus fixture's true normals with every third flipped, as unoriented estimates
+    // come; directions exact, so a refit would change them.
+    let fixture = geosynth::fixtures::bundled_dir().join("torus_points.ply");
+    let truth = read_geometry(&fixture).unwrap().geometry.points().clone();
+    let true_normals = truth.normals().unwrap().to_vec();
+    let signs = true_normals
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| if i % 3 == 0 { -n } else { n })
+        .collect();
+    let mixed = truth.clone().with_normals(signs).unwrap();
+    let input = dir.path("mixed.ply");
+    write_with_defaults(&input, &Geometry::Points(mixed.clone()));
+    let (out, report) = (dir.path("kept.ply"), dir.path("kept.json"));
+    let args = [
+        "normals",
+        &arg(&input),
+        "-o",
+        &arg(&out),
+        "--keep-directions",
+        "--report",
+        &arg(&report),
+    ];
+    let said = ok(&args);
+    assert!(said.contains("0.0% face away"), "{said}");
+    let kept = read_geometry(&out).unwrap().geometry.points().clone();
+    // Every normal is the file's own, turned or not, and all face out again.
+    let pairs = kept.normals().unwrap().iter().zip(&true_normals);
+    assert!(pairs.clone().all(|(k, t)| *k == *t), "every sign restored");
+    assert_eq!(kept.positions(), truth.positions());
+    // The library's orientation of the same points, bit for bit.
+    let library = geosynth::mls::orient_normals(&mixed, glam::Vec3::Z).unwrap();
+    assert_eq!(kept.normals(), library.normals());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["directions"], "kept");
+    assert!(json["neighbours"].is_null() && json["undefined_normals"].is_null());
+    // Nothing to keep, or --neighbours beside it: refused.
+    let bare = dir.path("bare.ply");
+    let positions = geosynth::core::PointSet::new(truth.positions().to_vec()).unwrap();
+    write_with_defaults(&bare, &Geometry::Points(positions));
+    refused(
+        &[
+            "normals",
+            &arg(&bare),
+            "-o",
+            &arg(&out),
+            "--keep-directions",
+        ],
+        "points have no normal direction to keep",
+    );
+    refused(
+        &[&args[..5], &["--neighbours", "8"]].concat(),
+        "cannot be used with",
+    );
+}
+
 /// An XYZ scan of the plane z = 0.1 x in 10 lines 0.5 apart, sampled every 0.01 along
 /// them (2000 points): 12 neighbours lie on one line, which fixes no normal.
 fn write_scan_lines(path: &Path) {
