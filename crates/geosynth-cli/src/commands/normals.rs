@@ -12,6 +12,7 @@ use geosynth::mls::{
     orientation_disagreement_with,
 };
 use glam::{DVec3, Vec3};
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use crate::input_file::read_geometry;
@@ -23,18 +24,21 @@ use crate::output::{
 use crate::{CliResult, Globals};
 
 /// The direction estimated normals are turned toward where nothing else decides.
-#[derive(Debug, Clone, Copy, ValueEnum)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum UpArg {
     /// +X.
     X,
     /// +Y (scanned models, most DCC tools' exports).
     Y,
     /// +Z (height fields, terrain).
+    #[default]
     Z,
 }
 
 impl UpArg {
-    fn vector(self) -> Vec3 {
+    /// The unit vector along the axis.
+    pub(super) fn vector(self) -> Vec3 {
         match self {
             UpArg::X => Vec3::X,
             UpArg::Y => Vec3::Y,

@@ -17,11 +17,10 @@ use geosynth::reconstruct::{
 };
 use geosynth::sdf::{MeshSign, PointSign, PointWinding, nrrd};
 use geosynth::{RunContext, Stage};
-use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use super::normals::{parse_neighbours, undefined_note};
+use super::normals::{UpArg, parse_neighbours, undefined_note};
 use super::{SignArgs, check_oriented_points, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
@@ -119,15 +118,15 @@ pub struct ReconstructArgs {
     output: PathBuf,
     #[command(flatten)]
     grid: GridArgs,
-    /// Make the normal signs consistent by propagation from the side facing +Z before
+    /// Make the normal signs consistent by propagation from the side facing `--up` before
     /// reconstructing (for normals estimated without orientation); unreliable on
     /// interlinked thin tubes (docs/mls-surface.md).
     #[arg(long, conflicts_with = "estimate_normals")]
     orient_normals: bool,
     /// Estimate the points' normals first, as `geosynth normals` does: fitted to each
     /// point's K nearest neighbours (`--estimate-normals` alone: 12) and oriented by
-    /// propagation toward +Z; for bare scans (XYZ files of positions), and replacing any
-    /// normals the points have.
+    /// propagation toward `--up`; for bare scans (XYZ files of positions), and replacing
+    /// any normals the points have.
     #[arg(
         long,
         value_name = "K",
@@ -136,6 +135,11 @@ pub struct ReconstructArgs {
         value_parser = parse_neighbours
     )]
     estimate_normals: Option<usize>,
+    /// With `--orient-normals` or `--estimate-normals`: each connected part's highest
+    /// point along this axis gets the normal facing it, and the signs spread from there
+    /// (a closed object comes out facing outward whichever; an open scan faces this way).
+    #[arg(long, value_enum)]
+    up: Option<UpArg>,
     /// For open scans (a façade, a terrain, a quilted sheet): cut the surface where it runs
     /// on past the scan's border, beyond this many median sample spacings from every point
     /// (`--trim` alone: 2, `DEFAULT_TRIM_SPACINGS`). Gaps inside the scan stay bridged.
@@ -168,6 +172,8 @@ struct ReconstructInputOptions {
     orient_normals: bool,
     /// `--estimate-normals`, in neighbours (unset: the points' own normals).
     estimate_normals: Option<usize>,
+    /// `--up`: where orienting or estimated normals are turned.
+    up: UpArg,
     /// `--trim`, in median sample spacings (unset: no trim).
     trim: Option<f32>,
     /// `--drop-pieces`, in median sample spacings (unset: every piece kept).
@@ -193,10 +199,19 @@ impl ReconstructInputOptions {
         check_positive("--trim", args.trim, "number of spacings")?;
         check_positive("--drop-pieces", args.drop_pieces, "number of spacings")?;
         let estimate_normals = args.estimate_normals.or(recorded.estimate_normals);
+        let orient_normals =
+            (args.orient_normals || recorded.orient_normals) && estimate_normals.is_none();
+        if args.up.is_some() && !orient_normals && estimate_normals.is_none() {
+            return Err(
+                "--up turns normals that --orient-normals or --estimate-normals \
+                        orients; without either the points' own normals are used as read"
+                    .into(),
+            );
+        }
         Ok(Self {
+            up: args.up.unwrap_or(recorded.up),
             // Estimated normals come oriented.
-            orient_normals: (args.orient_normals || recorded.orient_normals)
-                && estimate_normals.is_none(),
+            orient_normals,
             estimate_normals,
             trim: args.trim.or(recorded.trim),
             drop_pieces: args.drop_pieces.or(recorded.drop_pieces),
@@ -256,7 +271,7 @@ fn prepared_input(
         }
         Geometry::Points(mut points) => {
             if let Some(neighbours) = options.estimate_normals {
-                points = estimated_normals(points, neighbours, globals)?;
+                points = estimated_normals(points, neighbours, options.up, globals)?;
             }
             check_oriented_points(&points, &args.input, "--estimate-normals")?;
             if options.orient_faces {
@@ -264,7 +279,7 @@ fn prepared_input(
             }
             if options.orient_normals {
                 let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
-                points = orient_normals_in(&points, Vec3::Z, &mut ctx)?;
+                points = orient_normals_in(&points, options.up.vector(), &mut ctx)?;
                 bar.finish_and_clear();
             }
             // Normals estimated here come oriented; the note would suggest --orient-normals.
@@ -281,13 +296,18 @@ fn prepared_input(
     }
 }
 
-/// `points` with normals fitted to `neighbours` nearest and oriented toward +Z, as
+/// `points` with normals fitted to `neighbours` nearest and oriented toward `up`, as
 /// `geosynth normals` estimates them; notes the points whose neighbourhoods define none.
-fn estimated_normals(points: PointSet, neighbours: usize, globals: Globals) -> CliResult<PointSet> {
+fn estimated_normals(
+    points: PointSet,
+    neighbours: usize,
+    up: UpArg,
+    globals: Globals,
+) -> CliResult<PointSet> {
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
     let count = points.len();
     let index = KdIndex::new(points.positions())?;
-    let fit = fit_oriented_normals_with(&index, points, neighbours, Vec3::Z, &mut ctx)?;
+    let fit = fit_oriented_normals_with(&index, points, neighbours, up.vector(), &mut ctx)?;
     bar.finish_and_clear();
     if let Some(note) = undefined_note(
         fit.undefined.len(),

@@ -399,6 +399,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(json["input_options"]["estimate_normals"], 12);
+    assert_eq!(json["input_options"]["up"], "z");
     let replayed = estimate(&["--params", report.to_str().unwrap()]);
     assert!(!replayed.contains("no normals"), "{replayed}");
     assert_closed(&probe, 0, "the torus again, from the report");
@@ -411,6 +412,32 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         "2",
     ];
     refused(&too_few, "at least 3");
+    // `--up` turns what is oriented; alone it would do nothing, and is refused.
+    let sideways = dir.path().join("sideways.json");
+    estimate(&[
+        "--resolution",
+        "24",
+        "--estimate-normals",
+        "--up",
+        "y",
+        "--report",
+        sideways.to_str().unwrap(),
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&sideways).unwrap()).unwrap();
+    assert_eq!(json["input_options"]["up"], "y");
+    let args = [
+        "reconstruct",
+        points.to_str().unwrap(),
+        "-o",
+        probe.to_str().unwrap(),
+        "--up",
+        "y",
+    ];
+    refused(
+        &args,
+        "--up turns normals that --orient-normals or --estimate-normals orients",
+    );
 
     let field = dir.path().join("torus.nrrd");
     ok(&[
