@@ -202,11 +202,9 @@ impl ReconstructInputOptions {
         let orient_normals =
             (args.orient_normals || recorded.orient_normals) && estimate_normals.is_none();
         if args.up.is_some() && !orient_normals && estimate_normals.is_none() {
-            return Err(
-                "--up turns normals that --orient-normals or --estimate-normals \
-                        orients; without either the points' own normals are used as read"
-                    .into(),
-            );
+            let unused = "--up turns normals that --orient-normals or --estimate-normals \
+                          orients; without either the points' own normals are used as read";
+            return Err(unused.into());
         }
         Ok(Self {
             up: args.up.unwrap_or(recorded.up),
