@@ -1,15 +1,15 @@
 //! `geosynth reconstruct` and `geosynth sdf`.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{
-    MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, fit_oriented_normals_with, orient_normals_in,
-    plane_radius,
+    MlsParams, ORIENTING_STAGE, PLANE_RADIUS_MAX_NEIGHBOURS, fit_oriented_normals_with,
+    orient_normals_in, plane_radius,
 };
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
@@ -219,13 +219,15 @@ impl ReconstructInputOptions {
 }
 
 /// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's normals
-/// oriented, a mesh's faces turned to agree; prints the notes about it.
+/// estimated or oriented (each stage's time added to `timings`), a mesh's faces turned to
+/// agree; prints the notes about it.
 fn prepared_input(
     args: &ReconstructArgs,
     geometry: Geometry,
     options: &ReconstructInputOptions,
     params: &FieldParams,
     globals: Globals,
+    timings: &mut Vec<(String, Duration)>,
 ) -> CliResult<Geometry> {
     match geometry {
         Geometry::Mesh(mesh) => {
@@ -269,7 +271,7 @@ fn prepared_input(
         }
         Geometry::Points(mut points) => {
             if let Some(neighbours) = options.estimate_normals {
-                points = estimated_normals(points, neighbours, options.up, globals)?;
+                points = estimated_normals(points, neighbours, options.up, globals, timings)?;
             }
             check_oriented_points(&points, &args.input, "--estimate-normals")?;
             if options.orient_faces {
@@ -277,8 +279,10 @@ fn prepared_input(
             }
             if options.orient_normals {
                 let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
-                points = orient_normals_in(&points, options.up.vector(), &mut ctx)?;
+                let up = options.up.vector();
+                points = ctx.timed(ORIENTING_STAGE, |ctx| orient_normals_in(&points, up, ctx))?;
                 bar.finish_and_clear();
+                timings.extend_from_slice(ctx.timings());
             }
             // Normals estimated here come oriented; the note would suggest --orient-normals.
             if options.estimate_normals.is_none()
@@ -295,18 +299,21 @@ fn prepared_input(
 }
 
 /// `points` with normals fitted to `neighbours` nearest and oriented toward `up`, as
-/// `geosynth normals` estimates them; notes the points whose neighbourhoods define none.
+/// `geosynth normals` estimates them (the stages' times added to `timings`); notes the
+/// points whose neighbourhoods define none.
 fn estimated_normals(
     points: PointSet,
     neighbours: usize,
     up: UpArg,
     globals: Globals,
+    timings: &mut Vec<(String, Duration)>,
 ) -> CliResult<PointSet> {
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
     let count = points.len();
     let index = KdIndex::new(points.positions())?;
     let fit = fit_oriented_normals_with(&index, points, neighbours, up.vector(), &mut ctx)?;
     bar.finish_and_clear();
+    timings.extend_from_slice(ctx.timings());
     if let Some(note) = undefined_note(
         fit.undefined.len(),
         count,
@@ -354,7 +361,15 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     let loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
-    let input = prepared_input(args, loaded.geometry, &options, &params, globals)?;
+    let mut preparing = Vec::new();
+    let input = prepared_input(
+        args,
+        loaded.geometry,
+        &options,
+        &params,
+        globals,
+        &mut preparing,
+    )?;
     let from_points = matches!(input, Geometry::Points(_));
     let winding = if from_points {
         params.point_sign == PointSign::WindingNumber
@@ -372,6 +387,9 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     check_grid_fits(&params, &input)?;
     // The bar follows the stages: the field's layers, then the iso-surface.
     let (mut ctx, bar) = progress_context(globals, 0, "reconstructing", true);
+    for (stage, time) in preparing {
+        ctx.record_timing(&stage, time);
+    }
     let mut mesh = reconstructed(&input, &params, options.trim, &mut ctx)?;
     let points = input.points();
     // Measured only when a piece's size is asked about (`--drop-pieces`, the note).

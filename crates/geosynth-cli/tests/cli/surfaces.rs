@@ -400,6 +400,18 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(json["input_options"]["estimate_normals"], 12);
     assert_eq!(json["input_options"]["up"], "z");
+    // The estimation's stages are timed in the report, before the reconstruction's.
+    let stages: Vec<&str> = json["timings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        stages[..2],
+        ["fitting normals", "orienting normals"],
+        "{stages:?}"
+    );
     let replayed = estimate(&["--params", report.to_str().unwrap()]);
     assert!(!replayed.contains("no normals"), "{replayed}");
     assert_closed(&probe, 0, "the torus again, from the report");
