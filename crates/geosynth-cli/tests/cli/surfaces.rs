@@ -356,7 +356,8 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         ]);
         assert_eq!(said.contains("look unoriented"), warned, "{said}");
     }
-    // `--orient-normals` repairs them: no note, and the surface is the torus again.
+    // `--orient-normals` repairs them: no note, and the surface is the torus again; the
+    // summary times the orientation before the reconstruction.
     let said = ok(&[
         "reconstruct",
         mixed.to_str().unwrap(),
@@ -367,6 +368,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
         "--orient-normals",
     ]);
     assert!(!said.contains("look unoriented"), "{said}");
+    assert!(said.contains("; orienting normals "), "{said}");
     assert_closed(&probe, 0, "a torus");
     // The positions alone: `--estimate-normals` fits and orients them first, and the
     // surface is the torus again; the report records the neighbours, and `--params`
