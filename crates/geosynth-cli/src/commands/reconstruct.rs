@@ -8,9 +8,9 @@ use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{
-    MlsParams, ORIENTING_STAGE, PLANE_RADIUS_MAX_NEIGHBOURS, fit_oriented_normals_with,
-    orient_normals_in, plane_radius,
+    MlsParams, ORIENTING_STAGE, PLANE_RADIUS_MAX_NEIGHBOURS, orient_normals_in, plane_radius,
 };
+use geosynth::normals::EstimateNormals;
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
     trim_to_mesh,
@@ -310,8 +310,11 @@ fn estimated_normals(
 ) -> CliResult<PointSet> {
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
     let count = points.len();
-    let index = KdIndex::new(points.positions())?;
-    let fit = fit_oriented_normals_with(&index, points, neighbours, up.vector(), &mut ctx)?;
+    let stage = EstimateNormals {
+        neighbours,
+        up: up.vector(),
+    };
+    let fit = stage.run(points, &mut ctx)?;
     bar.finish_and_clear();
     timings.extend_from_slice(ctx.timings());
     if let Some(note) = undefined_note(

@@ -225,26 +225,28 @@ fn neighbours_of(
     positions: &[Vec3],
     index: &KdIndex,
 ) -> Result<([u32; FoundNeighbours::ASKED], usize)> {
-    let mut neighbours = [u32::MAX; FoundNeighbours::ASKED];
-    let mut count = 0;
-    let mut hold = |indices: &mut dyn Iterator<Item = u32>| {
-        for (slot, j) in neighbours.iter_mut().zip(indices) {
-            *slot = j;
-            count += 1;
-        }
-    };
-    if slots[0] == UNSEARCHED {
+    Ok(if slots[0] == UNSEARCHED {
         let nearest = index.nearest(positions[i], FoundNeighbours::ASKED)?;
-        hold(&mut nearest.iter().map(|n| n.index as u32));
+        held(nearest.iter().map(|n| n.index as u32))
     } else {
-        hold(
-            &mut slots
+        held(
+            slots
                 .iter()
                 .take_while(|&&slot| slot != NO_EDGE)
                 .map(|&(j, _)| j),
-        );
+        )
+    })
+}
+
+/// The first [`FoundNeighbours::ASKED`] of `indices` in an array, and how many there are.
+fn held(indices: impl Iterator<Item = u32>) -> ([u32; FoundNeighbours::ASKED], usize) {
+    let mut neighbours = [u32::MAX; FoundNeighbours::ASKED];
+    let mut count = 0;
+    for (slot, j) in neighbours.iter_mut().zip(indices) {
+        *slot = j;
+        count += 1;
     }
-    Ok((neighbours, count))
+    (neighbours, count)
 }
 
 /// Each ranked point's usable edges to its nearest neighbours, a row of
