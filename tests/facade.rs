@@ -887,3 +887,52 @@ fn an_affine_warp_moves_points_and_turns_normals_as_the_map_does() {
         "{refused}"
     );
 }
+
+#[test]
+fn mount_st_helens_as_bare_points_gets_its_surface_normals_back() {
+    use geosynth::RunContext;
+    use geosynth::core::PointSet;
+    use geosynth::core::io::{WriteOptions, write_geometry};
+    use geosynth::core::testdata::shared_data;
+    use geosynth::quilt::{
+        ExemplarNormals, read_heightfield_texture, read_texture_file_with, texture_comments,
+    };
+    let Some(path) = shared_data("helens_bare", "heightfields/SainteHelens_317x460.f32le") else {
+        return;
+    };
+    // The terrain's samples as a scanner would give them: positions alone, with the box.
+    let sampled = read_heightfield_texture(&path).unwrap();
+    let truth = sampled.canonical_points();
+    let dir = tempfile::tempdir().unwrap();
+    let bare = dir.path().join("helens.ply");
+    let mut options = WriteOptions::default();
+    for c in texture_comments(&sampled.canonical_bounds(), sampled.up()) {
+        options = options.comment(c);
+    }
+    let positions = PointSet::new(truth.positions().to_vec()).unwrap();
+    write_geometry(&bare, &Geometry::Points(positions), &options).unwrap();
+    let estimated = ExemplarNormals::Estimated { neighbours: 12 };
+    let file = read_texture_file_with(&bare, None, estimated, &mut RunContext::new(0)).unwrap();
+    let read = file.texture.canonical_points();
+    assert_eq!(read.positions(), truth.positions());
+    assert_eq!(file.texture.canonical_bounds(), sampled.canonical_bounds());
+    let cosines: Vec<f32> = read
+        .normals()
+        .unwrap()
+        .iter()
+        .zip(truth.normals().unwrap())
+        .map(|(e, t)| e.dot(*t))
+        .collect();
+    // Every estimate faces up with the terrain (the worst was 24° off when written), and
+    // all but a thousandth lie within 18° of the height field's own normals (145,805 of
+    // 145,820 when written).
+    let worst = cosines.iter().copied().fold(1.0, f32::min);
+    assert!(worst > 0.85, "worst cosine {worst}");
+    let close = cosines.iter().filter(|&&c| c > 0.95).count();
+    assert!(
+        close * 1000 > 999 * cosines.len(),
+        "{close} of {}",
+        cosines.len()
+    );
+    assert_eq!(file.undefined_normals, 0);
+}

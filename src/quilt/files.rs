@@ -4,9 +4,10 @@
 use std::path::Path;
 
 use glam::{DMat3, DVec3, Vec3};
-use pointset_core::io::{self, Geometry, ReadOptions};
-use pointset_core::{Aabb, KdIndex, NormalWeighting, PointSet};
+use pointset_core::io::{self, ReadOptions};
+use pointset_core::{Aabb, KdIndex, PointSet, RunContext};
 
+use super::samples::{ExemplarNormals, texture_samples};
 use super::{GeometryTexture, UpAxis};
 use crate::{Error, Result};
 
@@ -73,31 +74,11 @@ pub fn parse_texture_comments_at(
     Ok(bounds.map(|b| (b, up)))
 }
 
-/// The samples of a texture file: its points as stored, or for a mesh without vertex
-/// normals, its vertices with normals averaged from the faces (angle-weighted), leaving out
-/// vertices no face orients (unreferenced, or on degenerate faces only). A mesh whose
-/// vertices no face orients is refused, naming `path`.
-pub(super) fn oriented_samples(path: &Path, geometry: &Geometry) -> Result<PointSet> {
-    match geometry {
-        Geometry::Mesh(mesh) if mesh.vertices().normals().is_none() => {
-            let normals = mesh.vertex_normals(NormalWeighting::Angle);
-            let oriented: Vec<usize> = (0..normals.len())
-                .filter(|&i| normals[i] != Vec3::ZERO)
-                .collect();
-            if oriented.is_empty() && !normals.is_empty() {
-                return Err(Error::TextureFile {
-                    path: path.to_path_buf(),
-                    message: format!(
-                        "none of the mesh's {} vertices lies on a face with area, so none \
-                         has a normal to quilt with",
-                        normals.len()
-                    ),
-                });
-            }
-            let with_normals = mesh.vertices().clone().with_normals(normals)?;
-            Ok(with_normals.subset(&oriented)?)
-        }
-        other => Ok(other.points().clone()),
+/// The error of a texture file `path` that the reader refuses, with `message` saying why.
+pub(super) fn texture_file_error(path: &Path) -> impl Fn(String) -> Error + Copy + '_ {
+    |message| Error::TextureFile {
+        path: path.to_path_buf(),
+        message,
     }
 }
 
@@ -160,7 +141,14 @@ pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_texture_with_up(path: &Path, up: Option<UpAxis>) -> Result<GeometryTexture> {
-    read_texture_from(path, up, &ReadOptions::default()).map(|file| file.texture)
+    read_texture_from(
+        path,
+        up,
+        &ReadOptions::default(),
+        ExemplarNormals::AsStored,
+        &mut RunContext::new(0),
+    )
+    .map(|file| file.texture)
 }
 
 /// A geometry texture read from a file that may lie far from the origin (georeferenced
@@ -187,6 +175,11 @@ pub struct TextureFile {
     /// What the file had that the reader could not keep
     /// ([`pointset_core::io::LoadedGeometry::notes`]); empty for generated textures.
     pub notes: Vec<String>,
+    /// With [`ExemplarNormals::Estimated`]: how many points' neighbourhoods defined no
+    /// normal (on a line, coincident or isotropic; [`mls_surface::NormalFit::undefined`]),
+    /// so that their normals are arbitrary across the line (more neighbours fix them).
+    /// 0 otherwise.
+    pub undefined_normals: usize,
 }
 
 /// A texture that lies where its coordinates say (a height field, a generated exemplar):
@@ -199,6 +192,7 @@ impl From<GeometryTexture> for TextureFile {
             frame: DMat3::IDENTITY,
             single_precision_step: None,
             notes: Vec::new(),
+            undefined_normals: 0,
         }
     }
 }
@@ -231,7 +225,52 @@ impl From<GeometryTexture> for TextureFile {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile> {
-    read_texture_from(path, up, &ReadOptions::default().recentre_far(true))
+    read_texture_file_with(path, up, ExemplarNormals::AsStored, &mut RunContext::new(0))
+}
+
+/// [`read_texture_file`] with the exemplar's normals taken as `normals` says: for a bare
+/// point set, [`ExemplarNormals::Estimated`] fits them and turns them toward the texture's
+/// up axis (the `texture_up` comment's, or `up`'s). Estimating reports progress through
+/// `ctx` ([`mls_surface::FITTING_STAGE`] and the orientation's stages, each timed) and
+/// stops with [`Error::is_cancelled`] when it is cancelled.
+///
+/// ```
+/// use geosynth::RunContext;
+/// use geosynth::quilt::{ExemplarNormals, read_texture_file_with};
+/// // Ripples z = 0.1 sin(3x) as bare positions (an XYZ file: no normals, no comments).
+/// let xyz: String = (0..1600)
+///     .map(|k| {
+///         let (x, y) = ((k % 40) as f32 * 0.1, (k / 40) as f32 * 0.1);
+///         format!("{x} {y} {}\n", 0.1 * (3.0 * x).sin())
+///     })
+///     .collect();
+/// let path = std::env::temp_dir().join("geosynth_doc_bare_ripples.xyz");
+/// std::fs::write(&path, xyz)?;
+/// let estimated = ExemplarNormals::Estimated { neighbours: 12 };
+/// let file = read_texture_file_with(&path, None, estimated, &mut RunContext::new(0))?;
+/// // Every normal faces up, within 5° of the ripples' own.
+/// let points = file.texture.canonical_points();
+/// let normals = points.normals().ok_or("no normals")?;
+/// for (p, n) in points.positions().iter().zip(normals) {
+///     let truth = glam::Vec3::new(-0.3 * (3.0 * p.x).cos(), 0.0, 1.0).normalize();
+///     assert!(n.angle_between(truth) < 5f32.to_radians(), "{p} {n}");
+/// }
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_texture_file_with(
+    path: &Path,
+    up: Option<UpAxis>,
+    normals: ExemplarNormals,
+    ctx: &mut RunContext,
+) -> Result<TextureFile> {
+    read_texture_from(
+        path,
+        up,
+        &ReadOptions::default().recentre_far(true),
+        normals,
+        ctx,
+    )
 }
 
 /// The step of the single-precision grid the file's coordinates sit on, if they all do on
@@ -261,34 +300,41 @@ fn read_texture_from(
     path: &Path,
     up: Option<UpAxis>,
     options: &ReadOptions,
+    normals: ExemplarNormals,
+    ctx: &mut RunContext,
 ) -> Result<TextureFile> {
-    let file_error = |message: String| Error::TextureFile {
-        path: path.to_path_buf(),
-        message,
-    };
+    let file_error = texture_file_error(path);
     let loaded = io::read_geometry_with(path, options)?;
     let origin = loaded.origin;
-    let points = oriented_samples(path, &loaded.geometry)?;
     let described = parse_texture_comments_at(&loaded.comments, origin).map_err(file_error)?;
-    let (bounds, file_up) = match described {
-        Some(described) => described,
-        None => {
-            let up = up.unwrap_or_default();
-            (default_box(&points, up).map_err(file_error)?, up)
-        }
-    };
-    match up {
-        Some(wanted) if wanted != file_up => Err(file_error(format!(
+    let file_up = described.map_or(up.unwrap_or_default(), |(_, file_up)| file_up);
+    if let Some(wanted) = up
+        && wanted != file_up
+    {
+        return Err(file_error(format!(
             "its texture comments give up axis {file_up:?}, not the {wanted:?} asked for"
-        ))),
-        _ => Ok(TextureFile {
-            texture: GeometryTexture::new(&points, bounds, file_up)?,
-            origin,
-            frame: DMat3::IDENTITY,
-            single_precision_step: single_precision_step(&points, origin),
-            notes: loaded.notes,
-        }),
+        )));
     }
+    let samples = texture_samples(
+        path,
+        loaded.geometry,
+        normals,
+        file_up.to_world(Vec3::Z),
+        ctx,
+    )?;
+    let points = samples.points;
+    let bounds = match described {
+        Some((bounds, _)) => bounds,
+        None => default_box(&points, file_up).map_err(file_error)?,
+    };
+    Ok(TextureFile {
+        texture: GeometryTexture::new(&points, bounds, file_up)?,
+        origin,
+        frame: DMat3::IDENTITY,
+        single_precision_step: single_precision_step(&points, origin),
+        notes: loaded.notes,
+        undefined_normals: samples.undefined_normals,
+    })
 }
 
 #[cfg(test)]

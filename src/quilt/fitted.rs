@@ -4,17 +4,18 @@
 
 use std::path::Path;
 
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DVec3, Vec3};
 use mls_surface::Covariance;
 use pointset_core::io::{self, ReadOptions};
-use pointset_core::{Aabb, PointSet};
+use pointset_core::{Aabb, PointSet, RunContext};
 
 use super::files::{
-    default_box, oriented_samples, parse_texture_comments_at, single_precision_step,
-    texture_comments_at,
+    default_box, parse_texture_comments_at, single_precision_step, texture_comments_at,
+    texture_file_error,
 };
+use super::samples::{ExemplarNormals, texture_samples};
 use super::{GeometryTexture, TextureFile, UpAxis};
-use crate::{Error, Result};
+use crate::Result;
 
 /// The fitted plane must be flatter than this: its normal spread (smallest eigenvalue of
 /// the points' covariance) at most this fraction of the narrower in-plane spread (the
@@ -65,10 +66,20 @@ pub const MAX_PLANE_SPREAD: f64 = 0.25;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_texture_file_fitted(path: &Path) -> Result<TextureFile> {
-    let file_error = |message: String| Error::TextureFile {
-        path: path.to_path_buf(),
-        message,
-    };
+    read_texture_file_fitted_with(path, ExemplarNormals::AsStored, &mut RunContext::new(0))
+}
+
+/// [`read_texture_file_fitted`] with the exemplar's normals taken as `normals` says. Normals
+/// estimated for a bare point set ([`ExemplarNormals::Estimated`]) are turned toward the
+/// side of the points' best plane that faces +Z of the file (+Y for a plane along Z, +X
+/// for one along Y and Z), and that side becomes the texture's up. Progress and
+/// cancellation as for [`super::read_texture_file_with`].
+pub fn read_texture_file_fitted_with(
+    path: &Path,
+    normals: ExemplarNormals,
+    ctx: &mut RunContext,
+) -> Result<TextureFile> {
+    let file_error = texture_file_error(path);
     let loaded = io::read_geometry_with(path, &ReadOptions::default().recentre_far(true))?;
     if parse_texture_comments_at(&loaded.comments, loaded.origin)
         .map_err(&file_error)?
@@ -80,9 +91,15 @@ pub fn read_texture_file_fitted(path: &Path) -> Result<TextureFile> {
                 .into(),
         ));
     }
-    let points = oriented_samples(path, &loaded.geometry)?;
+    let up = match normals {
+        ExemplarNormals::AsStored => Vec3::Z,
+        ExemplarNormals::Estimated { .. } => facing_up(loaded.geometry.points().positions()),
+    };
+    let samples = texture_samples(path, loaded.geometry, normals, up, ctx)?;
+    let points = samples.points;
     let normals = points.normals().ok_or_else(|| {
-        file_error("the exemplar has no normals; patch quilting needs oriented points (`geosynth normals`, or mls_surface::estimate_normals then orient_normals, estimates them)".into())
+        // The samples come with normals (or were refused); kept as an error, not a panic.
+        file_error("the exemplar has no normals".into())
     })?;
     let positions = points.positions();
     let fit = Covariance::of(positions, 0..positions.len())
@@ -123,8 +140,28 @@ pub fn read_texture_file_fitted(path: &Path) -> Result<TextureFile> {
         frame,
         single_precision_step: single_precision_step(&points, loaded.origin),
         notes: loaded.notes,
+        undefined_normals: samples.undefined_normals,
     })
 }
+
+/// The normal of the best plane through `positions` (their covariance's direction of
+/// least spread), turned to face +Z, or +Y where it lies across Z, or +X where it lies
+/// across both; +Z when there are no points.
+fn facing_up(positions: &[Vec3]) -> Vec3 {
+    let Some(fit) = Covariance::of(positions, 0..positions.len()) else {
+        return Vec3::Z;
+    };
+    let normal = fit.eigenvectors[0];
+    let facing = [normal.z, normal.y, normal.x]
+        .into_iter()
+        .find(|c| c.abs() > AXIS_TOLERANCE)
+        .unwrap_or(1.0);
+    if facing < 0.0 { -normal } else { normal }
+}
+
+/// How far from a coordinate plane a fitted plane's normal must reach along an axis for
+/// [`facing_up`] to take its sign from that axis.
+const AXIS_TOLERANCE: f32 = 1e-3;
 
 /// Steps of the search for the in-plane axes, in degrees (over a quarter turn).
 const AXIS_STEP_DEGREES: f64 = 0.5;

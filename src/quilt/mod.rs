@@ -2,7 +2,8 @@
 //! facade's stage and file conventions.
 //!
 //! A geometry texture file is an oriented point set (PLY, OBJ, OFF, XYZ; a mesh without
-//! vertex normals gets them from its faces) whose comments carry its box and up axis:
+//! vertex normals gets them from its faces; a bare point set gets them estimated when
+//! [`ExemplarNormals::Estimated`] asks) whose comments carry its box and up axis:
 //! `texture_box X0 Y0 Z0 X1 Y1 Z1` and `texture_up x|y|z`. Without them the up axis is Z
 //! (or the one given to [`read_texture_with_up`]) and the box is the points' bounding box
 //! inset by a sixth of its extent across the reference plane on every side (so the outer
@@ -38,17 +39,20 @@ mod files;
 mod fitted;
 mod heights;
 mod map_grid;
+mod samples;
 
 pub(crate) use files::single_precision_step;
 pub use files::{
     TextureFile, parse_texture_comments, parse_texture_comments_at, read_texture,
-    read_texture_file, read_texture_with_up, texture_comments, texture_comments_at,
+    read_texture_file, read_texture_file_with, read_texture_with_up, texture_comments,
+    texture_comments_at,
 };
-pub use fitted::{MAX_PLANE_SPREAD, read_texture_file_fitted};
+pub use fitted::{MAX_PLANE_SPREAD, read_texture_file_fitted, read_texture_file_fitted_with};
 pub use heights::{
     HeightFieldFrame, MAX_HEIGHT_SAMPLES, SampleHeights, SampledHeights, sample_heights,
 };
 pub use map_grid::MapGrid;
+pub use samples::ExemplarNormals;
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a
 /// fraction of the samples' longer extent.

@@ -1,8 +1,8 @@
 //! Writing JSON reports a person can read.
 
 use std::path::Path;
+use std::time::Duration;
 
-use geosynth::core::RunContext;
 use geosynth::core::io::write_whole;
 use serde::Serialize;
 use serde_json::{Number, Value, json};
@@ -37,10 +37,10 @@ pub fn write_json_report(path: &Path, command: &str, report: &impl Serialize) ->
     write_whole(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
 }
 
-/// A run's stage timings as report entries, `{"stage": NAME, "seconds": S}` in the order
-/// the stages first ran.
-pub fn timings_json(ctx: &RunContext) -> Value {
-    ctx.timings()
+/// Stage timings (a run's [`geosynth::core::RunContext::timings`]) as report entries, `{"stage": NAME,
+/// "seconds": S}` in the order the stages first ran.
+pub fn timings_json(timings: &[(String, Duration)]) -> Value {
+    timings
         .iter()
         .map(|(stage, d)| json!({ "stage": stage, "seconds": d.as_secs_f64() }))
         .collect()

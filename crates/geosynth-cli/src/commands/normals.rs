@@ -201,7 +201,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
             "up": format!("+{:?}", args.up),
             "undefined_normals": fitted.map(|(_, undefined)| undefined),
             "facing_away_share": disagreement,
-            "timings": timings_json(&ctx),
+            "timings": timings_json(ctx.timings()),
         });
         write_json_report(path, "normals", &report)?;
     }

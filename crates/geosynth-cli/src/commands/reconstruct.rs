@@ -450,7 +450,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             "pieces_dropped": pieces_dropped,
             "boundary_edges": topology.boundary_edges,
             "closed_manifold": topology.is_closed_manifold(),
-            "timings": timings_json(&ctx),
+            "timings": timings_json(ctx.timings()),
         }),
     )?;
     if !from_points {

@@ -546,3 +546,107 @@ fn orient_normals_repairs_an_exemplar_whose_normals_came_unoriented() {
     assert!(bytes("oriented_out.ply") == bytes("kept_out.ply"));
     assert!(bytes("as_read.ply") != bytes("kept_out.ply"));
 }
+
+#[test]
+fn estimate_normals_quilts_a_bare_scan_as_the_estimated_file_would_be() {
+    use geosynth::core::PointSet;
+    use geosynth::core::io::{Geometry, read_geometry};
+    use geosynth::normals::EstimateNormals;
+    use geosynth::{RunContext, Stage};
+    let dir = Scratch::new();
+    let bumpy = read_geometry(geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"))
+        .unwrap()
+        .geometry;
+    // The bumpy fixture's positions alone, and with the normals the library estimates.
+    let bare_points = PointSet::new(bumpy.points().positions().to_vec()).unwrap();
+    let fit = EstimateNormals::default()
+        .run(bare_points.clone(), &mut RunContext::new(0))
+        .unwrap();
+    let (bare, estimated) = (dir.path("bare.ply"), dir.path("estimated.ply"));
+    crate::write_with_defaults(&bare, &Geometry::Points(bare_points));
+    crate::write_with_defaults(&estimated, &Geometry::Points(fit.points));
+    let (bare, estimated, report) = (arg(&bare), arg(&estimated), arg(&dir.path("r.json")));
+    let quilt = |input: &str, out: &str, more: &[&str]| {
+        let out = arg(&dir.path(out));
+        let run = ["quilt", input, "-o", &out, "--scale", "1.2"];
+        ok(&[&run[..], &["--resolution", "24", "--no-quality"], more].concat())
+    };
+    quilt(
+        &bare,
+        "from_bare.ply",
+        &["--estimate-normals", "--report", &report],
+    );
+    quilt(&estimated, "from_estimated.ply", &[]);
+    let bytes = |name: &str| std::fs::read(dir.path(name)).unwrap();
+    assert!(bytes("from_bare.ply") == bytes("from_estimated.ply"));
+    // The report records the estimation and times it; `--params` replays it.
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["input_options"]["estimate_normals"], 12);
+    assert_eq!(r["undefined_normals"], 0);
+    let stages: Vec<&str> = r["input_timings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(stages, ["fitting normals", "orienting normals"]);
+    quilt(&bare, "replayed.ply", &["--params", &report]);
+    assert!(bytes("replayed.ply") == bytes("from_bare.ply"));
+    // A fixture read as stored keeps no `input_timings` stage.
+    quilt(&estimated, "plain.ply", &["--report", &report]);
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["input_timings"], serde_json::json!([]));
+    assert_eq!(r["undefined_normals"], serde_json::Value::Null);
+}
+
+#[test]
+fn estimate_normals_is_refused_where_normals_come_otherwise() {
+    let dir = Scratch::new();
+    let out = arg(&dir.path("out.ply"));
+    let bare = dir.path("bare.xyz");
+    let grid: String = (0..400)
+        .map(|k| format!("{} {} 0\n", (k % 20) as f32 * 0.1, (k / 20) as f32 * 0.1))
+        .collect();
+    std::fs::write(&bare, grid).unwrap();
+    let bare = arg(&bare);
+    refused(
+        &["quilt", &bare, "-o", &out],
+        "bare.xyz: the points have no normals, and patch quilting needs oriented points \
+         (`geosynth quilt --estimate-normals`",
+    );
+    refused(
+        &["quilt", &bare, "-o", &out, "--estimate-normals", "2"],
+        "`2` is not a whole number of at least 3",
+    );
+    refused(
+        &[
+            "quilt",
+            &bare,
+            "-o",
+            &out,
+            "--estimate-normals",
+            "--orient-normals",
+        ],
+        "cannot be used with",
+    );
+    let mesh = arg(&geosynth::fixtures::bundled_dir().join("torus_mesh.ply"));
+    refused(
+        &["quilt", &mesh, "-o", &out, "--estimate-normals"],
+        "it is a mesh: its normals come from its faces",
+    );
+    let map = dir.path("flat_8x8.f32le");
+    std::fs::write(&map, vec![0u8; 8 * 8 * 4]).unwrap();
+    refused(
+        &[
+            "quilt",
+            "--heightfield",
+            &arg(&map),
+            "-o",
+            &out,
+            "--estimate-normals",
+        ],
+        "cannot be used with",
+    );
+}

@@ -94,7 +94,7 @@ pub struct QuiltArgs {
     /// `texture_up` (as `geosynth fixtures` writes them); otherwise the box is the points'
     /// box inset by a sixth on every side across the reference plane (one sample spacing
     /// thick for a flat file). A mesh gets normals from its faces; a point set without
-    /// normals needs them first (`geosynth normals`).
+    /// normals needs `--estimate-normals` (or `geosynth normals` first).
     #[arg(required_unless_present = "heightfield")]
     pub(super) exemplar: Option<PathBuf>,
     /// Use a height field instead (PNG 8/16-bit, raw `name_WxH.f32le`, a raw file with an
@@ -230,8 +230,24 @@ pub struct QuiltArgs {
     /// Make the exemplar's normal signs consistent by propagation from the side facing up
     /// before quilting (for normals estimated without orientation); unreliable on
     /// interlinked thin tubes (docs/mls-surface.md).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "estimate_normals")]
     pub(super) orient_normals: bool,
+    /// Estimate the exemplar's normals first, as `geosynth normals` does: fitted to each
+    /// point's K nearest neighbours (`--estimate-normals` alone: 12) and oriented by
+    /// propagation toward the texture's up side (with `--up auto`, the side of the fitted
+    /// plane facing +Z); for bare scans (XYZ files of positions), replacing any normals
+    /// the points have. Reliable on sheets such as terrain, not on interlinked thin tubes
+    /// (docs/mls-surface.md). Not for meshes or height fields, whose normals come from
+    /// their surfaces.
+    #[arg(
+        long,
+        value_name = "K",
+        num_args = 0..=1,
+        default_missing_value = "12",
+        value_parser = crate::commands::normals::parse_neighbours,
+        conflicts_with = "heightfield"
+    )]
+    pub(super) estimate_normals: Option<usize>,
 }
 
 /// Parses `--size W,H`: two positive numbers.

@@ -5,15 +5,16 @@ mod measured;
 mod notes;
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
-use geosynth::core::PointSet;
 use geosynth::core::io::{FileFormat, Geometry, WriteOptions, XyzColumns};
+use geosynth::core::{PointSet, RunContext};
 use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_path};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
-    DEFAULT_RELIEF, GeometryTexture, HeightFieldFrame, Method, OutputSize, QualityReport,
-    QuiltOutput, QuiltParams, TextureFile, UpAxis, read_heightfield_texture_framed,
-    read_texture_file, read_texture_file_fitted,
+    DEFAULT_RELIEF, ExemplarNormals, GeometryTexture, HeightFieldFrame, Method, OutputSize,
+    QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis, read_heightfield_texture_framed,
+    read_texture_file_fitted_with, read_texture_file_with,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 use glam::{DVec3, Vec3};
@@ -21,10 +22,11 @@ use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
+use super::normals::{parse_neighbours, undefined_note};
 use super::sheet_heights::{MapPlacement, write_sheet_heights};
 use super::sheet_mesh::sheet_mesh;
 use crate::input_file::named;
-use crate::json_report::write_json_report;
+use crate::json_report::{timings_json, write_json_report};
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
     write_geometry_file,
@@ -50,25 +52,46 @@ struct InputOptions {
     relief: Option<f32>,
     /// `--orient-normals`.
     orient_normals: bool,
+    /// `--estimate-normals`, in neighbours (unset: the file's own normals).
+    estimate_normals: Option<usize>,
 }
 
 impl RecordedInput for InputOptions {
     fn check(&self) -> Result<(), String> {
+        if let Some(k) = self.estimate_normals {
+            parse_neighbours(&k.to_string()).map_err(|e| format!("estimate_normals: {e}"))?;
+        }
         check_positive("relief", self.relief, "fraction")
     }
 }
 
 impl InputOptions {
     /// The options given on the command line over those of `--params`' file; the relief
-    /// written out for a height field and dropped otherwise, like the axis for one.
+    /// written out for a height field and dropped otherwise, like the axis and the
+    /// normals' estimation for one. Estimated normals come oriented, so a recorded
+    /// `--orient-normals` gives way to `--estimate-normals`.
     fn of(args: &QuiltArgs, file: &ParamsFile) -> CliResult<Self> {
         let recorded: Self = file.input_options()?;
         let heightfield = args.heightfield.is_some();
+        let estimate_normals = args
+            .estimate_normals
+            .or(recorded.estimate_normals)
+            .filter(|_| !heightfield);
         Ok(Self {
             up: args.up.or(recorded.up).filter(|_| !heightfield),
             relief: heightfield.then(|| args.relief.or(recorded.relief).unwrap_or(DEFAULT_RELIEF)),
-            orient_normals: args.orient_normals || recorded.orient_normals,
+            orient_normals: (args.orient_normals || recorded.orient_normals)
+                && estimate_normals.is_none(),
+            estimate_normals,
         })
+    }
+
+    /// Where the exemplar's normals come from.
+    fn normals(&self) -> ExemplarNormals {
+        match self.estimate_normals {
+            Some(neighbours) => ExemplarNormals::Estimated { neighbours },
+            None => ExemplarNormals::AsStored,
+        }
     }
 }
 
@@ -120,27 +143,42 @@ fn run_params(args: &QuiltArgs, file: &ParamsFile, given: GivenFlags) -> CliResu
 }
 
 /// Loads the texture named by the arguments as `options` say (a height field is at the
-/// origin), its normals oriented if asked, and for a height field where its samples were
-/// placed.
+/// origin), its normals estimated or oriented if asked (the estimation's stages timed in
+/// `timings`), and for a height field where its samples were placed.
 fn load(
     args: &QuiltArgs,
     options: &InputOptions,
     globals: Globals,
+    timings: &mut Vec<(String, Duration)>,
 ) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
-    let (mut file, frame) = read_texture(args, options)?;
+    let (mut file, frame) = read_texture(args, options, globals, timings)?;
+    if let Some(neighbours) = options.estimate_normals
+        && let Some(note) = undefined_note(
+            file.undefined_normals,
+            file.texture.canonical_points().len(),
+            neighbours,
+            "--estimate-normals K",
+        )
+    {
+        status(globals, note);
+    }
     if options.orient_normals {
         let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
         file.texture = file.texture.with_oriented_normals_in(&mut ctx)?;
         bar.finish_and_clear();
+        timings.extend_from_slice(ctx.timings());
     }
     Ok((file, frame))
 }
 
-/// Reads the texture named by the arguments with the axis or relief of `options`, and for
-/// a height field where its samples were placed.
+/// Reads the texture named by the arguments with the axis, relief and normals of
+/// `options` (the estimation's stages timed in `timings`), and for a height field where
+/// its samples were placed.
 fn read_texture(
     args: &QuiltArgs,
     options: &InputOptions,
+    globals: Globals,
+    timings: &mut Vec<(String, Duration)>,
 ) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
     if let Some(path) = &args.heightfield {
         let relief = options.relief.unwrap_or(DEFAULT_RELIEF);
@@ -152,9 +190,19 @@ fn read_texture(
         .exemplar
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
-    let file = match options.up {
-        Some(TextureUpArg::Auto) => read_texture_file_fitted(path),
-        up => read_texture_file(path, up.and_then(TextureUpArg::axis)),
+    let normals = options.normals();
+    let read = |ctx: &mut RunContext| match options.up {
+        Some(TextureUpArg::Auto) => read_texture_file_fitted_with(path, normals, ctx),
+        up => read_texture_file_with(path, up.and_then(TextureUpArg::axis), normals, ctx),
+    };
+    let file = if normals == ExemplarNormals::AsStored {
+        read(&mut RunContext::new(0))
+    } else {
+        let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
+        let file = read(&mut ctx);
+        bar.finish_and_clear();
+        timings.extend_from_slice(ctx.timings());
+        file
     }
     .map_err(named(path))?;
     Ok((file, None))
@@ -280,7 +328,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
     let params = run_params(args, &params_file, given)?;
     let input_options = InputOptions::of(args, &params_file)?;
-    let (file, heightfield_frame) = load(args, &input_options, globals)?;
+    let mut input_timings = Vec::new();
+    let (file, heightfield_frame) = load(args, &input_options, globals, &mut input_timings)?;
     if let Some(mesh) = &args.mesh {
         // Georeferenced exemplars are written back in place: can the mesh's format say so?
         check_geometry_output(mesh, true, file.origin)?;
@@ -399,6 +448,8 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref())
                 .map(|path| path.display().to_string()),
             INPUT_OPTIONS_KEY: input_options,
+            "input_timings": timings_json(&input_timings),
+            "undefined_normals": input_options.estimate_normals.map(|_| file.undefined_normals),
             "params": params,
             "run": run_json(&main),
             "mesh": mesh,
