@@ -6,6 +6,7 @@ pub mod demo_terrain;
 pub mod fixtures;
 pub mod info;
 pub mod normals;
+pub mod point_normals;
 pub mod quilt;
 pub mod reconstruct;
 pub mod render;
@@ -85,32 +86,6 @@ pub fn orient_faces(mesh: TriMesh) -> CliResult<(TriMesh, String)> {
         ));
     }
     Ok((oriented, line))
-}
-
-/// Refuses a point set read from `path` whose normals its MLS surface cannot use: none at
-/// all, or some without a direction ([`PointSet::directionless_normals`]: zero normals a
-/// tool wrote where it computed none). `remedy` names what estimates them (a flag, or
-/// another command).
-pub fn check_oriented_points(points: &PointSet, path: &Path, remedy: &str) -> CliResult {
-    if points.normals().is_none() {
-        return Err(format!(
-            "{}: the points have no normals, and their MLS surface needs oriented points \
-             ({remedy} estimates and orients them)",
-            path.display()
-        )
-        .into());
-    }
-    match points.directionless_normals() {
-        0 => Ok(()),
-        zero => Err(format!(
-            "{}: {zero} of the {} normals are zero (unset by the tool that wrote them), and \
-             the MLS surface needs a direction at every point ({remedy} estimates them all \
-             anew)",
-            path.display(),
-            points.len()
-        )
-        .into()),
-    }
 }
 
 /// The note for `--orient-faces` given a point set, read from `path`: it has no triangles

@@ -7,10 +7,7 @@ use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
-use geosynth::mls::{
-    MlsParams, ORIENTING_STAGE, PLANE_RADIUS_MAX_NEIGHBOURS, orient_normals_in, plane_radius,
-};
-use geosynth::normals::EstimateNormals;
+use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, plane_radius};
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
     trim_to_mesh,
@@ -20,8 +17,9 @@ use geosynth::{RunContext, Stage};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use super::normals::{UpArg, parse_neighbours, undefined_note};
-use super::{SignArgs, check_oriented_points, no_faces_to_orient};
+use super::normals::UpArg;
+use super::point_normals::{NormalsPrep, PointNormalsArgs, check_recorded_neighbours};
+use super::{SignArgs, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
 use crate::memory::available_bytes;
@@ -47,9 +45,10 @@ pub struct GridArgs {
     /// Read the grid's settings from JSON: any of the library's `FieldParams` fields
     /// (`resolution`, `kernel`, `margin`, `band`, `mesh_sign`, `point_sign`, as the
     /// report's `params` spells them: `{"margin": 6, "band": 8}`), or a report written by
-    /// `--report` (`sdf`'s or `reconstruct`'s; one of the same command also sets its
-    /// `--orient-faces`, `--orient-normals` and `--trim`). Fields it leaves out keep their
-    /// defaults; the flags given here override it.
+    /// `--report` (`sdf`'s or `reconstruct`'s; one of the same command also reads the input
+    /// as that run did: its `--orient-faces`, `--orient-normals`, `--estimate-normals` and
+    /// `--up`, and for `reconstruct` its `--trim` and `--drop-pieces`). Fields it leaves
+    /// out keep their defaults; the flags given here override it.
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
     /// Write a JSON report: the parameters, what was read and written, the timings.
@@ -118,28 +117,8 @@ pub struct ReconstructArgs {
     output: PathBuf,
     #[command(flatten)]
     grid: GridArgs,
-    /// Make the normal signs consistent by propagation from the side facing `--up` before
-    /// reconstructing (for normals estimated without orientation); unreliable on
-    /// interlinked thin tubes (docs/mls-surface.md).
-    #[arg(long, conflicts_with = "estimate_normals")]
-    orient_normals: bool,
-    /// Estimate the points' normals first, as `geosynth normals` does: fitted to each
-    /// point's K nearest neighbours (`--estimate-normals` alone: 12) and oriented by
-    /// propagation toward `--up`; for bare scans (XYZ files of positions), and replacing
-    /// any normals the points have.
-    #[arg(
-        long,
-        value_name = "K",
-        num_args = 0..=1,
-        default_missing_value = "12",
-        value_parser = parse_neighbours
-    )]
-    estimate_normals: Option<usize>,
-    /// With `--orient-normals` or `--estimate-normals`: each connected part's highest
-    /// point along this axis gets the normal facing it, and the signs spread from there
-    /// (a closed object comes out facing outward whichever; an open scan faces this way).
-    #[arg(long, value_enum)]
-    up: Option<UpArg>,
+    #[command(flatten)]
+    normals: PointNormalsArgs,
     /// For open scans (a façade, a terrain, a quilted sheet): cut the surface where it runs
     /// on past the scan's border, beyond this many median sample spacings from every point
     /// (`--trim` alone: 2, `DEFAULT_TRIM_SPACINGS`). Gaps inside the scan stay bridged.
@@ -184,9 +163,7 @@ struct ReconstructInputOptions {
 
 impl RecordedInput for ReconstructInputOptions {
     fn check(&self) -> Result<(), String> {
-        if let Some(k) = self.estimate_normals {
-            parse_neighbours(&k.to_string()).map_err(|e| format!("estimate_normals: {e}"))?;
-        }
+        check_recorded_neighbours(self.estimate_normals)?;
         check_positive("trim", self.trim, "number of spacings")?;
         check_positive("drop_pieces", self.drop_pieces, "number of spacings")
     }
@@ -198,23 +175,24 @@ impl ReconstructInputOptions {
         let recorded: Self = file.input_options()?;
         check_positive("--trim", args.trim, "number of spacings")?;
         check_positive("--drop-pieces", args.drop_pieces, "number of spacings")?;
-        let estimate_normals = args.estimate_normals.or(recorded.estimate_normals);
-        let orient_normals =
-            (args.orient_normals || recorded.orient_normals) && estimate_normals.is_none();
-        if args.up.is_some() && !orient_normals && estimate_normals.is_none() {
-            let unused = "--up turns normals that --orient-normals or --estimate-normals \
-                          orients; without either the points' own normals are used as read";
-            return Err(unused.into());
-        }
+        let prep = args.normals.over(recorded.normals())?;
         Ok(Self {
-            up: args.up.unwrap_or(recorded.up),
-            // Estimated normals come oriented.
-            orient_normals,
-            estimate_normals,
+            up: prep.up,
+            orient_normals: prep.orient,
+            estimate_normals: prep.estimate,
             trim: args.trim.or(recorded.trim),
             drop_pieces: args.drop_pieces.or(recorded.drop_pieces),
             orient_faces: args.sign.orient_faces || recorded.orient_faces,
         })
+    }
+
+    /// What is done to a point set's normals.
+    fn normals(&self) -> NormalsPrep {
+        NormalsPrep {
+            orient: self.orient_normals,
+            estimate: self.estimate_normals,
+            up: self.up,
+        }
     }
 }
 
@@ -231,19 +209,7 @@ fn prepared_input(
 ) -> CliResult<Geometry> {
     match geometry {
         Geometry::Mesh(mesh) => {
-            let flag = if options.estimate_normals.is_some() {
-                Some("--estimate-normals estimates")
-            } else {
-                options.orient_normals.then_some("--orient-normals orients")
-            };
-            if let Some(flag) = flag {
-                return Err(format!(
-                    "{} is a mesh: {flag} a point set's normals, and a mesh's sides come \
-                     from its faces (--orient-faces turns them to agree)",
-                    args.input.display()
-                )
-                .into());
-            }
+            options.normals().refuse_for_mesh(&args.input)?;
             let sign = SignArgs {
                 orient_faces: options.orient_faces,
                 ..args.sign
@@ -269,26 +235,12 @@ fn prepared_input(
             }
             Ok(Geometry::Mesh(mesh))
         }
-        Geometry::Points(mut points) => {
-            if let Some(neighbours) = options.estimate_normals {
-                points = estimated_normals(points, neighbours, options.up, globals, timings)?;
-            }
-            check_oriented_points(&points, &args.input, "--estimate-normals")?;
+        Geometry::Points(points) => {
+            let points = options
+                .normals()
+                .prepared(points, &args.input, globals, timings)?;
             if options.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
-            }
-            if options.orient_normals {
-                let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
-                let up = options.up.vector();
-                points = ctx.timed(ORIENTING_STAGE, |ctx| orient_normals_in(&points, up, ctx))?;
-                bar.finish_and_clear();
-                timings.extend_from_slice(ctx.timings());
-            }
-            // Normals estimated here come oriented; the note would suggest --orient-normals.
-            if options.estimate_normals.is_none()
-                && let Some(note) = super::unoriented_normals_note(&points, None)
-            {
-                status(globals, note);
             }
             if let Some(note) = line_gap_note(&points, params.kernel, options.trim.is_some())? {
                 status(globals, note);
@@ -296,36 +248,6 @@ fn prepared_input(
             Ok(Geometry::Points(points))
         }
     }
-}
-
-/// `points` with normals fitted to `neighbours` nearest and oriented toward `up`, as
-/// `geosynth normals` estimates them (the stages' times added to `timings`); notes the
-/// points whose neighbourhoods define none.
-fn estimated_normals(
-    points: PointSet,
-    neighbours: usize,
-    up: UpArg,
-    globals: Globals,
-    timings: &mut Vec<(String, Duration)>,
-) -> CliResult<PointSet> {
-    let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
-    let count = points.len();
-    let stage = EstimateNormals {
-        neighbours,
-        up: up.vector(),
-    };
-    let fit = stage.run(points, &mut ctx)?;
-    bar.finish_and_clear();
-    timings.extend_from_slice(ctx.timings());
-    if let Some(note) = undefined_note(
-        fit.undefined.len(),
-        count,
-        neighbours.min(count),
-        "--estimate-normals K",
-    ) {
-        status(globals, note);
-    }
-    Ok(fit.points)
 }
 
 /// The closed (or, with `trim` in median sample spacings, trimmed) surface of `input`.
@@ -646,7 +568,8 @@ fn three_digits(x: f32) -> String {
 /// Arguments of `geosynth sdf`.
 #[derive(Debug, Args)]
 pub struct SdfArgs {
-    /// A mesh (exact distances) or an oriented point set (distances to its MLS surface).
+    /// A mesh (exact distances) or a point set (distances to its MLS surface): oriented, or
+    /// bare with `--estimate-normals`.
     input: PathBuf,
     /// Output NRRD file.
     #[arg(short, long)]
@@ -657,7 +580,57 @@ pub struct SdfArgs {
     #[command(flatten)]
     grid: GridArgs,
     #[command(flatten)]
+    normals: PointNormalsArgs,
+    #[command(flatten)]
     sign: SignArgs,
+}
+
+/// How `sdf` reads its input: the options its report records under [`INPUT_OPTIONS_KEY`],
+/// so that `--params REPORT` reads it as the reported run did.
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct SdfInputOptions {
+    /// `--orient-faces` (meshes).
+    orient_faces: bool,
+    /// `--orient-normals`.
+    orient_normals: bool,
+    /// `--estimate-normals`, in neighbours (unset: the points' own normals).
+    estimate_normals: Option<usize>,
+    /// `--up`: where orienting or estimated normals are turned.
+    up: UpArg,
+}
+
+impl RecordedInput for SdfInputOptions {
+    fn check(&self) -> Result<(), String> {
+        check_recorded_neighbours(self.estimate_normals)
+    }
+}
+
+impl SdfInputOptions {
+    /// The options given on the command line over those of `--params`' file.
+    fn of(args: &SdfArgs, file: &ParamsFile) -> CliResult<Self> {
+        let recorded: Self = file.input_options()?;
+        let prep = args.normals.over(NormalsPrep {
+            orient: recorded.orient_normals,
+            estimate: recorded.estimate_normals,
+            up: recorded.up,
+        })?;
+        Ok(Self {
+            orient_faces: args.sign.orient_faces || recorded.orient_faces,
+            orient_normals: prep.orient,
+            estimate_normals: prep.estimate,
+            up: prep.up,
+        })
+    }
+
+    /// What is done to a point set's normals.
+    fn normals(&self) -> NormalsPrep {
+        NormalsPrep {
+            orient: self.orient_normals,
+            estimate: self.estimate_normals,
+            up: self.up,
+        }
+    }
 }
 
 /// Runs `geosynth sdf`.
@@ -668,31 +641,46 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     )?;
     let file = args.grid.params_file(SDF_REPORTS)?;
     let params = args.grid.params(&file, &args.sign, given)?;
-    let (sign, options) = args.sign.with_recorded(&file)?;
+    let options = SdfInputOptions::of(args, &file)?;
+    let sign = SignArgs {
+        orient_faces: options.orient_faces,
+        ..args.sign
+    };
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
     let mut loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
-    if sign.orient_faces && loaded.geometry.mesh().is_none() {
-        status(globals, no_faces_to_orient(&args.input));
-    }
-    if let io::Geometry::Points(points) = &loaded.geometry {
-        check_oriented_points(points, &args.input, "`geosynth normals`")?;
-        if let Some(note) = line_gap_note(points, params.kernel, false)? {
-            status(globals, note);
+    let mut preparing = Vec::new();
+    loaded.geometry = match loaded.geometry {
+        io::Geometry::Points(points) => {
+            let points =
+                options
+                    .normals()
+                    .prepared(points, &args.input, globals, &mut preparing)?;
+            if sign.orient_faces {
+                status(globals, no_faces_to_orient(&args.input));
+            }
+            if let Some(note) = line_gap_note(&points, params.kernel, false)? {
+                status(globals, note);
+            }
+            io::Geometry::Points(points)
         }
-    }
-    if let io::Geometry::Mesh(mesh) = loaded.geometry {
-        let (mesh, change) = sign.oriented(mesh)?;
-        if let Some(line) = change {
-            status(globals, line);
+        io::Geometry::Mesh(mesh) => {
+            options.normals().refuse_for_mesh(&args.input)?;
+            let (mesh, change) = sign.oriented(mesh)?;
+            if let Some(line) = change {
+                status(globals, line);
+            }
+            if let Some(note) = sign.note(&mesh, params.mesh_sign)? {
+                status(globals, note);
+            }
+            io::Geometry::Mesh(mesh)
         }
-        if let Some(note) = sign.note(&mesh, params.mesh_sign)? {
-            status(globals, note);
-        }
-        loaded.geometry = io::Geometry::Mesh(mesh);
-    }
+    };
     check_grid_fits(&params, &loaded.geometry)?;
     let (mut ctx, bar) = progress_context(globals, 0, "sampling distances", false);
+    for (stage, time) in preparing {
+        ctx.record_timing(&stage, time);
+    }
     let start = Instant::now();
     let sdf = signed_distance_in(&loaded.geometry, &params, &mut ctx)?;
     let seconds = start.elapsed().as_secs_f64();
@@ -720,6 +708,7 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
             "spacing": sdf.grid().spacing(),
             "band": sdf.band(),
             "seconds": seconds,
+            "timings": timings_json(ctx.timings()),
         }),
     )?;
     status(

@@ -96,6 +96,25 @@ fn assert_peak_memory(report: &serde_json::Value) {
     }
 }
 
+/// `points` with every third normal flipped (the first, fourth, …), as unoriented
+/// estimates come.
+fn every_third_flipped(points: &geosynth::core::PointSet) -> geosynth::core::PointSet {
+    let normals = points.normals().unwrap().iter().enumerate();
+    let signs = normals.map(|(i, &n)| if i % 3 == 0 { -n } else { n });
+    points.clone().with_normals(signs.collect()).unwrap()
+}
+
+/// The stages a report lists under `key` (`{"stage": NAME, "seconds": S}` entries), in
+/// order.
+fn timed_stages(report: &serde_json::Value, key: &str) -> Vec<String> {
+    report[key]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["stage"].as_str().unwrap().to_string())
+        .collect()
+}
+
 /// `geosynth info --json` of a file.
 fn info_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&ok(&["info", "--json", path.to_str().unwrap()])).unwrap()

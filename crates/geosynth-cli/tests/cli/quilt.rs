@@ -584,12 +584,7 @@ fn estimate_normals_quilts_a_bare_scan_as_the_estimated_file_would_be() {
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(r["input_options"]["estimate_normals"], 12);
     assert_eq!(r["undefined_normals"], 0);
-    let stages: Vec<&str> = r["input_timings"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|t| t["stage"].as_str().unwrap())
-        .collect();
+    let stages = crate::timed_stages(&r, "input_timings");
     assert_eq!(stages, ["fitting normals", "orienting normals"]);
     quilt(&bare, "replayed.ply", &["--params", &report]);
     assert!(bytes("replayed.ply") == bytes("from_bare.ply"));

@@ -81,7 +81,7 @@ fn a_mesh_is_remeshed_closed_on_its_own_surface() {
         &["reconstruct", &arg(&bare), "-o", &arg(&out)],
         &format!("{}: the points have no normals", bare.display()),
     );
-    // Each command names its own way to estimate them.
+    // Both commands name their flag that estimates them.
     refused(
         &["reconstruct", &arg(&bare), "-o", &arg(&out)],
         "(--estimate-normals estimates and orients them)",
@@ -89,8 +89,12 @@ fn a_mesh_is_remeshed_closed_on_its_own_surface() {
     let field = dir.path("bare.nrrd");
     refused(
         &["sdf", &arg(&bare), "-o", &arg(&field)],
-        "(`geosynth normals` estimates and orients them)",
+        "(--estimate-normals estimates and orients them)",
     );
+    let mesh = arg(&geosynth::fixtures::bundled_dir().join("torus_mesh.ply"));
+    for flag in ["--estimate-normals", "--orient-normals"] {
+        refused(&["sdf", &mesh, "-o", &arg(&field), flag], "is a mesh: --");
+    }
 }
 
 #[test]

@@ -3,8 +3,8 @@
 use std::path::Path;
 
 use crate::{
-    Scratch, arg, assert_closed, assert_peak_memory, geosynth, info_json, ok, refused, tiny_voxel,
-    write_with_defaults,
+    Scratch, arg, assert_closed, assert_peak_memory, every_third_flipped, geosynth, info_json, ok,
+    refused, timed_stages, tiny_voxel, write_with_defaults,
 };
 
 #[test]
@@ -95,12 +95,7 @@ fn keep_directions_orients_the_normals_a_file_has_without_refitting_them() {
     let fixture = geosynth::fixtures::bundled_dir().join("torus_points.ply");
     let truth = read_geometry(&fixture).unwrap().geometry.points().clone();
     let true_normals = truth.normals().unwrap().to_vec();
-    let signs = true_normals
-        .iter()
-        .enumerate()
-        .map(|(i, &n)| if i % 3 == 0 { -n } else { n })
-        .collect();
-    let mixed = truth.clone().with_normals(signs).unwrap();
+    let mixed = every_third_flipped(&truth);
     let input = dir.path("mixed.ply");
     write_with_defaults(&input, &Geometry::Points(mixed.clone()));
     let (out, report) = (dir.path("kept.ply"), dir.path("kept.json"));
@@ -328,16 +323,8 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
     // The same points with every third normal flipped, as unoriented estimates come: the
     // run warns, the oriented one does not.
     let torus = geosynth::core::io::read_geometry(&points).unwrap().geometry;
-    let signs: Vec<glam::Vec3> = torus
-        .points()
-        .normals()
-        .unwrap()
-        .iter()
-        .enumerate()
-        .map(|(i, &n)| if i % 3 == 0 { -n } else { n })
-        .collect();
     let mixed = dir.path().join("mixed.ply");
-    let unoriented = torus.points().clone().with_normals(signs).unwrap();
+    let unoriented = every_third_flipped(torus.points());
     write_with_defaults(&mixed, &geosynth::core::io::Geometry::Points(unoriented));
     let share = |path: &Path| {
         let json = info_json(path);
@@ -403,12 +390,7 @@ fn reconstruct_and_sdf_commands_write_usable_files() {
     assert_eq!(json["input_options"]["estimate_normals"], 12);
     assert_eq!(json["input_options"]["up"], "z");
     // The estimation's stages are timed in the report, before the reconstruction's.
-    let stages: Vec<&str> = json["timings"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|t| t["stage"].as_str().unwrap())
-        .collect();
+    let stages = timed_stages(&json, "timings");
     assert_eq!(
         stages[..2],
         ["fitting normals", "orienting normals"],
@@ -847,4 +829,70 @@ fn reconstruct_keeps_a_closed_cloud_with_stray_normals_whole_with_sign_winding()
         "--sign",
         "winding",
     ]);
+}
+
+#[test]
+fn sdf_estimates_or_orients_a_point_sets_normals_as_reconstruct_does() {
+    use geosynth::core::PointSet;
+    use geosynth::core::io::Geometry;
+    use geosynth::normals::EstimateNormals;
+    use geosynth::{RunContext, Stage};
+    let dir = tempfile::tempdir().unwrap();
+    let torus = geosynth::core::io::read_geometry(
+        geosynth::fixtures::bundled_dir().join("torus_points.ply"),
+    )
+    .unwrap()
+    .geometry;
+    // The torus's positions alone, and with the normals the library estimates for them.
+    let bare_points = PointSet::new(torus.points().positions().to_vec()).unwrap();
+    let fit = EstimateNormals::default()
+        .run(bare_points.clone(), &mut RunContext::new(0))
+        .unwrap();
+    let (bare, estimated) = (dir.path().join("bare.ply"), dir.path().join("est.ply"));
+    write_with_defaults(&bare, &Geometry::Points(bare_points));
+    write_with_defaults(&estimated, &Geometry::Points(fit.points.clone()));
+    // The estimated normals with every third one flipped, as unoriented estimates come.
+    let mixed = dir.path().join("mixed.ply");
+    write_with_defaults(&mixed, &Geometry::Points(every_third_flipped(&fit.points)));
+    let report = dir.path().join("r.json");
+    let sdf = |input: &Path, out: &str, extra: &[&str]| {
+        let out = dir.path().join(out);
+        let run = ["sdf", input.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        let said = ok(&[&run[..], &["--resolution", "24"], extra].concat());
+        (std::fs::read(out).unwrap(), said)
+    };
+    let (from_estimated, _) = sdf(&estimated, "est.nrrd", &[]);
+    let report_arg = report.to_str().unwrap();
+    let (from_bare, _) = sdf(
+        &bare,
+        "bare.nrrd",
+        &["--estimate-normals", "--report", report_arg],
+    );
+    assert!(from_bare == from_estimated);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["input_options"]["estimate_normals"], 12);
+    let stages = timed_stages(&json, "timings");
+    assert_eq!(
+        stages[..2],
+        ["fitting normals", "orienting normals"],
+        "{stages:?}"
+    );
+    // `--params` reads the bare points as the report's run did.
+    let (replayed, _) = sdf(&bare, "replayed.nrrd", &["--params", report_arg]);
+    assert!(replayed == from_bare);
+    // Flipped signs: a note, and `--orient-normals` turns them back.
+    let (as_read, said) = sdf(&mixed, "mixed.nrrd", &[]);
+    assert!(
+        said.contains("look unoriented") && as_read != from_estimated,
+        "{said}"
+    );
+    let (oriented, said) = sdf(&mixed, "oriented.nrrd", &["--orient-normals"]);
+    assert!(!said.contains("look unoriented"), "{said}");
+    assert!(oriented == from_estimated);
+    let up_alone = ["sdf", bare.to_str().unwrap(), "-o", "x.nrrd", "--up", "y"];
+    refused(
+        &up_alone,
+        "--up turns normals that --orient-normals or --estimate-normals",
+    );
 }

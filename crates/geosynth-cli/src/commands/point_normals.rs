@@ -1,0 +1,190 @@
+//! How `reconstruct` and `sdf` prepare a point set's normals before its MLS surface is
+//! built: as read, oriented (`--orient-normals`) or estimated (`--estimate-normals`), turned
+//! toward `--up`.
+
+use std::path::Path;
+use std::time::Duration;
+
+use clap::Args;
+use geosynth::Stage;
+use geosynth::core::PointSet;
+use geosynth::mls::{ORIENTING_STAGE, orient_normals_in};
+use geosynth::normals::EstimateNormals;
+
+use super::normals::{UpArg, parse_neighbours, undefined_note};
+use super::unoriented_normals_note;
+use crate::output::{progress_context, status};
+use crate::{CliResult, Globals};
+
+/// The flags that prepare a point set's normals.
+#[derive(Debug, Args)]
+pub struct PointNormalsArgs {
+    /// Make the normal signs consistent by propagation from the side facing `--up` first
+    /// (for normals estimated without orientation); unreliable on interlinked thin tubes
+    /// (docs/mls-surface.md).
+    #[arg(long, conflicts_with = "estimate_normals")]
+    orient_normals: bool,
+    /// Estimate the points' normals first, as `geosynth normals` does: fitted to each
+    /// point's K nearest neighbours (`--estimate-normals` alone: 12) and oriented by
+    /// propagation toward `--up`; for bare scans (XYZ files of positions), and replacing
+    /// any normals the points have.
+    #[arg(
+        long,
+        value_name = "K",
+        num_args = 0..=1,
+        default_missing_value = "12",
+        value_parser = parse_neighbours
+    )]
+    estimate_normals: Option<usize>,
+    /// With `--orient-normals` or `--estimate-normals`: each connected part's highest
+    /// point along this axis gets the normal facing it, and the signs spread from there
+    /// (a closed object comes out facing outward whichever; an open scan faces this way).
+    #[arg(long, value_enum)]
+    up: Option<UpArg>,
+}
+
+/// What is done to a point set's normals before use: the flags over a recorded run's.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NormalsPrep {
+    /// Orient the normals the points have.
+    pub orient: bool,
+    /// Estimate them anew, fitted to this many nearest neighbours (and oriented).
+    pub estimate: Option<usize>,
+    /// Where orienting turns them.
+    pub up: UpArg,
+}
+
+impl PointNormalsArgs {
+    /// The flags given over `recorded` (a `--params` report's): an estimate given or
+    /// recorded wins over orienting (estimated normals come oriented). `--up` alone, with
+    /// nothing to turn, is refused.
+    pub fn over(&self, recorded: NormalsPrep) -> CliResult<NormalsPrep> {
+        let estimate = self.estimate_normals.or(recorded.estimate);
+        let orient = (self.orient_normals || recorded.orient) && estimate.is_none();
+        if self.up.is_some() && !orient && estimate.is_none() {
+            let unused = "--up turns normals that --orient-normals or --estimate-normals \
+                          orients; without either the points' own normals are used as read";
+            return Err(unused.into());
+        }
+        Ok(NormalsPrep {
+            orient,
+            estimate,
+            up: self.up.unwrap_or(recorded.up),
+        })
+    }
+}
+
+/// Refuses a recorded neighbour count below 3 (as a message naming the option).
+pub fn check_recorded_neighbours(estimate_normals: Option<usize>) -> Result<(), String> {
+    match estimate_normals {
+        Some(k) => parse_neighbours(&k.to_string())
+            .map(|_| ())
+            .map_err(|e| format!("estimate_normals: {e}")),
+        None => Ok(()),
+    }
+}
+
+impl NormalsPrep {
+    /// Refuses to orient or estimate the normals of the mesh read from `path`: a mesh's
+    /// sides come from its faces.
+    pub fn refuse_for_mesh(&self, path: &Path) -> CliResult {
+        let flag = if self.estimate.is_some() {
+            "--estimate-normals estimates"
+        } else if self.orient {
+            "--orient-normals orients"
+        } else {
+            return Ok(());
+        };
+        Err(format!(
+            "{} is a mesh: {flag} a point set's normals, and a mesh's sides come from its \
+             faces (--orient-faces turns them to agree)",
+            path.display()
+        )
+        .into())
+    }
+
+    /// `points` (read from `path`) with their normals estimated or oriented as asked, each
+    /// stage's time added to `timings`, and refused when their MLS surface could still not
+    /// use them; prints the notes about them.
+    pub fn prepared(
+        &self,
+        mut points: PointSet,
+        path: &Path,
+        globals: Globals,
+        timings: &mut Vec<(String, Duration)>,
+    ) -> CliResult<PointSet> {
+        if let Some(neighbours) = self.estimate {
+            points = estimated(points, neighbours, self.up, globals, timings)?;
+        }
+        check_usable(&points, path)?;
+        if self.orient {
+            let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
+            let up = self.up.vector();
+            points = ctx.timed(ORIENTING_STAGE, |ctx| orient_normals_in(&points, up, ctx))?;
+            bar.finish_and_clear();
+            timings.extend_from_slice(ctx.timings());
+        }
+        // Normals estimated here come oriented; the note would suggest --orient-normals.
+        if self.estimate.is_none()
+            && let Some(note) = unoriented_normals_note(&points, None)
+        {
+            status(globals, note);
+        }
+        Ok(points)
+    }
+}
+
+/// `points` with normals fitted to `neighbours` nearest and oriented toward `up`, as
+/// `geosynth normals` estimates them (the stages' times added to `timings`); notes the
+/// points whose neighbourhoods define none.
+fn estimated(
+    points: PointSet,
+    neighbours: usize,
+    up: UpArg,
+    globals: Globals,
+    timings: &mut Vec<(String, Duration)>,
+) -> CliResult<PointSet> {
+    let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
+    let count = points.len();
+    let stage = EstimateNormals {
+        neighbours,
+        up: up.vector(),
+    };
+    let fit = stage.run(points, &mut ctx)?;
+    bar.finish_and_clear();
+    timings.extend_from_slice(ctx.timings());
+    if let Some(note) = undefined_note(
+        fit.undefined.len(),
+        count,
+        neighbours.min(count),
+        "--estimate-normals K",
+    ) {
+        status(globals, note);
+    }
+    Ok(fit.points)
+}
+
+/// Refuses a point set read from `path` whose normals its MLS surface cannot use: none at
+/// all, or some without a direction ([`PointSet::directionless_normals`]: zero normals a
+/// tool wrote where it computed none), naming `--estimate-normals` as the remedy.
+fn check_usable(points: &PointSet, path: &Path) -> CliResult {
+    if points.normals().is_none() {
+        return Err(format!(
+            "{}: the points have no normals, and their MLS surface needs oriented points \
+             (--estimate-normals estimates and orients them)",
+            path.display()
+        )
+        .into());
+    }
+    match points.directionless_normals() {
+        0 => Ok(()),
+        zero => Err(format!(
+            "{}: {zero} of the {} normals are zero (unset by the tool that wrote them), and \
+             the MLS surface needs a direction at every point (--estimate-normals estimates \
+             them all anew)",
+            path.display(),
+            points.len()
+        )
+        .into()),
+    }
+}
