@@ -8,7 +8,7 @@ use geosynth::{ProgressUpdate, RunContext};
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::{CliResult, Globals};
+use crate::{CliError, CliResult, Globals};
 
 /// Refuses to start work whose results could not be saved: the directory of every output
 /// path must exist, no path may be given for two outputs (the second would overwrite the
@@ -70,20 +70,38 @@ pub(crate) fn check_output_paths<'a>(
 
 /// Writes `geometry` to `path` as [`io::write_geometry`] does; an error that does not name
 /// the file (what its format cannot store, an encoder's failure) is told as `cannot write
-/// FILE: …`, as [`check_geometry_output`] tells it before a run.
+/// FILE: …`, as [`check_geometry_output`] tells it before a run. What the format could not
+/// store of it ([`FileFormat::unstored`]: normals in a LAS file, a quilt's patch labels in
+/// an OBJ) is noted once it is written.
 pub(crate) fn write_geometry_file(
     path: &Path,
     geometry: &Geometry,
     options: &WriteOptions,
+    globals: Globals,
 ) -> CliResult {
     io::write_geometry(path, geometry, options).map_err(|error| {
         let message = error.to_string();
         if message.contains(&path.display().to_string()) {
-            error.into()
+            CliError::from(error)
         } else {
             format!("cannot write {}: {message}", path.display()).into()
         }
-    })
+    })?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if let Some(format) = FileFormat::from_extension(ext) {
+        let lost = format.unstored(geometry);
+        if !lost.is_empty() {
+            status(
+                globals,
+                format!(
+                    "note: {}: {format} cannot store the {}; write .ply to keep them",
+                    path.display(),
+                    lost.join(", ")
+                ),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Refuses, before the work, a geometry output whose format cannot hold what the command

@@ -90,7 +90,7 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         "converted by geosynth from {}",
         args.input.display()
     ));
-    write_geometry_file(&args.output, &geometry, &options)?;
+    write_geometry_file(&args.output, &geometry, &options, globals)?;
     let faces = geometry.mesh().map_or(0, |m| m.face_count());
     let counts = match format {
         // STL has no vertices of its own: the reader welds corners back by position.
@@ -102,15 +102,5 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         globals,
         format!("wrote {} ({format}): {counts}", args.output.display()),
     );
-    let lost = format.unstored(&geometry);
-    if !lost.is_empty() {
-        status(
-            globals,
-            format!(
-                "note: {format} cannot store the input's {}; write .ply to keep them",
-                lost.join(", ")
-            ),
-        );
-    }
     Ok(())
 }

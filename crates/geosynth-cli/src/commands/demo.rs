@@ -198,7 +198,7 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     for f in &fixtures {
         let geometry_path = geometry_dir.join(format!("{}.obj", f.name));
         let options = WriteOptions::default().comment(f.description);
-        write_geometry_file(&geometry_path, &f.geometry, &options)?;
+        write_geometry_file(&geometry_path, &f.geometry, &options, globals)?;
         let preview_path = preview_dir.join(format!("{}.png", f.name));
         let image = preview::render(&f.geometry, &RenderOptions::default().size(w, h).up(f.up))?;
         preview::save_png(&image, &preview_path)?;
@@ -289,7 +289,14 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
                 .map(|f| f.geometry.points().clone())
                 .ok_or("missing input")?,
         };
-        reconstructions.push(reconstruct_one(job, points, resolution, w, h, &args.out)?);
+        reconstructions.push(reconstruct_one(
+            job,
+            points,
+            resolution,
+            (w, h),
+            &args.out,
+            globals,
+        )?);
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -482,14 +489,15 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
     write_whole(&path, md).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
 }
 
-/// Reconstructs one point set, writes the mesh and a points | mesh preview.
+/// Reconstructs one point set, writes the mesh and a points | mesh preview of `(w, h)`
+/// pixels.
 fn reconstruct_one(
     job: &ReconstructionJob,
     points: geosynth::core::PointSet,
     resolution: usize,
-    w: u32,
-    h: u32,
+    (w, h): (u32, u32),
     out: &Path,
+    globals: Globals,
 ) -> CliResult<ReconstructionEntry> {
     let input_points = points.len();
     let mut ctx = RunContext::new(0);
@@ -514,6 +522,7 @@ fn reconstruct_one(
         &geometry_path,
         &mesh,
         &WriteOptions::default().comment(format!("reconstructed from {}", job.name)),
+        globals,
     )?;
     let preview_path = out
         .join("previews")
@@ -614,6 +623,7 @@ fn quilt_textures(dir: &Path, args: &DemoArgs, globals: Globals) -> CliResult<Ve
             &geometry_path,
             &Geometry::Points(full.output.points.clone()),
             &options,
+            globals,
         )?;
         let preview_path = args
             .out
@@ -694,6 +704,7 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
                 &path,
                 geometry,
                 &WriteOptions::default().comment(volume.description),
+                globals,
             )?;
             Ok(path)
         };

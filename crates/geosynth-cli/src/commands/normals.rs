@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 use geosynth::core::KdIndex;
 use geosynth::core::PointSet;
-use geosynth::core::io::{Geometry, WriteOptions};
+use geosynth::core::io::{FileFormat, Geometry, WriteOptions};
 use geosynth::mls::{
     NORMAL_NEIGHBOURS, fit_oriented_normals_with, orient_normals_with,
     orientation_disagreement_with,
@@ -106,6 +106,21 @@ pub(super) fn undefined_note(
     })
 }
 
+/// Refuses an output whose format stores no normals (LAS, `.xyzrgb`): they are what the
+/// command writes.
+fn check_keeps_normals(output: &Path) -> CliResult {
+    let ext = output.extension().and_then(|e| e.to_str()).unwrap_or("");
+    match FileFormat::from_extension(ext) {
+        Some(format) if !format.stores_normals() => Err(format!(
+            "cannot write {}: {format} stores no normals, and they are what `normals` writes \
+             (write .ply, .xyzn, .obj or .off)",
+            output.display()
+        )
+        .into()),
+        _ => Ok(()),
+    }
+}
+
 /// Refuses, for `--keep-directions`, a point set read from `path` without a direction at
 /// every point.
 fn check_directions(points: &PointSet, path: &Path) -> CliResult {
@@ -129,6 +144,7 @@ fn check_directions(points: &PointSet, path: &Path) -> CliResult {
 pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], args.report.as_deref())?;
     check_geometry_output(&args.output, false, DVec3::ZERO)?;
+    check_keeps_normals(&args.output)?;
     let started = Instant::now();
     let loaded = read_geometry(&args.input, globals)?;
     let read_time = started.elapsed();
@@ -189,7 +205,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
         .comment(comment)
         .origin(loaded.origin);
     ctx.timed("writing", |_| {
-        write_geometry_file(&args.output, &Geometry::Points(oriented), &options)
+        write_geometry_file(&args.output, &Geometry::Points(oriented), &options, globals)
     })?;
     if let Some(path) = &args.report {
         let report = json!({

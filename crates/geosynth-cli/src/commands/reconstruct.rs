@@ -332,7 +332,12 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             args.input.display()
         ))
         .origin(loaded.origin);
-    write_geometry_file(&args.output, &Geometry::Mesh(mesh.clone()), &write_options)?;
+    write_geometry_file(
+        &args.output,
+        &Geometry::Mesh(mesh.clone()),
+        &write_options,
+        globals,
+    )?;
     let timings: Vec<String> = ctx
         .timings()
         .iter()

@@ -362,10 +362,10 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let note = empty_copy_note(&exemplar, &run, args.isosurface.is_some());
     let faces = run.output.copied.mesh.face_count();
     let copied = Geometry::Mesh(run.output.copied.mesh);
-    write_geometry_file(&args.output, &copied, &options)?;
+    write_geometry_file(&args.output, &copied, &options, globals)?;
     let isosurface = Geometry::Mesh(run.output.isosurface);
     if let Some(path) = &args.isosurface {
-        write_geometry_file(path, &isosurface, &options)?;
+        write_geometry_file(path, &isosurface, &options, globals)?;
     }
     if let Some(path) = &args.preview {
         voxel_preview(&exemplar, &copied, &isosurface, path, 400)?;

@@ -139,7 +139,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
             args.pairs.display()
         ))
         .origin(loaded.origin);
-    write_geometry_file(&args.output, &out, &options)?;
+    write_geometry_file(&args.output, &out, &options, globals)?;
     status(
         globals,
         format!(

@@ -483,7 +483,7 @@ fn convert_moves_geometry_between_formats_and_says_what_is_lost() {
     ]);
     assert!(said.contains("oriented faces: 64 of 320"), "{said}");
     assert!(
-        said.contains("STL cannot store the input's vertex normals"),
+        said.contains("s.stl: STL cannot store the vertex normals; write .ply"),
         "{said}"
     );
     // A point set has no triangles to turn: written as it is, with a note saying so.
@@ -674,13 +674,19 @@ fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
     let quilted = dir.path("q.xyz");
     ok(&[&quilt[..], &[&arg(&quilted)]].concat());
     // Found only when writing (points without colours): the error names the file.
-    let rgb = dir.path("n.xyzrgb");
+    let rgb = dir.path("c.xyzrgb");
     refused(
-        &["normals", &arg(&points), "-o", &arg(&rgb)],
+        &["convert", &arg(&points), "-o", &arg(&rgb)],
         &format!(
             "cannot write {}: XYZRGB cannot store points without colours",
             rgb.display()
         ),
+    );
+    // `normals` refuses it before the work: the format keeps no normals.
+    let rgb = dir.path("n.xyzrgb");
+    refused(
+        &["normals", &arg(&points), "-o", &arg(&rgb)],
+        &format!("cannot write {}: XYZRGB stores no normals", rgb.display()),
     );
     let comments = info_json(&quilted)["comments"].to_string();
     assert!(comments.contains("texture_box"), "{comments}");

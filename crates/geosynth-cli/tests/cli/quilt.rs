@@ -645,3 +645,28 @@ fn estimate_normals_is_refused_where_normals_come_otherwise() {
         "cannot be used with",
     );
 }
+
+#[test]
+fn outputs_in_formats_without_normals_are_noted_or_refused() {
+    let dir = Scratch::new();
+    let exemplar = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
+    // A quilt to LAS keeps its points (terrain tools read them) and says what it lost.
+    let las = dir.path("q.las");
+    let run = ["quilt", &exemplar, "-o", &arg(&las), "--scale", "1.2"];
+    let said = ok(&[&run[..], &["--resolution", "24", "--no-quality"]].concat());
+    assert!(
+        said.contains("q.las: LAS cannot store the vertex normals, attribute `patch`; write .ply"),
+        "{said}"
+    );
+    let written = geosynth::core::io::read_geometry(&las).unwrap().geometry;
+    assert!(written.points().len() > 1000 && written.points().normals().is_none());
+    // Normals to a format without them would write nothing of what was asked: refused
+    // before the work.
+    for name in ["n.las", "n.xyzrgb"] {
+        refused(
+            &["normals", &exemplar, "-o", &arg(&dir.path(name))],
+            "stores no normals, and they are what `normals` writes",
+        );
+        assert!(!dir.path(name).exists());
+    }
+}

@@ -154,15 +154,16 @@ impl FileFormat {
     /// # Ok::<(), pointset_core::Error>(())
     /// ```
     pub fn unstored(self, geometry: &Geometry) -> Vec<String> {
-        // (vertex normals, UVs, colours, other attributes) kept.
-        let (normals, uvs, colours, others) = match self {
-            FileFormat::Ply => (true, true, true, true),
-            FileFormat::Obj => (true, true, true, false),
-            FileFormat::Off => (true, false, true, false),
-            FileFormat::Stl => (false, false, false, false),
-            FileFormat::Xyz(XyzColumns::Colours) | FileFormat::Las => (false, false, true, false),
-            FileFormat::Xyz(_) => (true, false, false, false),
+        // (UVs, colours, other attributes) kept.
+        let (uvs, colours, others) = match self {
+            FileFormat::Ply => (true, true, true),
+            FileFormat::Obj => (true, true, false),
+            FileFormat::Off => (false, true, false),
+            FileFormat::Stl => (false, false, false),
+            FileFormat::Xyz(XyzColumns::Colours) | FileFormat::Las => (false, true, false),
+            FileFormat::Xyz(_) => (false, false, false),
         };
+        let normals = self.stores_normals();
         let points = geometry.points();
         let has_colours = points.colors().is_some();
         let mut lost = Vec::new();
@@ -188,6 +189,22 @@ impl FileFormat {
             );
         }
         lost
+    }
+
+    /// Whether the format stores per-point (vertex) normals: PLY, OBJ, OFF, `.xyz` and
+    /// `.xyzn` do; STL (a normal per facet only), `.xyzrgb` and LAS do not.
+    ///
+    /// ```
+    /// use pointset_core::io::FileFormat;
+    /// assert!(FileFormat::from_extension("xyzn").is_some_and(FileFormat::stores_normals));
+    /// assert!(!FileFormat::from_extension("las").is_some_and(FileFormat::stores_normals));
+    /// ```
+    pub fn stores_normals(self) -> bool {
+        match self {
+            FileFormat::Ply | FileFormat::Obj | FileFormat::Off => true,
+            FileFormat::Stl | FileFormat::Las | FileFormat::Xyz(XyzColumns::Colours) => false,
+            FileFormat::Xyz(_) => true,
+        }
     }
 
     /// The format a file's content looks like, if any. A binary STL is recognised by its

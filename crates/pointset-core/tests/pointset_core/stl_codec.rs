@@ -185,6 +185,7 @@ fn unstored_names_what_each_format_drops() {
         let bytes = io::encode_geometry(&geometry, format, &WriteOptions::default()).unwrap();
         let back = read(&format!("m.{}", format.to_string().to_lowercase()), &bytes).unwrap();
         let back_points = back.geometry.points();
+        assert_eq!(format.stores_normals(), back_points.normals().is_some());
         let mut lost = Vec::new();
         if back_points.normals().is_none() {
             lost.push("vertex normals".to_string());

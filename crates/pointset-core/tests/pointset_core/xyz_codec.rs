@@ -41,6 +41,7 @@ fn each_layout_round_trips_what_it_holds_exactly_and_names_what_it_drops() {
         assert_eq!(back.format, format);
         assert_eq!(back.comments, ["made by a test"]);
         let got = back.geometry.points();
+        assert_eq!(format.stores_normals(), got.normals().is_some(), "{name}");
         // Positions, normals and colours are written in their shortest exact form.
         assert_eq!(got.positions(), points.positions(), "{name}");
         assert_eq!(

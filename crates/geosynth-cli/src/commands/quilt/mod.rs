@@ -246,7 +246,7 @@ fn write_sheet_mesh(
     let (mut ctx, bar) = progress_context(globals, 0, "meshing", false);
     let (mesh, resolution, seconds) = sheet_mesh(points, &mut ctx)?;
     bar.finish_and_clear();
-    write_geometry_file(path, &Geometry::Mesh(mesh.clone()), options)?;
+    write_geometry_file(path, &Geometry::Mesh(mesh.clone()), options, globals)?;
     let topology = mesh.topology();
     status(
         globals,
@@ -394,7 +394,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         options = options.comment(c);
     }
     let written = Geometry::Points(file.to_file_frame(&main.output.points)?);
-    write_geometry_file(&args.output, &written, &options)?;
+    write_geometry_file(&args.output, &written, &options, globals)?;
     if let Some(path) = &args.preview {
         texture_preview(texture, &[&main.output], path, 480, 360)?;
     }
