@@ -63,6 +63,7 @@ pub use voxel_dfsynth::{
 };
 
 use crate::fixtures::volumes::VolumeExemplar;
+use crate::quilt::texture_file_error;
 use crate::{Error, Result};
 
 /// A solid exemplar: a closed mesh and the box whose distance field is sampled.
@@ -108,30 +109,27 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
     if nrrd::is_nrrd_path(path) {
         return read_volume_exemplar(path);
     }
+    let file_error = texture_file_error(path);
     let loaded = io::read_geometry_with(path, &ReadOptions::default().recentre_far(true))?;
     let mesh = match loaded.geometry {
         io::Geometry::Mesh(m) => m,
         io::Geometry::Points(_) => {
-            return Err(Error::TextureFile {
-                path: path.to_path_buf(),
-                message: "distance-field synthesis needs a mesh, not a point set: sample an \
-                          oriented point set's distance field into a volume first (`geosynth \
-                          sdf POINTS.ply -o FIELD.nrrd`) and synthesize from that"
+            return Err(file_error(
+                "distance-field synthesis needs a mesh, not a point set: sample the point \
+                 set's distance field into a volume first (`geosynth sdf POINTS.ply -o \
+                 FIELD.nrrd`, with `--estimate-normals` for points without normals) and \
+                 synthesize from that"
                     .into(),
-            });
+            ));
         }
     };
     let described = crate::quilt::parse_texture_comments_at(&loaded.comments, loaded.origin)
-        .map_err(|message| Error::TextureFile {
-            path: path.to_path_buf(),
-            message,
-        })?;
+        .map_err(file_error)?;
     let bounds = match described {
         Some((b, _)) => b,
-        None => mesh.bounding_box().ok_or_else(|| Error::TextureFile {
-            path: path.to_path_buf(),
-            message: "the mesh has no vertices".into(),
-        })?,
+        None => mesh
+            .bounding_box()
+            .ok_or_else(|| file_error("the mesh has no vertices".into()))?,
     };
     Ok(VoxelExemplar {
         single_precision_step: crate::quilt::single_precision_step(mesh.vertices(), loaded.origin),
@@ -143,10 +141,7 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
 
 /// [`read_exemplar`] of an NRRD volume.
 fn read_volume_exemplar(path: &Path) -> Result<VoxelExemplar> {
-    let file_error = |message: String| Error::TextureFile {
-        path: path.to_path_buf(),
-        message,
-    };
+    let file_error = texture_file_error(path);
     let volume = nrrd::read_file(path)?;
     // A georeferenced field is stored relative to an origin, as mesh files are.
     let origin = io::far_origin(volume.origin, volume.far_corner());

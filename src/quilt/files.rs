@@ -75,7 +75,7 @@ pub fn parse_texture_comments_at(
 }
 
 /// The error of a texture file `path` that the reader refuses, with `message` saying why.
-pub(super) fn texture_file_error(path: &Path) -> impl Fn(String) -> Error + Copy + '_ {
+pub(crate) fn texture_file_error(path: &Path) -> impl Fn(String) -> Error + Copy + '_ {
     |message| Error::TextureFile {
         path: path.to_path_buf(),
         message,

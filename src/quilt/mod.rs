@@ -41,12 +41,12 @@ mod heights;
 mod map_grid;
 mod samples;
 
-pub(crate) use files::single_precision_step;
 pub use files::{
     TextureFile, parse_texture_comments, parse_texture_comments_at, read_texture,
     read_texture_file, read_texture_file_with, read_texture_with_up, texture_comments,
     texture_comments_at,
 };
+pub(crate) use files::{single_precision_step, texture_file_error};
 pub use fitted::{MAX_PLANE_SPREAD, read_texture_file_fitted, read_texture_file_fitted_with};
 pub use heights::{
     HeightFieldFrame, MAX_HEIGHT_SAMPLES, SampleHeights, SampledHeights, sample_heights,

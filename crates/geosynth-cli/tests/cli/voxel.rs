@@ -55,7 +55,10 @@ fn voxel_synthesizes_a_fixture_and_rejects_bad_input() {
     assert!(image::open(path("v.png")).is_ok());
     // A point set is not a solid: the error says how to make one, and that works.
     let points = path("sphere_points.ply");
-    refused(&["voxel", &points, "-o", &path("x.ply")], "geosynth sdf");
+    refused(
+        &["voxel", &points, "-o", &path("x.ply")],
+        "(`geosynth sdf POINTS.ply -o FIELD.nrrd`, with `--estimate-normals` for points without",
+    );
     let volume = path("sphere.nrrd");
     ok(&["sdf", &points, "-o", &volume, "--resolution", "20", "-q"]);
     tiny_voxel(Path::new(&volume), &dir.path().join("x.ply"), &["-q"]);
