@@ -22,7 +22,8 @@ use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use super::normals::{parse_neighbours, undefined_note};
+use super::normals::undefined_note;
+use super::point_normals::check_recorded_neighbours;
 use super::sheet_heights::{MapPlacement, write_sheet_heights};
 use super::sheet_mesh::sheet_mesh;
 use crate::input_file::named;
@@ -58,9 +59,7 @@ struct InputOptions {
 
 impl RecordedInput for InputOptions {
     fn check(&self) -> Result<(), String> {
-        if let Some(k) = self.estimate_normals {
-            parse_neighbours(&k.to_string()).map_err(|e| format!("estimate_normals: {e}"))?;
-        }
+        check_recorded_neighbours(self.estimate_normals)?;
         check_positive("relief", self.relief, "fraction")
     }
 }
@@ -152,11 +151,12 @@ fn load(
     timings: &mut Vec<(String, Duration)>,
 ) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
     let (mut file, frame) = read_texture(args, options, globals, timings)?;
+    let count = file.texture.canonical_points().len();
     if let Some(neighbours) = options.estimate_normals
         && let Some(note) = undefined_note(
             file.undefined_normals,
-            file.texture.canonical_points().len(),
-            neighbours,
+            count,
+            neighbours.min(count),
             "--estimate-normals K",
         )
     {
