@@ -895,7 +895,8 @@ fn mount_st_helens_as_bare_points_gets_its_surface_normals_back() {
     use geosynth::core::io::{WriteOptions, write_geometry};
     use geosynth::core::testdata::shared_data;
     use geosynth::quilt::{
-        ExemplarNormals, read_heightfield_texture, read_texture_file_with, texture_comments,
+        ExemplarNormals, TextureReading, read_heightfield_texture, read_texture_file_with,
+        texture_comments,
     };
     let Some(path) = shared_data("helens_bare", "heightfields/SainteHelens_317x460.f32le") else {
         return;
@@ -911,8 +912,11 @@ fn mount_st_helens_as_bare_points_gets_its_surface_normals_back() {
     }
     let positions = PointSet::new(truth.positions().to_vec()).unwrap();
     write_geometry(&bare, &Geometry::Points(positions), &options).unwrap();
-    let estimated = ExemplarNormals::Estimated { neighbours: 12 };
-    let file = read_texture_file_with(&bare, None, estimated, &mut RunContext::new(0)).unwrap();
+    let reading = TextureReading {
+        normals: ExemplarNormals::Estimated { neighbours: 12 },
+        ..TextureReading::default()
+    };
+    let file = read_texture_file_with(&bare, &reading, &mut RunContext::new(0)).unwrap();
     let read = file.texture.canonical_points();
     assert_eq!(read.positions(), truth.positions());
     assert_eq!(file.texture.canonical_bounds(), sampled.canonical_bounds());

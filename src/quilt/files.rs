@@ -82,6 +82,21 @@ pub(crate) fn texture_file_error(path: &Path) -> impl Fn(String) -> Error + Copy
     }
 }
 
+/// A box given by its corners in a file's coordinates, relative to the `origin` its points
+/// were read from. Errors (as messages) on corners that are not finite or not below one
+/// another on every axis.
+fn given_box([lo, hi]: [DVec3; 2], origin: DVec3) -> std::result::Result<Aabb, String> {
+    let (a, b) = ((lo - origin).as_vec3(), (hi - origin).as_vec3());
+    if !(a.is_finite() && b.is_finite() && a.cmplt(b).all()) {
+        return Err(format!(
+            "the box from ({}, {}, {}) to ({}, {}, {}) needs finite corners, the first below \
+             the second on every axis",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        ));
+    }
+    Ok(Aabb::new(a, b))
+}
+
 /// The box of a file without texture comments: the points' bounding box inset by a sixth
 /// across the plane perpendicular to `up`, one sample spacing thick where they are flat.
 /// Errors (as messages) on no points.
@@ -141,11 +156,14 @@ pub fn read_texture(path: &Path) -> Result<GeometryTexture> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_texture_with_up(path: &Path, up: Option<UpAxis>) -> Result<GeometryTexture> {
+    let reading = TextureReading {
+        up,
+        ..TextureReading::default()
+    };
     read_texture_from(
         path,
-        up,
         &ReadOptions::default(),
-        ExemplarNormals::AsStored,
+        &reading,
         &mut RunContext::new(0),
     )
     .map(|file| file.texture)
@@ -225,18 +243,42 @@ impl From<GeometryTexture> for TextureFile {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile> {
-    read_texture_file_with(path, up, ExemplarNormals::AsStored, &mut RunContext::new(0))
+    let reading = TextureReading {
+        up,
+        ..TextureReading::default()
+    };
+    read_texture_file_with(path, &reading, &mut RunContext::new(0))
 }
 
-/// [`read_texture_file`] with the exemplar's normals taken as `normals` says: for a bare
-/// point set, [`ExemplarNormals::Estimated`] fits them and turns them toward the texture's
-/// up axis (the `texture_up` comment's, or `up`'s). Estimating reports progress through
-/// `ctx` ([`mls_surface::FITTING_STAGE`] and the orientation's stages, each timed) and
-/// stops with [`Error::is_cancelled`] when it is cancelled.
+/// How [`read_texture_file_with`] reads a texture file beyond its coordinates: its up
+/// axis, where its normals come from, and its box.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TextureReading {
+    /// The up axis of a file without texture comments (Z when `None`); a file whose
+    /// `texture_up` comment names another axis is refused.
+    pub up: Option<UpAxis>,
+    /// Where the exemplar's normals come from (the file's own by default).
+    pub normals: ExemplarNormals,
+    /// The box `B_Tin` (paper §3) as its lower and upper corners in the file's coordinates
+    /// (double precision, so that georeferenced files can be given theirs), in place of a
+    /// `texture_box` comment's or the default box (the points' box inset by a sixth across
+    /// the reference plane). Points outside it across the plane are padding. `None` by
+    /// default.
+    pub bounds: Option<[DVec3; 2]>,
+}
+
+/// [`read_texture_file`] read as `reading` says: the up axis, the normals (for a bare point
+/// set, [`ExemplarNormals::Estimated`] fits them and turns them toward the texture's up
+/// axis, the `texture_up` comment's or `reading.up`'s) and the box. Estimating reports
+/// progress through `ctx` ([`mls_surface::FITTING_STAGE`] and the orientation's stages,
+/// each timed) and stops with [`Error::is_cancelled`] when it is cancelled.
+///
+/// Errors, besides [`read_texture_file`]'s: a box whose lower corner is not below its
+/// upper one on every axis, or not finite.
 ///
 /// ```
 /// use geosynth::RunContext;
-/// use geosynth::quilt::{ExemplarNormals, read_texture_file_with};
+/// use geosynth::quilt::{ExemplarNormals, TextureReading, read_texture_file_with};
 /// // Ripples z = 0.1 sin(3x) as bare positions (an XYZ file: no normals, no comments).
 /// let xyz: String = (0..1600)
 ///     .map(|k| {
@@ -246,8 +288,14 @@ pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile>
 ///     .collect();
 /// let path = std::env::temp_dir().join("geosynth_doc_bare_ripples.xyz");
 /// std::fs::write(&path, xyz)?;
-/// let estimated = ExemplarNormals::Estimated { neighbours: 12 };
-/// let file = read_texture_file_with(&path, None, estimated, &mut RunContext::new(0))?;
+/// let reading = TextureReading {
+///     normals: ExemplarNormals::Estimated { neighbours: 12 },
+///     // The middle of the ripples as the box; the rest is padding.
+///     bounds: Some([glam::DVec3::new(1.0, 1.0, -0.2), glam::DVec3::new(3.0, 3.0, 0.2)]),
+///     ..TextureReading::default()
+/// };
+/// let file = read_texture_file_with(&path, &reading, &mut RunContext::new(0))?;
+/// assert_eq!(file.texture.footprint(), (glam::Vec2::ONE, glam::Vec2::splat(3.0)));
 /// // Every normal faces up; away from the border (where the neighbourhoods are one-sided)
 /// // within 5° of the ripples' own.
 /// let points = file.texture.canonical_points();
@@ -263,15 +311,13 @@ pub fn read_texture_file(path: &Path, up: Option<UpAxis>) -> Result<TextureFile>
 /// ```
 pub fn read_texture_file_with(
     path: &Path,
-    up: Option<UpAxis>,
-    normals: ExemplarNormals,
+    reading: &TextureReading,
     ctx: &mut RunContext,
 ) -> Result<TextureFile> {
     read_texture_from(
         path,
-        up,
         &ReadOptions::default().recentre_far(true),
-        normals,
+        reading,
         ctx,
     )
 }
@@ -301,11 +347,11 @@ pub(crate) fn single_precision_step(points: &PointSet, origin: DVec3) -> Option<
 
 fn read_texture_from(
     path: &Path,
-    up: Option<UpAxis>,
     options: &ReadOptions,
-    normals: ExemplarNormals,
+    reading: &TextureReading,
     ctx: &mut RunContext,
 ) -> Result<TextureFile> {
+    let up = reading.up;
     let file_error = texture_file_error(path);
     let loaded = io::read_geometry_with(path, options)?;
     let origin = loaded.origin;
@@ -318,17 +364,22 @@ fn read_texture_from(
             "its texture comments give up axis {file_up:?}, not the {wanted:?} asked for"
         )));
     }
+    let given = reading
+        .bounds
+        .map(|corners| given_box(corners, origin))
+        .transpose()
+        .map_err(file_error)?;
     let samples = texture_samples(
         path,
         loaded.geometry,
-        normals,
+        reading.normals,
         file_up.to_world(Vec3::Z),
         ctx,
     )?;
     let points = samples.points;
-    let bounds = match described {
-        Some((bounds, _)) => bounds,
-        None => default_box(&points, file_up).map_err(file_error)?,
+    let bounds = match (given, described) {
+        (Some(bounds), _) | (None, Some((bounds, _))) => bounds,
+        (None, None) => default_box(&points, file_up).map_err(file_error)?,
     };
     Ok(TextureFile {
         texture: GeometryTexture::new(&points, bounds, file_up)?,
@@ -482,6 +533,77 @@ mod tests {
         let path = dir.join(name);
         std::fs::write(&path, ply).unwrap();
         path
+    }
+
+    #[test]
+    fn a_given_box_replaces_the_comments_and_the_default_in_file_coordinates() {
+        let dir = tempfile::tempdir().unwrap();
+        let read = |path: &Path, up: Option<UpAxis>, bounds: Option<[DVec3; 2]>| {
+            let reading = TextureReading {
+                up,
+                bounds,
+                ..TextureReading::default()
+            };
+            read_texture_file_with(path, &reading, &mut RunContext::new(0))
+        };
+        // Over the bumpy fixture's own `texture_box` comment.
+        let bumpy = crate::fixtures::bundled_dir().join("quilt_bumpy.ply");
+        let corners = [DVec3::new(1.0, 0.5, -0.5), DVec3::new(3.0, 3.5, 1.0)];
+        let file = read(&bumpy, None, Some(corners)).unwrap();
+        let expected = Aabb::new(Vec3::new(1.0, 0.5, -0.5), Vec3::new(3.0, 3.5, 1.0));
+        assert_eq!(file.texture.canonical_bounds(), expected);
+        // Y up: the corners are the file's, the texture's box their canonical turn.
+        let wave = grid_ply(dir.path(), "wave.ply", |x| 0.1 * (2.0 * x).sin());
+        let y_box = [DVec3::new(0.5, 0.0, -0.2), DVec3::new(2.5, 3.0, 0.2)];
+        let turned = read(&wave, Some(UpAxis::Y), Some(y_box)).unwrap();
+        let world = Aabb::new(y_box[0].as_vec3(), y_box[1].as_vec3());
+        assert_eq!(
+            turned.texture.canonical_bounds(),
+            UpAxis::Y.canonical_box(&world)
+        );
+        // Far from the origin: the corners are taken in double precision, relative to the
+        // origin the points were read from.
+        let far = dir.path().join("far.ply");
+        let text = std::fs::read_to_string(&wave).unwrap();
+        let mut shifted = String::new();
+        for line in text.lines() {
+            let v: Vec<f64> = line.split(' ').filter_map(|t| t.parse().ok()).collect();
+            if v.len() == 6 {
+                let (x, y) = (v[0] + 600_000.0, v[1] + 5_000_000.0);
+                shifted += &format!("{x} {y} {} {} {} {}\n", v[2], v[3], v[4], v[5]);
+            } else {
+                shifted += &format!(
+                    "{}\n",
+                    line.replace("property float x", "property double x")
+                        .replace("property float y", "property double y")
+                );
+            }
+        }
+        std::fs::write(&far, shifted).unwrap();
+        let offset = DVec3::new(600_000.0, 5_000_000.0, 0.0);
+        let far_box = [
+            DVec3::new(0.5, 0.5, -0.5) + offset,
+            DVec3::new(2.5, 2.0, 0.5) + offset,
+        ];
+        let file = read(&far, None, Some(far_box)).unwrap();
+        let local = Aabb::new(
+            (far_box[0] - file.origin).as_vec3(),
+            (far_box[1] - file.origin).as_vec3(),
+        );
+        assert_eq!(file.texture.canonical_bounds(), local);
+        assert!(file.origin.x > 500_000.0, "{}", file.origin);
+        // Corners out of order or not finite are refused, naming the file.
+        for bad in [
+            [DVec3::new(2.0, 0.0, -1.0), DVec3::new(1.0, 3.0, 1.0)],
+            [DVec3::new(0.0, 0.0, 1.0), DVec3::new(3.0, 3.0, 1.0)],
+            [DVec3::new(f64::NAN, 0.0, -1.0), DVec3::new(3.0, 3.0, 1.0)],
+        ] {
+            let refused = read(&wave, None, Some(bad)).unwrap_err().to_string();
+            assert!(
+                refused.contains("wave.ply") && refused.contains("first below the second"),
+                "{refused}"
+            );
+        }
     }
 
     #[test]

@@ -42,7 +42,7 @@ mod map_grid;
 mod samples;
 
 pub use files::{
-    TextureFile, parse_texture_comments, parse_texture_comments_at, read_texture,
+    TextureFile, TextureReading, parse_texture_comments, parse_texture_comments_at, read_texture,
     read_texture_file, read_texture_file_with, read_texture_with_up, texture_comments,
     texture_comments_at,
 };

@@ -138,10 +138,25 @@ mod tests {
 
     use super::ExemplarNormals;
     use crate::normals::EstimateNormals;
+    use crate::quilt::{TextureReading, read_texture_file_with, texture_comments};
     use crate::quilt::{UpAxis, read_texture_file, read_texture_file_fitted_with};
-    use crate::quilt::{read_texture_file_with, texture_comments};
 
     const TWELVE: ExemplarNormals = ExemplarNormals::Estimated { neighbours: 12 };
+
+    /// Reads `path` with `normals` and, when given, `up`.
+    fn read_with(
+        path: &Path,
+        up: Option<UpAxis>,
+        normals: ExemplarNormals,
+        ctx: &mut RunContext,
+    ) -> crate::Result<crate::quilt::TextureFile> {
+        let reading = TextureReading {
+            up,
+            normals,
+            bounds: None,
+        };
+        read_texture_file_with(path, &reading, ctx)
+    }
 
     /// Ripples `h = 0.1 sin(3u)` over a 40 × 40 grid of spacing 0.1 in texture
     /// coordinates `(u, v, h)`, with their true unit normals, each point moved a little
@@ -194,8 +209,8 @@ mod tests {
                 &texture_comments(&bounds, up),
             );
             for file in [
-                read_texture_file_with(&plain, Some(up), TWELVE, &mut RunContext::new(0)),
-                read_texture_file_with(&described, None, TWELVE, &mut RunContext::new(0)),
+                read_with(&plain, Some(up), TWELVE, &mut RunContext::new(0)),
+                read_with(&described, None, TWELVE, &mut RunContext::new(0)),
             ] {
                 let file = file.unwrap();
                 assert_eq!((file.texture.up(), file.undefined_normals), (up, 0));
@@ -225,7 +240,7 @@ mod tests {
             let path = bare_ply(dir.path(), "bare.ply", positions.clone(), &[]);
             let normals = ExemplarNormals::Estimated { neighbours };
             let mut ctx = RunContext::new(0);
-            let file = read_texture_file_with(&path, None, normals, &mut ctx).unwrap();
+            let file = read_with(&path, None, normals, &mut ctx).unwrap();
             let stage = EstimateNormals {
                 neighbours,
                 up: Vec3::Z,
@@ -244,7 +259,7 @@ mod tests {
             );
         }
         assert!(
-            read_texture_file_with(
+            read_with(
                 &dir.path().join("bare.ply"),
                 None,
                 ExemplarNormals::Estimated { neighbours: 3 },
@@ -315,7 +330,7 @@ mod tests {
             "{refused}"
         );
         let mesh = crate::fixtures::bundled_dir().join("icosphere_mesh.ply");
-        let refused = read_texture_file_with(&mesh, None, TWELVE, &mut RunContext::new(0))
+        let refused = read_with(&mesh, None, TWELVE, &mut RunContext::new(0))
             .unwrap_err()
             .to_string();
         assert!(refused.contains("it is a mesh"), "{refused}");
@@ -329,7 +344,7 @@ mod tests {
         let flag = CancelFlag::new();
         flag.cancel();
         let mut ctx = RunContext::new(0).with_cancel_flag(flag);
-        let stopped = read_texture_file_with(&bare, None, TWELVE, &mut ctx).unwrap_err();
+        let stopped = read_with(&bare, None, TWELVE, &mut ctx).unwrap_err();
         assert!(stopped.is_cancelled(), "{stopped}");
     }
 }

@@ -631,19 +631,7 @@ fn estimate_normals_is_refused_where_normals_come_otherwise() {
         &["quilt", &mesh, "-o", &out, "--estimate-normals"],
         "it is a mesh: its normals come from its faces",
     );
-    let map = dir.path("flat_8x8.f32le");
-    std::fs::write(&map, vec![0u8; 8 * 8 * 4]).unwrap();
-    refused(
-        &[
-            "quilt",
-            "--heightfield",
-            &arg(&map),
-            "-o",
-            &out,
-            "--estimate-normals",
-        ],
-        "cannot be used with",
-    );
+    refused_with_a_height_field(&dir, &["--estimate-normals"]);
 }
 
 #[test]
@@ -669,4 +657,94 @@ fn outputs_in_formats_without_normals_are_noted_or_refused() {
         );
         assert!(!dir.path(name).exists());
     }
+}
+
+#[test]
+fn box_sets_the_exemplar_box_in_file_coordinates() {
+    let dir = Scratch::new();
+    let fixture = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
+    let quilt = |input: &str, out: &str, more: &[&str]| {
+        let out = arg(&dir.path(out));
+        let run = ["quilt", input, "-o", &out, "--scale", "1.2"];
+        ok(&[&run[..], &["--resolution", "24", "--no-quality"], more].concat())
+    };
+    let bytes = |name: &str| std::fs::read(dir.path(name)).unwrap();
+    // The fixture's own `texture_box`, given by hand, quilts as the comment does; another
+    // box quilts otherwise.
+    let own = "0,0,-0.024641763,4,4,0.517577";
+    quilt(&fixture, "commented.ply", &[]);
+    quilt(&fixture, "given.ply", &["--box", own]);
+    assert!(bytes("given.ply") == bytes("commented.ply"));
+    quilt(
+        &fixture,
+        "smaller.ply",
+        &["--box", "0.5,0.5,-0.1,3.5,3.5,0.6"],
+    );
+    assert!(bytes("smaller.ply") != bytes("commented.ply"));
+    // Bare positions with one stray point far above: the default box reaches up to it
+    // and is refused (the note names --box); --box leaves it out, and the report
+    // records the box for --params.
+    let mut xyz = String::new();
+    let bumpy = geosynth::core::io::read_geometry(Path::new(&fixture)).unwrap();
+    for p in bumpy.geometry.points().positions() {
+        xyz += &format!("{} {} {}\n", p.x, p.y, p.z);
+    }
+    xyz += "2 2 30000\n";
+    let stray = dir.path("stray.xyz");
+    std::fs::write(&stray, xyz).unwrap();
+    let stray = arg(&stray);
+    let tall = geosynth(&[
+        "quilt",
+        &stray,
+        "-o",
+        &arg(&dir.path("x.ply")),
+        "--estimate-normals",
+    ]);
+    let (said, error) = (
+        String::from_utf8_lossy(&tall.stdout),
+        String::from_utf8_lossy(&tall.stderr),
+    );
+    assert!(
+        !tall.status.success() && error.contains("field spacings tall"),
+        "{error}"
+    );
+    assert!(
+        said.contains("--box X0,Y0,Z0,X1,Y1,Z1 leaves them out"),
+        "{said}"
+    );
+    let report = arg(&dir.path("r.json"));
+    let said = quilt(
+        &stray,
+        "boxed.ply",
+        &["--estimate-normals", "--box", own, "--report", &report],
+    );
+    assert!(!said.contains("taller along its up axis"), "{said}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(
+        r["input_options"]["box"],
+        serde_json::json!([0.0, 0.0, -0.024641763, 4.0, 4.0, 0.517577])
+    );
+    quilt(&stray, "replayed.ply", &["--params", &report]);
+    assert!(bytes("replayed.ply") == bytes("boxed.ply"));
+    // Refused: corners out of order, a fitted plane, a height field.
+    let out = arg(&dir.path("x.ply"));
+    refused(
+        &["quilt", &fixture, "-o", &out, "--box", "4,0,0,0,4,1"],
+        "needs six finite numbers",
+    );
+    refused(
+        &["quilt", &stray, "-o", &out, "--box", own, "--up", "auto"],
+        "--box gives a box along the file's axes, and --up auto",
+    );
+    refused_with_a_height_field(&dir, &["--box", own]);
+}
+
+/// `quilt` of a flat height field with `flags` is refused: they are for point sets.
+fn refused_with_a_height_field(dir: &Scratch, flags: &[&str]) {
+    let map = dir.path("flat_8x8.f32le");
+    std::fs::write(&map, vec![0u8; 8 * 8 * 4]).unwrap();
+    let (map, out) = (arg(&map), arg(&dir.path("from_map.ply")));
+    let run = ["quilt", "--heightfield", &map, "-o", &out];
+    refused(&[&run[..], flags].concat(), "cannot be used with");
 }

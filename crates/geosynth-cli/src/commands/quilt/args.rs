@@ -114,6 +114,19 @@ pub struct QuiltArgs {
     /// axis (or any, with `auto`) is refused.
     #[arg(long, value_enum, conflicts_with = "heightfield")]
     pub(super) up: Option<TextureUpArg>,
+    /// The exemplar's box `B_Tin` (paper §3), its corners in the file's coordinates:
+    /// the part of the points that is the texture, the rest across the reference plane
+    /// being padding. Replaces a `texture_box` comment and the default box (useful for
+    /// files that carry no comments, such as XYZ and LAS scans, and to leave out stray
+    /// points far above or below a scan). Not with `--up auto` (the fitted plane's box is
+    /// not aligned with the file's axes) or a height field.
+    #[arg(
+        long = "box",
+        value_name = "X0,Y0,Z0,X1,Y1,Z1",
+        value_parser = parse_box,
+        conflicts_with = "heightfield"
+    )]
+    pub(super) bounds: Option<[f64; 6]>,
     /// Output point set (.ply, .obj, .off, .xyz or .xyzn).
     #[arg(short, long)]
     pub(super) output: PathBuf,
@@ -256,6 +269,25 @@ fn parse_size(s: &str) -> Result<(f32, f32), String> {
         [w, h] if w > 0.0 && h > 0.0 => Ok((w, h)),
         _ => Err(format!("`{s}` needs two positive numbers W,H")),
     }
+}
+
+/// Parses `--box X0,Y0,Z0,X1,Y1,Z1`: six finite numbers, each lower corner's below the
+/// upper one's.
+fn parse_box(s: &str) -> Result<[f64; 6], String> {
+    let v: [f64; 6] = crate::commands::comma_values(s, "X0,Y0,Z0,X1,Y1,Z1")?;
+    if box_is_ordered(&v) {
+        Ok(v)
+    } else {
+        Err(format!(
+            "`{s}` needs six finite numbers X0,Y0,Z0,X1,Y1,Z1 with each of X0, Y0, Z0 below \
+             X1, Y1, Z1"
+        ))
+    }
+}
+
+/// Whether the corners `X0,Y0,Z0,X1,Y1,Z1` are finite, each lower one below the upper.
+pub(super) fn box_is_ordered(corners: &[f64; 6]) -> bool {
+    corners.iter().all(|x| x.is_finite()) && (0..3).all(|i| corners[i] < corners[i + 3])
 }
 
 /// Parses `--map-range LO,HI`: two finite heights, LO below HI.

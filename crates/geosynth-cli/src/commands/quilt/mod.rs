@@ -13,8 +13,8 @@ use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_p
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
     DEFAULT_RELIEF, ExemplarNormals, GeometryTexture, HeightFieldFrame, Method, OutputSize,
-    QualityReport, QuiltOutput, QuiltParams, TextureFile, UpAxis, read_heightfield_texture_framed,
-    read_texture_file_fitted_with, read_texture_file_with,
+    QualityReport, QuiltOutput, QuiltParams, TextureFile, TextureReading, UpAxis,
+    read_heightfield_texture_framed, read_texture_file_fitted_with, read_texture_file_with,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 use glam::{DVec3, Vec3};
@@ -36,7 +36,7 @@ use crate::params_file::{
     GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, QUILT_REPORTS, RecordedInput, check_positive,
 };
 use crate::{CliResult, Globals};
-use args::{PresetArg, TextureUpArg};
+use args::{PresetArg, TextureUpArg, box_is_ordered};
 use notes::{orientation_note, precision_note, size_note, tilt_note};
 
 pub use args::QuiltArgs;
@@ -55,11 +55,22 @@ struct InputOptions {
     orient_normals: bool,
     /// `--estimate-normals`, in neighbours (unset: the file's own normals).
     estimate_normals: Option<usize>,
+    /// `--box`, corners in the file's coordinates (unset: the comments' box or the default).
+    #[serde(rename = "box")]
+    bounds: Option<[f64; 6]>,
 }
 
 impl RecordedInput for InputOptions {
     fn check(&self) -> Result<(), String> {
         check_recorded_neighbours(self.estimate_normals)?;
+        if let Some(b) = self.bounds
+            && !box_is_ordered(&b)
+        {
+            return Err(format!(
+                "box must be six finite numbers, each lower corner's below the upper one's, \
+                 not {b:?}"
+            ));
+        }
         check_positive("relief", self.relief, "fraction")
     }
 }
@@ -76,8 +87,19 @@ impl InputOptions {
             .estimate_normals
             .or(recorded.estimate_normals)
             .filter(|_| !heightfield);
+        let up = args.up.or(recorded.up).filter(|_| !heightfield);
+        let bounds = args.bounds.or(recorded.bounds).filter(|_| !heightfield);
+        if bounds.is_some() && matches!(up, Some(TextureUpArg::Auto)) {
+            return Err(
+                "--box gives a box along the file's axes, and --up auto quilts in a \
+                        plane fitted to the points, whose box is not; name the up axis \
+                        (--up x|y|z) or leave out --box"
+                    .into(),
+            );
+        }
         Ok(Self {
-            up: args.up.or(recorded.up).filter(|_| !heightfield),
+            up,
+            bounds,
             relief: heightfield.then(|| args.relief.or(recorded.relief).unwrap_or(DEFAULT_RELIEF)),
             orient_normals: (args.orient_normals || recorded.orient_normals)
                 && estimate_normals.is_none(),
@@ -85,11 +107,18 @@ impl InputOptions {
         })
     }
 
-    /// Where the exemplar's normals come from.
-    fn normals(&self) -> ExemplarNormals {
-        match self.estimate_normals {
-            Some(neighbours) => ExemplarNormals::Estimated { neighbours },
-            None => ExemplarNormals::AsStored,
+    /// How a point-set exemplar's file is read along its axes: its up axis, normals and
+    /// box.
+    fn reading(&self) -> TextureReading {
+        TextureReading {
+            up: self.up.and_then(TextureUpArg::axis),
+            normals: match self.estimate_normals {
+                Some(neighbours) => ExemplarNormals::Estimated { neighbours },
+                None => ExemplarNormals::AsStored,
+            },
+            bounds: self
+                .bounds
+                .map(|b| [DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5])]),
         }
     }
 }
@@ -190,12 +219,12 @@ fn read_texture(
         .exemplar
         .as_deref()
         .ok_or("an exemplar or --heightfield is needed")?;
-    let normals = options.normals();
+    let reading = options.reading();
     let read = |ctx: &mut RunContext| match options.up {
-        Some(TextureUpArg::Auto) => read_texture_file_fitted_with(path, normals, ctx),
-        up => read_texture_file_with(path, up.and_then(TextureUpArg::axis), normals, ctx),
+        Some(TextureUpArg::Auto) => read_texture_file_fitted_with(path, reading.normals, ctx),
+        _ => read_texture_file_with(path, &reading, ctx),
     };
-    let file = if normals == ExemplarNormals::AsStored {
+    let file = if reading.normals == ExemplarNormals::AsStored {
         read(&mut RunContext::new(0))
     } else {
         let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
@@ -367,7 +396,10 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     // apart is no sign of unoriented data).
     let from_points = heightfield_frame.is_none();
     for note in [
-        from_points.then(|| orientation_note(texture)).flatten(),
+        // A box given by hand says the axes and the extent are the user's choice.
+        (from_points && input_options.bounds.is_none())
+            .then(|| orientation_note(texture))
+            .flatten(),
         tilt_note(&file),
         precision_note(&file),
         from_points

@@ -17,7 +17,9 @@ pub(super) fn orientation_note(texture: &GeometryTexture) -> Option<String> {
     (extent.z > extent.x.min(extent.y)).then(|| {
         format!(
             "note: the exemplar is taller along its up axis ({:?}) than it is wide; if its \
-             file was written with another up axis, pass --up x|y|z (or --up auto)",
+             file was written with another up axis, pass --up x|y|z (or --up auto); if stray \
+             points lie far above or below its surface, --box X0,Y0,Z0,X1,Y1,Z1 leaves them \
+             out of the texture's box",
             texture.up()
         )
     })
