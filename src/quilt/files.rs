@@ -89,8 +89,8 @@ fn given_box([lo, hi]: [DVec3; 2], origin: DVec3) -> std::result::Result<Aabb, S
     let (a, b) = ((lo - origin).as_vec3(), (hi - origin).as_vec3());
     if !(a.is_finite() && b.is_finite() && a.cmplt(b).all()) {
         return Err(format!(
-            "the box from ({}, {}, {}) to ({}, {}, {}) needs finite corners, the first below \
-             the second on every axis",
+            "the box from ({:?}, {:?}, {:?}) to ({:?}, {:?}, {:?}) needs finite corners, the \
+             first below the second on every axis",
             lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
         ));
     }
