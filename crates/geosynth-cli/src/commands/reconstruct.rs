@@ -615,11 +615,7 @@ impl SdfInputOptions {
     /// The options given on the command line over those of `--params`' file.
     fn of(args: &SdfArgs, file: &ParamsFile) -> CliResult<Self> {
         let recorded: Self = file.input_options()?;
-        let prep = args.normals.over(NormalsPrep {
-            orient: recorded.orient_normals,
-            estimate: recorded.estimate_normals,
-            up: recorded.up,
-        })?;
+        let prep = args.normals.over(recorded.normals())?;
         Ok(Self {
             orient_faces: args.sign.orient_faces || recorded.orient_faces,
             orient_normals: prep.orient,
