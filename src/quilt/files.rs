@@ -8,6 +8,7 @@ use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, KdIndex, PointSet, RunContext};
 
 use super::samples::{ExemplarNormals, texture_samples};
+use super::strays::{StrayPoints, stray_points};
 use super::{GeometryTexture, UpAxis};
 use crate::{Error, Result};
 
@@ -198,6 +199,11 @@ pub struct TextureFile {
     /// so that their normals are arbitrary across the line (more neighbours fix them).
     /// 0 otherwise.
     pub undefined_normals: usize,
+    /// For a file read with the default box (no texture comments, no given box) along its
+    /// axes: the few points that lie far outside the rest and stretch that box, and the
+    /// box without them ([`StrayPoints`] says the rule). `None` otherwise, and for a
+    /// fitted reference plane, whose box is not given in the file's axes.
+    pub stray_points: Option<StrayPoints>,
 }
 
 /// A texture that lies where its coordinates say (a height field, a generated exemplar):
@@ -211,6 +217,7 @@ impl From<GeometryTexture> for TextureFile {
             single_precision_step: None,
             notes: Vec::new(),
             undefined_normals: 0,
+            stray_points: None,
         }
     }
 }
@@ -377,9 +384,12 @@ fn read_texture_from(
         ctx,
     )?;
     let points = samples.points;
-    let bounds = match (given, described) {
-        (Some(bounds), _) | (None, Some((bounds, _))) => bounds,
-        (None, None) => default_box(&points, file_up).map_err(file_error)?,
+    let (bounds, stray_points) = match (given, described) {
+        (Some(bounds), _) | (None, Some((bounds, _))) => (bounds, None),
+        (None, None) => (
+            default_box(&points, file_up).map_err(file_error)?,
+            stray_points(&points, file_up, origin),
+        ),
     };
     Ok(TextureFile {
         texture: GeometryTexture::new(&points, bounds, file_up)?,
@@ -388,6 +398,7 @@ fn read_texture_from(
         single_precision_step: single_precision_step(&points, origin),
         notes: loaded.notes,
         undefined_normals: samples.undefined_normals,
+        stray_points,
     })
 }
 
@@ -517,6 +528,58 @@ mod tests {
             expected
         );
         assert!(read_texture_file(&plain, None).unwrap().notes.is_empty());
+    }
+
+    #[test]
+    fn stray_points_are_found_only_under_the_default_box() {
+        let dir = tempfile::tempdir().unwrap();
+        let wave = grid_ply(dir.path(), "wave.ply", |x| 0.1 * (2.0 * x).sin());
+        let clean = read_texture_file(&wave, None).unwrap();
+        assert_eq!(clean.stray_points, None);
+        // One point 50 above the others, among them.
+        let text = std::fs::read_to_string(&wave).unwrap();
+        let with_stray = text
+            .replace("element vertex 900", "element vertex 901")
+            .replace("end_header\n", "end_header\n1.5 1.5 50 0 0 1\n");
+        let stray = dir.path().join("stray.ply");
+        std::fs::write(&stray, with_stray).unwrap();
+        let file = read_texture_file(&stray, None).unwrap();
+        let found = file.stray_points.unwrap();
+        assert_eq!(found.count, 1);
+        // Its box is the clean file's default box, and given back it is the texture's.
+        let reading = TextureReading {
+            bounds: found.box_without,
+            ..TextureReading::default()
+        };
+        let boxed = read_texture_file_with(&stray, &reading, &mut RunContext::new(0)).unwrap();
+        assert_eq!(
+            boxed.texture.canonical_bounds(),
+            clean.texture.canonical_bounds()
+        );
+        assert_eq!(boxed.stray_points, None, "a given box is the user's");
+        // Comments give the box.
+        let bumpy = crate::fixtures::bundled_dir().join("quilt_bumpy.ply");
+        assert_eq!(read_texture_file(&bumpy, None).unwrap().stray_points, None);
+        assert_eq!(clean.stray_points, None);
+        // A fitted plane leaves them out itself: the clean file's plane and box.
+        let fitted = super::super::read_texture_file_fitted(&stray).unwrap();
+        let fitted_clean = super::super::read_texture_file_fitted(&wave).unwrap();
+        assert_eq!(
+            fitted.stray_points,
+            Some(StrayPoints {
+                count: 1,
+                box_without: None
+            })
+        );
+        assert_eq!(
+            (fitted.frame, fitted.origin),
+            (fitted_clean.frame, fitted_clean.origin)
+        );
+        assert_eq!(
+            fitted.texture.canonical_bounds(),
+            fitted_clean.texture.canonical_bounds()
+        );
+        assert_eq!(fitted_clean.stray_points, None);
     }
 
     /// An ASCII PLY of a 30 × 30 grid at spacing 0.1 with heights `z(x)` and +Z normals,

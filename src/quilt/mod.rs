@@ -8,6 +8,9 @@
 //! (or the one given to [`read_texture_with_up`]) and the box is the points' bounding box
 //! inset by a sixth of its extent across the reference plane on every side (so the outer
 //! sixths are padding); points that lie in a plane get a box one sample spacing thick.
+//! Points far outside the rest stretch that box; the reader counts them and gives the
+//! default box without them ([`StrayPoints`]) for the caller to pass back as
+//! [`TextureReading::bounds`].
 //!
 //! ```
 //! use geosynth::quilt::{Quilt, QuiltParams, OutputSize, texture_from_exemplar};
@@ -40,6 +43,7 @@ mod fitted;
 mod heights;
 mod map_grid;
 mod samples;
+mod strays;
 
 pub use files::{
     TextureFile, TextureReading, parse_texture_comments, parse_texture_comments_at, read_texture,
@@ -53,6 +57,7 @@ pub use heights::{
 };
 pub use map_grid::MapGrid;
 pub use samples::ExemplarNormals;
+pub use strays::StrayPoints;
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a
 /// fraction of the samples' longer extent.

@@ -691,7 +691,7 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
     }
     xyz += "2 2 30000\n";
     let stray = dir.path("stray.xyz");
-    std::fs::write(&stray, xyz).unwrap();
+    std::fs::write(&stray, &xyz).unwrap();
     let stray = arg(&stray);
     let tall = geosynth(&[
         "quilt",
@@ -708,21 +708,60 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
         !tall.status.success() && error.contains("field spacings tall"),
         "{error}"
     );
+    // The note counts the stray point and gives the default box without it, which
+    // quilts.
+    let suggested = said
+        .split("--box ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no box in {said}"));
+    assert!(said.contains("note: 1 point of the exemplar lies far outside the rest"));
+    assert!(!said.contains("taller along its up axis"), "{said}");
+    let corners: Vec<f64> = suggested.split(',').map(|c| c.parse().unwrap()).collect();
+    assert!(corners[5] < 0.6 && corners[3] > 3.9, "{suggested}");
+    let report = arg(&dir.path("r.json"));
+    let said = quilt(
+        &stray,
+        "suggested.ply",
+        &[
+            "--estimate-normals",
+            "--box",
+            suggested,
+            "--report",
+            &report,
+        ],
+    );
+    assert!(!said.contains("far outside the rest"), "{said}");
+    let written = geosynth::core::io::read_geometry(dir.path("suggested.ply")).unwrap();
+    let top = written.geometry.points().bounding_box().unwrap().max.z;
+    assert!(top < 0.6, "{top}");
+    assert!(report_of(&report)["stray_points"].is_null());
+    // A stray point 3 up leaves a box the quilt can take, and the report records it.
+    let low_stray = dir.path("low_stray.xyz");
+    std::fs::write(&low_stray, xyz.replace("2 2 30000", "2 2 3")).unwrap();
+    let said = quilt(
+        &arg(&low_stray),
+        "low.ply",
+        &["--estimate-normals", "--report", &report],
+    );
     assert!(
-        said.contains("--box X0,Y0,Z0,X1,Y1,Z1 leaves them out"),
+        said.contains("1 point of the exemplar lies far outside"),
         "{said}"
     );
-    let report = arg(&dir.path("r.json"));
+    let recorded = &report_of(&report)["stray_points"];
+    assert_eq!(recorded["count"], 1);
+    assert!(
+        recorded["box_without"][5].as_f64().unwrap() < 0.6,
+        "{recorded}"
+    );
     let said = quilt(
         &stray,
         "boxed.ply",
         &["--estimate-normals", "--box", own, "--report", &report],
     );
     assert!(!said.contains("taller along its up axis"), "{said}");
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(
-        r["input_options"]["box"],
+        report_of(&report)["input_options"]["box"],
         serde_json::json!([0.0, 0.0, -0.024641763, 4.0, 4.0, 0.517577])
     );
     quilt(&stray, "replayed.ply", &["--params", &report]);
@@ -738,6 +777,11 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
         "--box gives a box along the file's axes, and --up auto",
     );
     refused_with_a_height_field(&dir, &["--box", own]);
+}
+
+/// The JSON report at `path`.
+fn report_of(path: &str) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// `quilt` of a flat height field with `flags` is refused: they are for point sets.

@@ -118,8 +118,9 @@ pub struct QuiltArgs {
     /// the part of the points that is the texture, the rest across the reference plane
     /// being padding. Replaces a `texture_box` comment and the default box (useful for
     /// files that carry no comments, such as XYZ and LAS scans, and to leave out stray
-    /// points far above or below a scan). Not with `--up auto` (the fitted plane's box is
-    /// not aligned with the file's axes) or a height field.
+    /// points far above or below a scan; a note gives the default box without the points
+    /// that lie far outside the rest). Not with `--up auto` (the fitted plane's box is not
+    /// aligned with the file's axes; it leaves stray points out itself) or a height field.
     #[arg(
         long = "box",
         value_name = "X0,Y0,Z0,X1,Y1,Z1",

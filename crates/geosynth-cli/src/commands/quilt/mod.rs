@@ -3,6 +3,7 @@
 mod args;
 mod measured;
 mod notes;
+mod panels;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -10,11 +11,10 @@ use std::time::Duration;
 use geosynth::core::io::{FileFormat, Geometry, WriteOptions, XyzColumns};
 use geosynth::core::{PointSet, RunContext};
 use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_path};
-use geosynth::preview::{self, Panel, RenderOptions, UpAxis as ViewUp};
 use geosynth::quilt::{
-    DEFAULT_RELIEF, ExemplarNormals, GeometryTexture, HeightFieldFrame, Method, OutputSize,
-    QualityReport, QuiltOutput, QuiltParams, TextureFile, TextureReading, UpAxis,
-    read_heightfield_texture_framed, read_texture_file_fitted_with, read_texture_file_with,
+    DEFAULT_RELIEF, ExemplarNormals, HeightFieldFrame, Method, OutputSize, QualityReport,
+    QuiltParams, TextureFile, TextureReading, read_heightfield_texture_framed,
+    read_texture_file_fitted_with, read_texture_file_with,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 use glam::{DVec3, Vec3};
@@ -37,7 +37,8 @@ use crate::params_file::{
 };
 use crate::{CliResult, Globals};
 use args::{PresetArg, TextureUpArg, box_is_ordered};
-use notes::{orientation_note, precision_note, size_note, tilt_note};
+use notes::{orientation_note, precision_note, size_note, stray_note, tilt_note};
+pub use panels::texture_preview;
 
 pub use args::QuiltArgs;
 pub use measured::{measure_for, measured_run, run_json, unmeasured_run};
@@ -237,33 +238,6 @@ fn read_texture(
     Ok((file, None))
 }
 
-/// Renders exemplar | result panels (Z-up textures are viewed with Z up).
-pub fn texture_preview(
-    texture: &GeometryTexture,
-    outputs: &[&QuiltOutput],
-    path: &Path,
-    w: u32,
-    h: u32,
-) -> CliResult {
-    let up = match texture.up() {
-        UpAxis::X | UpAxis::Y => ViewUp::Y,
-        UpAxis::Z => ViewUp::Z,
-    };
-    let exemplar = Geometry::Points(texture.canonical_points().clone());
-    let results: Vec<Geometry> = outputs
-        .iter()
-        .map(|o| Geometry::Points(o.points.clone()))
-        .collect();
-    let mut panels = vec![Panel::Geometry(&exemplar, ViewUp::Z)];
-    panels.extend(results.iter().map(|g| Panel::Geometry(g, up)));
-    let image = preview::render_panels(
-        &panels,
-        &RenderOptions::default().size(w, h).view(30.0, 40.0),
-    )?;
-    preview::save_png(&image, path)?;
-    Ok(())
-}
-
 /// Writes the quilted points `points` (in the file's frame) as a mesh to `path`, with the
 /// output's `options` (origin and comments); returns the report's `mesh` entry.
 fn write_sheet_mesh(
@@ -395,11 +369,14 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     // normals its surface's, all facing up (rough terrain whose neighbouring normals tilt
     // apart is no sign of unoriented data).
     let from_points = heightfield_frame.is_none();
+    let strays = stray_note(&file);
     for note in [
-        // A box given by hand says the axes and the extent are the user's choice.
-        (from_points && input_options.bounds.is_none())
+        // A box given by hand says the axes and the extent are the user's choice; stray
+        // points explain a tall box better than another up axis does.
+        (from_points && input_options.bounds.is_none() && strays.is_none())
             .then(|| orientation_note(texture))
             .flatten(),
+        strays,
         tilt_note(&file),
         precision_note(&file),
         from_points
@@ -482,6 +459,10 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             INPUT_OPTIONS_KEY: input_options,
             "input_timings": timings_json(&input_timings),
             "undefined_normals": input_options.estimate_normals.map(|_| file.undefined_normals),
+            "stray_points": file.stray_points.map(|s| json!({
+                "count": s.count,
+                "box_without": s.box_without.map(|[lo, hi]| [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]),
+            })),
             "params": params,
             "run": run_json(&main),
             "mesh": mesh,
