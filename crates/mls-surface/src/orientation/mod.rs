@@ -134,10 +134,12 @@ const ROOT_MIN_COSINE: f32 = 0.5;
 /// (the same result but for the few points no usable edge reaches, which keep their sign:
 /// 17 of the flowers' 15,796): the bumpy fixture, torus, sphere, cylinder and the bunny
 /// scan all restored; chameleon 97%; flowers 92% (97% at density 700).
-/// **Interlinked thin tubes are not restored**: on the chain mail and the weave about half the points come out
-/// reversed, in large consistent pieces (likely whole rings: linked rings touch, and the
-/// propagation crosses between them; not isolated). [`orientation_disagreement`] cannot
-/// see that, since each piece is consistent in itself.
+/// **Tubes that pass through one another are not restored**: on the chain mail and the
+/// weave, whose tubes interpenetrate, about half the points come out reversed in large
+/// consistent pieces at every sampling density measured (300 to 3,000 points per unit
+/// area): where two surfaces cross, edges between them pass both filters, and the sign
+/// each ring gets hangs on the crossing edge its tree takes (docs/mls-surface.md).
+/// [`orientation_disagreement`] cannot see that, since each piece is consistent in itself.
 ///
 /// Errors: no normals, a non-finite position, an `up` that is zero or not finite.
 ///
