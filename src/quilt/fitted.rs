@@ -7,6 +7,7 @@ use std::path::Path;
 use glam::{DMat3, DVec3, Vec3};
 use mls_surface::Covariance;
 use pointset_core::io::{self, ReadOptions};
+use pointset_core::strays::kept_indices;
 use pointset_core::{Aabb, PointSet, RunContext};
 
 use super::files::{
@@ -14,7 +15,7 @@ use super::files::{
     texture_file_error,
 };
 use super::samples::{ExemplarNormals, texture_samples};
-use super::strays::{StrayPoints, kept_points};
+use super::strays::StrayPoints;
 use super::{GeometryTexture, TextureFile, UpAxis};
 use crate::Result;
 
@@ -104,7 +105,7 @@ pub fn read_texture_file_fitted_with(
     })?;
     let positions = points.positions();
     // Stray points would tilt the plane and stretch its box: both are fitted without them.
-    let kept = kept_points(positions);
+    let kept = kept_indices(positions);
     let fit = Covariance::of(positions, kept.iter().copied())
         .ok_or_else(|| file_error("no points".into()))?;
     let [across, narrow, _] = fit.eigenvalues;
@@ -162,7 +163,7 @@ pub fn read_texture_file_fitted_with(
 /// least spread), turned to face +Z, or +Y where it lies across Z, or +X where it lies
 /// across both; +Z when there are no points.
 fn facing_up(positions: &[Vec3]) -> Vec3 {
-    let Some(fit) = Covariance::of(positions, kept_points(positions)) else {
+    let Some(fit) = Covariance::of(positions, kept_indices(positions)) else {
         return Vec3::Z;
     };
     let normal = fit.eigenvectors[0];

@@ -3,7 +3,8 @@
 //! Shared foundations of the geosynth workspace: geometry types ([`PointSet`], [`TriMesh`],
 //! [`Aabb`], [`Grid3`]), spatial indices ([`KdIndex`], [`BucketGrid`]), file I/O ([`io`]:
 //! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS; polygon faces split by
-//! [`triangulate_polygon`]), seeded randomness ([`rng`]), and the [`Stage`] /
+//! [`triangulate_polygon`]), seeded randomness ([`rng`]), stray points far outside the
+//! rest ([`strays`]), and the [`Stage`] /
 //! [`RunContext`] / [`Progress`] machinery every algorithm is exposed through, and the
 //! [`Surface`] trait (closest point + normal) shared by point-set surfaces and meshes. It
 //! contains no algorithm from any paper.
@@ -65,6 +66,7 @@ mod scalar;
 mod scaled;
 pub mod spatial;
 mod stage;
+pub mod strays;
 mod surface;
 pub mod testdata;
 mod weld;

@@ -6,7 +6,7 @@ pub mod demo_terrain;
 pub mod fixtures;
 pub mod info;
 pub mod normals;
-pub mod point_normals;
+pub mod point_prep;
 pub mod quilt;
 pub mod reconstruct;
 pub mod render;

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::normals::UpArg;
-use super::point_normals::{NormalsPrep, PointNormalsArgs, check_recorded_neighbours};
+use super::point_prep::{PointPrep, PointPrepArgs, check_recorded_neighbours};
 use super::{SignArgs, no_faces_to_orient};
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
@@ -46,8 +46,8 @@ pub struct GridArgs {
     /// (`resolution`, `kernel`, `margin`, `band`, `mesh_sign`, `point_sign`, as the
     /// report's `params` spells them: `{"margin": 6, "band": 8}`), or a report written by
     /// `--report` (`sdf`'s or `reconstruct`'s; one of the same command also reads the input
-    /// as that run did: its `--orient-faces`, `--orient-normals`, `--estimate-normals` and
-    /// `--up`, and for `reconstruct` its `--trim` and `--drop-pieces`). Fields it leaves
+    /// as that run did: its `--orient-faces`, `--orient-normals`, `--estimate-normals`,
+    /// `--up` and `--keep-strays`, and for `reconstruct` its `--trim` and `--drop-pieces`). Fields it leaves
     /// out keep their defaults; the flags given here override it.
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
@@ -118,7 +118,7 @@ pub struct ReconstructArgs {
     #[command(flatten)]
     grid: GridArgs,
     #[command(flatten)]
-    normals: PointNormalsArgs,
+    normals: PointPrepArgs,
     /// For open scans (a façade, a terrain, a quilted sheet): cut the surface where it runs
     /// on past the scan's border, beyond this many median sample spacings from every point
     /// (`--trim` alone: 2, `DEFAULT_TRIM_SPACINGS`). Gaps inside the scan stay bridged.
@@ -153,6 +153,8 @@ struct ReconstructInputOptions {
     estimate_normals: Option<usize>,
     /// `--up`: where orienting or estimated normals are turned.
     up: UpArg,
+    /// `--keep-strays`.
+    keep_strays: bool,
     /// `--trim`, in median sample spacings (unset: no trim).
     trim: Option<f32>,
     /// `--drop-pieces`, in median sample spacings (unset: every piece kept).
@@ -180,6 +182,7 @@ impl ReconstructInputOptions {
             up: prep.up,
             orient_normals: prep.orient,
             estimate_normals: prep.estimate,
+            keep_strays: prep.keep_strays,
             trim: args.trim.or(recorded.trim),
             drop_pieces: args.drop_pieces.or(recorded.drop_pieces),
             orient_faces: args.sign.orient_faces || recorded.orient_faces,
@@ -187,18 +190,20 @@ impl ReconstructInputOptions {
     }
 
     /// What is done to a point set's normals.
-    fn normals(&self) -> NormalsPrep {
-        NormalsPrep {
+    fn normals(&self) -> PointPrep {
+        PointPrep {
             orient: self.orient_normals,
             estimate: self.estimate_normals,
             up: self.up,
+            keep_strays: self.keep_strays,
         }
     }
 }
 
-/// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's normals
-/// estimated or oriented (each stage's time added to `timings`), a mesh's faces turned to
-/// agree; prints the notes about it.
+/// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's stray
+/// points left out and its normals estimated or oriented (each stage's time added to
+/// `timings`), a mesh's faces turned to agree; prints the notes about it. Returns it and
+/// how many stray points were left out.
 fn prepared_input(
     args: &ReconstructArgs,
     geometry: Geometry,
@@ -206,7 +211,7 @@ fn prepared_input(
     params: &FieldParams,
     globals: Globals,
     timings: &mut Vec<(String, Duration)>,
-) -> CliResult<Geometry> {
+) -> CliResult<(Geometry, usize)> {
     match geometry {
         Geometry::Mesh(mesh) => {
             options.normals().refuse_for_mesh(&args.input)?;
@@ -233,19 +238,20 @@ fn prepared_input(
             {
                 status(globals, note);
             }
-            Ok(Geometry::Mesh(mesh))
+            Ok((Geometry::Mesh(mesh), 0))
         }
         Geometry::Points(points) => {
-            let points = options
-                .normals()
-                .prepared(points, &args.input, globals, timings)?;
+            let (points, strays) =
+                options
+                    .normals()
+                    .prepared(points, &args.input, globals, timings)?;
             if options.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
             }
             if let Some(note) = line_gap_note(&points, params.kernel, options.trim.is_some())? {
                 status(globals, note);
             }
-            Ok(Geometry::Points(points))
+            Ok((Geometry::Points(points), strays))
         }
     }
 }
@@ -287,7 +293,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
     let mut preparing = Vec::new();
-    let input = prepared_input(
+    let (input, strays_left_out) = prepared_input(
         args,
         loaded.geometry,
         &options,
@@ -370,6 +376,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             "input": args.input.display().to_string(),
             "input_kind": if from_points { "points" } else { "mesh" },
             "points": points.len(),
+            "strays_left_out": strays_left_out,
             "output": args.output.display().to_string(),
             "vertices": mesh.vertex_count(),
             "faces": mesh.face_count(),
@@ -585,7 +592,7 @@ pub struct SdfArgs {
     #[command(flatten)]
     grid: GridArgs,
     #[command(flatten)]
-    normals: PointNormalsArgs,
+    normals: PointPrepArgs,
     #[command(flatten)]
     sign: SignArgs,
 }
@@ -603,6 +610,8 @@ struct SdfInputOptions {
     estimate_normals: Option<usize>,
     /// `--up`: where orienting or estimated normals are turned.
     up: UpArg,
+    /// `--keep-strays`.
+    keep_strays: bool,
 }
 
 impl RecordedInput for SdfInputOptions {
@@ -621,15 +630,17 @@ impl SdfInputOptions {
             orient_normals: prep.orient,
             estimate_normals: prep.estimate,
             up: prep.up,
+            keep_strays: prep.keep_strays,
         })
     }
 
     /// What is done to a point set's normals.
-    fn normals(&self) -> NormalsPrep {
-        NormalsPrep {
+    fn normals(&self) -> PointPrep {
+        PointPrep {
             orient: self.orient_normals,
             estimate: self.estimate_normals,
             up: self.up,
+            keep_strays: self.keep_strays,
         }
     }
 }
@@ -651,12 +662,14 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     let mut loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     let mut preparing = Vec::new();
+    let mut strays_left_out = 0;
     loaded.geometry = match loaded.geometry {
-        io::Geometry::Points(points) => {
-            let points =
+        io::Geometry::Points(read) => {
+            let points;
+            (points, strays_left_out) =
                 options
                     .normals()
-                    .prepared(points, &args.input, globals, &mut preparing)?;
+                    .prepared(read, &args.input, globals, &mut preparing)?;
             if sign.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
             }
@@ -705,6 +718,7 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
             "input": args.input.display().to_string(),
             "output": args.output.display().to_string(),
             "gradient": args.gradient,
+            "strays_left_out": strays_left_out,
             "dims": sdf.dims(),
             "spacing": sdf.grid().spacing(),
             "band": sdf.band(),

@@ -896,3 +896,74 @@ fn sdf_estimates_or_orients_a_point_sets_normals_as_reconstruct_does() {
         "--up turns normals that --orient-normals or --estimate-normals",
     );
 }
+
+#[test]
+fn reconstruct_and_sdf_leave_stray_points_out_unless_kept() {
+    use geosynth::core::io::Geometry;
+    use geosynth::core::{PointSet, TriMesh};
+    use glam::Vec3;
+    let dir = Scratch::new();
+    let torus = geosynth::core::io::read_geometry(
+        geosynth::fixtures::bundled_dir().join("torus_points.ply"),
+    )
+    .unwrap()
+    .geometry;
+    let points = torus.points();
+    // One point 40 units off, among the others.
+    let mut positions = points.positions().to_vec();
+    let mut normals = points.normals().unwrap().to_vec();
+    positions.insert(5, Vec3::new(40.0, 0.0, 0.0));
+    normals.insert(5, Vec3::X);
+    let with_stray = PointSet::new(positions)
+        .and_then(|p| p.with_normals(normals))
+        .unwrap();
+    let (clean, stray) = (dir.path("clean.ply"), dir.path("stray.ply"));
+    write_with_defaults(&clean, &Geometry::Points(points.clone()));
+    write_with_defaults(&stray, &Geometry::Points(with_stray));
+    let run = |command: &str, input: &Path, out: &str, extra: &[&str]| {
+        let out = dir.path(out);
+        let base = [command, &arg(input), "-o", &arg(&out), "--resolution", "24"];
+        let said = ok(&[&base[..], extra].concat());
+        (std::fs::read(out).unwrap(), said)
+    };
+    // Left out: the field is the clean cloud's, byte for byte, and the report counts it.
+    let report = arg(&dir.path("r.json"));
+    let (clean_field, _) = run("sdf", &clean, "clean.nrrd", &[]);
+    let (field, said) = run("sdf", &stray, "stray.nrrd", &["--report", &report]);
+    assert!(
+        said.contains("1 point of") && said.contains("left out, since the grid would span it"),
+        "{said}"
+    );
+    assert!(field == clean_field);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["strays_left_out"], 1);
+    assert_eq!(json["input_options"]["keep_strays"], false);
+    // Kept: the grid spans the stray point, and `--params` keeps it again.
+    let (kept, said) = run(
+        "sdf",
+        &stray,
+        "kept.nrrd",
+        &["--keep-strays", "--report", &report],
+    );
+    assert!(said.contains("kept (--keep-strays)"), "{said}");
+    assert!(kept != clean_field);
+    let (replayed, _) = run("sdf", &stray, "replayed.nrrd", &["--params", &report]);
+    assert!(replayed == kept);
+    // `reconstruct` leaves it out too: the clean cloud's mesh.
+    let mesh = |name: &str| -> TriMesh {
+        match geosynth::core::io::read_geometry(dir.path(name))
+            .unwrap()
+            .geometry
+        {
+            Geometry::Mesh(mesh) => mesh,
+            Geometry::Points(_) => panic!("{name} holds no faces"),
+        }
+    };
+    run("reconstruct", &clean, "clean_mesh.ply", &[]);
+    let (_, said) = run("reconstruct", &stray, "stray_mesh.ply", &[]);
+    assert!(said.contains("left out"), "{said}");
+    assert_eq!(mesh("stray_mesh.ply"), mesh("clean_mesh.ply"));
+    let clean_said = run("reconstruct", &clean, "again.ply", &[]).1;
+    assert!(!clean_said.contains("far outside the rest"), "{clean_said}");
+}

@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::normals::undefined_note;
-use super::point_normals::check_recorded_neighbours;
+use super::point_prep::check_recorded_neighbours;
 use super::sheet_heights::{MapPlacement, write_sheet_heights};
 use super::sheet_mesh::sheet_mesh;
 use crate::input_file::named;

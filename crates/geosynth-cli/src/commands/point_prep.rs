@@ -1,6 +1,6 @@
-//! How `reconstruct` and `sdf` prepare a point set's normals before its MLS surface is
-//! built: as read, oriented (`--orient-normals`) or estimated (`--estimate-normals`), turned
-//! toward `--up`.
+//! How `reconstruct` and `sdf` prepare a point set before its MLS surface is built: stray
+//! points left out (unless `--keep-strays`), and the normals as read, oriented
+//! (`--orient-normals`) or estimated (`--estimate-normals`), turned toward `--up`.
 
 use std::path::Path;
 use std::time::Duration;
@@ -16,9 +16,9 @@ use super::unoriented_normals_note;
 use crate::output::{progress_context, status};
 use crate::{CliResult, Globals};
 
-/// The flags that prepare a point set's normals.
+/// The flags that prepare a point set.
 #[derive(Debug, Args)]
-pub struct PointNormalsArgs {
+pub struct PointPrepArgs {
     /// Make the normal signs consistent by propagation from the side facing `--up` first
     /// (for normals estimated without orientation); unreliable on interlinked thin tubes
     /// (docs/mls-surface.md).
@@ -41,24 +41,32 @@ pub struct PointNormalsArgs {
     /// (a closed object comes out facing outward whichever; an open scan faces this way).
     #[arg(long, value_enum)]
     up: Option<UpArg>,
+    /// Keep the points that lie far outside the rest (by default left out, with a note:
+    /// a point beyond twice the span of the middle 99% of the points' coordinates on some
+    /// axis, such as a scan's outlier, stretches the grid until the surface is a speck in
+    /// it).
+    #[arg(long)]
+    keep_strays: bool,
 }
 
-/// What is done to a point set's normals before use: the flags over a recorded run's.
+/// What is done to a point set before use: the flags over a recorded run's.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct NormalsPrep {
+pub struct PointPrep {
     /// Orient the normals the points have.
     pub orient: bool,
     /// Estimate them anew, fitted to this many nearest neighbours (and oriented).
     pub estimate: Option<usize>,
     /// Where orienting turns them.
     pub up: UpArg,
+    /// Keep the stray points ([`geosynth::core::strays::kept_indices`]).
+    pub keep_strays: bool,
 }
 
-impl PointNormalsArgs {
+impl PointPrepArgs {
     /// The flags given over `recorded` (a `--params` report's): an estimate given or
     /// recorded wins over orienting (estimated normals come oriented). `--up` alone, with
     /// nothing to turn, is refused.
-    pub fn over(&self, recorded: NormalsPrep) -> CliResult<NormalsPrep> {
+    pub fn over(&self, recorded: PointPrep) -> CliResult<PointPrep> {
         let estimate = self.estimate_normals.or(recorded.estimate);
         let orient = (self.orient_normals || recorded.orient) && estimate.is_none();
         if self.up.is_some() && !orient && estimate.is_none() {
@@ -66,10 +74,11 @@ impl PointNormalsArgs {
                           orients; without either the points' own normals are used as read";
             return Err(unused.into());
         }
-        Ok(NormalsPrep {
+        Ok(PointPrep {
             orient,
             estimate,
             up: self.up.unwrap_or(recorded.up),
+            keep_strays: self.keep_strays || recorded.keep_strays,
         })
     }
 }
@@ -84,7 +93,7 @@ pub fn check_recorded_neighbours(estimate_normals: Option<usize>) -> Result<(), 
     }
 }
 
-impl NormalsPrep {
+impl PointPrep {
     /// Refuses to orient or estimate the normals of the mesh read from `path`: a mesh's
     /// sides come from its faces.
     pub fn refuse_for_mesh(&self, path: &Path) -> CliResult {
@@ -103,16 +112,18 @@ impl NormalsPrep {
         .into())
     }
 
-    /// `points` (read from `path`) with their normals estimated or oriented as asked, each
-    /// stage's time added to `timings`, and refused when their MLS surface could still not
-    /// use them; prints the notes about them.
+    /// `points` (read from `path`) without their stray points unless kept, with their
+    /// normals estimated or oriented as asked, each stage's time added to `timings`, and
+    /// refused when their MLS surface could still not use them; prints the notes about
+    /// them. Returns the points and how many stray points were left out.
     pub fn prepared(
         &self,
-        mut points: PointSet,
+        points: PointSet,
         path: &Path,
         globals: Globals,
         timings: &mut Vec<(String, Duration)>,
-    ) -> CliResult<PointSet> {
+    ) -> CliResult<(PointSet, usize)> {
+        let (mut points, left_out) = self.strays_handled(points, path, globals);
         if let Some(neighbours) = self.estimate {
             points = estimated(points, neighbours, self.up, globals, timings)?;
         }
@@ -130,7 +141,40 @@ impl NormalsPrep {
         {
             status(globals, note);
         }
-        Ok(points)
+        Ok((points, left_out))
+    }
+
+    /// `points` (read from `path`) without their stray points, unless they are kept, and
+    /// how many were left out; notes either.
+    fn strays_handled(&self, points: PointSet, path: &Path, globals: Globals) -> (PointSet, usize) {
+        let Some((kept, strays)) = points.without_strays() else {
+            return (points, 0);
+        };
+        let (count, verb, pronoun) = match strays {
+            1 => ("1 point".to_string(), "lies", "it"),
+            n => (format!("{n} points"), "lie", "them"),
+        };
+        let what = format!(
+            "note: {count} of {} {verb} far outside the rest (beyond twice the span of the \
+             middle 99% of the points' coordinates)",
+            path.display()
+        );
+        if self.keep_strays {
+            status(
+                globals,
+                format!("{what}; kept (--keep-strays), the grid spans {pronoun}"),
+            );
+            (points, 0)
+        } else {
+            status(
+                globals,
+                format!(
+                    "{what}: left out, since the grid would span {pronoun}; --keep-strays \
+                     keeps {pronoun}"
+                ),
+            );
+            (kept, strays)
+        }
     }
 }
 
