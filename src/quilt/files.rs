@@ -8,7 +8,7 @@ use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, KdIndex, PointSet, RunContext};
 
 use super::samples::{ExemplarNormals, texture_samples};
-use super::strays::{StrayPoints, stray_points};
+use super::strays::{StrayPoints, strays_handled};
 use super::{GeometryTexture, UpAxis};
 use crate::{Error, Result};
 
@@ -199,10 +199,12 @@ pub struct TextureFile {
     /// so that their normals are arbitrary across the line (more neighbours fix them).
     /// 0 otherwise.
     pub undefined_normals: usize,
-    /// For a file read with the default box (no texture comments, no given box) along its
-    /// axes: the few points that lie far outside the rest and stretch that box, and the
-    /// box without them ([`StrayPoints`] says the rule). `None` otherwise, and for a
-    /// fitted reference plane, whose box is not given in the file's axes.
+    /// For a point set read with the default box (no texture comments, no given box) or
+    /// in a fitted plane: how many of its points lie far outside the rest
+    /// ([`pointset_core::strays::kept_indices`]), and whether they were left out of the
+    /// texture (the default, since they would stretch the box) or kept
+    /// ([`TextureReading::keep_strays`]). `None` when there are none, for meshes and for
+    /// files whose box is given.
     pub stray_points: Option<StrayPoints>,
 }
 
@@ -272,6 +274,11 @@ pub struct TextureReading {
     /// the reference plane). Points outside it across the plane are padding. `None` by
     /// default.
     pub bounds: Option<[DVec3; 2]>,
+    /// Keep a point set's stray points ([`pointset_core::strays::kept_indices`]: far
+    /// outside the rest) under the default box, which then spans them. By default they
+    /// are left out, as if the file did not hold them ([`TextureFile::stray_points`] counts
+    /// them); a box given or read from the comments keeps every point.
+    pub keep_strays: bool,
 }
 
 /// [`read_texture_file`] read as `reading` says: the up axis, the normals (for a bare point
@@ -376,20 +383,23 @@ fn read_texture_from(
         .map(|corners| given_box(corners, origin))
         .transpose()
         .map_err(file_error)?;
+    // Stray points would stretch only the default box; left out before any normal is
+    // fitted to them.
+    let (geometry, stray_points) = match (given, described) {
+        (None, None) => strays_handled(loaded.geometry, reading.keep_strays),
+        _ => (loaded.geometry, None),
+    };
     let samples = texture_samples(
         path,
-        loaded.geometry,
+        geometry,
         reading.normals,
         file_up.to_world(Vec3::Z),
         ctx,
     )?;
     let points = samples.points;
-    let (bounds, stray_points) = match (given, described) {
-        (Some(bounds), _) | (None, Some((bounds, _))) => (bounds, None),
-        (None, None) => (
-            default_box(&points, file_up).map_err(file_error)?,
-            stray_points(&points, file_up, origin),
-        ),
+    let bounds = match (given, described) {
+        (Some(bounds), _) | (None, Some((bounds, _))) => bounds,
+        (None, None) => default_box(&points, file_up).map_err(file_error)?,
     };
     Ok(TextureFile {
         texture: GeometryTexture::new(&points, bounds, file_up)?,
@@ -531,7 +541,7 @@ mod tests {
     }
 
     #[test]
-    fn stray_points_are_found_only_under_the_default_box() {
+    fn stray_points_are_left_out_under_the_default_box_unless_kept() {
         let dir = tempfile::tempdir().unwrap();
         let wave = grid_ply(dir.path(), "wave.ply", |x| 0.1 * (2.0 * x).sin());
         let clean = read_texture_file(&wave, None).unwrap();
@@ -543,37 +553,58 @@ mod tests {
             .replace("end_header\n", "end_header\n1.5 1.5 50 0 0 1\n");
         let stray = dir.path().join("stray.ply");
         std::fs::write(&stray, with_stray).unwrap();
-        let file = read_texture_file(&stray, None).unwrap();
-        let found = file.stray_points.unwrap();
-        assert_eq!(found.count, 1);
-        // Its box is the clean file's default box, and given back it is the texture's.
-        let reading = TextureReading {
-            bounds: found.box_without,
-            ..TextureReading::default()
+        let read = |reading: TextureReading| {
+            read_texture_file_with(&stray, &reading, &mut RunContext::new(0)).unwrap()
         };
-        let boxed = read_texture_file_with(&stray, &reading, &mut RunContext::new(0)).unwrap();
+        // Left out: the clean file's texture.
+        let file = read(TextureReading::default());
+        let left_out = StrayPoints {
+            count: 1,
+            left_out: true,
+        };
+        assert_eq!(file.stray_points, Some(left_out));
         assert_eq!(
-            boxed.texture.canonical_bounds(),
+            file.texture.canonical_points(),
+            clean.texture.canonical_points()
+        );
+        assert_eq!(
+            file.texture.canonical_bounds(),
             clean.texture.canonical_bounds()
         );
-        assert_eq!(boxed.stray_points, None, "a given box is the user's");
-        // Comments give the box.
-        let bumpy = crate::fixtures::bundled_dir().join("quilt_bumpy.ply");
-        assert_eq!(read_texture_file(&bumpy, None).unwrap().stray_points, None);
-        assert_eq!(clean.stray_points, None);
-        // A fitted plane leaves them out itself: the clean file's plane and box.
-        let fitted = super::super::read_texture_file_fitted(&stray).unwrap();
-        let fitted_clean = super::super::read_texture_file_fitted(&wave).unwrap();
+        // Kept: the default box reaches up to it.
+        let kept = read(TextureReading {
+            keep_strays: true,
+            ..TextureReading::default()
+        });
         assert_eq!(
-            fitted.stray_points,
+            kept.stray_points,
             Some(StrayPoints {
                 count: 1,
-                box_without: None
+                left_out: false
             })
         );
+        assert_eq!(kept.texture.canonical_bounds().max.z, 50.0);
+        // A given box keeps every point, as do comments.
+        let own = clean.texture.canonical_bounds();
+        let boxed = read(TextureReading {
+            bounds: Some([own.min.as_dvec3(), own.max.as_dvec3()]),
+            ..TextureReading::default()
+        });
+        assert_eq!(boxed.stray_points, None);
+        assert_eq!(boxed.texture.canonical_points().len(), 901);
+        let bumpy = crate::fixtures::bundled_dir().join("quilt_bumpy.ply");
+        assert_eq!(read_texture_file(&bumpy, None).unwrap().stray_points, None);
+        // A fitted plane leaves it out: the clean file's plane, points and box.
+        let fitted = super::super::read_texture_file_fitted(&stray).unwrap();
+        let fitted_clean = super::super::read_texture_file_fitted(&wave).unwrap();
+        assert_eq!(fitted.stray_points, Some(left_out));
         assert_eq!(
             (fitted.frame, fitted.origin),
             (fitted_clean.frame, fitted_clean.origin)
+        );
+        assert_eq!(
+            fitted.texture.canonical_points(),
+            fitted_clean.texture.canonical_points()
         );
         assert_eq!(
             fitted.texture.canonical_bounds(),

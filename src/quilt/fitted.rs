@@ -7,7 +7,6 @@ use std::path::Path;
 use glam::{DMat3, DVec3, Vec3};
 use mls_surface::Covariance;
 use pointset_core::io::{self, ReadOptions};
-use pointset_core::strays::kept_indices;
 use pointset_core::{Aabb, PointSet, RunContext};
 
 use super::files::{
@@ -15,7 +14,7 @@ use super::files::{
     texture_file_error,
 };
 use super::samples::{ExemplarNormals, texture_samples};
-use super::strays::StrayPoints;
+use super::strays::strays_handled;
 use super::{GeometryTexture, TextureFile, UpAxis};
 use crate::Result;
 
@@ -93,20 +92,21 @@ pub fn read_texture_file_fitted_with(
                 .into(),
         ));
     }
+    // Stray points would tilt the plane and stretch its box, and no box can be given in
+    // a fitted plane: they are always left out.
+    let (geometry, stray_points) = strays_handled(loaded.geometry, false);
     let up = match normals {
         ExemplarNormals::AsStored => Vec3::Z,
-        ExemplarNormals::Estimated { .. } => facing_up(loaded.geometry.points().positions()),
+        ExemplarNormals::Estimated { .. } => facing_up(geometry.points().positions()),
     };
-    let samples = texture_samples(path, loaded.geometry, normals, up, ctx)?;
+    let samples = texture_samples(path, geometry, normals, up, ctx)?;
     let points = samples.points;
     let normals = points.normals().ok_or_else(|| {
         // The samples come with normals (or were refused); kept as an error, not a panic.
         file_error("the exemplar has no normals".into())
     })?;
     let positions = points.positions();
-    // Stray points would tilt the plane and stretch its box: both are fitted without them.
-    let kept = kept_indices(positions);
-    let fit = Covariance::of(positions, kept.iter().copied())
+    let fit = Covariance::of(positions, 0..positions.len())
         .ok_or_else(|| file_error("no points".into()))?;
     let [across, narrow, _] = fit.eigenvalues;
     if narrow <= 0.0 || across > MAX_PLANE_SPREAD * narrow {
@@ -115,26 +115,20 @@ pub fn read_texture_file_fitted_with(
              against {narrow:.3e} along its narrower side); name the up axis instead"
         )));
     }
-    let facing: DVec3 = kept.iter().map(|&i| normals[i].as_dvec3()).sum();
+    let facing: DVec3 = normals.iter().map(|n| n.as_dvec3()).sum();
     let mut normal = fit.eigenvectors[0].as_dvec3().normalize();
     if facing.dot(normal) < 0.0 {
         normal = -normal;
     }
     let centre = fit.centroid.as_dvec3();
     let widest = fit.eigenvectors[2].as_dvec3();
-    let x = tightest_x(
-        kept.iter().map(|&i| positions[i].as_dvec3()),
-        centre,
-        normal,
-        widest,
-    );
+    let x = tightest_x(positions, centre, normal, widest);
     let frame = DMat3::from_cols(x, normal.cross(x), normal);
     let into_plane = frame.transpose();
-    let local: Vec<Vec3> = positions
+    let local = positions
         .iter()
         .map(|p| (into_plane * (p.as_dvec3() - centre)).as_vec3())
         .collect();
-    let kept_local = PointSet::new(kept.iter().map(|&i| local[i]).collect())?;
     let turned = normals
         .iter()
         .map(|n| (into_plane * n.as_dvec3()).as_vec3())
@@ -143,8 +137,7 @@ pub fn read_texture_file_fitted_with(
     for a in points.attributes() {
         in_plane.set_attribute(a.clone())?;
     }
-    let bounds = default_box(&kept_local, UpAxis::Z).map_err(&file_error)?;
-    let strays = positions.len() - kept.len();
+    let bounds = default_box(&in_plane, UpAxis::Z).map_err(&file_error)?;
     Ok(TextureFile {
         texture: GeometryTexture::new(&in_plane, bounds, UpAxis::Z)?,
         origin: loaded.origin + centre,
@@ -152,10 +145,7 @@ pub fn read_texture_file_fitted_with(
         single_precision_step: single_precision_step(&points, loaded.origin),
         notes: loaded.notes,
         undefined_normals: samples.undefined_normals,
-        stray_points: (strays > 0).then_some(StrayPoints {
-            count: strays,
-            box_without: None,
-        }),
+        stray_points,
     })
 }
 
@@ -163,7 +153,7 @@ pub fn read_texture_file_fitted_with(
 /// least spread), turned to face +Z, or +Y where it lies across Z, or +X where it lies
 /// across both; +Z when there are no points.
 fn facing_up(positions: &[Vec3]) -> Vec3 {
-    let Some(fit) = Covariance::of(positions, kept_indices(positions)) else {
+    let Some(fit) = Covariance::of(positions, 0..positions.len()) else {
         return Vec3::Z;
     };
     let normal = fit.eigenvectors[0];
@@ -185,17 +175,13 @@ const AXIS_STEP_DEGREES: f64 = 0.5;
 /// searched in [`AXIS_STEP_DEGREES`] steps from `start` (made orthogonal to `normal`): the
 /// default box then follows the edges of an exemplar cut as a rectangle, whatever its
 /// principal directions (a square has none).
-fn tightest_x(
-    positions: impl Iterator<Item = DVec3>,
-    centre: DVec3,
-    normal: DVec3,
-    start: DVec3,
-) -> DVec3 {
+fn tightest_x(positions: &[glam::Vec3], centre: DVec3, normal: DVec3, start: DVec3) -> DVec3 {
     let u = (start - start.dot(normal) * normal).normalize();
     let v = normal.cross(u);
     let planar: Vec<(f64, f64)> = positions
+        .iter()
         .map(|p| {
-            let d = p - centre;
+            let d = p.as_dvec3() - centre;
             (d.dot(u), d.dot(v))
         })
         .collect();

@@ -8,9 +8,8 @@
 //! (or the one given to [`read_texture_with_up`]) and the box is the points' bounding box
 //! inset by a sixth of its extent across the reference plane on every side (so the outer
 //! sixths are padding); points that lie in a plane get a box one sample spacing thick.
-//! Points far outside the rest stretch that box; the reader counts them and gives the
-//! default box without them ([`StrayPoints`]) for the caller to pass back as
-//! [`TextureReading::bounds`].
+//! A point set's points far outside the rest would stretch that box: the reader leaves
+//! them out and counts them ([`StrayPoints`]) unless [`TextureReading::keep_strays`].
 //!
 //! ```
 //! use geosynth::quilt::{Quilt, QuiltParams, OutputSize, texture_from_exemplar};

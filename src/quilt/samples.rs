@@ -153,7 +153,7 @@ mod tests {
         let reading = TextureReading {
             up,
             normals,
-            bounds: None,
+            ..TextureReading::default()
         };
         read_texture_file_with(path, &reading, ctx)
     }

@@ -681,93 +681,86 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
         &["--box", "0.5,0.5,-0.1,3.5,3.5,0.6"],
     );
     assert!(bytes("smaller.ply") != bytes("commented.ply"));
-    // Bare positions with one stray point far above: the default box reaches up to it
-    // and is refused (the note names --box); --box leaves it out, and the report
-    // records the box for --params.
-    let mut xyz = String::new();
+    // Bare positions with one stray point far above: left out, with a note, so the
+    // quilt is the clean positions' byte for byte; kept, the default box reaches up to it
+    // and is refused; --box keeps every point, and the report records the box for
+    // --params.
     let bumpy = geosynth::core::io::read_geometry(Path::new(&fixture)).unwrap();
+    let mut xyz = String::new();
     for p in bumpy.geometry.points().positions() {
         xyz += &format!("{} {} {}\n", p.x, p.y, p.z);
     }
+    let clean = dir.path("clean.xyz");
+    std::fs::write(&clean, &xyz).unwrap();
     xyz += "2 2 30000\n";
     let stray = dir.path("stray.xyz");
     std::fs::write(&stray, &xyz).unwrap();
-    let stray = arg(&stray);
-    let tall = geosynth(&[
+    let (clean, stray) = (arg(&clean), arg(&stray));
+    let report = arg(&dir.path("r.json"));
+    quilt(&clean, "clean.ply", &["--estimate-normals"]);
+    let said = quilt(
+        &stray,
+        "stray.ply",
+        &["--estimate-normals", "--report", &report],
+    );
+    assert!(
+        said.contains("note: 1 point of the exemplar lies far outside the rest")
+            && said.contains("left out, since the default box would span it; --keep-strays"),
+        "{said}"
+    );
+    assert!(!said.contains("taller along its up axis"), "{said}");
+    assert!(bytes("stray.ply") == bytes("clean.ply"));
+    let recorded = &report_of(&report)["stray_points"];
+    assert_eq!(*recorded, serde_json::json!({"count": 1, "left_out": true}));
+    let kept = geosynth(&[
         "quilt",
         &stray,
         "-o",
         &arg(&dir.path("x.ply")),
         "--estimate-normals",
+        "--keep-strays",
     ]);
     let (said, error) = (
-        String::from_utf8_lossy(&tall.stdout),
-        String::from_utf8_lossy(&tall.stderr),
+        String::from_utf8_lossy(&kept.stdout),
+        String::from_utf8_lossy(&kept.stderr),
     );
     assert!(
-        !tall.status.success() && error.contains("field spacings tall"),
+        !kept.status.success() && error.contains("field spacings tall"),
         "{error}"
     );
-    // The note counts the stray point and gives the default box without it, which
-    // quilts.
-    let suggested = said
-        .split("--box ")
-        .nth(1)
-        .and_then(|rest| rest.split(' ').next())
-        .unwrap_or_else(|| panic!("no box in {said}"));
-    assert!(said.contains("note: 1 point of the exemplar lies far outside the rest"));
-    assert!(!said.contains("taller along its up axis"), "{said}");
-    let corners: Vec<f64> = suggested.split(',').map(|c| c.parse().unwrap()).collect();
-    assert!(corners[5] < 0.6 && corners[3] > 3.9, "{suggested}");
-    let report = arg(&dir.path("r.json"));
-    let said = quilt(
-        &stray,
-        "suggested.ply",
-        &[
-            "--estimate-normals",
-            "--box",
-            suggested,
-            "--report",
-            &report,
-        ],
-    );
-    assert!(!said.contains("far outside the rest"), "{said}");
-    let written = geosynth::core::io::read_geometry(dir.path("suggested.ply")).unwrap();
-    let top = written.geometry.points().bounding_box().unwrap().max.z;
-    assert!(top < 0.6, "{top}");
-    assert!(report_of(&report)["stray_points"].is_null());
-    // A stray point 3 up leaves a box the quilt can take, and the report records it.
-    let low_stray = dir.path("low_stray.xyz");
-    std::fs::write(&low_stray, xyz.replace("2 2 30000", "2 2 3")).unwrap();
-    let said = quilt(
-        &arg(&low_stray),
-        "low.ply",
-        &["--estimate-normals", "--report", &report],
-    );
-    assert!(
-        said.contains("1 point of the exemplar lies far outside"),
-        "{said}"
-    );
-    let recorded = &report_of(&report)["stray_points"];
-    assert_eq!(recorded["count"], 1);
-    assert!(
-        recorded["box_without"][5].as_f64().unwrap() < 0.6,
-        "{recorded}"
-    );
+    assert!(said.contains("kept (--keep-strays)"), "{said}");
     let said = quilt(
         &stray,
         "boxed.ply",
         &["--estimate-normals", "--box", own, "--report", &report],
     );
     assert!(!said.contains("taller along its up axis"), "{said}");
+    assert!(!said.contains("far outside the rest"), "{said}");
+    assert!(report_of(&report)["stray_points"].is_null());
     assert_eq!(
         report_of(&report)["input_options"]["box"],
         serde_json::json!([0.0, 0.0, -0.024641763, 4.0, 4.0, 0.517577])
     );
     quilt(&stray, "replayed.ply", &["--params", &report]);
     assert!(bytes("replayed.ply") == bytes("boxed.ply"));
-    // Refused: corners out of order, a fitted plane, a height field.
+    // A fitted plane leaves the stray point out too.
+    let said = quilt(
+        &stray,
+        "fitted.ply",
+        &["--estimate-normals", "--up", "auto"],
+    );
+    assert!(
+        said.contains("left out of the fitted plane and its box"),
+        "{said}"
+    );
     let out = arg(&dir.path("x.ply"));
+    for with in [&["--box", own][..], &["--up", "auto"]] {
+        refused(
+            &[&["quilt", &stray, "-o", &out, "--keep-strays"][..], with].concat(),
+            "--keep-strays keeps the stray points under the default box",
+        );
+    }
+    // Refused: corners out of order, a fitted plane, a height field.
     refused(
         &["quilt", &fixture, "-o", &out, "--box", "4,0,0,0,4,1"],
         "needs six finite numbers",

@@ -117,10 +117,8 @@ pub struct QuiltArgs {
     /// The exemplar's box `B_Tin` (paper §3), its corners in the file's coordinates:
     /// the part of the points that is the texture, the rest across the reference plane
     /// being padding. Replaces a `texture_box` comment and the default box (useful for
-    /// files that carry no comments, such as XYZ and LAS scans, and to leave out stray
-    /// points far above or below a scan; a note gives the default box without the points
-    /// that lie far outside the rest). Not with `--up auto` (the fitted plane's box is not
-    /// aligned with the file's axes; it leaves stray points out itself) or a height field.
+    /// files that carry no comments, such as XYZ and LAS scans). Not with `--up auto` (the
+    /// fitted plane's box is not aligned with the file's axes) or a height field.
     #[arg(
         long = "box",
         value_name = "X0,Y0,Z0,X1,Y1,Z1",
@@ -128,6 +126,13 @@ pub struct QuiltArgs {
         conflicts_with = "heightfield"
     )]
     pub(super) bounds: Option<[f64; 6]>,
+    /// Keep a point-set exemplar's stray points under the default box, which then spans
+    /// them. By default the points far outside the rest (beyond twice the span of the
+    /// middle 99% of the points' coordinates on some axis, such as a scan's outliers) are
+    /// left out, with a note. A `texture_box` comment or `--box` keeps every point, and a
+    /// fitted plane (`--up auto`) always leaves them out.
+    #[arg(long, conflicts_with = "heightfield")]
+    pub(super) keep_strays: bool,
     /// Output point set (.ply, .obj, .off, .xyz or .xyzn).
     #[arg(short, long)]
     pub(super) output: PathBuf,

@@ -59,6 +59,8 @@ struct InputOptions {
     /// `--box`, corners in the file's coordinates (unset: the comments' box or the default).
     #[serde(rename = "box")]
     bounds: Option<[f64; 6]>,
+    /// `--keep-strays`.
+    keep_strays: bool,
 }
 
 impl RecordedInput for InputOptions {
@@ -90,7 +92,16 @@ impl InputOptions {
             .filter(|_| !heightfield);
         let up = args.up.or(recorded.up).filter(|_| !heightfield);
         let bounds = args.bounds.or(recorded.bounds).filter(|_| !heightfield);
-        if bounds.is_some() && matches!(up, Some(TextureUpArg::Auto)) {
+        let keep_strays = (args.keep_strays || recorded.keep_strays) && !heightfield;
+        let fitted = matches!(up, Some(TextureUpArg::Auto));
+        if keep_strays && (fitted || bounds.is_some()) {
+            return Err(
+                "--keep-strays keeps the stray points under the default box; --box keeps \
+                 every point, and --up auto always leaves them out of its fitted plane"
+                    .into(),
+            );
+        }
+        if bounds.is_some() && fitted {
             return Err(
                 "--box gives a box along the file's axes, and --up auto quilts in a \
                         plane fitted to the points, whose box is not; name the up axis \
@@ -105,6 +116,7 @@ impl InputOptions {
             orient_normals: (args.orient_normals || recorded.orient_normals)
                 && estimate_normals.is_none(),
             estimate_normals,
+            keep_strays,
         })
     }
 
@@ -120,6 +132,7 @@ impl InputOptions {
             bounds: self
                 .bounds
                 .map(|b| [DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5])]),
+            keep_strays: self.keep_strays,
         }
     }
 }
@@ -461,7 +474,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "undefined_normals": input_options.estimate_normals.map(|_| file.undefined_normals),
             "stray_points": file.stray_points.map(|s| json!({
                 "count": s.count,
-                "box_without": s.box_without.map(|[lo, hi]| [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]),
+                "left_out": s.left_out,
             })),
             "params": params,
             "run": run_json(&main),

@@ -25,49 +25,28 @@ pub(super) fn orientation_note(texture: &GeometryTexture) -> Option<String> {
     })
 }
 
-/// A hint when a few points of a file read with the default box lie far outside the rest
-/// ([`TextureFile::stray_points`]): along the file's axes they stretch the box, and the
-/// note gives the `--box` that leaves them out, each corner in the fewest digits that the
-/// reader takes back to the same box; a fitted plane has left them out already.
+/// What was done with the stray points of a point-set exemplar
+/// ([`TextureFile::stray_points`]): left out (of the default box or the fitted plane), or
+/// kept under the default box.
 pub(super) fn stray_note(file: &TextureFile) -> Option<String> {
     let strays = file.stray_points?;
-    let (count, verbs) = match strays.count {
-        1 => ("1 point".to_string(), ("lies", "stretches", "it")),
-        n => (format!("{n} points"), ("lie", "stretch", "them")),
+    let (count, verb, pronoun) = match strays.count {
+        1 => ("1 point".to_string(), "lies", "it"),
+        n => (format!("{n} points"), "lie", "them"),
     };
-    let strays_are = format!(
-        "note: {count} of the exemplar {} far outside the rest (beyond twice the span of the \
-         middle 99% of the points' coordinates)",
-        verbs.0
-    );
-    let Some([lo, hi]) = strays.box_without else {
-        return Some(format!(
-            "{strays_are}; the fitted plane and its box leave {} out",
-            verbs.2
-        ));
+    let done = match (strays.left_out, file.frame == DMat3::IDENTITY) {
+        (true, true) => {
+            format!(
+                "left out, since the default box would span {pronoun}; --keep-strays keeps {pronoun}"
+            )
+        }
+        (true, false) => "left out of the fitted plane and its box".to_string(),
+        (false, _) => format!("kept (--keep-strays): the default box spans {pronoun}"),
     };
-    let corners = [lo, hi]
-        .iter()
-        .flat_map(|c| (0..3).map(move |axis| (c[axis], file.origin[axis])))
-        .map(|(corner, origin)| shortest_corner(corner, origin))
-        .collect::<Vec<_>>();
     Some(format!(
-        "{strays_are} and {} its default box; --box {} is the default box without {}",
-        verbs.1,
-        corners.join(","),
-        verbs.2
+        "note: {count} of the exemplar {verb} far outside the rest (beyond twice the span of \
+         the middle 99% of the points' coordinates): {done}"
     ))
-}
-
-/// `corner` (a box corner's coordinate in a file whose points were read relative to
-/// `origin`) in the fewest significant digits whose value the texture reader stores as the
-/// same single-precision offset from `origin`.
-fn shortest_corner(corner: f64, origin: f64) -> String {
-    let stored = |value: f64| (value - origin) as f32;
-    (0..17)
-        .filter_map(|digits| format!("{corner:.digits$e}").parse::<f64>().ok())
-        .find(|&rounded| stored(rounded) == stored(corner))
-        .map_or_else(|| format!("{corner:?}"), |rounded| format!("{rounded:?}"))
 }
 
 /// Tilts of the points' best plane against the reference plane above this (degrees) get a
@@ -152,23 +131,5 @@ mod tests {
         let note = size_note(&texture, &large).unwrap_or_default();
         assert!(note.contains("about 1.1 million output points"), "{note}");
         assert!(note.contains("--no-quality"), "{note}");
-    }
-
-    #[test]
-    fn corners_are_written_in_the_fewest_digits_that_give_the_same_box() {
-        for (corner, origin, written) in [
-            // f32 offsets near the origin: their shortest form.
-            (f64::from(0.000_218_808_65f32), 0.0, "0.00021880865"),
-            (f64::from(4.0f32), 0.0, "4.0"),
-            (f64::from(8.581_82e-18f32), 0.0, "8.58182e-18"),
-            // A georeferenced corner: the offset 0.1 in single precision, from 512,000.
-            (512_000.0 + f64::from(0.1f32), 512_000.0, "512000.1"),
-            (-3.5, 0.0, "-3.5"),
-        ] {
-            let shortest = shortest_corner(corner, origin);
-            assert_eq!(shortest, written);
-            let back: f64 = shortest.parse().unwrap_or(f64::NAN);
-            assert_eq!((back - origin) as f32, (corner - origin) as f32);
-        }
     }
 }
