@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use geosynth::core::MeshTopology;
 use geosynth::core::io::{Geometry, LoadedGeometry};
+use geosynth::core::strays::kept_indices;
 use geosynth::imagery;
 use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
 use geosynth::sdf::nrrd;
@@ -63,6 +64,10 @@ pub struct FileInfo {
     attributes: Vec<AttributeInfo>,
     bbox_min: Option<[f64; 3]>,
     bbox_max: Option<[f64; 3]>,
+    /// A point set's points that lie far outside the rest
+    /// ([`kept_indices`](geosynth::core::strays::kept_indices)), which `reconstruct`, `sdf`
+    /// and `quilt` leave out; `None` for meshes, whose far vertices belong to faces.
+    stray_points: Option<usize>,
     comments: Vec<String>,
     /// What the file had that the reader could not keep
     /// ([`LoadedGeometry::notes`](geosynth::core::io::LoadedGeometry::notes)).
@@ -179,6 +184,10 @@ impl FileInfo {
             // relative to an origin so that their points keep single precision).
             bbox_min: bbox.map(|b| (b.min.as_dvec3() + loaded.origin).to_array()),
             bbox_max: bbox.map(|b| (b.max.as_dvec3() + loaded.origin).to_array()),
+            stray_points: match g {
+                Geometry::Points(p) => Some(p.len() - kept_indices(p.positions()).len()),
+                Geometry::Mesh(_) => None,
+            },
             comments: loaded.comments.clone(),
             not_kept: loaded.notes.clone(),
         }
@@ -259,6 +268,17 @@ impl FileInfo {
             fmt3(self.bbox_min),
             fmt3(self.bbox_max),
         ));
+        match self.stray_points {
+            Some(1) => s.push_str(
+                "\nstrays:      1 point lies far outside the rest (reconstruct, sdf and quilt \
+                 leave it out; --keep-strays keeps it)",
+            ),
+            Some(n) if n > 1 => s.push_str(&format!(
+                "\nstrays:      {n} points lie far outside the rest (reconstruct, sdf and quilt \
+                 leave them out; --keep-strays keeps them)"
+            )),
+            _ => {}
+        }
         for c in &self.comments {
             s.push_str(&format!("\ncomment:     {c}"));
         }

@@ -966,4 +966,10 @@ fn reconstruct_and_sdf_leave_stray_points_out_unless_kept() {
     assert_eq!(mesh("stray_mesh.ply"), mesh("clean_mesh.ply"));
     let clean_said = run("reconstruct", &clean, "again.ply", &[]).1;
     assert!(!clean_said.contains("far outside the rest"), "{clean_said}");
+    // `info` counts them: for point sets only.
+    let said = ok(&["info", &arg(&stray)]);
+    assert!(said.contains("strays:      1 point lies far outside"), "{said}");
+    assert_eq!(info_json(&stray)["stray_points"], 1);
+    assert_eq!(info_json(&clean)["stray_points"], 0);
+    assert!(info_json(&dir.path("clean_mesh.ply"))["stray_points"].is_null());
 }
