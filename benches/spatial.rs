@@ -1,5 +1,6 @@
 //! Spatial index kernels: k-d tree build and queries, regions of it gathered for blocks of
-//! queries, bucket grid churn and queries.
+//! queries, bucket grid churn and queries; the stray-point check every point-set input of
+//! `reconstruct`, `sdf` and `quilt` goes through.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -189,5 +190,18 @@ fn kd_region(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, kd_index, kd_region, bucket_grid);
+/// `strays::kept_indices` on a unit cube of random points with one far outlier.
+fn stray_points(c: &mut Criterion) {
+    let mut group = c.benchmark_group("strays");
+    for n in [100_000usize, 1_000_000] {
+        let mut points = random_points(n, 5);
+        points[n / 2] = Vec3::new(0.5, 0.5, 1_000.0);
+        group.bench_with_input(BenchmarkId::new("kept_indices", n), &points, |b, p| {
+            b.iter(|| geosynth::core::strays::kept_indices(black_box(p)))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, kd_index, kd_region, bucket_grid, stray_points);
 criterion_main!(benches);

@@ -35,6 +35,25 @@ fn random_points(g: &mut rng::SeededRng, n: usize, scale: f32) -> Vec<Vec3> {
         .collect()
 }
 
+/// `points` each moved by a random offset in `[0, reach)³`.
+fn nudged(g: &mut rng::SeededRng, points: &[Vec3], reach: f32) -> Vec<Vec3> {
+    points
+        .iter()
+        .map(|p| *p + Vec3::new(g.random(), g.random(), g.random()) * reach)
+        .collect()
+}
+
+/// The Jacobian of `w` at `x` by central differences of step 1e-5, in double precision.
+fn central_differences(w: &ThinPlateSpline, x: Vec3) -> DMat3 {
+    let (h, x) = (1e-5, x.as_dvec3());
+    let column = |k: usize| {
+        let mut e = DVec3::ZERO;
+        e[k] = h;
+        (w.eval_f64(x + e) - w.eval_f64(x - e)) / (2.0 * h)
+    };
+    DMat3::from_cols(column(0), column(1), column(2))
+}
+
 fn strict() -> TpsParams {
     TpsParams::default().affine_regularization(AffineRegularization::Reject)
 }
@@ -222,24 +241,10 @@ fn heavy_smoothing_tends_to_the_least_squares_affine_map() {
 fn jacobian_matches_central_differences() {
     let mut g = rng::rng_from_seed(3);
     let s = random_points(&mut g, 25, 1.0);
-    let q: Vec<Vec3> = s
-        .iter()
-        .map(|p| *p + Vec3::new(g.random(), g.random(), g.random()) * 0.3)
-        .collect();
+    let q = nudged(&mut g, &s, 0.3);
     let w = ThinPlateSpline::fit(&s, &q, &strict()).unwrap();
-    let h = 1e-5;
     for x in random_points(&mut g, 50, 1.2) {
-        let j = w.jacobian(x);
-        let xd = x.as_dvec3();
-        let cols: Vec<DVec3> = (0..3)
-            .map(|k| {
-                let mut e = DVec3::ZERO;
-                e[k] = h;
-                (w.eval_f64(xd + e) - w.eval_f64(xd - e)) / (2.0 * h)
-            })
-            .collect();
-        let fd = DMat3::from_cols(cols[0], cols[1], cols[2]);
-        let diff = (j - fd)
+        let diff = (w.jacobian(x) - central_differences(&w, x))
             .to_cols_array()
             .iter()
             .map(|v| v.abs())
@@ -256,6 +261,35 @@ fn jacobian_matches_central_differences() {
             .iter()
             .all(|v| v.is_finite())
     );
+}
+
+#[test]
+fn folded_points_are_where_finite_differences_turn_space_inside_out() {
+    let mut g = rng::rng_from_seed(11);
+    // Targets far from their sources (up to 1.5 on a cube of side 2) fold space here and
+    // there; the probes are classified by the determinant of central differences.
+    let s = random_points(&mut g, 20, 1.0);
+    let w = ThinPlateSpline::fit(&s, &nudged(&mut g, &s, 1.5), &strict()).unwrap();
+    let probes = random_points(&mut g, 2000, 1.2);
+    let folded = w.folded_points(&probes);
+    let (mut inside_out, mut compared) = (0, 0);
+    for (i, x) in probes.iter().enumerate() {
+        let det = central_differences(&w, *x).determinant();
+        // Near a zero of the determinant the two may disagree by rounding.
+        if det.abs() > 1e-3 {
+            compared += 1;
+            assert_eq!(folded.contains(&i), det < 0.0, "probe {x}: det {det}");
+            inside_out += usize::from(det < 0.0);
+        }
+    }
+    assert!(compared > 1900, "{compared}");
+    assert!(
+        inside_out > 20 && inside_out < 1900,
+        "{inside_out} folded probes"
+    );
+    // A gentle warp (targets within 0.05) folds nothing.
+    let w = ThinPlateSpline::fit(&s, &nudged(&mut g, &s, 0.05), &strict()).unwrap();
+    assert!(w.folded_points(&probes).is_empty());
 }
 
 #[test]

@@ -1,14 +1,17 @@
 //! `geosynth warp`: apply a thin-plate spline given by explicit pairs.
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use clap::Args;
 use geosynth::core::io::WriteOptions;
 use geosynth::tps::{ThinPlateSpline, TpsError, TpsParams};
 use geosynth::warp::warp_geometry;
 use glam::{DVec3, Vec3};
+use serde_json::json;
 
 use crate::input_file::read_geometry;
+use crate::json_report::write_json_report;
 use crate::output::{
     check_geometry_output, check_output_paths, report_not_kept, status, write_geometry_file,
 };
@@ -31,6 +34,10 @@ pub struct WarpArgs {
     /// Smoothing λ of the spline (0 = interpolate the pairs exactly).
     #[arg(long, default_value_t = 0.0)]
     smoothing: f64,
+    /// Write a JSON report: the pairs, the spline's bending energy, how far it misses its
+    /// targets and moves the points, how many points it folds, the timings.
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
 }
 
 /// The pairs of a pairs file, with the line each came from.
@@ -107,7 +114,7 @@ fn fit_spline(pairs: &Pairs, path: &Path, smoothing: f64) -> CliResult<ThinPlate
 
 /// Runs `geosynth warp`.
 pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
-    check_output_paths([args.output.as_path()], [])?;
+    check_output_paths([args.output.as_path()], args.report.as_deref())?;
     let text = std::fs::read_to_string(&args.pairs)
         .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
     // Georeferenced inputs are warped relative to an origin and written back there.
@@ -119,7 +126,12 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
         loaded.origin,
     )?;
     let pairs = parse_pairs(&text, &args.pairs, loaded.origin)?;
+    let start = Instant::now();
     let spline = fit_spline(&pairs, &args.pairs, args.smoothing)?;
+    let fit_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let folded = spline.folded_points(loaded.geometry.points().positions());
+    let before = loaded.geometry.points().positions().to_vec();
     let out = warp_geometry(&spline, loaded.geometry).map_err(|e| -> CliError {
         match e {
             geosynth::Error::WarpOverflow { index } => format!(
@@ -139,7 +151,52 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
             args.pairs.display()
         ))
         .origin(loaded.origin);
+    let warp_seconds = start.elapsed().as_secs_f64();
     write_geometry_file(&args.output, &out, &options, globals)?;
+    let missed = pairs
+        .from
+        .iter()
+        .zip(&pairs.to)
+        .map(|(&s, &q)| spline.eval(s).distance(q))
+        .fold(0.0f32, f32::max);
+    let moved = before
+        .iter()
+        .zip(out.points().positions())
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0f32, f32::max);
+    if let Some(path) = &args.report {
+        let report = json!({
+            "input": args.input.display().to_string(),
+            "pairs_file": args.pairs.display().to_string(),
+            "pairs": pairs.from.len(),
+            "smoothing": args.smoothing,
+            "output": args.output.display().to_string(),
+            "points": before.len(),
+            "bending_energy": spline.bending_energy(),
+            "largest_target_miss": missed,
+            "largest_displacement": moved,
+            "folded_points": folded.len(),
+            "timings": [
+                {"stage": "fitting the spline", "seconds": fit_seconds},
+                {"stage": "warping", "seconds": warp_seconds},
+            ],
+        });
+        write_json_report(path, "warp", &report)?;
+    }
+    if !folded.is_empty() {
+        status(
+            globals,
+            format!(
+                "note: the spline folds space at {} of the {} points (its Jacobian's \
+                 determinant is zero or negative there): their surroundings are squashed \
+                 flat or turned inside out, a mesh's triangles there flip, and parts of the \
+                 surface may cross. Pairs whose targets swap the order of their sources do \
+                 that; --smoothing λ > 0 or fewer pairs undo it",
+                folded.len(),
+                before.len()
+            ),
+        );
+    }
     status(
         globals,
         format!(

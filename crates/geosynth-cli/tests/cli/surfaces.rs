@@ -537,7 +537,29 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
     };
     let input = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
     let out = dir.path().join("warped.ply");
-    ok(&warp(&input, &out).each_ref().map(String::as_str));
+    let report = dir.path().join("r.json");
+    let read_report = || -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap()
+    };
+    let (base, report_arg) = (warp(&input, &out), arg(&report));
+    let with_report = [
+        &base.each_ref().map(String::as_str)[..],
+        &["--report", &report_arg],
+    ]
+    .concat();
+    let said = ok(&with_report);
+    assert!(!said.contains("folds space"), "{said}");
+    // The report: a rotation meets its targets, moves the unit sphere's equator by √2 and
+    // folds nothing.
+    let r = read_report();
+    assert_eq!(
+        (r["command"].as_str(), r["pairs"].as_u64()),
+        (Some("warp"), Some(5))
+    );
+    assert!(r["largest_target_miss"].as_f64().unwrap() < 1e-5, "{r}");
+    let moved = r["largest_displacement"].as_f64().unwrap();
+    assert!((moved - 2f64.sqrt()).abs() < 0.01, "{moved}");
+    assert_eq!(r["folded_points"], 0);
     let before = geosynth::core::io::read_geometry(&input).unwrap().geometry;
     let after = geosynth::core::io::read_geometry(&out).unwrap().geometry;
     let (p0, p1) = (before.points(), after.points());
@@ -553,6 +575,24 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
     ok(&warp(&mesh_in, &mesh_out).each_ref().map(String::as_str));
     let json = info_json(&mesh_out);
     assert_eq!(json["faces"], 48 * 24 * 2);
+    // Pairs whose targets swap the order of their sources fold space where they cross:
+    // a note and the count, which smoothing takes away.
+    let swap: String = [(-1.5, -1.5), (-0.5, 0.5), (0.5, -0.5), (1.5, 1.5)]
+        .iter()
+        .flat_map(|&(x, to)| {
+            [(-1, -1), (1, -1), (-1, 1), (1, 1)].map(|(y, z)| format!("{x} {y} {z} {to} {y} {z}\n"))
+        })
+        .collect();
+    std::fs::write(&pairs, swap).unwrap();
+    let said = ok(&with_report);
+    assert!(said.contains("the spline folds space at"), "{said}");
+    let folded = read_report()["folded_points"].as_u64().unwrap();
+    assert!(folded > 100 && folded < 2000, "{folded}");
+    let said = ok(&[&with_report[..], &["--smoothing", "1"]].concat());
+    assert!(!said.contains("folds space"), "{said}");
+    let r = read_report();
+    assert_eq!(r["folded_points"], 0);
+    assert!(r["largest_target_miss"].as_f64().unwrap() > 0.1, "{r}");
     // Bad pairs files fail with the line.
     std::fs::write(&pairs, "1 0 0 0 1 0\n1 2 3\n").unwrap();
     let args = warp(&input, &out);
@@ -968,7 +1008,10 @@ fn reconstruct_and_sdf_leave_stray_points_out_unless_kept() {
     assert!(!clean_said.contains("far outside the rest"), "{clean_said}");
     // `info` counts them: for point sets only.
     let said = ok(&["info", &arg(&stray)]);
-    assert!(said.contains("strays:      1 point lies far outside"), "{said}");
+    assert!(
+        said.contains("strays:      1 point lies far outside"),
+        "{said}"
+    );
     assert_eq!(info_json(&stray)["stray_points"], 1);
     assert_eq!(info_json(&clean)["stray_points"], 0);
     assert!(info_json(&dir.path("clean_mesh.ply"))["stray_points"].is_null());

@@ -116,6 +116,40 @@ impl ThinPlateSpline {
         map_blocks::<JACOBIAN_LANES, _, _>(points, |block| self.jacobian_block(block))
     }
 
+    /// The indices of the points where the warp folds space: its Jacobian's determinant is
+    /// zero or negative there, so the neighbourhood is squashed flat or turned inside out
+    /// (a mesh's triangles there flip, and two parts of a surface may cross). Pairs whose
+    /// targets swap the order of their sources do that; smoothing (`λ > 0`) or fewer pairs
+    /// undo it. In parallel, in order.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use tps_warp::{ThinPlateSpline, TpsParams};
+    ///
+    /// // Sources along x at 0, 1, 2, 3 (on a cube's corners, so the fit is 3D); the middle
+    /// // two swap places: between them x runs backwards.
+    /// let mut s = Vec::new();
+    /// let mut q = Vec::new();
+    /// for (x, to) in [(0.0, 0.0), (1.0, 2.0), (2.0, 1.0), (3.0, 3.0)] {
+    ///     for (y, z) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+    ///         s.push(Vec3::new(x, y, z));
+    ///         q.push(Vec3::new(to, y, z));
+    ///     }
+    /// }
+    /// let w = ThinPlateSpline::fit(&s, &q, &TpsParams::default())?;
+    /// let probes = [Vec3::new(1.5, 0.5, 0.5), Vec3::new(-1.0, 0.5, 0.5)];
+    /// assert_eq!(w.folded_points(&probes), [0]);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn folded_points(&self, points: &[Vec3]) -> Vec<usize> {
+        self.jacobians(points)
+            .iter()
+            .enumerate()
+            .filter(|(_, j)| j.determinant() <= 0.0)
+            .map(|(i, _)| i)
+            .collect()
+    }
+
     /// [`Self::eval_f64`] for each lane of `block`.
     fn eval_block<const N: usize>(&self, block: &LaneBlock<N>) -> [DVec3; N] {
         let affine: [DVec3; N] =
