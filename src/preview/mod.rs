@@ -27,6 +27,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use pointset_core::io::{Geometry, replace_file};
+use pointset_core::strays::kept_indices;
 use pointset_core::{KdIndex, NormalWeighting};
 
 use crate::imagery::io_error;
@@ -132,12 +133,27 @@ impl RenderOptions {
     }
 }
 
-/// Renders one geometry into an image of `options.width × options.height`.
+/// Renders one geometry into an image of `options.width × options.height`. A point set's
+/// view frames the points that are not stray ([`pointset_core::strays::kept_indices`]):
+/// one outlier would shrink the rest to a speck; the stray points are drawn where they
+/// fall in that frame.
 pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> {
     options.validate()?;
     let points = geometry.points();
+    let kept: Vec<Vec3>;
+    let framed = match geometry {
+        Geometry::Points(_) => {
+            let positions = points.positions();
+            kept = kept_indices(positions)
+                .into_iter()
+                .map(|i| positions[i])
+                .collect();
+            &kept
+        }
+        Geometry::Mesh(_) => points.positions(),
+    };
     let cam = Camera::fitted(
-        points.positions(),
+        framed,
         options.up,
         options.azimuth,
         options.elevation,

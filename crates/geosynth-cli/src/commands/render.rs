@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::{Args, ValueEnum};
 use geosynth::core::TriMesh;
 use geosynth::core::io::Geometry;
+use geosynth::core::strays::kept_indices;
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::{isosurface, nrrd};
@@ -192,6 +193,22 @@ pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
         .iter()
         .map(|p| load(p, args, globals).map_err(named(p)))
         .collect::<CliResult<Vec<_>>>()?;
+    for (path, input) in args.files.iter().zip(&inputs) {
+        if let Input::Geometry(Geometry::Points(points), _) = input {
+            let strays = points.len() - kept_indices(points.positions()).len();
+            let lie = if strays == 1 { "lies" } else { "lie" };
+            if strays > 0 {
+                status(
+                    globals,
+                    format!(
+                        "note: {}: {strays} of its points {lie} far outside the rest; its \
+                         panel frames the others",
+                        path.display()
+                    ),
+                );
+            }
+        }
+    }
     let panels: Vec<Panel<'_>> = inputs
         .iter()
         .map(|i| match i {

@@ -938,7 +938,7 @@ fn sdf_estimates_or_orients_a_point_sets_normals_as_reconstruct_does() {
 }
 
 #[test]
-fn reconstruct_and_sdf_leave_stray_points_out_unless_kept() {
+fn stray_points_are_left_out_of_surfaces_and_framed_out_of_pictures() {
     use geosynth::core::io::Geometry;
     use geosynth::core::{PointSet, TriMesh};
     use glam::Vec3;
@@ -1006,6 +1006,20 @@ fn reconstruct_and_sdf_leave_stray_points_out_unless_kept() {
     assert_eq!(mesh("stray_mesh.ply"), mesh("clean_mesh.ply"));
     let clean_said = run("reconstruct", &clean, "again.ply", &[]).1;
     assert!(!clean_said.contains("far outside the rest"), "{clean_said}");
+    // `render` frames the others: the same picture as the clean cloud's.
+    let picture = |input: &Path, name: &str| {
+        let out = dir.path(name);
+        let said = ok(&["render", &arg(input), "-o", &arg(&out)]);
+        (std::fs::read(out).unwrap(), said)
+    };
+    let (clean_picture, said) = picture(&clean, "clean.png");
+    assert!(!said.contains("far outside"), "{said}");
+    let (stray_picture, said) = picture(&stray, "stray.png");
+    assert!(
+        said.contains("1 of its points lies far outside the rest"),
+        "{said}"
+    );
+    assert!(stray_picture == clean_picture);
     // `info` counts them: for point sets only.
     let said = ok(&["info", &arg(&stray)]);
     assert!(
