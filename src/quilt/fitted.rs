@@ -34,6 +34,10 @@ pub const MAX_PLANE_SPREAD: f64 = 0.25;
 /// [`TextureFile::frame`] and [`TextureFile::origin`] take results back to the file's
 /// frame ([`TextureFile::to_file_frame`], [`TextureFile::comments`]).
 ///
+/// A point set's points that lie far outside the rest ([`pointset_core::strays`]) would
+/// tilt the plane and stretch its box: they are left out and counted in
+/// [`TextureFile::stray_points`].
+///
 /// Errors: texture comments in the file (they already give the box and the up axis), no
 /// points or normals, and points with no dominant plane (spread across the best plane more
 /// than half as wide as along its narrower side, see [`MAX_PLANE_SPREAD`]).

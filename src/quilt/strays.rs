@@ -3,6 +3,7 @@
 //! coordinate) and would stretch the default box until its distance field is refused.
 
 use pointset_core::io::Geometry;
+use pointset_core::strays::kept_indices;
 
 /// What a texture file's reader did with its stray points ([`super::TextureFile::stray_points`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -21,22 +22,32 @@ pub(super) fn strays_handled(geometry: Geometry, keep: bool) -> (Geometry, Optio
     let Geometry::Points(points) = geometry else {
         return (geometry, None);
     };
-    match points.without_strays() {
-        None => (Geometry::Points(points), None),
-        Some((_, count)) if keep => (
-            Geometry::Points(points),
-            Some(StrayPoints {
-                count,
-                left_out: false,
-            }),
-        ),
-        Some((kept, count)) => (
-            Geometry::Points(kept),
-            Some(StrayPoints {
+    let kept = kept_indices(points.positions());
+    let count = points.len() - kept.len();
+    if count == 0 {
+        return (Geometry::Points(points), None);
+    }
+    let kept_whole = |points| {
+        let strays = StrayPoints {
+            count,
+            left_out: false,
+        };
+        (Geometry::Points(points), Some(strays))
+    };
+    if keep {
+        return kept_whole(points);
+    }
+    match points.subset(&kept) {
+        Ok(subset) => {
+            let strays = StrayPoints {
                 count,
                 left_out: true,
-            }),
-        ),
+            };
+            (Geometry::Points(subset), Some(strays))
+        }
+        // The indices come from the points themselves, so this cannot happen; the points
+        // are kept whole, and say so, should it.
+        Err(_) => kept_whole(points),
     }
 }
 

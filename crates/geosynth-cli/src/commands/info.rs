@@ -270,12 +270,12 @@ impl FileInfo {
         ));
         match self.stray_points {
             Some(1) => s.push_str(
-                "\nstrays:      1 point lies far outside the rest (reconstruct, sdf and quilt \
-                 leave it out; --keep-strays keeps it)",
+                "\nstrays:      1 point lies far outside the rest (reconstruct and sdf leave it \
+                 out, and quilt under its default box; --keep-strays keeps it)",
             ),
             Some(n) if n > 1 => s.push_str(&format!(
-                "\nstrays:      {n} points lie far outside the rest (reconstruct, sdf and quilt \
-                 leave them out; --keep-strays keeps them)"
+                "\nstrays:      {n} points lie far outside the rest (reconstruct and sdf leave \
+                 them out, and quilt under its default box; --keep-strays keeps them)"
             )),
             _ => {}
         }

@@ -8,6 +8,7 @@ use std::time::Duration;
 use clap::Args;
 use geosynth::Stage;
 use geosynth::core::PointSet;
+use geosynth::core::strays::kept_indices;
 use geosynth::mls::{ORIENTING_STAGE, orient_normals_in};
 use geosynth::normals::EstimateNormals;
 
@@ -147,9 +148,11 @@ impl PointPrep {
     /// `points` (read from `path`) without their stray points, unless they are kept, and
     /// how many were left out; notes either.
     fn strays_handled(&self, points: PointSet, path: &Path, globals: Globals) -> (PointSet, usize) {
-        let Some((kept, strays)) = points.without_strays() else {
+        let kept = kept_indices(points.positions());
+        let strays = points.len() - kept.len();
+        if strays == 0 {
             return (points, 0);
-        };
+        }
         let (count, verb, pronoun) = match strays {
             1 => ("1 point".to_string(), "lies", "it"),
             n => (format!("{n} points"), "lie", "them"),
@@ -166,6 +169,11 @@ impl PointPrep {
             );
             (points, 0)
         } else {
+            // The indices come from the points themselves, so the subset cannot fail;
+            // should it, the points are kept whole.
+            let Ok(subset) = points.subset(&kept) else {
+                return (points, 0);
+            };
             status(
                 globals,
                 format!(
@@ -173,7 +181,7 @@ impl PointPrep {
                      keeps {pronoun}"
                 ),
             );
-            (kept, strays)
+            (subset, strays)
         }
     }
 }

@@ -178,7 +178,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
             "folded_points": folded.len(),
             "timings": [
                 {"stage": "fitting the spline", "seconds": fit_seconds},
-                {"stage": "warping", "seconds": warp_seconds},
+                {"stage": "warping and finding folds", "seconds": warp_seconds},
             ],
         });
         write_json_report(path, "warp", &report)?;
