@@ -89,6 +89,26 @@ fn rendered_sphere_points_are_a_disc_darker_toward_its_rim() {
 }
 
 #[test]
+fn a_stray_point_neither_shrinks_nor_breaks_a_point_sets_picture() {
+    // The sphere with one point far off renders as the sphere alone; one at 3e38 (beyond
+    // what a k-d tree indexes) renders too.
+    let sphere = fixtures::sphere_points(2_000).unwrap();
+    let opts = RenderOptions::default().size(120, 90);
+    let alone = preview::render(&Geometry::Points(sphere.clone()), &opts).unwrap();
+    for far in [Vec3::new(40.0, 0.0, 0.0), Vec3::new(3e38, -3e38, 3e38)] {
+        let mut positions = sphere.positions().to_vec();
+        positions.push(far);
+        let mut normals = sphere.normals().unwrap().to_vec();
+        normals.push(Vec3::X);
+        let with_stray = geosynth::core::PointSet::new(positions)
+            .and_then(|p| p.with_normals(normals))
+            .unwrap();
+        let img = preview::render(&Geometry::Points(with_stray), &opts).unwrap();
+        assert!(img == alone, "{far}");
+    }
+}
+
+#[test]
 fn nearer_geometry_hides_farther_geometry() {
     // Two red/blue squares of points, the red one nearer the camera (+Z, azimuth 0).
     let mut pts = Vec::new();

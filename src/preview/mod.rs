@@ -192,7 +192,7 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
             }
         }
         None => {
-            let spacing = KdIndex::new(points.positions())?.median_spacing()?;
+            let spacing = KdIndex::new(framed)?.median_spacing()?;
             let radius = (1.1 * spacing * cam.scale() * options.splat_scale).clamp(1.0, 64.0);
             let normals = points.normals();
             for (i, &p) in points.positions().iter().enumerate() {
