@@ -563,14 +563,7 @@ mod tests {
             left_out: true,
         };
         assert_eq!(file.stray_points, Some(left_out));
-        assert_eq!(
-            file.texture.canonical_points(),
-            clean.texture.canonical_points()
-        );
-        assert_eq!(
-            file.texture.canonical_bounds(),
-            clean.texture.canonical_bounds()
-        );
+        assert_same_texture(&file, &clean);
         // Kept: the default box reaches up to it.
         let kept = read(TextureReading {
             keep_strays: true,
@@ -602,15 +595,14 @@ mod tests {
             (fitted.frame, fitted.origin),
             (fitted_clean.frame, fitted_clean.origin)
         );
-        assert_eq!(
-            fitted.texture.canonical_points(),
-            fitted_clean.texture.canonical_points()
-        );
-        assert_eq!(
-            fitted.texture.canonical_bounds(),
-            fitted_clean.texture.canonical_bounds()
-        );
+        assert_same_texture(&fitted, &fitted_clean);
         assert_eq!(fitted_clean.stray_points, None);
+    }
+
+    /// Asserts that two files read to the same texture points and box.
+    fn assert_same_texture(a: &TextureFile, b: &TextureFile) {
+        assert_eq!(a.texture.canonical_points(), b.texture.canonical_points());
+        assert_eq!(a.texture.canonical_bounds(), b.texture.canonical_bounds());
     }
 
     /// An ASCII PLY of a 30 × 30 grid at spacing 0.1 with heights `z(x)` and +Z normals,

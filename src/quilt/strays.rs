@@ -3,7 +3,6 @@
 //! coordinate) and would stretch the default box until its distance field is refused.
 
 use pointset_core::io::Geometry;
-use pointset_core::strays::kept_indices;
 
 /// What a texture file's reader did with its stray points ([`super::TextureFile::stray_points`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -22,33 +21,15 @@ pub(super) fn strays_handled(geometry: Geometry, keep: bool) -> (Geometry, Optio
     let Geometry::Points(points) = geometry else {
         return (geometry, None);
     };
-    let kept = kept_indices(points.positions());
-    let count = points.len() - kept.len();
-    if count == 0 {
-        return (Geometry::Points(points), None);
-    }
-    let kept_whole = |points| {
-        let strays = StrayPoints {
-            count,
-            left_out: false,
-        };
-        (Geometry::Points(points), Some(strays))
+    let (points, count, left_out) = if keep {
+        let count = points.stray_count();
+        (points, count, false)
+    } else {
+        let (kept, count) = points.without_strays();
+        (kept, count, true)
     };
-    if keep {
-        return kept_whole(points);
-    }
-    match points.subset(&kept) {
-        Ok(subset) => {
-            let strays = StrayPoints {
-                count,
-                left_out: true,
-            };
-            (Geometry::Points(subset), Some(strays))
-        }
-        // The indices come from the points themselves, so this cannot happen; the points
-        // are kept whole, and say so, should it.
-        Err(_) => kept_whole(points),
-    }
+    let strays = (count > 0).then_some(StrayPoints { count, left_out });
+    (Geometry::Points(points), strays)
 }
 
 #[cfg(test)]

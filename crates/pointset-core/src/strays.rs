@@ -57,28 +57,48 @@ pub fn kept_indices(positions: &[Vec3]) -> Vec<usize> {
 }
 
 impl PointSet {
-    /// The points that are not stray by [`kept_indices`]' rule, with their normals and
-    /// attributes, and how many were left out; `None` when none is stray.
+    /// How many of the points are stray by [`kept_indices`]' rule.
     ///
     /// ```
     /// use glam::Vec3;
     /// use pointset_core::PointSet;
     ///
     /// let mut p: Vec<Vec3> = (0..900).map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0)).collect();
-    /// assert!(PointSet::new(p.clone())?.without_strays().is_none());
+    /// assert_eq!(PointSet::new(p.clone())?.stray_count(), 0);
     /// p.push(Vec3::new(-5_000.0, 3.0, 0.0));
-    /// let (kept, left_out) = PointSet::new(p)?.without_strays().ok_or("no strays")?;
+    /// assert_eq!(PointSet::new(p)?.stray_count(), 1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn stray_count(&self) -> usize {
+        self.len() - kept_indices(self.positions()).len()
+    }
+
+    /// The points that are not stray by [`kept_indices`]' rule, with their normals and
+    /// attributes, and how many were left out (the points themselves, and 0, when none is
+    /// stray).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::PointSet;
+    ///
+    /// let mut p: Vec<Vec3> = (0..900).map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0)).collect();
+    /// p.push(Vec3::new(-5_000.0, 3.0, 0.0));
+    /// let (kept, left_out) = PointSet::new(p)?.without_strays();
     /// assert_eq!((kept.len(), left_out), (900, 1));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
-    pub fn without_strays(&self) -> Option<(PointSet, usize)> {
+    pub fn without_strays(self) -> (PointSet, usize) {
         let kept = kept_indices(self.positions());
         let left_out = self.len() - kept.len();
         if left_out == 0 {
-            return None;
+            return (self, 0);
         }
-        // The indices come from 0..len, so the subset cannot fail.
-        Some((self.subset(&kept).ok()?, left_out))
+        // The indices come from 0..len, so the subset cannot fail; should it, nothing is
+        // left out.
+        match self.subset(&kept) {
+            Ok(subset) => (subset, left_out),
+            Err(_) => (self, 0),
+        }
     }
 }
 
@@ -189,7 +209,8 @@ mod tests {
             .and_then(|p| p.with_normals(normals.clone()))
             .and_then(|p| p.with_attribute(crate::Attribute::new("id", ids)))
             .unwrap();
-        let (kept, left_out) = points.without_strays().unwrap();
+        assert_eq!(points.stray_count(), 1);
+        let (kept, left_out) = points.clone().without_strays();
         assert_eq!(left_out, 1);
         let expected: Vec<usize> = (0..points.len()).filter(|&i| i != 3).collect();
         assert_eq!(kept, points.subset(&expected).unwrap());

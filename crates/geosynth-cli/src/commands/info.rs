@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use geosynth::core::MeshTopology;
 use geosynth::core::io::{Geometry, LoadedGeometry};
-use geosynth::core::strays::kept_indices;
 use geosynth::imagery;
 use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
 use geosynth::sdf::nrrd;
@@ -65,7 +64,7 @@ pub struct FileInfo {
     bbox_min: Option<[f64; 3]>,
     bbox_max: Option<[f64; 3]>,
     /// A point set's points that lie far outside the rest
-    /// ([`kept_indices`](geosynth::core::strays::kept_indices)), which `reconstruct`, `sdf`
+    /// ([`PointSet::stray_count`](geosynth::core::PointSet::stray_count)), which `reconstruct`, `sdf`
     /// and `quilt` leave out; `None` for meshes, whose far vertices belong to faces.
     stray_points: Option<usize>,
     comments: Vec<String>,
@@ -185,7 +184,7 @@ impl FileInfo {
             bbox_min: bbox.map(|b| (b.min.as_dvec3() + loaded.origin).to_array()),
             bbox_max: bbox.map(|b| (b.max.as_dvec3() + loaded.origin).to_array()),
             stray_points: match g {
-                Geometry::Points(p) => Some(p.len() - kept_indices(p.positions()).len()),
+                Geometry::Points(p) => Some(p.stray_count()),
                 Geometry::Mesh(_) => None,
             },
             comments: loaded.comments.clone(),

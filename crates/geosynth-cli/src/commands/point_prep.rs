@@ -8,7 +8,6 @@ use std::time::Duration;
 use clap::Args;
 use geosynth::Stage;
 use geosynth::core::PointSet;
-use geosynth::core::strays::kept_indices;
 use geosynth::mls::{ORIENTING_STAGE, orient_normals_in};
 use geosynth::normals::EstimateNormals;
 
@@ -148,8 +147,13 @@ impl PointPrep {
     /// `points` (read from `path`) without their stray points, unless they are kept, and
     /// how many were left out; notes either.
     fn strays_handled(&self, points: PointSet, path: &Path, globals: Globals) -> (PointSet, usize) {
-        let kept = kept_indices(points.positions());
-        let strays = points.len() - kept.len();
+        let (points, strays, left_out) = if self.keep_strays {
+            let count = points.stray_count();
+            (points, count, 0)
+        } else {
+            let (kept, count) = points.without_strays();
+            (kept, count, count)
+        };
         if strays == 0 {
             return (points, 0);
         }
@@ -162,27 +166,15 @@ impl PointPrep {
              middle 99% of the points' coordinates)",
             path.display()
         );
-        if self.keep_strays {
-            status(
-                globals,
-                format!("{what}; kept (--keep-strays), the grid spans {pronoun}"),
-            );
-            (points, 0)
+        let done = if self.keep_strays {
+            format!("; kept (--keep-strays), the grid spans {pronoun}")
         } else {
-            // The indices come from the points themselves, so the subset cannot fail;
-            // should it, the points are kept whole.
-            let Ok(subset) = points.subset(&kept) else {
-                return (points, 0);
-            };
-            status(
-                globals,
-                format!(
-                    "{what}: left out, since the grid would span {pronoun}; --keep-strays \
-                     keeps {pronoun}"
-                ),
-            );
-            (subset, strays)
-        }
+            format!(
+                ": left out, since the grid would span {pronoun}; --keep-strays keeps {pronoun}"
+            )
+        };
+        status(globals, format!("{what}{done}"));
+        (points, left_out)
     }
 }
 

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use clap::{Args, ValueEnum};
 use geosynth::core::TriMesh;
 use geosynth::core::io::Geometry;
-use geosynth::core::strays::kept_indices;
 use geosynth::imagery;
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::{isosurface, nrrd};
@@ -195,7 +194,7 @@ pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
         .collect::<CliResult<Vec<_>>>()?;
     for (path, input) in args.files.iter().zip(&inputs) {
         if let Input::Geometry(Geometry::Points(points), _) = input {
-            let strays = points.len() - kept_indices(points.positions()).len();
+            let strays = points.stray_count();
             let lie = if strays == 1 { "lies" } else { "lie" };
             if strays > 0 {
                 status(
