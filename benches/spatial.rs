@@ -203,5 +203,35 @@ fn stray_points(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, kd_index, kd_region, bucket_grid, stray_points);
+/// `mls::isolated_samples` (default parameters) on random points of the unit sphere with
+/// one point at its centre, the index built beforehand.
+fn isolated_points(c: &mut Criterion) {
+    let mut group = c.benchmark_group("isolated");
+    for n in [100_000usize, 1_000_000] {
+        let mut points: Vec<Vec3> = random_points(n, 6)
+            .into_iter()
+            .map(|p| (p - Vec3::splat(0.5)).normalize_or(Vec3::X))
+            .collect();
+        points[n / 2] = Vec3::ZERO;
+        let Ok(index) = KdIndex::new(&points) else {
+            return;
+        };
+        let params = geosynth::mls::MlsParams::default();
+        group.bench_with_input(
+            BenchmarkId::new("isolated_samples", n),
+            &index,
+            |b, index| b.iter(|| geosynth::mls::isolated_samples(black_box(index), &params)),
+        );
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    kd_index,
+    kd_region,
+    bucket_grid,
+    stray_points,
+    isolated_points
+);
 criterion_main!(benches);

@@ -960,3 +960,45 @@ fn mount_st_helens_as_bare_points_gets_its_surface_normals_back() {
     );
     assert_eq!(file.undefined_normals, 0);
 }
+
+#[test]
+fn bundled_and_shared_point_sets_have_no_isolated_samples() {
+    // docs: `mls_surface::isolated_samples`. None of the point sets we ship or test on
+    // has a sample alone within twice the MLS kernel's reach; two points put inside the
+    // bunny scan are.
+    use geosynth::core::KdIndex;
+    use geosynth::mls::{MlsParams, isolated_samples};
+    let isolated = |positions: &[Vec3]| {
+        isolated_samples(&KdIndex::new(positions).unwrap(), &MlsParams::default()).unwrap()
+    };
+    let mut checked = 0;
+    for entry in std::fs::read_dir(geosynth::fixtures::bundled_dir()).unwrap() {
+        let path = entry.unwrap().path();
+        let geometry = io::read_geometry(&path).unwrap().geometry;
+        if geometry.mesh().is_none() {
+            let found = isolated(geometry.points().positions());
+            assert!(found.is_empty(), "{}: {found:?}", path.display());
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 8);
+    for name in ["bunny16k_normals.ply", "chameleon4k_normals.ply"] {
+        let relative = format!("pointsets/{name}");
+        let Some(path) = geosynth::core::testdata::shared_data("isolated samples", &relative)
+        else {
+            return;
+        };
+        let mut positions = io::read_geometry(path)
+            .unwrap()
+            .geometry
+            .points()
+            .positions()
+            .to_vec();
+        assert!(isolated(&positions).is_empty(), "{name}");
+        if name.starts_with("bunny") {
+            let n = positions.len();
+            positions.extend([Vec3::ZERO, Vec3::new(5.0, -3.0, 2.0)]);
+            assert_eq!(isolated(&positions), vec![n, n + 1]);
+        }
+    }
+}

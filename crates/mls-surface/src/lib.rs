@@ -58,6 +58,9 @@
 //!   when the query lies within 45° of its normal, else from the tangent planes of the
 //!   nearest few samples ([`MlsParams::fallback_sign_samples`], [`SINGLE_PLANE_COSINE`]:
 //!   one plane is wrong too often near sharp edges, thin parts and tilted normals).
+//! - A sample with no other within twice the support radius has a surface of its own (a
+//!   bubble, where a distance field falls back to it); [`isolated_samples`] lists such
+//!   samples for callers that leave them out.
 //! - Clusters are represented by the member nearest the centroid (a real oriented sample).
 //! - Relaxation moves all points simultaneously (Jacobi style), which makes it independent
 //!   of thread scheduling.
@@ -87,6 +90,7 @@ mod cluster;
 mod error;
 mod heights;
 mod index_match;
+mod isolated;
 mod orientation;
 mod params;
 mod pca;
@@ -97,6 +101,7 @@ mod surface;
 pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
+pub use isolated::{ISOLATION_REACH, isolated_samples};
 pub use orientation::{
     LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,
     ORIENTING_STAGE, fit_oriented_normals_with, orient_normals, orient_normals_in,

@@ -258,6 +258,12 @@ pub fn single_precision_note(
     })
 }
 
+/// `x` rounded to three significant digits, printed without trailing noise (0.054, not
+/// 0.05396507).
+pub(crate) fn three_digits(x: f32) -> String {
+    format!("{x:.2e}").parse::<f32>().unwrap_or(x).to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::comma_values;

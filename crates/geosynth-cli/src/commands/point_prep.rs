@@ -1,17 +1,20 @@
 //! How `reconstruct` and `sdf` prepare a point set before its MLS surface is built: stray
-//! points left out (unless `--keep-strays`), and the normals as read, oriented
-//! (`--orient-normals`) or estimated (`--estimate-normals`), turned toward `--up`.
+//! and isolated points left out (unless `--keep-strays`), and the normals as read,
+//! oriented (`--orient-normals`) or estimated (`--estimate-normals`), turned toward `--up`.
 
 use std::path::Path;
 use std::time::Duration;
 
 use clap::Args;
 use geosynth::Stage;
-use geosynth::core::PointSet;
-use geosynth::mls::{ORIENTING_STAGE, orient_normals_in};
+use geosynth::core::{KdIndex, PointSet};
+use geosynth::mls::{
+    ISOLATION_REACH, MlsParams, ORIENTING_STAGE, isolated_samples, orient_normals_in,
+};
 use geosynth::normals::EstimateNormals;
 
 use super::normals::{UpArg, parse_neighbours, undefined_note};
+use super::three_digits;
 use super::unoriented_normals_note;
 use crate::output::{progress_context, status};
 use crate::{CliResult, Globals};
@@ -41,10 +44,11 @@ pub struct PointPrepArgs {
     /// (a closed object comes out facing outward whichever; an open scan faces this way).
     #[arg(long, value_enum)]
     up: Option<UpArg>,
-    /// Keep the points that lie far outside the rest (by default left out, with a note:
-    /// a point beyond twice the span of the middle 99% of the points' coordinates on some
-    /// axis, such as a scan's outlier, stretches the grid until the surface is a speck in
-    /// it).
+    /// Keep the points that lie far outside the rest, or alone (by default left out, with
+    /// a note: a point beyond twice the span of the middle 99% of the points' coordinates
+    /// on some axis, such as a scan's outlier, stretches the grid until the surface is a
+    /// speck in it; a point with fewer than 3 others within twice the MLS kernel's reach,
+    /// such as a stray point inside a hollow scan, closes into a bubble of its own).
     #[arg(long)]
     keep_strays: bool,
 }
@@ -112,18 +116,22 @@ impl PointPrep {
         .into())
     }
 
-    /// `points` (read from `path`) without their stray points unless kept, with their
+    /// `points` (read from `path`) without their stray and isolated points unless kept
+    /// (isolated for an MLS surface of the `kernel` given, or estimated), with their
     /// normals estimated or oriented as asked, each stage's time added to `timings`, and
     /// refused when their MLS surface could still not use them; prints the notes about
-    /// them. Returns the points and how many stray points were left out.
+    /// them. Returns the points and what was left out.
     pub fn prepared(
         &self,
         points: PointSet,
+        kernel: Option<f32>,
         path: &Path,
         globals: Globals,
         timings: &mut Vec<(String, Duration)>,
-    ) -> CliResult<(PointSet, usize)> {
-        let (mut points, left_out) = self.strays_handled(points, path, globals);
+    ) -> CliResult<(PointSet, LeftOut)> {
+        let (points, strays) = self.strays_handled(points, path, globals);
+        let (mut points, isolated) = self.isolated_handled(points, kernel, path, globals)?;
+        let left_out = LeftOut { strays, isolated };
         if let Some(neighbours) = self.estimate {
             points = estimated(points, neighbours, self.up, globals, timings)?;
         }
@@ -176,6 +184,80 @@ impl PointPrep {
         status(globals, format!("{what}{done}"));
         (points, left_out)
     }
+
+    /// `points` (read from `path`) without their isolated points
+    /// ([`geosynth::mls::isolated_samples`] for the MLS kernel `kernel`, or the one
+    /// estimated), unless they are kept or more than 1% of the points are isolated (then
+    /// they are a sparse part, not strays), and how many were left out; notes what it did.
+    fn isolated_handled(
+        &self,
+        points: PointSet,
+        kernel: Option<f32>,
+        path: &Path,
+        globals: Globals,
+    ) -> CliResult<(PointSet, usize)> {
+        let mls = match kernel {
+            Some(h) => MlsParams::default().kernel(h),
+            None => MlsParams::default(),
+        };
+        let index = KdIndex::new(points.positions())?;
+        if index.len() < mls.min_neighbours {
+            // Too few for any surface: the surface's own checks say so.
+            return Ok((points, 0));
+        }
+        let isolated = isolated_samples(&index, &mls)?;
+        if isolated.is_empty() {
+            return Ok((points, 0));
+        }
+        let reach = ISOLATION_REACH * mls.support * mls.kernel_for(&index)?;
+        drop(index);
+        let count = isolated.len();
+        let (what, verb, pronoun) = match count {
+            1 => ("1 point".to_string(), "has", "it"),
+            n => (format!("{n} points"), "have", "them"),
+        };
+        let found = format!(
+            "note: {what} of {} {verb} fewer than {} others within {} (twice the MLS \
+             kernel's reach), so the surface about {pronoun} would be a bubble of {} own",
+            path.display(),
+            mls.min_neighbours - 1,
+            three_digits(reach),
+            if count == 1 { "its" } else { "their" }
+        );
+        let sparse = count * 100 > points.len();
+        let (kept, left_out, done) = if self.keep_strays {
+            (points, 0, "; kept (--keep-strays)".to_string())
+        } else if sparse {
+            let done = format!(
+                "; kept, since they are {:.1}% of the points: a sparse part, which a larger \
+                 --kernel reaches",
+                100.0 * count as f64 / points.len() as f64
+            );
+            (points, 0, done)
+        } else {
+            let mut alone = isolated.iter().peekable();
+            let others: Vec<usize> = (0..points.len())
+                .filter(|i| alone.next_if_eq(&i).is_none())
+                .collect();
+            let kept = points.subset(&others)?;
+            (
+                kept,
+                count,
+                format!(": left out; --keep-strays keeps {pronoun}"),
+            )
+        };
+        status(globals, format!("{found}{done}"));
+        Ok((kept, left_out))
+    }
+}
+
+/// What [`PointPrep::prepared`] left out of a point set.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LeftOut {
+    /// Stray points ([`geosynth::core::strays::kept_indices`]).
+    pub strays: usize,
+    /// Isolated points ([`geosynth::mls::isolated_samples`]).
+    pub isolated: usize,
 }
 
 /// `points` with normals fitted to `neighbours` nearest and oriented toward `up`, as

@@ -18,8 +18,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::normals::UpArg;
-use super::point_prep::{PointPrep, PointPrepArgs, check_recorded_neighbours};
-use super::{SignArgs, no_faces_to_orient};
+use super::point_prep::{LeftOut, PointPrep, PointPrepArgs, check_recorded_neighbours};
+use super::{SignArgs, no_faces_to_orient, three_digits};
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
 use crate::memory::available_bytes;
@@ -203,7 +203,7 @@ impl ReconstructInputOptions {
 /// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's stray
 /// points left out and its normals estimated or oriented (each stage's time added to
 /// `timings`), a mesh's faces turned to agree; prints the notes about it. Returns it and
-/// how many stray points were left out.
+/// what was left out of a point set.
 fn prepared_input(
     args: &ReconstructArgs,
     geometry: Geometry,
@@ -211,7 +211,7 @@ fn prepared_input(
     params: &FieldParams,
     globals: Globals,
     timings: &mut Vec<(String, Duration)>,
-) -> CliResult<(Geometry, usize)> {
+) -> CliResult<(Geometry, LeftOut)> {
     match geometry {
         Geometry::Mesh(mesh) => {
             options.normals().refuse_for_mesh(&args.input)?;
@@ -238,20 +238,20 @@ fn prepared_input(
             {
                 status(globals, note);
             }
-            Ok((Geometry::Mesh(mesh), 0))
+            Ok((Geometry::Mesh(mesh), LeftOut::default()))
         }
         Geometry::Points(points) => {
-            let (points, strays) =
+            let (points, left_out) =
                 options
                     .normals()
-                    .prepared(points, &args.input, globals, timings)?;
+                    .prepared(points, params.kernel, &args.input, globals, timings)?;
             if options.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
             }
             if let Some(note) = line_gap_note(&points, params.kernel, options.trim.is_some())? {
                 status(globals, note);
             }
-            Ok((Geometry::Points(points), strays))
+            Ok((Geometry::Points(points), left_out))
         }
     }
 }
@@ -293,7 +293,7 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
     let mut preparing = Vec::new();
-    let (input, strays_left_out) = prepared_input(
+    let (input, left_out) = prepared_input(
         args,
         loaded.geometry,
         &options,
@@ -376,7 +376,8 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             "input": args.input.display().to_string(),
             "input_kind": if from_points { "points" } else { "mesh" },
             "points": points.len(),
-            "strays_left_out": strays_left_out,
+            "strays_left_out": left_out.strays,
+            "isolated_left_out": left_out.isolated,
             "output": args.output.display().to_string(),
             "vertices": mesh.vertex_count(),
             "faces": mesh.face_count(),
@@ -571,12 +572,6 @@ fn mesh_grid_side_note(open: usize) -> String {
     )
 }
 
-/// `x` rounded to three significant digits, printed without trailing noise (0.054, not
-/// 0.05396507).
-fn three_digits(x: f32) -> String {
-    format!("{x:.2e}").parse::<f32>().unwrap_or(x).to_string()
-}
-
 /// Arguments of `geosynth sdf`.
 #[derive(Debug, Args)]
 pub struct SdfArgs {
@@ -662,14 +657,17 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     let mut loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     let mut preparing = Vec::new();
-    let mut strays_left_out = 0;
+    let mut left_out = LeftOut::default();
     loaded.geometry = match loaded.geometry {
         io::Geometry::Points(read) => {
             let points;
-            (points, strays_left_out) =
-                options
-                    .normals()
-                    .prepared(read, &args.input, globals, &mut preparing)?;
+            (points, left_out) = options.normals().prepared(
+                read,
+                params.kernel,
+                &args.input,
+                globals,
+                &mut preparing,
+            )?;
             if sign.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
             }
@@ -718,7 +716,8 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
             "input": args.input.display().to_string(),
             "output": args.output.display().to_string(),
             "gradient": args.gradient,
-            "strays_left_out": strays_left_out,
+            "strays_left_out": left_out.strays,
+            "isolated_left_out": left_out.isolated,
             "dims": sdf.dims(),
             "spacing": sdf.grid().spacing(),
             "band": sdf.band(),

@@ -1030,3 +1030,106 @@ fn stray_points_are_left_out_of_surfaces_and_framed_out_of_pictures() {
     assert_eq!(info_json(&clean)["stray_points"], 0);
     assert!(info_json(&dir.path("clean_mesh.ply"))["stray_points"].is_null());
 }
+
+#[test]
+fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
+    use geosynth::core::PointSet;
+    use geosynth::core::io::Geometry;
+    use glam::Vec3;
+    let dir = Scratch::new();
+    let sphere = geosynth::core::io::read_geometry(
+        geosynth::fixtures::bundled_dir().join("sphere_points.ply"),
+    )
+    .unwrap()
+    .geometry;
+    let points = sphere.points();
+    // Inside the unit sphere (sample spacing about 0.075): one point at the centre and a
+    // clump of two, each far from the sphere's samples and from one another.
+    let with = |extra: &[Vec3]| {
+        let mut positions = points.positions().to_vec();
+        let mut normals = points.normals().unwrap().to_vec();
+        for (i, p) in extra.iter().enumerate() {
+            positions.insert(7 * i, *p);
+            normals.insert(7 * i, Vec3::Z);
+        }
+        let set = PointSet::new(positions)
+            .and_then(|p| p.with_normals(normals))
+            .unwrap();
+        Geometry::Points(set)
+    };
+    let inside = [
+        Vec3::ZERO,
+        Vec3::new(0.3, 0.3, 0.0),
+        Vec3::new(0.31, 0.3, 0.0),
+    ];
+    let (clean, hollow) = (dir.path("clean.ply"), dir.path("hollow.ply"));
+    write_with_defaults(&clean, &Geometry::Points(points.clone()));
+    write_with_defaults(&hollow, &with(&inside));
+    let reconstruct = |input: &Path, name: &str, extra: &[&str]| {
+        let (out, report) = (dir.path(name), dir.path(&format!("{name}.json")));
+        let base = ["reconstruct", &arg(input), "-o", &arg(&out)];
+        let said = ok(&[
+            &base[..],
+            &["--resolution", "32", "--report", &arg(&report)],
+            extra,
+        ]
+        .concat());
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (std::fs::read(out).unwrap(), json, said)
+    };
+    let (clean_mesh, clean_json, said) = reconstruct(&clean, "clean_mesh.ply", &[]);
+    assert!(!said.contains("bubble"), "{said}");
+    assert_eq!(clean_json["isolated_left_out"], 0);
+    assert_eq!(clean_json["components"], 1);
+    // Left out: the clean sphere's mesh (the header names another input).
+    let body = |bytes: &[u8]| {
+        let end = bytes.windows(10).position(|w| w == b"end_header").unwrap();
+        bytes[end..].to_vec()
+    };
+    let (mesh, json, said) = reconstruct(&hollow, "hollow_mesh.ply", &[]);
+    assert!(
+        said.contains("3 points of") && said.contains("bubble of their own: left out"),
+        "{said}"
+    );
+    assert_eq!(json["isolated_left_out"], 3);
+    assert_eq!(body(&mesh), body(&clean_mesh));
+    // Kept, they close into bubbles of their own (at this resolution the grid catches one
+    // or both of them).
+    let (_, json, said) = reconstruct(&hollow, "kept_mesh.ply", &["--keep-strays"]);
+    assert!(said.contains("kept (--keep-strays)"), "{said}");
+    assert_eq!(json["isolated_left_out"], 0);
+    assert!(json["components"].as_u64().unwrap() > 1, "{said}");
+    // `sdf` counts them too.
+    let report = dir.path("sdf.json");
+    let said = ok(&[
+        "sdf",
+        &arg(&hollow),
+        "-o",
+        &arg(&dir.path("f.nrrd")),
+        "--resolution",
+        "16",
+        "--report",
+        &arg(&report),
+    ]);
+    assert!(said.contains("bubble of their own: left out"), "{said}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["isolated_left_out"], 3);
+    // More than 1% of the points alone are a sparse part of the input: kept, with a note.
+    // 24 points on a circle of radius 1.6 about the sphere, 0.42 apart.
+    let ring: Vec<Vec3> = (0..24)
+        .map(|i| {
+            let a = i as f32 * std::f32::consts::TAU / 24.0;
+            Vec3::new(1.6 * a.cos(), 1.6 * a.sin(), 0.0)
+        })
+        .collect();
+    let sparse = dir.path("sparse.ply");
+    write_with_defaults(&sparse, &with(&ring));
+    let (_, json, said) = reconstruct(&sparse, "sparse_mesh.ply", &[]);
+    assert!(
+        said.contains("24 points of") && said.contains("a sparse part"),
+        "{said}"
+    );
+    assert_eq!(json["isolated_left_out"], 0);
+}
