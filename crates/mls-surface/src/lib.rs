@@ -58,9 +58,9 @@
 //!   when the query lies within 45° of its normal, else from the tangent planes of the
 //!   nearest few samples ([`MlsParams::fallback_sign_samples`], [`SINGLE_PLANE_COSINE`]:
 //!   one plane is wrong too often near sharp edges, thin parts and tilted normals).
-//! - A sample with no other within twice the support radius has a surface of its own (a
-//!   bubble, where a distance field falls back to it); [`isolated_samples`] lists such
-//!   samples for callers that leave them out.
+//! - A sample with fewer than `min_neighbours` samples (itself included) within twice the
+//!   support radius has a surface of its own (a bubble, where a distance field falls back
+//!   to it); [`isolated_samples`] lists such samples for callers that leave them out.
 //! - Clusters are represented by the member nearest the centroid (a real oriented sample).
 //! - Relaxation moves all points simultaneously (Jacobi style), which makes it independent
 //!   of thread scheduling.

@@ -196,10 +196,7 @@ impl PointPrep {
         path: &Path,
         globals: Globals,
     ) -> CliResult<(PointSet, usize)> {
-        let mls = match kernel {
-            Some(h) => MlsParams::default().kernel(h),
-            None => MlsParams::default(),
-        };
+        let mls = mls_params(kernel);
         let index = KdIndex::new(points.positions())?;
         if index.len() < mls.min_neighbours {
             // Too few for any surface: the surface's own checks say so.
@@ -248,6 +245,15 @@ impl PointPrep {
         };
         status(globals, format!("{found}{done}"));
         Ok((kept, left_out))
+    }
+}
+
+/// The MLS parameters of a point set's surface: the defaults, with `kernel` if one is
+/// asked for.
+pub(crate) fn mls_params(kernel: Option<f32>) -> MlsParams {
+    match kernel {
+        Some(h) => MlsParams::default().kernel(h),
+        None => MlsParams::default(),
     }
 }
 

@@ -7,7 +7,7 @@ use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
-use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, plane_radius};
+use geosynth::mls::{PLANE_RADIUS_MAX_NEIGHBOURS, plane_radius};
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
     trim_to_mesh,
@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::normals::UpArg;
-use super::point_prep::{LeftOut, PointPrep, PointPrepArgs, check_recorded_neighbours};
+use super::point_prep::{LeftOut, PointPrep, PointPrepArgs, check_recorded_neighbours, mls_params};
 use super::{SignArgs, no_faces_to_orient, three_digits};
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
@@ -200,8 +200,8 @@ impl ReconstructInputOptions {
     }
 }
 
-/// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's stray
-/// points left out and its normals estimated or oriented (each stage's time added to
+/// Reads `reconstruct`'s input and prepares it as `options` ask: a point set's stray and
+/// isolated points left out and its normals estimated or oriented (each stage's time added to
 /// `timings`), a mesh's faces turned to agree; prints the notes about it. Returns it and
 /// what was left out of a point set.
 fn prepared_input(
@@ -496,15 +496,6 @@ fn check_grid_fits_in(params: &FieldParams, geometry: &Geometry, available: u64)
         available as f64 / 1e9
     )
     .into())
-}
-
-/// The MLS parameters of a point set's surface: the defaults, with `kernel` if one is
-/// asked for.
-fn mls_params(kernel: Option<f32>) -> MlsParams {
-    match kernel {
-        Some(h) => MlsParams::default().kernel(h),
-        None => MlsParams::default(),
-    }
 }
 
 /// The trim [`line_gap_note`] suggests, as a fraction of the distance between the lines:
