@@ -165,10 +165,8 @@ impl PointPrep {
         if strays == 0 {
             return (points, 0);
         }
-        let (count, verb, pronoun) = match strays {
-            1 => ("1 point".to_string(), "lies", "it"),
-            n => (format!("{n} points"), "lie", "them"),
-        };
+        let (count, one) = counted(strays);
+        let (verb, pronoun) = if one { ("lies", "it") } else { ("lie", "them") };
         let what = format!(
             "note: {count} of {} {verb} far outside the rest (beyond twice the span of the \
              middle 99% of the points' coordinates)",
@@ -209,17 +207,15 @@ impl PointPrep {
         let reach = ISOLATION_REACH * mls.support * mls.kernel_for(&index)?;
         drop(index);
         let count = isolated.len();
-        let (what, verb, pronoun) = match count {
-            1 => ("1 point".to_string(), "has", "it"),
-            n => (format!("{n} points"), "have", "them"),
-        };
+        let (what, one) = counted(count);
+        let (verb, pronoun) = if one { ("has", "it") } else { ("have", "them") };
         let found = format!(
             "note: {what} of {} {verb} fewer than {} others within {} (twice the MLS \
              kernel's reach), so the surface about {pronoun} would be a bubble of {} own",
             path.display(),
             mls.min_neighbours - 1,
             three_digits(reach),
-            if count == 1 { "its" } else { "their" }
+            if one { "its" } else { "their" }
         );
         let sparse = count * 100 > points.len();
         let (kept, left_out, done) = if self.keep_strays {
@@ -254,6 +250,14 @@ pub(crate) fn mls_params(kernel: Option<f32>) -> MlsParams {
     match kernel {
         Some(h) => MlsParams::default().kernel(h),
         None => MlsParams::default(),
+    }
+}
+
+/// `count` points as a note says them ("1 point", "3 points"), and whether there is one.
+fn counted(count: usize) -> (String, bool) {
+    match count {
+        1 => ("1 point".to_string(), true),
+        n => (format!("{n} points"), false),
     }
 }
 

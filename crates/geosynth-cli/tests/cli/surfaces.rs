@@ -939,24 +939,13 @@ fn sdf_estimates_or_orients_a_point_sets_normals_as_reconstruct_does() {
 
 #[test]
 fn stray_points_are_left_out_of_surfaces_and_framed_out_of_pictures() {
+    use geosynth::core::TriMesh;
     use geosynth::core::io::Geometry;
-    use geosynth::core::{PointSet, TriMesh};
     use glam::Vec3;
     let dir = Scratch::new();
-    let torus = geosynth::core::io::read_geometry(
-        geosynth::fixtures::bundled_dir().join("torus_points.ply"),
-    )
-    .unwrap()
-    .geometry;
-    let points = torus.points();
+    let points = bundled_points("torus_points.ply");
     // One point 40 units off, among the others.
-    let mut positions = points.positions().to_vec();
-    let mut normals = points.normals().unwrap().to_vec();
-    positions.insert(5, Vec3::new(40.0, 0.0, 0.0));
-    normals.insert(5, Vec3::X);
-    let with_stray = PointSet::new(positions)
-        .and_then(|p| p.with_normals(normals))
-        .unwrap();
+    let with_stray = with_points(&points, &[(5, Vec3::new(40.0, 0.0, 0.0), Vec3::X)]);
     let (clean, stray) = (dir.path("clean.ply"), dir.path("stray.ply"));
     write_with_defaults(&clean, &Geometry::Points(points.clone()));
     write_with_defaults(&stray, &Geometry::Points(with_stray));
@@ -1033,29 +1022,17 @@ fn stray_points_are_left_out_of_surfaces_and_framed_out_of_pictures() {
 
 #[test]
 fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
-    use geosynth::core::PointSet;
     use geosynth::core::io::Geometry;
     use glam::Vec3;
     let dir = Scratch::new();
-    let sphere = geosynth::core::io::read_geometry(
-        geosynth::fixtures::bundled_dir().join("sphere_points.ply"),
-    )
-    .unwrap()
-    .geometry;
-    let points = sphere.points();
+    let points = bundled_points("sphere_points.ply");
     // Inside the unit sphere (sample spacing about 0.075): one point at the centre and a
     // clump of two, each far from the sphere's samples and from one another.
     let with = |extra: &[Vec3]| {
-        let mut positions = points.positions().to_vec();
-        let mut normals = points.normals().unwrap().to_vec();
-        for (i, p) in extra.iter().enumerate() {
-            positions.insert(7 * i, *p);
-            normals.insert(7 * i, Vec3::Z);
-        }
-        let set = PointSet::new(positions)
-            .and_then(|p| p.with_normals(normals))
-            .unwrap();
-        Geometry::Points(set)
+        let placed: Vec<_> = (extra.iter().enumerate())
+            .map(|(i, p)| (7 * i, *p, Vec3::Z))
+            .collect();
+        Geometry::Points(with_points(&points, &placed))
     };
     let inside = [
         Vec3::ZERO,
@@ -1132,4 +1109,26 @@ fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
         "{said}"
     );
     assert_eq!(json["isolated_left_out"], 0);
+}
+
+/// The bundled point set `name` (`geosynth fixtures`' files).
+fn bundled_points(name: &str) -> geosynth::core::PointSet {
+    let read = geosynth::core::io::read_geometry(geosynth::fixtures::bundled_dir().join(name));
+    read.unwrap().geometry.points().clone()
+}
+
+/// `points` with each `(index, position, normal)` of `extra` put in at its index, in turn.
+fn with_points(
+    points: &geosynth::core::PointSet,
+    extra: &[(usize, glam::Vec3, glam::Vec3)],
+) -> geosynth::core::PointSet {
+    let mut positions = points.positions().to_vec();
+    let mut normals = points.normals().unwrap().to_vec();
+    for &(index, position, normal) in extra {
+        positions.insert(index, position);
+        normals.insert(index, normal);
+    }
+    geosynth::core::PointSet::new(positions)
+        .and_then(|p| p.with_normals(normals))
+        .unwrap()
 }
