@@ -4,11 +4,12 @@
 use std::path::Path;
 
 use glam::{DMat3, DVec3, Vec3};
+use mls_surface::IsolatedPoints;
 use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, KdIndex, PointSet, RunContext};
 
 use super::samples::{ExemplarNormals, texture_samples};
-use super::strays::{StrayPoints, strays_handled};
+use super::strays::{StrayPoints, isolated_handled, strays_handled};
 use super::{GeometryTexture, UpAxis};
 use crate::{Error, Result};
 
@@ -206,6 +207,13 @@ pub struct TextureFile {
     /// ([`TextureReading::keep_strays`]). `None` when there are none, for meshes and for
     /// files whose box is given.
     pub stray_points: Option<StrayPoints>,
+    /// For a point set: how many of its points lie too far from the others for the
+    /// texture's MLS surface to take them in ([`mls_surface::without_isolated`]; each
+    /// would be a bubble of its own in the exemplar's distance field, copied into the
+    /// output), and what was done with them: left out under any box (and in a fitted
+    /// plane), kept with [`TextureReading::keep_strays`] or when they are a sparse part.
+    /// `None` when there are none, and for meshes.
+    pub isolated_points: Option<IsolatedPoints>,
 }
 
 /// A texture that lies where its coordinates say (a height field, a generated exemplar):
@@ -220,6 +228,7 @@ impl From<GeometryTexture> for TextureFile {
             notes: Vec::new(),
             undefined_normals: 0,
             stray_points: None,
+            isolated_points: None,
         }
     }
 }
@@ -275,9 +284,11 @@ pub struct TextureReading {
     /// default.
     pub bounds: Option<[DVec3; 2]>,
     /// Keep a point set's stray points ([`pointset_core::strays::kept_indices`]: far
-    /// outside the rest) under the default box, which then spans them. By default they
-    /// are left out, as if the file did not hold them ([`TextureFile::stray_points`] counts
-    /// them); a box given or read from the comments keeps every point.
+    /// outside the rest) under the default box, which then spans them, and its isolated
+    /// points ([`TextureFile::isolated_points`]) under any box. By default both are left
+    /// out, as if the file did not hold them ([`TextureFile::stray_points`] and
+    /// [`TextureFile::isolated_points`] count them); a box given or read from the
+    /// comments keeps the stray points (it does not stretch to them).
     pub keep_strays: bool,
 }
 
@@ -389,6 +400,8 @@ fn read_texture_from(
         (None, None) => strays_handled(loaded.geometry, reading.keep_strays),
         _ => (loaded.geometry, None),
     };
+    // Isolated points would be bubbles under any box.
+    let (geometry, isolated_points) = isolated_handled(geometry, reading.keep_strays)?;
     let samples = texture_samples(
         path,
         geometry,
@@ -409,6 +422,7 @@ fn read_texture_from(
         notes: loaded.notes,
         undefined_normals: samples.undefined_normals,
         stray_points,
+        isolated_points,
     })
 }
 
@@ -416,6 +430,7 @@ fn read_texture_from(
 mod tests {
     use super::*;
     use crate::quilt::{OutputSize, QuiltParams, quilt, read_texture_file_fitted};
+    use mls_surface::IsolatedFate;
     use pointset_core::RunContext;
 
     fn parse(lines: &[&str]) -> std::result::Result<Option<(Aabb, UpAxis)>, String> {
@@ -546,13 +561,8 @@ mod tests {
         let wave = grid_ply(dir.path(), "wave.ply", |x| 0.1 * (2.0 * x).sin());
         let clean = read_texture_file(&wave, None).unwrap();
         assert_eq!(clean.stray_points, None);
-        // One point 50 above the others, among them.
-        let text = std::fs::read_to_string(&wave).unwrap();
-        let with_stray = text
-            .replace("element vertex 900", "element vertex 901")
-            .replace("end_header\n", "end_header\n1.5 1.5 50 0 0 1\n");
-        let stray = dir.path().join("stray.ply");
-        std::fs::write(&stray, with_stray).unwrap();
+        // One point 50 above the others.
+        let stray = with_point(&wave, "1.5 1.5 50", "stray.ply");
         let read = |reading: TextureReading| {
             read_texture_file_with(&stray, &reading, &mut RunContext::new(0)).unwrap()
         };
@@ -577,14 +587,16 @@ mod tests {
             })
         );
         assert_eq!(kept.texture.canonical_bounds().max.z, 50.0);
-        // A given box keeps every point, as do comments.
+        // A given box does not stretch to it, as comments do not: not stray there, but
+        // isolated, and left out as such.
         let own = clean.texture.canonical_bounds();
         let boxed = read(TextureReading {
             bounds: Some([own.min.as_dvec3(), own.max.as_dvec3()]),
             ..TextureReading::default()
         });
         assert_eq!(boxed.stray_points, None);
-        assert_eq!(boxed.texture.canonical_points().len(), 901);
+        assert_eq!(boxed.isolated_points.map(|i| i.count), Some(1));
+        assert_same_texture(&boxed, &clean);
         let bumpy = crate::fixtures::bundled_dir().join("quilt_bumpy.ply");
         assert_eq!(read_texture_file(&bumpy, None).unwrap().stray_points, None);
         // A fitted plane leaves it out: the clean file's plane, points and box.
@@ -599,10 +611,76 @@ mod tests {
         assert_eq!(fitted_clean.stray_points, None);
     }
 
+    #[test]
+    fn isolated_points_are_left_out_under_any_box_unless_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let wave = grid_ply(dir.path(), "wave.ply", |x| 0.3 * (2.0 * x).sin());
+        let clean = read_texture_file(&wave, None).unwrap();
+        assert_eq!(clean.isolated_points, None);
+        // A speck 0.9 above the crest at x = 0.8 (beyond the reach, 6.25 spacings, yet
+        // within the points' z range widened twice, so not stray).
+        let speck = with_point(&wave, "0.8 1.5 1.2", "speck.ply");
+        let read = |path: &Path, reading: TextureReading| {
+            read_texture_file_with(path, &reading, &mut RunContext::new(0)).unwrap()
+        };
+        let file = read(&speck, TextureReading::default());
+        let isolated = file.isolated_points.unwrap();
+        assert_eq!(
+            (isolated.count, isolated.of, isolated.fate),
+            (1, 901, IsolatedFate::LeftOut)
+        );
+        assert_eq!(file.stray_points, None);
+        assert_same_texture(&file, &clean);
+        // Under a given box too (as under a comment's).
+        let own = clean.texture.canonical_bounds();
+        let boxed = TextureReading {
+            bounds: Some([own.min.as_dvec3(), own.max.as_dvec3()]),
+            ..TextureReading::default()
+        };
+        let file = read(&speck, boxed);
+        assert_eq!(
+            file.isolated_points.map(|i| i.fate),
+            Some(IsolatedFate::LeftOut)
+        );
+        assert_same_texture(&file, &read(&wave, boxed));
+        // Kept: the default box reaches up to it.
+        let kept = read(
+            &speck,
+            TextureReading {
+                keep_strays: true,
+                ..TextureReading::default()
+            },
+        );
+        assert_eq!(
+            kept.isolated_points.map(|i| i.fate),
+            Some(IsolatedFate::Kept)
+        );
+        assert_eq!(kept.texture.canonical_points().len(), 901);
+        assert_eq!(kept.texture.canonical_bounds().max.z, 1.2);
+        // A fitted plane leaves it out.
+        let fitted = super::super::read_texture_file_fitted(&speck).unwrap();
+        assert_eq!(fitted.isolated_points.map(|i| i.count), Some(1));
+        let fitted_clean = super::super::read_texture_file_fitted(&wave).unwrap();
+        assert_eq!(fitted.frame, fitted_clean.frame);
+        assert_same_texture(&fitted, &fitted_clean);
+    }
+
     /// Asserts that two files read to the same texture points and box.
     fn assert_same_texture(a: &TextureFile, b: &TextureFile) {
         assert_eq!(a.texture.canonical_points(), b.texture.canonical_points());
         assert_eq!(a.texture.canonical_bounds(), b.texture.canonical_bounds());
+    }
+
+    /// A copy, named `name` beside it, of a [`grid_ply`] file at `grid` with one more
+    /// point first, at `position` ("x y z") with a +Z normal.
+    fn with_point(grid: &Path, position: &str, name: &str) -> std::path::PathBuf {
+        let text = std::fs::read_to_string(grid).unwrap();
+        let with_point = text
+            .replace("element vertex 900", "element vertex 901")
+            .replace("end_header\n", &format!("end_header\n{position} 0 0 1\n"));
+        let path = grid.with_file_name(name);
+        std::fs::write(&path, with_point).unwrap();
+        path
     }
 
     /// An ASCII PLY of a 30 × 30 grid at spacing 0.1 with heights `z(x)` and +Z normals,

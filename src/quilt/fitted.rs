@@ -14,7 +14,7 @@ use super::files::{
     texture_file_error,
 };
 use super::samples::{ExemplarNormals, texture_samples};
-use super::strays::strays_handled;
+use super::strays::{isolated_handled, strays_handled};
 use super::{GeometryTexture, TextureFile, UpAxis};
 use crate::Result;
 
@@ -36,7 +36,9 @@ pub const MAX_PLANE_SPREAD: f64 = 0.25;
 ///
 /// A point set's points that lie far outside the rest ([`pointset_core::strays`]) would
 /// tilt the plane and stretch its box: they are left out and counted in
-/// [`TextureFile::stray_points`].
+/// [`TextureFile::stray_points`]. So are its isolated points, too far from the others for
+/// the texture's surface to take them in ([`TextureFile::isolated_points`]), unless they
+/// are a sparse part.
 ///
 /// Errors: texture comments in the file (they already give the box and the up axis), no
 /// points or normals, and points with no dominant plane (spread across the best plane more
@@ -97,8 +99,9 @@ pub fn read_texture_file_fitted_with(
         ));
     }
     // Stray points would tilt the plane and stretch its box, and no box can be given in
-    // a fitted plane: they are always left out.
+    // a fitted plane: they are always left out, and isolated points with them.
     let (geometry, stray_points) = strays_handled(loaded.geometry, false);
+    let (geometry, isolated_points) = isolated_handled(geometry, false)?;
     let up = match normals {
         ExemplarNormals::AsStored => Vec3::Z,
         ExemplarNormals::Estimated { .. } => facing_up(geometry.points().positions()),
@@ -150,6 +153,7 @@ pub fn read_texture_file_fitted_with(
         notes: loaded.notes,
         undefined_normals: samples.undefined_normals,
         stray_points,
+        isolated_points,
     })
 }
 

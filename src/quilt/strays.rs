@@ -1,8 +1,14 @@
-//! Stray points of texture files: the few samples that lie far outside the rest
-//! ([`pointset_core::strays::kept_indices`] says the rule: a scan's outliers, a mistyped
-//! coordinate) and would stretch the default box until its distance field is refused.
+//! Stray and isolated points of texture files. Stray points are the few samples that lie
+//! far outside the rest ([`pointset_core::strays::kept_indices`] says the rule: a scan's
+//! outliers, a mistyped coordinate) and would stretch the default box until its distance
+//! field is refused. Isolated points ([`mls_surface::isolated_samples`]) lie inside the
+//! box but too far from the others for the texture's MLS surface to take them in: each
+//! would be a bubble of its own in `D(T_in)`, and the quilt would copy it into the output.
 
+use mls_surface::{IsolatedPoints, MlsParams, without_isolated};
 use pointset_core::io::Geometry;
+
+use crate::Result;
 
 /// What a texture file's reader did with its stray points ([`super::TextureFile::stray_points`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -30,6 +36,21 @@ pub(super) fn strays_handled(geometry: Geometry, keep: bool) -> (Geometry, Optio
     };
     let strays = (count > 0).then_some(StrayPoints { count, left_out });
     (Geometry::Points(points), strays)
+}
+
+/// `geometry` without its isolated points ([`mls_surface::without_isolated`] for the MLS
+/// surface every quilt builds over a texture's points: the default parameters, its kernel
+/// from their spacing) when it is a point set and `keep` is false, and what was done with
+/// them (`None` when there are none, and for meshes, whose vertices belong to faces).
+pub(super) fn isolated_handled(
+    geometry: Geometry,
+    keep: bool,
+) -> Result<(Geometry, Option<IsolatedPoints>)> {
+    let Geometry::Points(points) = geometry else {
+        return Ok((geometry, None));
+    };
+    let (points, isolated) = without_isolated(points, &MlsParams::default(), keep)?;
+    Ok((Geometry::Points(points), isolated))
 }
 
 #[cfg(test)]

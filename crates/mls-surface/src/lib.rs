@@ -60,7 +60,8 @@
 //!   one plane is wrong too often near sharp edges, thin parts and tilted normals).
 //! - A sample with fewer than `min_neighbours` samples (itself included) within twice the
 //!   support radius has a surface of its own (a bubble, where a distance field falls back
-//!   to it); [`isolated_samples`] lists such samples for callers that leave them out.
+//!   to it); [`isolated_samples`] lists such samples, and [`without_isolated`] leaves them
+//!   out unless they are more than 1% of the points (a sparse part).
 //! - Clusters are represented by the member nearest the centroid (a real oriented sample).
 //! - Relaxation moves all points simultaneously (Jacobi style), which makes it independent
 //!   of thread scheduling.
@@ -91,6 +92,7 @@ mod error;
 mod heights;
 mod index_match;
 mod isolated;
+mod isolated_points;
 mod orientation;
 mod params;
 mod pca;
@@ -102,6 +104,7 @@ pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
 pub use isolated::{ISOLATION_REACH, isolated_samples};
+pub use isolated_points::{IsolatedFate, IsolatedPoints, SPARSE_PART_SHARE, without_isolated};
 pub use orientation::{
     LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,
     ORIENTING_STAGE, fit_oriented_normals_with, orient_normals, orient_normals_in,

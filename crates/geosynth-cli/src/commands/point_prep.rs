@@ -7,9 +7,9 @@ use std::time::Duration;
 
 use clap::Args;
 use geosynth::Stage;
-use geosynth::core::{KdIndex, PointSet};
+use geosynth::core::PointSet;
 use geosynth::mls::{
-    ISOLATION_REACH, MlsParams, ORIENTING_STAGE, isolated_samples, orient_normals_in,
+    IsolatedFate, IsolatedPoints, MlsParams, ORIENTING_STAGE, orient_normals_in, without_isolated,
 };
 use geosynth::normals::EstimateNormals;
 
@@ -184,9 +184,9 @@ impl PointPrep {
     }
 
     /// `points` (read from `path`) without their isolated points
-    /// ([`geosynth::mls::isolated_samples`] for the MLS kernel `kernel`, or the one
-    /// estimated), unless they are kept or more than 1% of the points are isolated (then
-    /// they are a sparse part, not strays), and how many were left out; notes what it did.
+    /// ([`geosynth::mls::without_isolated`] for the MLS kernel `kernel`, or the one
+    /// estimated), unless they are kept or are a sparse part, and how many were left out;
+    /// notes what it did.
     fn isolated_handled(
         &self,
         points: PointSet,
@@ -195,53 +195,50 @@ impl PointPrep {
         globals: Globals,
     ) -> CliResult<(PointSet, usize)> {
         let mls = mls_params(kernel);
-        let index = KdIndex::new(points.positions())?;
-        if index.len() < mls.min_neighbours {
-            // Too few for any surface: the surface's own checks say so.
+        let (points, isolated) = without_isolated(points, &mls, self.keep_strays)?;
+        let Some(isolated) = isolated else {
             return Ok((points, 0));
-        }
-        let isolated = isolated_samples(&index, &mls)?;
-        if isolated.is_empty() {
-            return Ok((points, 0));
-        }
-        let reach = ISOLATION_REACH * mls.support * mls.kernel_for(&index)?;
-        drop(index);
-        let count = isolated.len();
-        let (what, one) = counted(count);
-        let (verb, pronoun) = if one { ("has", "it") } else { ("have", "them") };
-        let found = format!(
-            "note: {what} of {} {verb} fewer than {} others within {} (twice the MLS \
-             kernel's reach), so the surface about {pronoun} would be a bubble of {} own",
-            path.display(),
-            mls.min_neighbours - 1,
-            three_digits(reach),
-            if one { "its" } else { "their" }
-        );
-        let sparse = count * 100 > points.len();
-        let (kept, left_out, done) = if self.keep_strays {
-            (points, 0, "; kept (--keep-strays)".to_string())
-        } else if sparse {
-            let done = format!(
-                "; kept, since they are {:.1}% of the points: a sparse part, which a larger \
-                 --kernel reaches",
-                100.0 * count as f64 / points.len() as f64
-            );
-            (points, 0, done)
-        } else {
-            let mut alone = isolated.iter().peekable();
-            let others: Vec<usize> = (0..points.len())
-                .filter(|i| alone.next_if_eq(&i).is_none())
-                .collect();
-            let kept = points.subset(&others)?;
-            (
-                kept,
-                count,
-                format!(": left out; --keep-strays keeps {pronoun}"),
-            )
         };
-        status(globals, format!("{found}{done}"));
-        Ok((kept, left_out))
+        let left_out = if isolated.fate == IsolatedFate::LeftOut {
+            isolated.count
+        } else {
+            0
+        };
+        let what = path.display().to_string();
+        let hint = ", which a larger --kernel reaches";
+        let note = isolated_note(&isolated, &what, mls.min_neighbours, hint);
+        status(globals, note);
+        Ok((points, left_out))
     }
+}
+
+/// What was done with the `isolated` points of `what` (a file's name) for an MLS surface
+/// whose kernel needs `min_neighbours` samples, as a note; `sparse_hint` ends the sentence
+/// that keeps them as a sparse part.
+pub(crate) fn isolated_note(
+    isolated: &IsolatedPoints,
+    what: &str,
+    min_neighbours: usize,
+    sparse_hint: &str,
+) -> String {
+    let (count, one) = counted(isolated.count);
+    let (verb, pronoun) = if one { ("has", "it") } else { ("have", "them") };
+    let found = format!(
+        "note: {count} of {what} {verb} fewer than {} others within {} (twice the MLS kernel's \
+         reach), so the surface about {pronoun} would be a bubble of {} own",
+        min_neighbours - 1,
+        three_digits(isolated.reach),
+        if one { "its" } else { "their" }
+    );
+    let done = match isolated.fate {
+        IsolatedFate::Kept => "; kept (--keep-strays)".to_string(),
+        IsolatedFate::SparsePart => format!(
+            "; kept, since they are {:.1}% of the points: a sparse part{sparse_hint}",
+            100.0 * isolated.count as f64 / isolated.of as f64
+        ),
+        IsolatedFate::LeftOut => format!(": left out; --keep-strays keeps {pronoun}"),
+    };
+    format!("{found}{done}")
 }
 
 /// The MLS parameters of a point set's surface: the defaults, with `kernel` if one is

@@ -683,7 +683,7 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
     assert!(bytes("smaller.ply") != bytes("commented.ply"));
     // Bare positions with one stray point far above: left out, with a note, so the
     // quilt is the clean positions' byte for byte; kept, the default box reaches up to it
-    // and is refused; --box keeps every point, and the report records the box for
+    // and is refused; --box does not reach it, and the report records the box for
     // --params.
     let bumpy = geosynth::core::io::read_geometry(Path::new(&fixture)).unwrap();
     let mut xyz = String::new();
@@ -737,6 +737,11 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
     assert!(!said.contains("taller along its up axis"), "{said}");
     assert!(!said.contains("far outside the rest"), "{said}");
     assert!(report_of(&report)["stray_points"].is_null());
+    // Not stray under a given box, but isolated (fewer than 3 others near it).
+    assert!(
+        said.contains("1 point of the exemplar has fewer than 3 others"),
+        "{said}"
+    );
     assert_eq!(
         report_of(&report)["input_options"]["box"],
         serde_json::json!([0.0, 0.0, -0.024641763, 4.0, 4.0, 0.517577])
@@ -754,12 +759,10 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
         "{said}"
     );
     let out = arg(&dir.path("x.ply"));
-    for with in [&["--box", own][..], &["--up", "auto"]] {
-        refused(
-            &[&["quilt", &stray, "-o", &out, "--keep-strays"][..], with].concat(),
-            "--keep-strays keeps the stray points under the default box",
-        );
-    }
+    refused(
+        &["quilt", &stray, "-o", &out, "--keep-strays", "--up", "auto"],
+        "--keep-strays keeps stray and isolated points; --up auto always leaves them out",
+    );
     // Refused: corners out of order, a fitted plane, a height field.
     refused(
         &["quilt", &fixture, "-o", &out, "--box", "4,0,0,0,4,1"],
@@ -770,6 +773,72 @@ fn box_sets_the_exemplar_box_in_file_coordinates() {
         "--box gives a box along the file's axes, and --up auto",
     );
     refused_with_a_height_field(&dir, &["--box", own]);
+}
+
+#[test]
+fn isolated_points_are_left_out_of_an_exemplar_under_its_box_unless_kept() {
+    let dir = Scratch::new();
+    let fixture = geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply");
+    let bumpy = geosynth::core::io::read_geometry(&fixture).unwrap();
+    // The fixture as XYZN with its texture comments, and with five specks floating 0.45
+    // above its base (away from its bumps), among its points.
+    let specks = [(0.7, 0.9), (1.6, 2.9), (2.5, 1.3), (3.3, 3.4), (1.1, 2.2)];
+    let mut clean: String = bumpy.comments.iter().map(|c| format!("# {c}\n")).collect();
+    let mut specked = clean.clone();
+    let points = bumpy.geometry.points();
+    let normals = points.normals().unwrap();
+    for (k, (p, n)) in points.positions().iter().zip(normals).enumerate() {
+        let line = format!("{} {} {} {} {} {}\n", p.x, p.y, p.z, n.x, n.y, n.z);
+        clean += &line;
+        specked += &line;
+        if let Some((x, y)) = specks.get(k / 2000).filter(|_| k % 2000 == 999) {
+            specked += &format!("{x} {y} 0.45 0 0 1\n");
+        }
+    }
+    let (clean_path, specked_path) = (dir.path("clean.xyzn"), dir.path("specked.xyzn"));
+    std::fs::write(&clean_path, clean).unwrap();
+    std::fs::write(&specked_path, specked).unwrap();
+    let report = arg(&dir.path("r.json"));
+    let quilt = |input: &Path, out: &str, more: &[&str]| {
+        let out = arg(&dir.path(out));
+        let run = ["quilt", &arg(input), "-o", &out, "--scale", "1.2"];
+        ok(&[&run[..], &["--resolution", "24", "--report", &report], more].concat())
+    };
+    let bytes = |name: &str| std::fs::read(dir.path(name)).unwrap();
+    quilt(&clean_path, "clean.ply", &[]);
+    assert!(report_of(&report)["isolated_points"].is_null());
+    let quality = |report: &serde_json::Value| report["run"]["quality"].clone();
+    let clean_quality = quality(&report_of(&report));
+    // Left out under the comments' box: the clean exemplar's quilt, byte for byte.
+    let said = quilt(&specked_path, "specked.ply", &[]);
+    assert!(
+        said.contains("note: 5 points of the exemplar have fewer than 3 others within ")
+            && said.contains("bubble of their own: left out; --keep-strays keeps them"),
+        "{said}"
+    );
+    assert!(bytes("specked.ply") == bytes("clean.ply"));
+    let recorded = report_of(&report);
+    assert_eq!(recorded["isolated_points"]["count"], 5);
+    assert_eq!(recorded["isolated_points"]["left_out"], true);
+    assert_eq!(quality(&recorded), clean_quality);
+    // Kept, with a box given too: the quilt copies them and its errors grow.
+    let own = "0,0,-0.024641763,4,4,0.517577";
+    let said = quilt(&specked_path, "kept.ply", &["--keep-strays", "--box", own]);
+    assert!(
+        said.contains("bubble of their own; kept (--keep-strays)"),
+        "{said}"
+    );
+    let kept = report_of(&report);
+    assert_eq!(kept["isolated_points"]["left_out"], false);
+    let error = |q: &serde_json::Value, key: &str| q[key].as_f64().unwrap();
+    for key in ["neighbourhood_error", "seam_error"] {
+        assert!(
+            error(&quality(&kept), key) > error(&clean_quality, key),
+            "{key}: {} against {}",
+            quality(&kept),
+            clean_quality
+        );
+    }
 }
 
 /// The JSON report at `path`.

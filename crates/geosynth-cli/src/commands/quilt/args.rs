@@ -126,11 +126,14 @@ pub struct QuiltArgs {
         conflicts_with = "heightfield"
     )]
     pub(super) bounds: Option<[f64; 6]>,
-    /// Keep a point-set exemplar's stray points under the default box, which then spans
-    /// them. By default the points far outside the rest (beyond twice the span of the
-    /// middle 99% of the points' coordinates on some axis, such as a scan's outliers) are
-    /// left out, with a note. A `texture_box` comment or `--box` keeps every point, and a
-    /// fitted plane (`--up auto`) always leaves them out.
+    /// Keep a point-set exemplar's stray and isolated points. By default the points far
+    /// outside the rest (beyond twice the span of the middle 99% of the points' coordinates
+    /// on some axis, such as a scan's outliers) are left out of the default box, which
+    /// would span them, and points with fewer than 3 others within twice the MLS kernel's
+    /// reach (floating specks, which the exemplar's surface would close into bubbles) are
+    /// left out under any box, with a note. A `texture_box` comment or `--box` keeps the
+    /// far ones (it does not stretch to them), and a fitted plane (`--up auto`) always
+    /// leaves both out.
     #[arg(long, conflicts_with = "heightfield")]
     pub(super) keep_strays: bool,
     /// Output point set (.ply, .obj, .off, .xyz or .xyzn).

@@ -11,6 +11,7 @@ use std::time::Duration;
 use geosynth::core::io::{FileFormat, Geometry, WriteOptions, XyzColumns};
 use geosynth::core::{PointSet, RunContext};
 use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_path};
+use geosynth::mls::IsolatedFate;
 use geosynth::quilt::{
     DEFAULT_RELIEF, ExemplarNormals, HeightFieldFrame, Method, OutputSize, QualityReport,
     QuiltParams, TextureFile, TextureReading, read_heightfield_texture_framed,
@@ -37,7 +38,9 @@ use crate::params_file::{
 };
 use crate::{CliResult, Globals};
 use args::{PresetArg, TextureUpArg, box_is_ordered};
-use notes::{orientation_note, precision_note, size_note, stray_note, tilt_note};
+use notes::{
+    isolated_points_note, orientation_note, precision_note, size_note, stray_note, tilt_note,
+};
 pub use panels::texture_preview;
 
 pub use args::QuiltArgs;
@@ -94,10 +97,10 @@ impl InputOptions {
         let bounds = args.bounds.or(recorded.bounds).filter(|_| !heightfield);
         let keep_strays = (args.keep_strays || recorded.keep_strays) && !heightfield;
         let fitted = matches!(up, Some(TextureUpArg::Auto));
-        if keep_strays && (fitted || bounds.is_some()) {
+        if keep_strays && fitted {
             return Err(
-                "--keep-strays keeps the stray points under the default box; --box keeps \
-                 every point, and --up auto always leaves them out of its fitted plane"
+                "--keep-strays keeps stray and isolated points; --up auto always leaves them \
+                 out of its fitted plane"
                     .into(),
             );
         }
@@ -390,6 +393,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             .then(|| orientation_note(texture))
             .flatten(),
         strays,
+        isolated_points_note(&file),
         tilt_note(&file),
         precision_note(&file),
         from_points
@@ -475,6 +479,11 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "stray_points": file.stray_points.map(|s| json!({
                 "count": s.count,
                 "left_out": s.left_out,
+            })),
+            "isolated_points": file.isolated_points.map(|i| json!({
+                "count": i.count,
+                "reach": i.reach,
+                "left_out": i.fate == IsolatedFate::LeftOut,
             })),
             "params": params,
             "run": run_json(&main),

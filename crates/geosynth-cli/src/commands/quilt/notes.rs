@@ -2,9 +2,11 @@
 //! not be what the user meant.
 
 use geosynth::core::KdIndex;
-use geosynth::mls::Covariance;
+use geosynth::mls::{Covariance, MlsParams};
 use geosynth::quilt::{GeometryTexture, MAX_PLANE_SPREAD, QuiltParams, TextureFile};
 use glam::{DMat3, DVec3};
+
+use crate::commands::point_prep::isolated_note;
 
 /// A hint when the exemplar looks stood on its side: its samples reach further along the
 /// up axis than across the narrower side of the plane, which a texture rarely does and a
@@ -47,6 +49,14 @@ pub(super) fn stray_note(file: &TextureFile) -> Option<String> {
         "note: {count} of the exemplar {verb} far outside the rest (beyond twice the span of \
          the middle 99% of the points' coordinates): {done}"
     ))
+}
+
+/// What was done with the isolated points of a point-set exemplar
+/// ([`TextureFile::isolated_points`]): left out, or kept.
+pub(super) fn isolated_points_note(file: &TextureFile) -> Option<String> {
+    let isolated = file.isolated_points?;
+    let min_neighbours = MlsParams::default().min_neighbours;
+    Some(isolated_note(&isolated, "the exemplar", min_neighbours, ""))
 }
 
 /// Tilts of the points' best plane against the reference plane above this (degrees) get a

@@ -1,0 +1,179 @@
+//! What a reader does with a point set's isolated samples ([`super::isolated_samples`]):
+//! leaves them out, unless the caller keeps them or they are too many to be strays.
+//!
+//! Isolated samples that are more than [`SPARSE_PART_SHARE`] of the points are not a few
+//! stray points but a part of the object sampled more sparsely than the rest (a far
+//! wall of a scan, a thin feature at the scanner's range): leaving them out would drop
+//! geometry, where a larger kernel would reach them. They are kept then.
+
+use pointset_core::{KdIndex, PointSet};
+
+use crate::error::Result;
+use crate::isolated::{ISOLATION_REACH, isolated_samples};
+use crate::params::MlsParams;
+
+/// Isolated samples that are more than this share of a point set are kept as a sparse
+/// part of it (module docs).
+pub const SPARSE_PART_SHARE: f64 = 0.01;
+
+/// What [`without_isolated`] did with a point set's isolated samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IsolatedFate {
+    /// Left out of the points.
+    LeftOut,
+    /// Kept, because the caller asked for them.
+    Kept,
+    /// Kept, because they are more than [`SPARSE_PART_SHARE`] of the points.
+    SparsePart,
+}
+
+/// A point set's isolated samples: how many, how far they lie from the rest, and what
+/// was done with them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IsolatedPoints {
+    /// How many samples are isolated.
+    pub count: usize,
+    /// Out of how many points.
+    pub of: usize,
+    /// The distance within which each has fewer than `min_neighbours − 1` other samples:
+    /// [`ISOLATION_REACH`] support radii of the kernel the parameters give.
+    pub reach: f32,
+    /// What was done with them.
+    pub fate: IsolatedFate,
+}
+
+/// `points` without their isolated samples for an MLS surface of `params`
+/// ([`isolated_samples`]), unless `keep` is true or they are more than
+/// [`SPARSE_PART_SHARE`] of the points, and what was done with them (`None` when there
+/// are none, and for fewer points than `params.min_neighbours`, which no surface can use
+/// whatever is left out: its own checks say so). Normals and the order of the remaining
+/// points are kept.
+///
+/// Errors: those of [`isolated_samples`].
+///
+/// ```
+/// use glam::Vec3;
+/// use mls_surface::{IsolatedFate, MlsParams, without_isolated};
+/// use pointset_core::PointSet;
+///
+/// // A 30 × 30 grid of the plane z = 0, spacing 0.1, and one point 1.0 above it.
+/// let mut p: Vec<Vec3> = (0..900).map(|i| Vec3::new((i % 30) as f32, (i / 30) as f32, 0.0) * 0.1).collect();
+/// p.push(Vec3::new(1.5, 1.5, 1.0));
+/// let (plane, isolated) = without_isolated(PointSet::new(p)?, &MlsParams::default(), false)?;
+/// assert_eq!(plane.len(), 900);
+/// let isolated = isolated.ok_or("one is isolated")?;
+/// assert_eq!((isolated.count, isolated.fate), (1, IsolatedFate::LeftOut));
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn without_isolated(
+    points: PointSet,
+    params: &MlsParams,
+    keep: bool,
+) -> Result<(PointSet, Option<IsolatedPoints>)> {
+    let index = KdIndex::new(points.positions())?;
+    if index.len() < params.min_neighbours {
+        params.validate()?;
+        return Ok((points, None));
+    }
+    let isolated = isolated_samples(&index, params)?;
+    if isolated.is_empty() {
+        return Ok((points, None));
+    }
+    let reach = ISOLATION_REACH * params.support * params.kernel_for(&index)?;
+    drop(index);
+    let of = points.len();
+    let found = |fate| IsolatedPoints {
+        count: isolated.len(),
+        of,
+        reach,
+        fate,
+    };
+    if keep {
+        return Ok((points, Some(found(IsolatedFate::Kept))));
+    }
+    if isolated.len() as f64 > SPARSE_PART_SHARE * points.len() as f64 {
+        return Ok((points, Some(found(IsolatedFate::SparsePart))));
+    }
+    let left_out = found(IsolatedFate::LeftOut);
+    let mut alone = isolated.iter().peekable();
+    let others: Vec<usize> = (0..points.len())
+        .filter(|i| alone.next_if_eq(&i).is_none())
+        .collect();
+    Ok((points.subset(&others)?, Some(left_out)))
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+    use glam::Vec3;
+
+    /// A 40 × 40 grid of the plane z = 0 at spacing 0.1, with +Z normals.
+    fn plane() -> Vec<Vec3> {
+        (0..1600)
+            .map(|i| Vec3::new((i % 40) as f32, (i / 40) as f32, 0.0) * 0.1)
+            .collect()
+    }
+
+    fn with_normals(positions: Vec<Vec3>) -> PointSet {
+        let n = positions.len();
+        PointSet::new(positions)
+            .unwrap()
+            .with_normals(vec![Vec3::Z; n])
+            .unwrap()
+    }
+
+    #[test]
+    fn a_few_isolated_points_are_left_out_unless_kept_and_many_are_a_sparse_part() {
+        let clean = with_normals(plane());
+        let params = MlsParams::default();
+        let (same, none) = without_isolated(clean.clone(), &params, false).unwrap();
+        assert_eq!((same, none), (clean.clone(), None));
+        // Three lone points above the plane, among its points in the file's order.
+        let mut positions = plane();
+        for (at, x) in [(5, 0.5), (700, 2.0), (1600, 3.5)] {
+            positions.insert(at, Vec3::new(x, 2.0, 1.5));
+        }
+        let with_lone = with_normals(positions);
+        let (left, isolated) = without_isolated(with_lone.clone(), &params, false).unwrap();
+        assert_eq!(left, clean, "the plane's points, normals and order");
+        let reach = ISOLATION_REACH * params.support * params.kernel_spacing_factor * 0.1;
+        let isolated = isolated.unwrap();
+        assert_eq!(
+            (isolated.count, isolated.of, isolated.fate),
+            (3, 1603, IsolatedFate::LeftOut)
+        );
+        assert!((isolated.reach - reach).abs() < 1e-5, "{}", isolated.reach);
+        let (kept, isolated) = without_isolated(with_lone, &params, true).unwrap();
+        assert_eq!(kept.len(), 1603);
+        assert_eq!(isolated.map(|i| i.fate), Some(IsolatedFate::Kept));
+        // 17 lone points (1.05%) are a sparse part: kept; 16 (0.99%) are left out.
+        for (lone, fate) in [(17, IsolatedFate::SparsePart), (16, IsolatedFate::LeftOut)] {
+            let mut positions = plane();
+            positions.extend((0..lone).map(|k| Vec3::new(k as f32, 0.0, 5.0)));
+            let (points, isolated) =
+                without_isolated(with_normals(positions), &params, false).unwrap();
+            assert_eq!(isolated.map(|i| (i.count, i.fate)), Some((lone, fate)));
+            let expected = if fate == IsolatedFate::LeftOut {
+                1600
+            } else {
+                1600 + lone
+            };
+            assert_eq!(points.len(), expected);
+        }
+    }
+
+    #[test]
+    fn too_few_points_are_returned_whole_and_bad_parameters_are_errors() {
+        let three = with_normals(plane()[..3].to_vec());
+        let (same, none) = without_isolated(three.clone(), &MlsParams::default(), false).unwrap();
+        assert_eq!((same, none), (three.clone(), None));
+        let bad = MlsParams {
+            support: -1.0,
+            ..MlsParams::default()
+        };
+        assert!(without_isolated(three, &bad, false).is_err());
+        assert!(without_isolated(with_normals(plane()), &bad, false).is_err());
+    }
+}
