@@ -42,12 +42,46 @@ pub struct IsolatedPoints {
     pub fate: IsolatedFate,
 }
 
+/// The isolated samples of `index` for an MLS surface of `params` ([`isolated_samples`],
+/// ascending) and what [`without_isolated`] does with them: kept when `keep` is true or
+/// they are more than [`SPARSE_PART_SHARE`] of the samples, else left out. `None` when
+/// there are none, and for fewer samples than `params.min_neighbours`, which no surface
+/// can use whatever is left out (its own checks say so).
+///
+/// Errors: those of [`isolated_samples`].
+pub fn isolated_points(
+    index: &KdIndex,
+    params: &MlsParams,
+    keep: bool,
+) -> Result<Option<(Vec<usize>, IsolatedPoints)>> {
+    params.validate()?;
+    if index.len() < params.min_neighbours {
+        return Ok(None);
+    }
+    let isolated = isolated_samples(index, params)?;
+    if isolated.is_empty() {
+        return Ok(None);
+    }
+    let fate = if keep {
+        IsolatedFate::Kept
+    } else if isolated.len() as f64 > SPARSE_PART_SHARE * index.len() as f64 {
+        IsolatedFate::SparsePart
+    } else {
+        IsolatedFate::LeftOut
+    };
+    let found = IsolatedPoints {
+        count: isolated.len(),
+        of: index.len(),
+        reach: ISOLATION_REACH * params.support * params.kernel_for(index)?,
+        fate,
+    };
+    Ok(Some((isolated, found)))
+}
+
 /// `points` without their isolated samples for an MLS surface of `params`
-/// ([`isolated_samples`]), unless `keep` is true or they are more than
-/// [`SPARSE_PART_SHARE`] of the points, and what was done with them (`None` when there
-/// are none, and for fewer points than `params.min_neighbours`, which no surface can use
-/// whatever is left out: its own checks say so). Normals and the order of the remaining
-/// points are kept.
+/// ([`isolated_points`] says which and when), and what was done with them (`None` when
+/// there are none, and for fewer points than `params.min_neighbours`). Normals and the
+/// order of the remaining points are kept.
 ///
 /// Errors: those of [`isolated_samples`].
 ///
@@ -70,36 +104,18 @@ pub fn without_isolated(
     params: &MlsParams,
     keep: bool,
 ) -> Result<(PointSet, Option<IsolatedPoints>)> {
-    let index = KdIndex::new(points.positions())?;
-    if index.len() < params.min_neighbours {
-        params.validate()?;
+    let found = isolated_points(&KdIndex::new(points.positions())?, params, keep)?;
+    let Some((isolated, found)) = found else {
         return Ok((points, None));
-    }
-    let isolated = isolated_samples(&index, params)?;
-    if isolated.is_empty() {
-        return Ok((points, None));
-    }
-    let reach = ISOLATION_REACH * params.support * params.kernel_for(&index)?;
-    drop(index);
-    let of = points.len();
-    let found = |fate| IsolatedPoints {
-        count: isolated.len(),
-        of,
-        reach,
-        fate,
     };
-    if keep {
-        return Ok((points, Some(found(IsolatedFate::Kept))));
+    if found.fate != IsolatedFate::LeftOut {
+        return Ok((points, Some(found)));
     }
-    if isolated.len() as f64 > SPARSE_PART_SHARE * points.len() as f64 {
-        return Ok((points, Some(found(IsolatedFate::SparsePart))));
-    }
-    let left_out = found(IsolatedFate::LeftOut);
     let mut alone = isolated.iter().peekable();
     let others: Vec<usize> = (0..points.len())
         .filter(|i| alone.next_if_eq(&i).is_none())
         .collect();
-    Ok((points.subset(&others)?, Some(left_out)))
+    Ok((points.subset(&others)?, Some(found)))
 }
 
 #[cfg(test)]

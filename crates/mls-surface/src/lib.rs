@@ -104,7 +104,9 @@ pub use cluster::{Cluster, ClusterParams, adaptive_clusters};
 pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
 pub use isolated::{ISOLATION_REACH, isolated_samples};
-pub use isolated_points::{IsolatedFate, IsolatedPoints, SPARSE_PART_SHARE, without_isolated};
+pub use isolated_points::{
+    IsolatedFate, IsolatedPoints, SPARSE_PART_SHARE, isolated_points, without_isolated,
+};
 pub use orientation::{
     LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,
     ORIENTING_STAGE, fit_oriented_normals_with, orient_normals, orient_normals_in,

@@ -3,13 +3,19 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use geosynth::core::MeshTopology;
 use geosynth::core::io::{Geometry, LoadedGeometry};
+use geosynth::core::strays::kept_indices;
+use geosynth::core::{KdIndex, MeshTopology, PointSet};
 use geosynth::imagery;
-use geosynth::mls::{LIKELY_UNORIENTED, orientation_disagreement};
+use geosynth::mls::{
+    IsolatedFate, IsolatedPoints, LIKELY_UNORIENTED, MlsParams, isolated_points,
+    orientation_disagreement,
+};
 use geosynth::sdf::nrrd;
+use glam::Vec3;
 use serde::Serialize;
 
+use super::three_digits;
 use crate::input_file::{named, read_geometry};
 use crate::output::{print_line, status};
 use crate::{CliResult, Globals};
@@ -67,6 +73,16 @@ pub struct FileInfo {
     /// ([`PointSet::stray_count`](geosynth::core::PointSet::stray_count)), which `reconstruct`, `sdf`
     /// and `quilt` leave out; `None` for meshes, whose far vertices belong to faces.
     stray_points: Option<usize>,
+    /// Of a point set's other points, those with fewer than 3 others within twice the
+    /// default MLS kernel's reach ([`geosynth::mls::without_isolated`]), which
+    /// `reconstruct`, `sdf` and `quilt` leave out unless they are a sparse part; `None`
+    /// for meshes and for points whose kernel cannot be estimated (all coincident).
+    isolated_points: Option<usize>,
+    /// How far the reach is, when some are isolated.
+    isolated_reach: Option<f32>,
+    /// Whether they are more than 1% of the points, so a sparse part that those commands
+    /// keep.
+    isolated_sparse_part: bool,
     comments: Vec<String>,
     /// What the file had that the reader could not keep
     /// ([`LoadedGeometry::notes`](geosynth::core::io::LoadedGeometry::notes)).
@@ -142,6 +158,10 @@ impl FileInfo {
         // A weld fails only with more positions than `u32` numbers: then no duplicates
         // and no welded topology are reported.
         let welded = g.mesh().and_then(|m| m.welded_where_needed().ok());
+        let isolated = match g {
+            Geometry::Points(p) => isolated_among_the_rest(p),
+            Geometry::Mesh(_) => None,
+        };
         let duplicates = welded
             .as_ref()
             .map_or_else(Vec::new, |welded| welded.duplicate_faces());
@@ -187,6 +207,11 @@ impl FileInfo {
                 Geometry::Points(p) => Some(p.stray_count()),
                 Geometry::Mesh(_) => None,
             },
+            isolated_points: isolated.map(|i| i.map_or(0, |i| i.count)),
+            isolated_reach: isolated.flatten().map(|i| i.reach),
+            isolated_sparse_part: isolated
+                .flatten()
+                .is_some_and(|i| i.fate == IsolatedFate::SparsePart),
             comments: loaded.comments.clone(),
             not_kept: loaded.notes.clone(),
         }
@@ -278,6 +303,30 @@ impl FileInfo {
             )),
             _ => {}
         }
+        if let (Some(count), Some(reach)) = (self.isolated_points, self.isolated_reach) {
+            let (verb, pronoun) = if count == 1 {
+                ("has", "it")
+            } else {
+                ("have", "them")
+            };
+            let found = format!(
+                "\nisolated:    {count} point{} {verb} fewer than 3 others within {} (twice the \
+                 default MLS kernel's reach)",
+                if count == 1 { "" } else { "s" },
+                three_digits(reach),
+            );
+            s.push_str(&found);
+            s.push_str(&if self.isolated_sparse_part {
+                format!(
+                    ": more than 1% of the points, a sparse part that reconstruct, sdf and quilt \
+                     keep (a larger --kernel reaches {pronoun})"
+                )
+            } else {
+                format!(
+                    ": reconstruct, sdf and quilt leave {pronoun} out; --keep-strays keeps {pronoun}"
+                )
+            });
+        }
         for c in &self.comments {
             s.push_str(&format!("\ncomment:     {c}"));
         }
@@ -286,6 +335,21 @@ impl FileInfo {
         }
         s
     }
+}
+
+/// The isolated points among `points` without their stray ones, as `reconstruct`
+/// counts them ([`isolated_points`] with the default kernel): `Some(None)` when none is,
+/// `None` when the points have no kernel (all coincident).
+fn isolated_among_the_rest(points: &PointSet) -> Option<Option<IsolatedPoints>> {
+    let positions = points.positions();
+    let rest: Vec<Vec3> = kept_indices(positions)
+        .into_iter()
+        .map(|i| positions[i])
+        .collect();
+    let index = KdIndex::new(&rest).ok()?;
+    isolated_points(&index, &MlsParams::default(), false)
+        .ok()
+        .map(|found| found.map(|(_, isolated)| isolated))
 }
 
 /// What `info` reports about a picture or height field.

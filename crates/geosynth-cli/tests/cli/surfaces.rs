@@ -1109,6 +1109,23 @@ fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
         "{said}"
     );
     assert_eq!(json["isolated_left_out"], 0);
+    // `info` counts them and says what those commands do: for point sets only.
+    let said = ok(&["info", &arg(&hollow)]);
+    assert!(
+        said.contains("isolated:    3 points have fewer than 3 others within ")
+            && said.contains("reconstruct, sdf and quilt leave them out; --keep-strays"),
+        "{said}"
+    );
+    let listed = |path: &Path| {
+        let json = info_json(path);
+        let (count, sparse) = (&json["isolated_points"], &json["isolated_sparse_part"]);
+        (count.as_u64(), sparse.as_bool().unwrap())
+    };
+    assert_eq!(listed(&hollow), (Some(3), false));
+    assert_eq!(listed(&clean), (Some(0), false));
+    assert_eq!(listed(&sparse), (Some(24), true));
+    assert!(ok(&["info", &arg(&sparse)]).contains("a sparse part that reconstruct"));
+    assert_eq!(listed(&dir.path("clean_mesh.ply")), (None, false));
 }
 
 /// The bundled point set `name` (`geosynth fixtures`' files).
