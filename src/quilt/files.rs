@@ -211,7 +211,8 @@ pub struct TextureFile {
     /// texture's MLS surface to take them in ([`mls_surface::without_isolated`]; each
     /// would be a bubble of its own in the exemplar's distance field, copied into the
     /// output), and what was done with them: left out under any box (and in a fitted
-    /// plane), kept with [`TextureReading::keep_strays`] or when they are a sparse part.
+    /// plane), kept with [`TextureReading::keep_strays`] or when they are most of the
+    /// points.
     /// `None` when there are none, and for meshes.
     pub isolated_points: Option<IsolatedPoints>,
 }

@@ -38,7 +38,7 @@ pub const MAX_PLANE_SPREAD: f64 = 0.25;
 /// tilt the plane and stretch its box: they are left out and counted in
 /// [`TextureFile::stray_points`]. So are its isolated points, too far from the others for
 /// the texture's surface to take them in ([`TextureFile::isolated_points`]), unless they
-/// are a sparse part.
+/// are most of the points.
 ///
 /// Errors: texture comments in the file (they already give the box and the up axis), no
 /// points or normals, and points with no dominant plane (spread across the best plane more

@@ -61,7 +61,7 @@
 //! - A sample with fewer than `min_neighbours` samples (itself included) within twice the
 //!   support radius has a surface of its own (a bubble, where a distance field falls back
 //!   to it); [`isolated_samples`] lists such samples, and [`without_isolated`] leaves them
-//!   out unless they are more than 1% of the points (a sparse part).
+//!   out unless they are most of the points (a kernel too small for the sampling).
 //! - Clusters are represented by the member nearest the centroid (a real oriented sample).
 //! - Relaxation moves all points simultaneously (Jacobi style), which makes it independent
 //!   of thread scheduling.
@@ -105,7 +105,7 @@ pub use error::{MlsError, Result};
 pub use heights::{HeightMethod, TopHeight};
 pub use isolated::{ISOLATION_REACH, isolated_samples};
 pub use isolated_points::{
-    IsolatedFate, IsolatedPoints, SPARSE_PART_SHARE, isolated_points, without_isolated,
+    IsolatedFate, IsolatedPoints, SPARSE_SAMPLING_SHARE, isolated_points, without_isolated,
 };
 pub use orientation::{
     LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,

@@ -75,14 +75,14 @@ pub struct FileInfo {
     stray_points: Option<usize>,
     /// Of a point set's other points, those with fewer than 3 others within twice the
     /// default MLS kernel's reach ([`geosynth::mls::without_isolated`]), which
-    /// `reconstruct`, `sdf` and `quilt` leave out unless they are a sparse part; `None`
+    /// `reconstruct`, `sdf` and `quilt` leave out unless they are most of the points; `None`
     /// for meshes and for points whose kernel cannot be estimated (all coincident).
     isolated_points: Option<usize>,
     /// How far the reach is, when some are isolated.
     isolated_reach: Option<f32>,
-    /// Whether they are more than 1% of the points, so a sparse part that those commands
-    /// keep.
-    isolated_sparse_part: bool,
+    /// Whether they are more than half of the points, which those commands keep: the
+    /// default kernel is too small for the sampling.
+    isolated_sparse_sampling: bool,
     comments: Vec<String>,
     /// What the file had that the reader could not keep
     /// ([`LoadedGeometry::notes`](geosynth::core::io::LoadedGeometry::notes)).
@@ -209,9 +209,9 @@ impl FileInfo {
             },
             isolated_points: isolated.map(|i| i.map_or(0, |i| i.count)),
             isolated_reach: isolated.flatten().map(|i| i.reach),
-            isolated_sparse_part: isolated
+            isolated_sparse_sampling: isolated
                 .flatten()
-                .is_some_and(|i| i.fate == IsolatedFate::SparsePart),
+                .is_some_and(|i| i.fate == IsolatedFate::SparseSampling),
             comments: loaded.comments.clone(),
             not_kept: loaded.notes.clone(),
         }
@@ -316,10 +316,10 @@ impl FileInfo {
                 three_digits(reach),
             );
             s.push_str(&found);
-            s.push_str(&if self.isolated_sparse_part {
+            s.push_str(&if self.isolated_sparse_sampling {
                 format!(
-                    ": more than 1% of the points, a sparse part that reconstruct, sdf and quilt \
-                     keep (a larger --kernel reaches {pronoun})"
+                    ": more than half of the points, which reconstruct, sdf and quilt keep: the \
+                     kernel is too small for their sampling (a larger --kernel reaches {pronoun})"
                 )
             } else {
                 format!(

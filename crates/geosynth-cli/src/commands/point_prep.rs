@@ -185,8 +185,8 @@ impl PointPrep {
 
     /// `points` (read from `path`) without their isolated points
     /// ([`geosynth::mls::without_isolated`] for the MLS kernel `kernel`, or the one
-    /// estimated), unless they are kept or are a sparse part, and how many were left out;
-    /// notes what it did.
+    /// estimated), unless they are kept or are most of the points, and how many were left
+    /// out; notes what it did.
     fn isolated_handled(
         &self,
         points: PointSet,
@@ -205,21 +205,20 @@ impl PointPrep {
             0
         };
         let what = path.display().to_string();
-        let hint = ", which a larger --kernel reaches";
-        let note = isolated_note(&isolated, &what, mls.min_neighbours, hint);
+        let note = isolated_note(&isolated, &what, mls.min_neighbours, Some("--kernel"));
         status(globals, note);
         Ok((points, left_out))
     }
 }
 
 /// What was done with the `isolated` points of `what` (a file's name) for an MLS surface
-/// whose kernel needs `min_neighbours` samples, as a note; `sparse_hint` ends the sentence
-/// that keeps them as a sparse part.
+/// whose kernel needs `min_neighbours` samples, as a note; `kernel_flag` names the option
+/// that widens the kernel, if the command has one.
 pub(crate) fn isolated_note(
     isolated: &IsolatedPoints,
     what: &str,
     min_neighbours: usize,
-    sparse_hint: &str,
+    kernel_flag: Option<&str>,
 ) -> String {
     let (count, one) = counted(isolated.count);
     let (verb, pronoun) = if one { ("has", "it") } else { ("have", "them") };
@@ -230,12 +229,25 @@ pub(crate) fn isolated_note(
         three_digits(isolated.reach),
         if one { "its" } else { "their" }
     );
+    let share = 100.0 * isolated.count as f64 / isolated.of as f64;
+    let wider = kernel_flag.map_or(String::new(), |flag| {
+        format!(" (a larger {flag} widens it)")
+    });
     let done = match isolated.fate {
         IsolatedFate::Kept => "; kept (--keep-strays)".to_string(),
-        IsolatedFate::SparsePart => format!(
-            "; kept, since they are {:.1}% of the points: a sparse part{sparse_hint}",
-            100.0 * isolated.count as f64 / isolated.of as f64
+        IsolatedFate::SparseSampling => format!(
+            "; kept, since they are {share:.1}% of the points: the kernel is too small for \
+             their sampling{wider}"
         ),
+        IsolatedFate::LeftOut if share > 1.0 => {
+            let sparse = kernel_flag.map_or(String::new(), |flag| {
+                format!(
+                    "; if they sample a part more sparsely than the rest rather than \
+                     outliers, a larger {flag} reaches them"
+                )
+            });
+            format!(": left out ({share:.1}% of the points{sparse}); --keep-strays keeps {pronoun}")
+        }
         IsolatedFate::LeftOut => format!(": left out; --keep-strays keeps {pronoun}"),
     };
     format!("{found}{done}")

@@ -1021,7 +1021,7 @@ fn stray_points_are_left_out_of_surfaces_and_framed_out_of_pictures() {
 }
 
 #[test]
-fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
+fn isolated_points_are_left_out_of_surfaces_unless_they_are_most_of_them() {
     use geosynth::core::io::Geometry;
     use glam::Vec3;
     let dir = Scratch::new();
@@ -1093,8 +1093,8 @@ fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(json["isolated_left_out"], 3);
-    // More than 1% of the points alone are a sparse part of the input: kept, with a note.
-    // 24 points on a circle of radius 1.6 about the sphere, 0.42 apart.
+    // More than 1% of the points alone are still left out, with their share: 24 points on
+    // a circle of radius 1.6 about the sphere, 0.42 apart (1.2%).
     let ring: Vec<Vec3> = (0..24)
         .map(|i| {
             let a = i as f32 * std::f32::consts::TAU / 24.0;
@@ -1103,12 +1103,14 @@ fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
         .collect();
     let sparse = dir.path("sparse.ply");
     write_with_defaults(&sparse, &with(&ring));
-    let (_, json, said) = reconstruct(&sparse, "sparse_mesh.ply", &[]);
+    let (mesh, json, said) = reconstruct(&sparse, "sparse_mesh.ply", &[]);
     assert!(
-        said.contains("24 points of") && said.contains("a sparse part"),
+        said.contains("24 points of")
+            && said.contains("left out (1.2% of the points; if they sample a part more sparsely"),
         "{said}"
     );
-    assert_eq!(json["isolated_left_out"], 0);
+    assert_eq!(json["isolated_left_out"], 24);
+    assert_eq!(body(&mesh), body(&clean_mesh));
     // `info` counts them and says what those commands do: for point sets only.
     let said = ok(&["info", &arg(&hollow)]);
     assert!(
@@ -1118,14 +1120,91 @@ fn isolated_points_are_left_out_of_surfaces_unless_they_are_a_sparse_part() {
     );
     let listed = |path: &Path| {
         let json = info_json(path);
-        let (count, sparse) = (&json["isolated_points"], &json["isolated_sparse_part"]);
+        let (count, sparse) = (&json["isolated_points"], &json["isolated_sparse_sampling"]);
         (count.as_u64(), sparse.as_bool().unwrap())
     };
     assert_eq!(listed(&hollow), (Some(3), false));
     assert_eq!(listed(&clean), (Some(0), false));
-    assert_eq!(listed(&sparse), (Some(24), true));
-    assert!(ok(&["info", &arg(&sparse)]).contains("a sparse part that reconstruct"));
+    assert_eq!(listed(&sparse), (Some(24), false));
     assert_eq!(listed(&dir.path("clean_mesh.ply")), (None, false));
+    // Most of the points alone: each sphere point twice, 0.001 apart, so that the kernel
+    // estimated from the median spacing is too small for the sampling. They are kept.
+    let doubled: Vec<_> = (points.positions().iter())
+        .enumerate()
+        .map(|(i, p)| (2 * i + 1, *p + Vec3::splat(0.001), Vec3::Z))
+        .collect();
+    let twice = dir.path("twice.ply");
+    write_with_defaults(&twice, &Geometry::Points(with_points(&points, &doubled)));
+    let field = arg(&dir.path("g.nrrd"));
+    let said = ok(&["sdf", &arg(&twice), "-o", &field, "--resolution", "8"]);
+    assert!(
+        said.contains("4000 points of")
+            && said.contains("kept, since they are 100.0% of the points: the kernel is too small")
+            && said.contains("(a larger --kernel widens it)"),
+        "{said}"
+    );
+    assert_eq!(listed(&twice), (Some(4000), true));
+}
+
+#[test]
+fn a_scan_with_outliers_scattered_through_its_box_reconstructs_whole() {
+    // The shared bunny scan with 2% of its count (322 points) spread through its box, with
+    // random normals, as a scanner's outliers: the isolated ones (more than 1% of the
+    // points) are left out, and the winding sign and the small pieces' removal deal with
+    // those near the surface. Kept, they close into bubbles and sheets around the bunny.
+    use geosynth::core::io::Geometry;
+    use geosynth::core::rng::mix64;
+    use glam::Vec3;
+    let Some(bunny) = geosynth::core::testdata::shared_data(
+        "scattered outliers",
+        "pointsets/bunny16k_normals.ply",
+    ) else {
+        return;
+    };
+    let dir = Scratch::new();
+    let points = geosynth::core::io::read_geometry(&bunny).unwrap().geometry;
+    let (points, bounds) = (points.points(), points.bounding_box().unwrap());
+    let unit = |k: u64| (mix64(k) >> 40) as f32 / (1u64 << 24) as f32;
+    let outliers: Vec<_> = (0..322u64)
+        .map(|i| {
+            let r = Vec3::new(unit(6 * i), unit(6 * i + 1), unit(6 * i + 2));
+            let n = Vec3::new(unit(6 * i + 3), unit(6 * i + 4), unit(6 * i + 5)) - 0.5;
+            let at = bounds.min + r * bounds.extent();
+            (50 * i as usize, at, n.normalize_or(Vec3::Z))
+        })
+        .collect();
+    let noisy = dir.path("noisy.ply");
+    write_with_defaults(&noisy, &Geometry::Points(with_points(points, &outliers)));
+    let reconstruct = |input: &Path, name: &str, extra: &[&str]| {
+        let report = dir.path(&format!("{name}.json"));
+        let run = ["reconstruct", &arg(input), "-o", &arg(&dir.path(name))];
+        let flags = ["--resolution", "48", "--sign", "winding", "--drop-pieces"];
+        let said = ok(&[&run[..], &flags, &["--report", &arg(&report)], extra].concat());
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (json, said)
+    };
+    let (json, said) = reconstruct(&noisy, "whole.ply", &[]);
+    let left_out = json["isolated_left_out"].as_u64().unwrap();
+    assert!(left_out > 200 && left_out <= 322, "{said}");
+    assert!(
+        said.contains("% of the points; if they sample a part"),
+        "{said}"
+    );
+    // The clean scan's surface: one closed piece of the same topology (at this resolution
+    // the ears' thin tips make handles), with nearly as many vertices.
+    let (clean, _) = reconstruct(&bunny, "clean.ply", &[]);
+    let (noisy_info, clean_info) = (
+        info_json(&dir.path("whole.ply")),
+        info_json(&dir.path("clean.ply")),
+    );
+    assert_eq!(json["components"], 1, "{said}");
+    assert_eq!(noisy_info["topology"], clean_info["topology"]);
+    let vertices = |j: &serde_json::Value| j["vertices"].as_f64().unwrap();
+    let ratio = vertices(&json) / vertices(&clean);
+    assert!((ratio - 1.0).abs() < 0.02, "{ratio}: {said}");
+    let (json, said) = reconstruct(&noisy, "kept.ply", &["--keep-strays"]);
+    assert!(json["components"].as_u64().unwrap() > 1, "{said}");
 }
 
 /// The bundled point set `name` (`geosynth fixtures`' files).

@@ -56,7 +56,12 @@ pub(super) fn stray_note(file: &TextureFile) -> Option<String> {
 pub(super) fn isolated_points_note(file: &TextureFile) -> Option<String> {
     let isolated = file.isolated_points?;
     let min_neighbours = MlsParams::default().min_neighbours;
-    Some(isolated_note(&isolated, "the exemplar", min_neighbours, ""))
+    Some(isolated_note(
+        &isolated,
+        "the exemplar",
+        min_neighbours,
+        None,
+    ))
 }
 
 /// Tilts of the points' best plane against the reference plane above this (degrees) get a
