@@ -14,6 +14,7 @@
 //! | [`voxel`] | `voxel-dfsynth` | paper 001: distance-field block matching and synthesis, the `VoxelSynth` stage |
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage, and `SampleHeights` to write a quilted height field back as one |
 //! | [`normals`] | (facade) | stage: bare points → points with oriented normals |
+//! | [`strays`] | (facade) | stage: a scan → the same without its stray and isolated points |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid; trimming open scans |
 //! | [`warp`] | (facade) | stage: a point set or mesh moved by a thin-plate spline |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
@@ -136,6 +137,7 @@ pub mod normals;
 pub mod preview;
 pub mod quilt;
 pub mod reconstruct;
+pub mod strays;
 pub mod voxel;
 pub mod warp;
 

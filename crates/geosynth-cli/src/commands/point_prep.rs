@@ -6,12 +6,11 @@ use std::path::Path;
 use std::time::Duration;
 
 use clap::Args;
-use geosynth::Stage;
 use geosynth::core::PointSet;
-use geosynth::mls::{
-    IsolatedFate, IsolatedPoints, MlsParams, ORIENTING_STAGE, orient_normals_in, without_isolated,
-};
+use geosynth::mls::{IsolatedFate, IsolatedPoints, MlsParams, ORIENTING_STAGE, orient_normals_in};
 use geosynth::normals::EstimateNormals;
+use geosynth::strays::{LeaveOutStrays, StraysFound};
+use geosynth::{RunContext, Stage};
 
 use super::normals::{UpArg, parse_neighbours, undefined_note};
 use super::three_digits;
@@ -129,9 +128,13 @@ impl PointPrep {
         globals: Globals,
         timings: &mut Vec<(String, Duration)>,
     ) -> CliResult<(PointSet, LeftOut)> {
-        let (points, strays) = self.strays_handled(points, path, globals);
-        let (mut points, isolated) = self.isolated_handled(points, kernel, path, globals)?;
-        let left_out = LeftOut { strays, isolated };
+        let leave_out = LeaveOutStrays {
+            kernel,
+            keep: self.keep_strays,
+        };
+        let found = leave_out.run(points, &mut RunContext::new(0))?;
+        let left_out = self.noted(&found, kernel, path, globals);
+        let mut points = found.points;
         if let Some(neighbours) = self.estimate {
             points = estimated(points, neighbours, self.up, globals, timings)?;
         }
@@ -152,25 +155,40 @@ impl PointPrep {
         Ok((points, left_out))
     }
 
-    /// `points` (read from `path`) without their stray points, unless they are kept, and
-    /// how many were left out; notes either.
-    fn strays_handled(&self, points: PointSet, path: &Path, globals: Globals) -> (PointSet, usize) {
-        let (points, strays, left_out) = if self.keep_strays {
-            let count = points.stray_count();
-            (points, count, 0)
-        } else {
-            let (kept, count) = points.without_strays();
-            (kept, count, count)
-        };
-        if strays == 0 {
-            return (points, 0);
+    /// Notes what [`LeaveOutStrays`] found in the points read from `path` (isolated for an
+    /// MLS surface of the `kernel` given, or estimated), and returns what it left out.
+    fn noted(
+        &self,
+        found: &StraysFound,
+        kernel: Option<f32>,
+        path: &Path,
+        globals: Globals,
+    ) -> LeftOut {
+        let what = path.display().to_string();
+        if found.strays > 0 {
+            status(globals, self.stray_note(found.strays, &what));
         }
+        if let Some(isolated) = &found.isolated {
+            let min_neighbours = mls_params(kernel).min_neighbours;
+            let note = isolated_note(isolated, &what, min_neighbours, Some("--kernel"));
+            status(globals, note);
+        }
+        LeftOut {
+            strays: if self.keep_strays { 0 } else { found.strays },
+            isolated: found
+                .isolated
+                .filter(|i| i.fate == IsolatedFate::LeftOut)
+                .map_or(0, |i| i.count),
+        }
+    }
+
+    /// The note on `strays` stray points of `what` (a file's name), left out or kept.
+    fn stray_note(&self, strays: usize, what: &str) -> String {
         let (count, one) = counted(strays);
         let (verb, pronoun) = if one { ("lies", "it") } else { ("lie", "them") };
-        let what = format!(
-            "note: {count} of {} {verb} far outside the rest (beyond twice the span of the \
-             middle 99% of the points' coordinates)",
-            path.display()
+        let found = format!(
+            "note: {count} of {what} {verb} far outside the rest (beyond twice the span of the \
+             middle 99% of the points' coordinates)"
         );
         let done = if self.keep_strays {
             format!("; kept (--keep-strays), the grid spans {pronoun}")
@@ -179,35 +197,7 @@ impl PointPrep {
                 ": left out, since the grid would span {pronoun}; --keep-strays keeps {pronoun}"
             )
         };
-        status(globals, format!("{what}{done}"));
-        (points, left_out)
-    }
-
-    /// `points` (read from `path`) without their isolated points
-    /// ([`geosynth::mls::without_isolated`] for the MLS kernel `kernel`, or the one
-    /// estimated), unless they are kept or are most of the points, and how many were left
-    /// out; notes what it did.
-    fn isolated_handled(
-        &self,
-        points: PointSet,
-        kernel: Option<f32>,
-        path: &Path,
-        globals: Globals,
-    ) -> CliResult<(PointSet, usize)> {
-        let mls = mls_params(kernel);
-        let (points, isolated) = without_isolated(points, &mls, self.keep_strays)?;
-        let Some(isolated) = isolated else {
-            return Ok((points, 0));
-        };
-        let left_out = if isolated.fate == IsolatedFate::LeftOut {
-            isolated.count
-        } else {
-            0
-        };
-        let what = path.display().to_string();
-        let note = isolated_note(&isolated, &what, mls.min_neighbours, Some("--kernel"));
-        status(globals, note);
-        Ok((points, left_out))
+        format!("{found}{done}")
     }
 }
 
