@@ -17,6 +17,7 @@ mod quilt_maps;
 mod remesh;
 #[cfg(unix)]
 mod signals;
+mod strays;
 mod surfaces;
 mod voxel;
 
