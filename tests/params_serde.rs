@@ -11,6 +11,7 @@ use geosynth::normals::EstimateNormals;
 use geosynth::quilt::{Method, OutputSize, QuiltParams, WarpTargets};
 use geosynth::reconstruct::FieldParams;
 use geosynth::sdf::{FarSigns, GridSpec, MeshSign, PointSign};
+use geosynth::strays::LeaveOutStrays;
 use geosynth::tps::{AffineRegularization, PairingParams, Table1Preset, TpsParams};
 use geosynth::voxel::{MatcherKind, QualityParams, RelaxParams as VoxelRelaxParams, VoxelParams};
 use glam::Vec3;
@@ -183,6 +184,7 @@ fn every_parameter_type_reads_an_empty_document_as_its_default() {
     empty_is_default::<QualityParams>();
     empty_is_default::<VoxelRelaxParams>();
     empty_is_default::<EstimateNormals>();
+    empty_is_default::<LeaveOutStrays>();
 }
 
 #[test]
@@ -219,6 +221,11 @@ fn the_remaining_types_survive_json() {
             ..Default::default()
         }
     );
+    let leave_out = LeaveOutStrays {
+        kernel: Some(0.25),
+        keep: true,
+    };
+    assert_eq!(round_trip(&leave_out), leave_out);
     let spec = GridSpec {
         dims: [3, 4, 5],
         origin: Vec3::new(-1.0, 0.5, 2.0),
