@@ -88,7 +88,13 @@ fn warp_points(spline: &ThinPlateSpline, points: PointSet) -> Result<PointSet> {
 /// assert!(top > 1.4, "{top}");
 /// Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
+///
+/// With the `serde` feature the stage is stored with its spline's terms
+/// ([`ThinPlateSpline::from_terms`] checks them when read): a warp fitted once can be kept
+/// in a pipeline's configuration and applied again.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Warp {
     /// The spline every position goes through.
     pub spline: ThinPlateSpline,

@@ -1,4 +1,5 @@
-//! The `serde` feature: every parameter type survives a trip through JSON unchanged, a
+//! The `serde` feature: every parameter type (and a fitted warp) survives a trip through
+//! JSON unchanged, a
 //! partial document fills the rest from `Default`, misspelt fields and unknown enum values
 //! are refused by name, and unlimited thresholds (which JSON cannot write as numbers) come
 //! back unlimited.
@@ -12,8 +13,11 @@ use geosynth::quilt::{Method, OutputSize, QuiltParams, WarpTargets};
 use geosynth::reconstruct::FieldParams;
 use geosynth::sdf::{FarSigns, GridSpec, MeshSign, PointSign};
 use geosynth::strays::LeaveOutStrays;
-use geosynth::tps::{AffineRegularization, PairingParams, Table1Preset, TpsParams};
+use geosynth::tps::{
+    AffineRegularization, PairingParams, Table1Preset, ThinPlateSpline, TpsParams,
+};
 use geosynth::voxel::{MatcherKind, QualityParams, RelaxParams as VoxelRelaxParams, VoxelParams};
+use geosynth::warp::Warp;
 use glam::Vec3;
 use proptest::prelude::*;
 use serde::Serialize;
@@ -221,6 +225,28 @@ fn the_remaining_types_survive_json() {
             ..Default::default()
         }
     );
+    // A fitted warp: the same spline back, moving points the same.
+    let corner = |i: u32| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32);
+    let sources: Vec<Vec3> = (0..8).map(corner).collect();
+    let targets: Vec<Vec3> = (sources.iter().enumerate())
+        .map(|(i, p)| *p + 0.1 * Vec3::new(i as f32, 1.0, -(i as f32) * 0.5).sin())
+        .collect();
+    let spline = ThinPlateSpline::fit(&sources, &targets, &TpsParams::default()).unwrap();
+    let warp = Warp { spline };
+    let back = round_trip(&warp);
+    // serde_json reads a double back to within its last bit (exactly only with its
+    // `float_roundtrip` feature).
+    assert_eq!(back.spline.centers(), warp.spline.centers());
+    for (p, q) in back.spline.weights().iter().zip(warp.spline.weights()) {
+        assert!((*p - *q).abs().max_element() <= 1e-15 * q.abs().max_element().max(1.0));
+    }
+    for probe in [Vec3::new(0.3, 0.7, 0.2), Vec3::new(-2.0, 5.0, 1.5)] {
+        let (a, b) = (
+            back.spline.eval_f64(probe.as_dvec3()),
+            warp.spline.eval_f64(probe.as_dvec3()),
+        );
+        assert!(a.distance(b) < 1e-13, "{a} against {b}");
+    }
     let leave_out = LeaveOutStrays {
         kernel: Some(0.25),
         keep: true,
@@ -287,6 +313,18 @@ fn misspelt_fields_and_unknown_values_are_refused_by_name() {
     assert!(e.to_string().contains("w_x"), "{e}");
     let e = serde_json::from_str::<FieldParams>(r#"{ "mesh_sign": "winding" }"#).unwrap_err();
     assert!(e.to_string().contains("winding"), "{e}");
+    // A warp's spline is checked as `ThinPlateSpline::from_terms` checks it.
+    let affine = r#""translation": [0, 0, 0], "linear": [1, 0, 0, 0, 1, 0, 0, 0, 1]"#;
+    let spline = |terms: &str| format!(r#"{{ "spline": {{ {terms}, {affine} }} }}"#);
+    let shift = spline(r#""centers": [], "weights": []"#).replace("[0, 0, 0]", "[1, 0, 0]");
+    let moved = serde_json::from_str::<Warp>(&shift).unwrap();
+    assert_eq!(moved.spline.eval(Vec3::ZERO), Vec3::X);
+    let uneven = spline(r#""centers": [[0, 0, 0], [1, 0, 0]], "weights": [[0, 0, 0]]"#);
+    let e = serde_json::from_str::<Warp>(&uneven).unwrap_err();
+    assert!(e.to_string().contains("centers and weights: 2 vs 1"), "{e}");
+    let extra = spline(r#""centers": [], "weights": [], "degree": 3"#);
+    let e = serde_json::from_str::<Warp>(&extra).unwrap_err();
+    assert!(e.to_string().contains("degree"), "{e}");
 }
 
 #[test]

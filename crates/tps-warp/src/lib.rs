@@ -87,7 +87,8 @@
 //! ## Features
 //!
 //! - `serde`: `Serialize`/`Deserialize` for [`TpsParams`], [`AffineRegularization`],
-//!   [`PairingParams`] and [`Table1Preset`]; an unlimited pairing threshold is written as
+//!   [`PairingParams`] and [`Table1Preset`], and for a fitted [`ThinPlateSpline`] (its
+//!   terms, checked by [`ThinPlateSpline::from_terms`] when read); an unlimited pairing threshold is written as
 //!   none (`null` in JSON, which has no infinity) and read back unlimited. Structs read
 //!   with missing fields taken from their `Default`, unknown fields refused by name, and
 //!   enums spelt in `snake_case` (`"toward_identity"`). Read parameters are checked like
@@ -100,6 +101,8 @@ mod pairing;
 #[cfg(feature = "serde")]
 mod serde_threshold;
 mod spline;
+#[cfg(feature = "serde")]
+mod spline_serde;
 
 pub use error::{Result, TpsError};
 pub use pairing::{

@@ -100,7 +100,21 @@ pub const MAX_CONTROL_POINTS: usize = 8192;
 
 /// `W(x) = c + A x + Σ wᵢ φ(|x − sᵢ|)` with the 3D biharmonic kernel `φ(r) = r`, fitted with
 /// the side conditions `Σ wᵢ = 0`, `Σ wᵢ sᵢᵀ = 0`.
+///
+/// With the `serde` feature a spline is stored as its terms (`centers`, `weights`,
+/// `translation`, `linear` column by column) and read back through
+/// [`ThinPlateSpline::from_terms`]'s checks, so that a fitted warp can be kept and applied
+/// again without its pairs (`serde_json` reads a double back to within its last bit, and
+/// exactly with its `float_roundtrip` feature).
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(
+        try_from = "crate::spline_serde::SplineTerms",
+        into = "crate::spline_serde::SplineTerms"
+    )
+)]
 pub struct ThinPlateSpline {
     centers: Vec<DVec3>,
     weights: Vec<DVec3>,
@@ -275,6 +289,73 @@ impl ThinPlateSpline {
                 .collect::<Vec<_>>()
         };
         Ok((pick(&s), pick(&q)))
+    }
+
+    /// The spline with the given terms, as [`ThinPlateSpline::centers`],
+    /// [`ThinPlateSpline::weights`] and [`ThinPlateSpline::affine`] give them back: one
+    /// weight per center. The side conditions of a fit are not required (any such sum is
+    /// a smooth map), so a spline kept from a fit and one built by hand are both accepted.
+    ///
+    /// Errors: centers and weights of unequal length, more than [`MAX_CONTROL_POINTS`]
+    /// centers, a term that is not finite.
+    ///
+    /// ```
+    /// use glam::{DMat3, DVec3, Vec3};
+    /// use tps_warp::{ThinPlateSpline, TpsParams};
+    ///
+    /// let sources = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
+    /// let targets = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::splat(1.2)];
+    /// let fitted = ThinPlateSpline::fit(&sources, &targets, &TpsParams::default())?;
+    /// let (translation, linear) = fitted.affine();
+    /// let again = ThinPlateSpline::from_terms(
+    ///     fitted.centers().to_vec(),
+    ///     fitted.weights().to_vec(),
+    ///     translation,
+    ///     linear,
+    /// )?;
+    /// assert_eq!(again, fitted);
+    /// // A shift alone: no centers.
+    /// let shift = ThinPlateSpline::from_terms(vec![], vec![], DVec3::X, DMat3::IDENTITY)?;
+    /// assert_eq!(shift.eval(Vec3::ZERO), Vec3::X);
+    /// Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn from_terms(
+        centers: Vec<DVec3>,
+        weights: Vec<DVec3>,
+        translation: DVec3,
+        linear: DMat3,
+    ) -> Result<Self> {
+        if centers.len() != weights.len() {
+            return Err(TpsError::LengthMismatch {
+                what: "centers and weights",
+                left: centers.len(),
+                right: weights.len(),
+            });
+        }
+        if centers.len() > MAX_CONTROL_POINTS {
+            return Err(TpsError::InvalidParameter {
+                name: "centers",
+                value: centers.len().to_string(),
+                expected: "at most MAX_CONTROL_POINTS (8192)",
+            });
+        }
+        for (what, terms) in [("center", &centers), ("weight", &weights)] {
+            if let Some(index) = terms.iter().position(|t| !t.is_finite()) {
+                return Err(TpsError::NonFinite { what, index });
+            }
+        }
+        if !(translation.is_finite() && linear.is_finite()) {
+            return Err(TpsError::NonFinite {
+                what: "affine term",
+                index: 0,
+            });
+        }
+        Ok(Self {
+            centers,
+            weights,
+            translation,
+            linear,
+        })
     }
 
     /// The control points (sources) after merging duplicates.

@@ -315,6 +315,52 @@ fn normals_rotate_exactly_under_a_rotation() {
 }
 
 #[test]
+fn a_spline_built_from_its_terms_is_the_fitted_one_and_bad_terms_are_errors() {
+    let mut g = rng::rng_from_seed(11);
+    let sources: Vec<Vec3> = (0..40)
+        .map(|_| Vec3::new(g.random(), g.random(), g.random()))
+        .collect();
+    let targets: Vec<Vec3> = (sources.iter())
+        .map(|p| *p + 0.1 * Vec3::new(p.y, p.z, p.x).sin())
+        .collect();
+    let fitted = ThinPlateSpline::fit(&sources, &targets, &TpsParams::default()).unwrap();
+    let (c, a) = fitted.affine();
+    let (centers, weights) = (fitted.centers().to_vec(), fitted.weights().to_vec());
+    let built = |centers: Vec<DVec3>, weights: Vec<DVec3>, c: DVec3, a: DMat3| {
+        ThinPlateSpline::from_terms(centers, weights, c, a)
+    };
+    let again = built(centers.clone(), weights.clone(), c, a).unwrap();
+    for p in &sources {
+        assert_eq!(again.eval(*p), fitted.eval(*p));
+        assert_eq!(again.jacobian(*p), fitted.jacobian(*p));
+    }
+    let uneven = built(centers.clone(), weights[1..].to_vec(), c, a);
+    assert!(matches!(
+        uneven,
+        Err(TpsError::LengthMismatch {
+            left: 40,
+            right: 39,
+            ..
+        })
+    ));
+    let mut bad = weights.clone();
+    bad[7].y = f64::NAN;
+    let nan = built(centers.clone(), bad, c, a);
+    assert!(matches!(
+        nan,
+        Err(TpsError::NonFinite {
+            what: "weight",
+            index: 7
+        })
+    ));
+    let infinite = built(centers.clone(), weights.clone(), c, a * f64::INFINITY);
+    assert!(matches!(infinite, Err(TpsError::NonFinite { .. })));
+    let many = vec![DVec3::ZERO; tps_warp::MAX_CONTROL_POINTS + 1];
+    let too_many = built(many.clone(), many, c, a);
+    assert!(matches!(too_many, Err(TpsError::InvalidParameter { .. })));
+}
+
+#[test]
 fn degenerate_control_points_are_errors_or_documented_regularization() {
     let square = [
         Vec3::ZERO,
