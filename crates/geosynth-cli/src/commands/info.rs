@@ -158,9 +158,12 @@ impl FileInfo {
         // A weld fails only with more positions than `u32` numbers: then no duplicates
         // and no welded topology are reported.
         let welded = g.mesh().and_then(|m| m.welded_where_needed().ok());
-        let isolated = match g {
-            Geometry::Points(p) => isolated_among_the_rest(p),
-            Geometry::Mesh(_) => None,
+        let (stray_points, isolated) = match g {
+            Geometry::Points(p) => {
+                let (strays, isolated) = strays_and_isolated(p);
+                (Some(strays), isolated)
+            }
+            Geometry::Mesh(_) => (None, None),
         };
         let duplicates = welded
             .as_ref()
@@ -203,10 +206,7 @@ impl FileInfo {
             // relative to an origin so that their points keep single precision).
             bbox_min: bbox.map(|b| (b.min.as_dvec3() + loaded.origin).to_array()),
             bbox_max: bbox.map(|b| (b.max.as_dvec3() + loaded.origin).to_array()),
-            stray_points: match g {
-                Geometry::Points(p) => Some(p.stray_count()),
-                Geometry::Mesh(_) => None,
-            },
+            stray_points,
             isolated_points: isolated.map(|i| i.map_or(0, |i| i.count)),
             isolated_reach: isolated.flatten().map(|i| i.reach),
             isolated_sparse_sampling: isolated
@@ -337,19 +337,26 @@ impl FileInfo {
     }
 }
 
-/// The isolated points among `points` without their stray ones, as `reconstruct`
-/// counts them ([`isolated_points`] with the default kernel): `Some(None)` when none is,
-/// `None` when the points have no kernel (all coincident).
-fn isolated_among_the_rest(points: &PointSet) -> Option<Option<IsolatedPoints>> {
+/// How many of `points` are stray, and the isolated points among the others, as
+/// `reconstruct` counts them ([`isolated_points`] with the default kernel): `Some(None)`
+/// when none is, `None` when the points have no kernel (all coincident).
+fn strays_and_isolated(points: &PointSet) -> (usize, Option<Option<IsolatedPoints>>) {
     let positions = points.positions();
-    let rest: Vec<Vec3> = kept_indices(positions)
-        .into_iter()
-        .map(|i| positions[i])
-        .collect();
-    let index = KdIndex::new(&rest).ok()?;
-    isolated_points(&index, &MlsParams::default(), false)
-        .ok()
-        .map(|found| found.map(|(_, isolated)| isolated))
+    let kept = kept_indices(positions);
+    let strays = positions.len() - kept.len();
+    let index = if strays == 0 {
+        drop(kept);
+        KdIndex::new(positions)
+    } else {
+        let rest: Vec<Vec3> = kept.into_iter().map(|i| positions[i]).collect();
+        KdIndex::new(&rest)
+    };
+    let isolated = index.ok().and_then(|index| {
+        isolated_points(&index, &MlsParams::default(), false)
+            .ok()
+            .map(|found| found.map(|(_, isolated)| isolated))
+    });
+    (strays, isolated)
 }
 
 /// What `info` reports about a picture or height field.
