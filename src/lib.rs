@@ -123,8 +123,8 @@
 //! ## Features
 //!
 //! - `serde`: `Serialize`/`Deserialize` for every crate's parameter types (it turns on each
-//!   crate's own `serde` feature), [`reconstruct::FieldParams`], and the stages that hold
-//!   configuration ([`warp::Warp`] with its spline's terms). Structs with a `Default` are
+//!   crate's own `serde` feature), [`reconstruct::FieldParams`], and the stages (the
+//!   [`warp::Warp`] stage with its spline's terms). Structs with a `Default` are
 //!   read with missing fields taken from it, unknown fields refused by name, and enums
 //!   spelt in `snake_case` (`"search_only"`). Read parameters are checked like built ones:
 //!   call `validate()` (or let the run do it).

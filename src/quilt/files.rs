@@ -288,8 +288,9 @@ pub struct TextureReading {
     /// outside the rest) under the default box, which then spans them, and its isolated
     /// points ([`TextureFile::isolated_points`]) under any box. By default both are left
     /// out, as if the file did not hold them ([`TextureFile::stray_points`] and
-    /// [`TextureFile::isolated_points`] count them); a box given or read from the
-    /// comments keeps the stray points (it does not stretch to them).
+    /// [`TextureFile::isolated_points`] count them). A box given or read from the
+    /// comments does not stretch to far points, so none is left out as stray there; a
+    /// lone far point is still isolated, and left out as such.
     pub keep_strays: bool,
 }
 

@@ -88,9 +88,10 @@
 //!
 //! - `serde`: `Serialize`/`Deserialize` for [`TpsParams`], [`AffineRegularization`],
 //!   [`PairingParams`] and [`Table1Preset`], and for a fitted [`ThinPlateSpline`] (its
-//!   terms, checked by [`ThinPlateSpline::from_terms`] when read); an unlimited pairing threshold is written as
-//!   none (`null` in JSON, which has no infinity) and read back unlimited. Structs read
-//!   with missing fields taken from their `Default`, unknown fields refused by name, and
+//!   terms, checked by [`ThinPlateSpline::from_terms`] when read); an unlimited pairing
+//!   threshold is written as none (`null` in JSON, which has no infinity) and read back
+//!   unlimited. Structs with a `Default` are read with missing fields taken from it,
+//!   unknown fields refused by name, and
 //!   enums spelt in `snake_case` (`"toward_identity"`). Read parameters are checked like
 //!   built ones: call `validate()` (or let the fit do it).
 

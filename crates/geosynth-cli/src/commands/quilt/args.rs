@@ -131,9 +131,9 @@ pub struct QuiltArgs {
     /// on some axis, such as a scan's outliers) are left out of the default box, which
     /// would span them, and points with fewer than 3 others within twice the MLS kernel's
     /// reach (floating specks, which the exemplar's surface would close into bubbles) are
-    /// left out under any box, with a note. A `texture_box` comment or `--box` keeps the
-    /// far ones (it does not stretch to them), and a fitted plane (`--up auto`) always
-    /// leaves both out.
+    /// left out under any box, with a note. A `texture_box` comment or `--box` does not
+    /// stretch to far points, so none is left out as stray there (a lone one is still
+    /// isolated); a fitted plane (`--up auto`) always leaves both out.
     #[arg(long, conflicts_with = "heightfield")]
     pub(super) keep_strays: bool,
     /// Output point set (.ply, .obj, .off, .xyz or .xyzn).
