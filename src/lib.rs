@@ -47,7 +47,9 @@
 //!
 //! Positions alone (an XYZ scan) get normals by local PCA, oriented by propagation
 //! ([`normals::EstimateNormals`]), and become a closed mesh; an open scan would be trimmed
-//! with [`reconstruct::trim_to_samples`].
+//! with [`reconstruct::trim_to_samples`]. A scan with outliers goes through
+//! [`strays::LeaveOutStrays`] first, as `geosynth reconstruct` does: points far outside the
+//! rest would stretch the grid, and points alone would close into bubbles of their own.
 //!
 //! ```
 //! use geosynth::core::PointSet;
