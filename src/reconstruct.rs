@@ -193,10 +193,7 @@ pub fn signed_distance_in(
     let surface: Box<dyn Surface> = match geometry {
         Geometry::Mesh(mesh) => Box::new(MeshSurface::new(mesh)?.with_sign(params.mesh_sign)),
         Geometry::Points(points) => {
-            let mut mls = MlsParams::default();
-            if let Some(h) = params.kernel {
-                mls = mls.kernel(h);
-            }
+            let mls = MlsParams::default().with_kernel(params.kernel);
             let surface = MlsSurface::new(points, &mls)?;
             if params.kernel.is_some() {
                 let spacing = surface.index().median_spacing()?;

@@ -89,10 +89,7 @@ impl Stage for LeaveOutStrays {
         } else {
             input.without_strays()
         };
-        let params = match self.kernel {
-            Some(h) => MlsParams::default().kernel(h),
-            None => MlsParams::default(),
-        };
+        let params = MlsParams::default().with_kernel(self.kernel);
         let (points, isolated) = without_isolated(points, &params, self.keep)?;
         Ok(StraysFound {
             points,

@@ -367,6 +367,7 @@ mod tests {
 
     use super::*;
     use pointset_core::rng::rng_from_seed;
+    use pointset_core::testdata::random_direction;
     use rand::RngExt;
 
     /// `n` random points on the sphere of radius `r` about `c`, normals outward.
@@ -525,13 +526,7 @@ mod tests {
             } else {
                 g.random_range(2.5..6.0)
             };
-            let dir = Vec3::new(
-                g.random_range(-1.0..1.0),
-                g.random_range(-1.0..1.0),
-                g.random_range(-1.0..1.0),
-            )
-            .normalize_or(Vec3::X);
-            let q = Vec3::new(5.0, -1.0, 3.0) + radius * dir;
+            let q = Vec3::new(5.0, -1.0, 3.0) + radius * random_direction(&mut g);
             let expected = if radius < 2.0 { 1.0 } else { 0.0 };
             let w = winding.winding_number(q);
             assert!((w - expected).abs() < 0.1, "{w} at radius {radius}");

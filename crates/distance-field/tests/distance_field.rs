@@ -12,7 +12,7 @@ use distance_field::{
 };
 use glam::Vec3;
 use mls_surface::{MlsParams, MlsSurface};
-use pointset_core::testdata::shared_data;
+use pointset_core::testdata::{random_direction, shared_data};
 use pointset_core::{Aabb, BandAnswer, Grid3, PointSet, Surface, SurfacePoint, TriMesh, io, rng};
 use proptest::prelude::*;
 use rand::RngExt;
@@ -370,16 +370,7 @@ fn clearances_skip_queries_without_changing_the_grid() {
     // 300 random points on a unit sphere in a box three times its size: most nodes lie far
     // beyond the band, where the MLS surface answers with a clearance.
     let mut g = rng::rng_from_seed(4);
-    let dirs: Vec<Vec3> = (0..300)
-        .map(|_| {
-            Vec3::new(
-                g.random_range(-1.0..1.0),
-                g.random_range(-1.0..1.0),
-                g.random_range(-1.0..1.0),
-            )
-            .normalize_or(Vec3::X)
-        })
-        .collect();
+    let dirs: Vec<Vec3> = (0..300).map(|_| random_direction(&mut g)).collect();
     let points = PointSet::new(dirs.clone())
         .unwrap()
         .with_normals(dirs)

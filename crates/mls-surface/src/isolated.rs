@@ -161,21 +161,13 @@ mod tests {
     use super::*;
     use glam::Vec3;
     use pointset_core::rng::rng_from_seed;
+    use pointset_core::testdata::random_direction;
     use rand::RngExt;
 
     /// `n` random directions (points on the unit sphere).
     fn sphere(n: usize, seed: u64) -> Vec<Vec3> {
         let mut g = rng_from_seed(seed);
-        (0..n)
-            .map(|_| {
-                Vec3::new(
-                    g.random_range(-1.0..1.0),
-                    g.random_range(-1.0..1.0),
-                    g.random_range(-1.0..1.0),
-                )
-                .normalize_or(Vec3::X)
-            })
-            .collect()
+        (0..n).map(|_| random_direction(&mut g)).collect()
     }
 
     #[test]

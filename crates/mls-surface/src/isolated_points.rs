@@ -68,7 +68,9 @@ pub fn isolated_points(
     if index.len() < params.min_neighbours {
         return Ok(None);
     }
-    let isolated = isolated_samples(index, params)?;
+    // The kernel estimated once, for the search and the reach reported.
+    let params = params.clone().kernel(params.kernel_for(index)?);
+    let isolated = isolated_samples(index, &params)?;
     if isolated.is_empty() {
         return Ok(None);
     }

@@ -67,6 +67,13 @@ impl MlsParams {
         self
     }
 
+    /// Sets the kernel size `h` when one is given, or leaves it to be estimated from the
+    /// spacing when `None` (a command's optional `--kernel`).
+    pub fn with_kernel(mut self, h: Option<f32>) -> Self {
+        self.kernel = h;
+        self
+    }
+
     /// Sets the spacing multiple for the estimated kernel (default 1.25).
     pub fn kernel_spacing_factor(mut self, factor: f32) -> Self {
         self.kernel_spacing_factor = factor;

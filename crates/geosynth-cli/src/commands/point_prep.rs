@@ -133,7 +133,7 @@ impl PointPrep {
             keep: self.keep_strays,
         };
         let found = leave_out.run(points, &mut RunContext::new(0))?;
-        let left_out = self.noted(&found, kernel, path, globals);
+        let left_out = self.noted(&found, path, globals);
         let mut points = found.points;
         if let Some(neighbours) = self.estimate {
             points = estimated(points, neighbours, self.up, globals, timings)?;
@@ -155,21 +155,15 @@ impl PointPrep {
         Ok((points, left_out))
     }
 
-    /// Notes what [`LeaveOutStrays`] found in the points read from `path` (isolated for an
-    /// MLS surface of the `kernel` given, or estimated), and returns what it left out.
-    fn noted(
-        &self,
-        found: &StraysFound,
-        kernel: Option<f32>,
-        path: &Path,
-        globals: Globals,
-    ) -> LeftOut {
+    /// Notes what [`LeaveOutStrays`] found in the points read from `path`, and returns what
+    /// it left out.
+    fn noted(&self, found: &StraysFound, path: &Path, globals: Globals) -> LeftOut {
         let what = path.display().to_string();
         if found.strays > 0 {
             status(globals, self.stray_note(found.strays, &what));
         }
         if let Some(isolated) = &found.isolated {
-            let min_neighbours = mls_params(kernel).min_neighbours;
+            let min_neighbours = MlsParams::default().min_neighbours;
             let note = isolated_note(isolated, &what, min_neighbours, Some("--kernel"));
             status(globals, note);
         }
@@ -241,15 +235,6 @@ pub(crate) fn isolated_note(
         IsolatedFate::LeftOut => format!(": left out; --keep-strays keeps {pronoun}"),
     };
     format!("{found}{done}")
-}
-
-/// The MLS parameters of a point set's surface: the defaults, with `kernel` if one is
-/// asked for.
-pub(crate) fn mls_params(kernel: Option<f32>) -> MlsParams {
-    match kernel {
-        Some(h) => MlsParams::default().kernel(h),
-        None => MlsParams::default(),
-    }
 }
 
 /// `count` points as a note says them ("1 point", "3 points"), and whether there is one.

@@ -7,7 +7,7 @@ use clap::Args;
 use geosynth::core::KdIndex;
 use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
-use geosynth::mls::{PLANE_RADIUS_MAX_NEIGHBOURS, plane_radius};
+use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, plane_radius};
 use geosynth::reconstruct::{
     FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
     trim_to_mesh,
@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::normals::UpArg;
-use super::point_prep::{LeftOut, PointPrep, PointPrepArgs, check_recorded_neighbours, mls_params};
+use super::point_prep::{LeftOut, PointPrep, PointPrepArgs, check_recorded_neighbours};
 use super::{SignArgs, no_faces_to_orient, three_digits};
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
@@ -444,7 +444,9 @@ const CLOSED_FLUX: f32 = 0.1;
 /// kernel too small for the sampling (fins past sharp edges, wrong signs at thin parts:
 /// docs/mls-surface.md, "Known limits"). `kernel` is the one asked for, if any.
 fn grid_side_note(open: usize, points: &PointSet, kernel: Option<f32>) -> CliResult<String> {
-    let h = mls_params(kernel).kernel_for(&KdIndex::new(points.positions())?)?;
+    let h = MlsParams::default()
+        .with_kernel(kernel)
+        .kernel_for(&KdIndex::new(points.positions())?)?;
     Ok(format!(
         "note: the surface runs out to the sides of the grid ({open} open edges). An open \
          scan does that past its border (--trim cuts it back); on a closed object the MLS \
@@ -519,7 +521,7 @@ fn line_gap_note(
     trimmed: bool,
 ) -> CliResult<Option<String>> {
     let index = KdIndex::new(points.positions())?;
-    let mls = mls_params(kernel);
+    let mls = MlsParams::default().with_kernel(kernel);
     let h = mls.kernel_for(&index)?;
     let reach = mls.support * h;
     let radius = plane_radius(&index)?;
