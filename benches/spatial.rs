@@ -1,6 +1,6 @@
 //! Spatial index kernels: k-d tree build and queries, regions of it gathered for blocks of
 //! queries, bucket grid churn and queries; the stray-point check every point-set input of
-//! `reconstruct`, `sdf` and `quilt` goes through.
+//! `reconstruct`, `sdf` and `quilt` goes through; points sampled on a mesh's surface.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -226,12 +226,43 @@ fn isolated_points(c: &mut Criterion) {
     group.finish();
 }
 
+/// `core::surface_sampling::sample_surface` on an icosphere of 20,480 triangles: 100,000
+/// points uniform by area, and a Poisson disk of about 100,000 (32 candidates per
+/// spacing², the default pool).
+fn surface_sampling(c: &mut Criterion) {
+    use geosynth::core::RunContext;
+    use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling, sample_surface};
+    let mut group = c.benchmark_group("surface_sampling");
+    group.sample_size(10);
+    let sphere = geosynth::fixtures::icosphere_mesh(5).expect("benchmark setup");
+    let poisson =
+        SurfaceSampling::poisson_disk_for_count(sphere.area(), 100_000).expect("benchmark setup");
+    for (name, sampling) in [
+        ("uniform_100k", SurfaceSampling::Uniform { count: 100_000 }),
+        ("poisson_disk_100k", poisson),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let mut ctx = RunContext::new(1);
+                sample_surface(
+                    black_box(&sphere),
+                    &sampling,
+                    SampleNormals::Faces,
+                    &mut ctx,
+                )
+            })
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     kd_index,
     kd_region,
     bucket_grid,
     stray_points,
-    isolated_points
+    isolated_points,
+    surface_sampling
 );
 criterion_main!(benches);

@@ -15,6 +15,7 @@
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage, and `SampleHeights` to write a quilted height field back as one |
 //! | [`normals`] | (facade) | stage: bare points → points with oriented normals |
 //! | [`strays`] | (facade) | stage: a scan → the same without its stray and isolated points |
+//! | [`sample`] | (facade) | stage: a mesh → oriented points sampled on its surface (uniform or Poisson disk) |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid; trimming open scans |
 //! | [`warp`] | (facade) | stage: a point set or mesh moved by a thin-plate spline |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
@@ -140,6 +141,7 @@ pub mod normals;
 pub mod preview;
 pub mod quilt;
 pub mod reconstruct;
+pub mod sample;
 pub mod strays;
 pub mod voxel;
 pub mod warp;

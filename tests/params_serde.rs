@@ -7,10 +7,12 @@
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling};
 use geosynth::mls::{ClusterParams, MlsParams, RelaxParams as MlsRelaxParams};
 use geosynth::normals::EstimateNormals;
 use geosynth::quilt::{Method, OutputSize, QuiltParams, WarpTargets};
 use geosynth::reconstruct::FieldParams;
+use geosynth::sample::SampleSurface;
 use geosynth::sdf::{FarSigns, GridSpec, MeshSign, PointSign};
 use geosynth::strays::LeaveOutStrays;
 use geosynth::tps::{
@@ -252,6 +254,25 @@ fn the_remaining_types_survive_json() {
         keep: true,
     };
     assert_eq!(round_trip(&leave_out), leave_out);
+    for sampling in [
+        SurfaceSampling::Uniform { count: 1000 },
+        SurfaceSampling::PoissonDisk { spacing: 0.015 },
+    ] {
+        let stage = SampleSurface {
+            sampling,
+            normals: SampleNormals::Interpolated,
+        };
+        assert_eq!(round_trip(&stage), stage);
+    }
+    let written: SampleSurface =
+        serde_json::from_str(r#"{ "sampling": { "poisson_disk": { "spacing": 0.5 } } }"#).unwrap();
+    assert_eq!(
+        written,
+        SampleSurface {
+            sampling: SurfaceSampling::PoissonDisk { spacing: 0.5 },
+            normals: SampleNormals::Faces,
+        }
+    );
     let spec = GridSpec {
         dims: [3, 4, 5],
         origin: Vec3::new(-1.0, 0.5, 2.0),

@@ -45,6 +45,9 @@ enum Command {
     Render(commands::render::RenderArgs),
     /// Estimate a point set's normals by local PCA and orient them by propagation.
     Normals(commands::normals::NormalsArgs),
+    /// Sample oriented points on a mesh's surface, as a Poisson disk or uniformly by area
+    /// (for the commands that take point sets, from a mesh whose vertices are too few).
+    Sample(commands::sample::SampleArgs),
     /// Turn an oriented point set into a closed mesh (MLS surface → distance field →
     /// iso-surface), or remesh a mesh closed through its own distance field.
     Reconstruct(commands::reconstruct::ReconstructArgs),
@@ -100,6 +103,7 @@ fn main() -> ExitCode {
         Command::Convert(args) => commands::convert::run(&args, globals),
         Command::Render(args) => commands::render::run(&args, globals),
         Command::Normals(args) => commands::normals::run(&args, globals),
+        Command::Sample(args) => commands::sample::run(&args, globals),
         Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(
             &args,
             GivenFlags::of(&matches, "reconstruct"),

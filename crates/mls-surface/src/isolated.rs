@@ -17,12 +17,9 @@
 //! shared bunny scan is 3.05 median spacings. The eight bundled point-set fixtures and the
 //! shared bunny and chameleon scans have no isolated sample (the facade's tests).
 
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
-
 use glam::{DVec3, Vec3};
 use pointset_core::KdIndex;
-use pointset_core::rng::mix64;
+use pointset_core::spatial::{CellMap, PackedCells};
 use rayon::prelude::*;
 
 use crate::error::Result;
@@ -80,9 +77,6 @@ pub fn isolated_samples(index: &KdIndex, params: &MlsParams) -> Result<Vec<usize
         .collect())
 }
 
-/// Bits of a cell number along one axis in a packed cell key.
-const CELL_BITS: u32 = 21;
-
 /// For each of `points`, whether a grid proves it has `wanted` samples (itself included)
 /// within `reach`: a cell of side `reach/√6` and a cell sharing a face with it fit in a
 /// box whose diagonal is `reach`, so the samples of a point's cell and of its six
@@ -93,65 +87,40 @@ const CELL_BITS: u32 = 21;
 /// two samples farther apart than `reach` in neighbouring cells. `None` when the points
 /// span more cells than a packed key holds (then every sample is searched).
 fn settled_by_cells(points: &[Vec3], reach: f64, wanted: usize) -> Option<Vec<bool>> {
-    let cell = (1.0 - 1e-6) * reach / 6f64.sqrt();
     let low = points
         .iter()
         .fold(DVec3::splat(f64::INFINITY), |m, p| m.min(p.as_dvec3()));
-    let limit = f64::from(1u32 << CELL_BITS);
-    // Each sample's cell as one packed key (x in the low bits), 8 bytes a sample.
-    let key = |p: &Vec3| {
-        let q = ((p.as_dvec3() - low) / cell).floor();
-        let packed = q.x as u64 | (q.y as u64) << CELL_BITS | (q.z as u64) << (2 * CELL_BITS);
-        (q.max_element() < limit).then_some(packed)
-    };
-    let keys = points.par_iter().map(key).collect::<Option<Vec<u64>>>()?;
-    let mut counts: CellCounts = HashMap::default();
+    let cells = PackedCells::new(low, (1.0 - 1e-6) * reach / 6f64.sqrt());
+    // Each sample's cell as one packed key, 8 bytes a sample.
+    let keys = points
+        .par_iter()
+        .map(|p| cells.key(*p))
+        .collect::<Option<Vec<u64>>>()?;
+    let mut counts: CellMap<u32> = CellMap::default();
     for k in &keys {
         *counts.entry(*k).or_insert(0) += 1;
     }
-    let top = (1u64 << CELL_BITS) - 1;
+    const FACE_NEIGHBOURS: [[i64; 3]; 6] = [
+        [-1, 0, 0],
+        [1, 0, 0],
+        [0, -1, 0],
+        [0, 1, 0],
+        [0, 0, -1],
+        [0, 0, 1],
+    ];
     Some(
         keys.par_iter()
             .map(|&k| {
-                let mut total = counts.get(&k).copied().unwrap_or(0) as usize;
-                for axis in 0..3 {
-                    let shift = axis * CELL_BITS;
-                    let number = (k >> shift) & top;
-                    for step in [-1i64, 1] {
-                        let moved = number.checked_add_signed(step).filter(|v| *v <= top);
-                        let Some(moved) = moved else { continue };
-                        let neighbour = (k & !(top << shift)) | moved << shift;
-                        total += counts.get(&neighbour).copied().unwrap_or(0) as usize;
-                    }
-                }
-                total >= wanted
+                let count = |key: u64| counts.get(&key).copied().unwrap_or(0) as usize;
+                let around: usize = FACE_NEIGHBOURS
+                    .iter()
+                    .filter_map(|step| cells.moved(k, *step))
+                    .map(count)
+                    .sum();
+                count(k) + around >= wanted
             })
             .collect(),
     )
-}
-
-/// Samples per packed cell key.
-type CellCounts = HashMap<u64, u32, BuildHasherDefault<CellHasher>>;
-
-/// A hasher for packed cell keys: SplitMix64's finalizer ([`mix64`]), which spreads every
-/// bit of the key over the low bits the table's buckets are chosen by.
-#[derive(Debug, Default)]
-struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        mix64(self.0)
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = self.0.rotate_left(8) ^ u64::from(b);
-        }
-    }
-
-    fn write_u64(&mut self, n: u64) {
-        self.0 = n;
-    }
 }
 
 #[cfg(test)]

@@ -4,7 +4,8 @@
 //! [`Aabb`], [`Grid3`]), spatial indices ([`KdIndex`], [`BucketGrid`]), file I/O ([`io`]:
 //! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS; polygon faces split by
 //! [`triangulate_polygon`]), seeded randomness ([`rng`]), stray points far outside the
-//! rest ([`strays`]), and the [`Stage`] /
+//! rest ([`strays`]), oriented points sampled on a mesh's surface ([`surface_sampling`]),
+//! and the [`Stage`] /
 //! [`RunContext`] / [`Progress`] machinery every algorithm is exposed through, and the
 //! [`Surface`] trait (closest point + normal) shared by point-set surfaces and meshes. It
 //! contains no algorithm from any paper.
@@ -68,6 +69,7 @@ pub mod spatial;
 mod stage;
 pub mod strays;
 mod surface;
+pub mod surface_sampling;
 pub mod testdata;
 mod weld;
 

@@ -10,6 +10,7 @@ pub mod point_prep;
 pub mod quilt;
 pub mod reconstruct;
 pub mod render;
+pub mod sample;
 pub mod sheet_heights;
 pub mod sheet_mesh;
 pub mod voxel;

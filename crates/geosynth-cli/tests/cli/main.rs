@@ -15,6 +15,7 @@ mod params;
 mod quilt;
 mod quilt_maps;
 mod remesh;
+mod sample;
 #[cfg(unix)]
 mod signals;
 mod strays;

@@ -1,0 +1,165 @@
+//! `geosynth sample`: oriented points sampled on a mesh's surface.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use geosynth::Stage;
+use geosynth::core::io::{Geometry, WriteOptions};
+use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling};
+use geosynth::sample::SampleSurface;
+use serde_json::json;
+
+use crate::input_file::read_geometry;
+use crate::json_report::{timings_json, write_json_report};
+use crate::output::{
+    check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
+    write_geometry_file,
+};
+use crate::{CliResult, Globals};
+
+/// Points `sample` aims for when given neither `--count` nor `--spacing`.
+const DEFAULT_COUNT: usize = 100_000;
+
+/// Where the samples' normals come from.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ValueEnum)]
+pub enum NormalsArg {
+    /// The normal of the triangle each point lies on.
+    #[default]
+    Faces,
+    /// The mesh's vertex normals (its own, or averaged from its faces) interpolated
+    /// across each triangle: smooth shading's normals.
+    Interpolated,
+}
+
+/// Arguments of `geosynth sample`.
+#[derive(Debug, Args)]
+pub struct SampleArgs {
+    /// Mesh to sample (.ply, .obj, .off, .stl).
+    input: PathBuf,
+    /// Output point set (.ply, .xyzn, .obj, .off; .xyz and .las keep no normals). Vertex
+    /// colours and other vertex attributes are interpolated onto the points.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// About this many points, spread as a Poisson disk (no two closer than the spacing
+    /// that gives about this many; default 100000). With `--uniform`, exactly this many,
+    /// drawn independently.
+    #[arg(long, conflicts_with = "spacing")]
+    count: Option<usize>,
+    /// No two points closer than this, in the mesh's units (Poisson-disk sampling).
+    #[arg(long, conflicts_with = "uniform")]
+    spacing: Option<f32>,
+    /// Draw the points independently, uniform by area, instead of as a Poisson disk:
+    /// unbiased, and clumped like any random draw.
+    #[arg(long)]
+    uniform: bool,
+    /// Where the points' normals come from.
+    #[arg(long, value_enum, default_value_t = NormalsArg::Faces)]
+    normals: NormalsArg,
+    /// Seed of the random draws: the same mesh, options and seed give the same points.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Also write a JSON report: the mesh's area, the sampling, the points written and
+    /// each stage's seconds.
+    #[arg(long, value_name = "R.json")]
+    report: Option<PathBuf>,
+}
+
+/// Runs `geosynth sample`.
+pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
+    check_output_paths([args.output.as_path()], args.report.as_deref())?;
+    let started = Instant::now();
+    let loaded = read_geometry(&args.input, globals)?;
+    let read_time = started.elapsed();
+    report_not_kept(globals, &args.input, &loaded.notes);
+    check_geometry_output(&args.output, false, loaded.origin)?;
+    let mesh = match loaded.geometry {
+        Geometry::Mesh(mesh) => mesh,
+        Geometry::Points(_) => {
+            return Err(format!(
+                "{} is a point set: `sample` samples a mesh's triangles (`convert` writes a \
+                 point set in another format)",
+                args.input.display()
+            )
+            .into());
+        }
+    };
+    let area = mesh.area();
+    let sampling = match (args.spacing, args.count) {
+        (Some(spacing), _) => SurfaceSampling::PoissonDisk { spacing },
+        (None, count) if args.uniform => SurfaceSampling::Uniform {
+            count: count.unwrap_or(DEFAULT_COUNT),
+        },
+        (None, count) => {
+            SurfaceSampling::poisson_disk_for_count(area, count.unwrap_or(DEFAULT_COUNT))
+                .map_err(|e| format!("{}: {e}", args.input.display()))?
+        }
+    };
+    let stage = SampleSurface {
+        sampling,
+        normals: match args.normals {
+            NormalsArg::Faces => SampleNormals::Faces,
+            NormalsArg::Interpolated => SampleNormals::Interpolated,
+        },
+    };
+    let (mut ctx, bar) = progress_context(globals, args.seed, "sampling", false);
+    ctx.record_timing("reading", read_time);
+    let samples = ctx
+        .timed("sampling", |ctx| stage.run(mesh, ctx))
+        .map_err(|e| format!("{}: {e}", args.input.display()))?;
+    bar.finish_and_clear();
+    let count = samples.points.len();
+    let comment = match sampling {
+        SurfaceSampling::Uniform { count } => format!(
+            "{count} points sampled uniformly by area on {} by geosynth (seed {})",
+            args.input.display(),
+            args.seed
+        ),
+        SurfaceSampling::PoissonDisk { spacing } => format!(
+            "points sampled on {} by geosynth as a Poisson disk of spacing {spacing} (seed {})",
+            args.input.display(),
+            args.seed
+        ),
+    };
+    let options = WriteOptions::default()
+        .comment(comment)
+        .origin(loaded.origin);
+    ctx.timed("writing", |_| {
+        write_geometry_file(
+            &args.output,
+            &Geometry::Points(samples.points),
+            &options,
+            globals,
+        )
+    })?;
+    let spacing = match sampling {
+        SurfaceSampling::PoissonDisk { spacing } => Some(spacing),
+        SurfaceSampling::Uniform { .. } => None,
+    };
+    if let Some(path) = &args.report {
+        let report = json!({
+            "input": args.input.display().to_string(),
+            "output": args.output.display().to_string(),
+            "area": area,
+            "sampling": if spacing.is_some() { "poisson_disk" } else { "uniform" },
+            "spacing": spacing,
+            "normals": format!("{:?}", args.normals).to_lowercase(),
+            "seed": args.seed,
+            "points": count,
+            "timings": timings_json(ctx.timings()),
+        });
+        write_json_report(path, "sample", &report)?;
+    }
+    let spread = match spacing {
+        Some(spacing) => format!("none closer than {spacing}"),
+        None => "uniform by area".into(),
+    };
+    status(
+        globals,
+        format!(
+            "wrote {} ({count} points, {spread}; area {area:.4})",
+            args.output.display()
+        ),
+    );
+    Ok(())
+}

@@ -1,0 +1,312 @@
+//! Points sampled on a mesh's surface: an oriented point set from a triangle mesh, for the
+//! algorithms that work on point-set surfaces (MLS, quilting) and for meshes whose vertices
+//! are too few or too uneven to stand for their surface.
+//!
+//! Two samplings ([`SurfaceSampling`]):
+//!
+//! - **Uniform**: `count` independent samples, each on a triangle chosen with probability
+//!   proportional to its area, at a point uniform over that triangle (barycentric
+//!   coordinates `(1 − √r₁, √r₁(1 − r₂), √r₁ r₂)` for `r₁, r₂` uniform in `[0, 1)`). The
+//!   samples are unbiased and clump like any random draw.
+//! - **Poisson disk**: no two samples closer than `spacing` (straight-line distance), and
+//!   almost no point of the surface farther than `spacing` from a sample. Candidates are
+//!   drawn as above, [`POISSON_CANDIDATES_PER_AREA`] per `spacing²` of surface, and each is
+//!   kept when no sample kept before lies within `spacing` of it (dart throwing over a
+//!   finite pool, in the order drawn). Measured on a square and on a wavy sheet (spacings
+//!   0.03 and 0.01, two seeds each): about `0.65 · area / spacing²` samples, 0.1% of the
+//!   surface farther than `spacing` from every sample and none farther than 1.13
+//!   spacings; with 8 candidates per `spacing²` it was 0.59, 0.8% and 1.36 spacings. The
+//!   distance is taken through space, not along the surface, so two sheets closer than
+//!   `spacing` (a thin wall) thin each other out.
+//!
+//! Normals ([`SampleNormals`]) are the sampled triangle's normal (right-hand rule), or the
+//! mesh's vertex normals interpolated and normalized (the file's normals, or area-weighted
+//! face normals when it has none). Every vertex attribute (colours, …) is interpolated by
+//! the same barycentric weights and quantized to its storage type. Triangles of zero area
+//! are never sampled.
+//!
+//! Deterministic: the samples depend on the mesh, the sampling and the run's seed only.
+//!
+//! ```
+//! use glam::Vec3;
+//! use pointset_core::{PointSet, RunContext, TriMesh};
+//! use pointset_core::surface_sampling::{SampleNormals, SurfaceSampling, sample_surface};
+//!
+//! // A unit square of two triangles in the plane z = 0.
+//! let corners = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+//! let square = TriMesh::new(PointSet::new(corners)?, vec![[0, 1, 2], [0, 2, 3]])?;
+//! let sampling = SurfaceSampling::PoissonDisk { spacing: 0.05 };
+//! let samples = sample_surface(&square, &sampling, SampleNormals::Faces, &mut RunContext::new(7))?;
+//! let points = samples.points.positions();
+//! assert!(points.len() > 200 && points.len() < 300); // about 0.65 / 0.05²
+//! assert!(points.iter().all(|p| p.z == 0.0 && p.x >= 0.0 && p.y <= 1.0));
+//! assert!(samples.points.normals().is_some_and(|n| n.iter().all(|n| *n == Vec3::Z)));
+//! # Ok::<(), pointset_core::Error>(())
+//! ```
+
+use glam::{DVec3, Vec3};
+
+mod disk_grid;
+mod draws;
+
+use crate::rng::rng_from_seed;
+use crate::{Attribute, Error, NormalWeighting, PointSet, Result, RunContext, TriMesh};
+use disk_grid::DiskGrid;
+use draws::{Draws, FaceChoice, Sample};
+
+/// Most samples a [`SurfaceSampling::Uniform`] sampling may ask for (2²⁶, about 1.6 GB of
+/// positions and normals).
+pub const MAX_SURFACE_SAMPLES: usize = 1 << 26;
+
+/// Candidates a [`SurfaceSampling::PoissonDisk`] sampling draws per `spacing²` of
+/// surface: about fifty per sample kept, enough that under 0.5% of the surface is left
+/// farther than `spacing` from every sample (tested; 0.1% measured, module docs).
+pub const POISSON_CANDIDATES_PER_AREA: f64 = 32.0;
+
+/// Most candidates a [`SurfaceSampling::PoissonDisk`] sampling may draw (2³⁰, for about
+/// 20 million samples): a spacing that would need more is refused as too small for the
+/// mesh.
+pub const MAX_POISSON_CANDIDATES: u64 = 1 << 30;
+
+/// How many samples, and how they spread (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum SurfaceSampling {
+    /// `count` independent samples, uniform by area (1 to [`MAX_SURFACE_SAMPLES`]).
+    Uniform {
+        /// How many samples.
+        count: usize,
+    },
+    /// No two samples closer than `spacing` (positive, finite), the surface covered.
+    PoissonDisk {
+        /// The least distance between two samples.
+        spacing: f32,
+    },
+}
+
+/// Poisson-disk samples per `spacing²` of surface, as measured (module docs): what
+/// [`SurfaceSampling::poisson_disk_for_count`] aims by.
+pub const POISSON_SAMPLES_PER_AREA: f64 = 0.65;
+
+impl SurfaceSampling {
+    /// A Poisson-disk sampling whose spacing gives about `count` samples on a surface of
+    /// area `area` (within a few percent on smooth surfaces; a thin wall keeps fewer):
+    /// `spacing = √(0.65 · area / count)`.
+    ///
+    /// Errors: a count of 0 or an area that is not positive and finite.
+    ///
+    /// ```
+    /// use pointset_core::surface_sampling::SurfaceSampling;
+    /// let sampling = SurfaceSampling::poisson_disk_for_count(2.6, 10_000)?;
+    /// assert_eq!(sampling, SurfaceSampling::PoissonDisk { spacing: 0.013 });
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn poisson_disk_for_count(area: f64, count: usize) -> Result<Self> {
+        if count == 0 {
+            return Err(Error::InvalidParameter {
+                name: "count",
+                value: "0".into(),
+                expected: "at least 1 sample".into(),
+            });
+        }
+        if !(area.is_finite() && area > 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "area",
+                value: area.to_string(),
+                expected: "a positive finite area".into(),
+            });
+        }
+        let spacing = (POISSON_SAMPLES_PER_AREA * area / count as f64).sqrt() as f32;
+        Ok(SurfaceSampling::PoissonDisk { spacing })
+    }
+}
+
+/// Where the samples' normals come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum SampleNormals {
+    /// The normal of the triangle each sample lies on: the surface the mesh describes.
+    #[default]
+    Faces,
+    /// The mesh's vertex normals (its own, or area-weighted face normals) interpolated
+    /// across each triangle and normalized: smooth shading's normals. Where they cancel,
+    /// the triangle's normal.
+    Interpolated,
+}
+
+/// The samples of [`sample_surface`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceSamples {
+    /// Positions, unit normals and the interpolated vertex attributes.
+    pub points: PointSet,
+    /// The triangle each sample lies on.
+    pub faces: Vec<u32>,
+}
+
+/// Samples the surface of `mesh` (module docs), seeded by `ctx`'s seed; reports progress
+/// as "sample surface" and stops when cancelled.
+///
+/// Errors: a mesh without triangles or whose triangles all have zero area
+/// ([`Error::EmptyInput`]); a count of 0 or above [`MAX_SURFACE_SAMPLES`], a spacing
+/// that is not positive and finite, or one so small the mesh would need more than
+/// [`MAX_POISSON_CANDIDATES`] candidates or more than 2²¹ spacings along an axis
+/// ([`Error::InvalidParameter`]); [`Error::Cancelled`].
+pub fn sample_surface(
+    mesh: &TriMesh,
+    sampling: &SurfaceSampling,
+    normals: SampleNormals,
+    ctx: &mut RunContext,
+) -> Result<SurfaceSamples> {
+    let choice = FaceChoice::new(mesh)?;
+    let draws = Draws::new(mesh, &choice, rng_from_seed(ctx.seed()));
+    let chosen = match *sampling {
+        SurfaceSampling::Uniform { count } => uniform(draws, count, ctx)?,
+        SurfaceSampling::PoissonDisk { spacing } => poisson_disk(draws, spacing, ctx)?,
+    };
+    ctx.report(STAGE, chosen.len() as u64, Some(chosen.len() as u64));
+    build_samples(mesh, &chosen, normals)
+}
+
+/// The progress stage's name.
+const STAGE: &str = "sample surface";
+
+/// Candidates drawn between progress reports and cancellation checks.
+const REPORT_EVERY: u64 = 1 << 16;
+
+fn uniform(mut draws: Draws<'_>, count: usize, ctx: &mut RunContext) -> Result<Vec<Sample>> {
+    if !(1..=MAX_SURFACE_SAMPLES).contains(&count) {
+        return Err(Error::InvalidParameter {
+            name: "count",
+            value: count.to_string(),
+            expected: format!("1 to {MAX_SURFACE_SAMPLES} samples"),
+        });
+    }
+    let mut chosen = Vec::with_capacity(count);
+    for drawn in 0..count as u64 {
+        if drawn % REPORT_EVERY == 0 {
+            ctx.check_cancelled()?;
+            ctx.report(STAGE, drawn, Some(count as u64));
+        }
+        chosen.push(draws.next_sample());
+    }
+    Ok(chosen)
+}
+
+fn poisson_disk(mut draws: Draws<'_>, spacing: f32, ctx: &mut RunContext) -> Result<Vec<Sample>> {
+    let invalid = |expected: String| Error::InvalidParameter {
+        name: "spacing",
+        value: spacing.to_string(),
+        expected,
+    };
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(invalid("a positive finite length".into()));
+    }
+    let spacing = f64::from(spacing);
+    let total = draws.area();
+    let candidates = (POISSON_CANDIDATES_PER_AREA * total / (spacing * spacing)).ceil();
+    let least = (POISSON_CANDIDATES_PER_AREA * total / MAX_POISSON_CANDIDATES as f64).sqrt();
+    if candidates > MAX_POISSON_CANDIDATES as f64 {
+        return Err(invalid(format!(
+            "at least {least:.3e} for a surface of area {total:.3e} (at most {MAX_POISSON_CANDIDATES} candidates)"
+        )));
+    }
+    let candidates = candidates as u64;
+    // A cell below the mesh's box, so that no rounding puts a sample below the grid.
+    let low = draws
+        .mesh()
+        .positions()
+        .iter()
+        .fold(DVec3::splat(f64::INFINITY), |m, p| m.min(p.as_dvec3()))
+        - spacing;
+    let mut grid = DiskGrid::new(low, spacing);
+    let mut kept: Vec<Sample> = Vec::new();
+    for drawn in 0..candidates {
+        if drawn % REPORT_EVERY == 0 {
+            ctx.check_cancelled()?;
+            ctx.report(STAGE, drawn, Some(candidates));
+        }
+        let sample = draws.next_sample();
+        let Some(cell) = grid.cell(sample.position) else {
+            return Err(invalid(format!(
+                "a length that spans the mesh's box in at most 2^{} cells",
+                crate::spatial::CELL_BITS + 2
+            )));
+        };
+        if !grid.crowded(sample.position, cell) {
+            grid.keep(sample.position, cell);
+            kept.push(sample);
+        }
+    }
+    Ok(kept)
+}
+
+/// The point set of the chosen samples: positions, normals and interpolated attributes.
+fn build_samples(
+    mesh: &TriMesh,
+    chosen: &[Sample],
+    normals: SampleNormals,
+) -> Result<SurfaceSamples> {
+    let triangles = mesh.triangles();
+    let corners = |s: &Sample| triangles[s.face as usize].map(|v| v as usize);
+    let vertices = mesh.positions();
+    let positions = chosen.iter().map(|s| s.position).collect();
+    let face_normal = |s: &Sample| {
+        let [a, b, c] = corners(s).map(|v| vertices[v]);
+        crate::triangle_normal(a, b, c)
+    };
+    let sample_normals = match normals {
+        SampleNormals::Faces => chosen.iter().map(face_normal).collect(),
+        SampleNormals::Interpolated => {
+            let computed;
+            let at_vertices = match mesh.vertices().normals() {
+                Some(given) => given,
+                None => {
+                    computed = mesh.vertex_normals(NormalWeighting::Area);
+                    &computed
+                }
+            };
+            chosen
+                .iter()
+                .map(|s| {
+                    let blended = corners(s)
+                        .iter()
+                        .zip(s.weights)
+                        .map(|(&v, w)| at_vertices[v] * w)
+                        .sum::<Vec3>();
+                    let unit = crate::unit_vector(blended);
+                    if unit == Vec3::ZERO {
+                        face_normal(s)
+                    } else {
+                        unit
+                    }
+                })
+                .collect()
+        }
+    };
+    let mut points = PointSet::new(positions)?.with_normals(sample_normals)?;
+    for attribute in mesh.vertices().attributes() {
+        let at_vertices = attribute.values();
+        let storage = attribute.storage();
+        let values = chosen
+            .iter()
+            .map(|s| {
+                let value = corners(s)
+                    .iter()
+                    .zip(s.weights)
+                    .map(|(&v, w)| f64::from(at_vertices[v]) * f64::from(w))
+                    .sum::<f64>();
+                storage.quantize(value) as f32
+            })
+            .collect();
+        points.set_attribute(Attribute::new(attribute.name(), values).with_storage(storage))?;
+    }
+    Ok(SurfaceSamples {
+        points,
+        faces: chosen.iter().map(|s| s.face).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests;
