@@ -38,6 +38,11 @@ impl PackedCells {
         Self { low, side }
     }
 
+    /// The low corner of the cell with key 0.
+    pub fn low(&self) -> DVec3 {
+        self.low
+    }
+
     /// The cell side.
     pub fn side(&self) -> f64 {
         self.side

@@ -65,6 +65,11 @@ impl FaceChoice {
         })
     }
 
+    /// The mesh's area.
+    pub(super) fn area(&self) -> f64 {
+        self.area
+    }
+
     /// The triangle for a number `u` uniform in `[0, 1)`.
     fn face(&self, u: f64) -> usize {
         let scaled = u * self.columns.len() as f64;
@@ -127,16 +132,6 @@ impl<'m> Draws<'m> {
     /// Draws over `mesh` by `choice` (built from it), from `rng`.
     pub(super) fn new(mesh: &'m TriMesh, choice: &'m FaceChoice, rng: SeededRng) -> Self {
         Self { mesh, choice, rng }
-    }
-
-    /// The mesh drawn from.
-    pub(super) fn mesh(&self) -> &'m TriMesh {
-        self.mesh
-    }
-
-    /// The mesh's area.
-    pub(super) fn area(&self) -> f64 {
-        self.choice.area
     }
 
     /// The next sample: a triangle by area, then barycentric weights

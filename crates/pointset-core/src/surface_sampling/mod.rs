@@ -10,14 +10,20 @@
 //!   samples are unbiased and clump like any random draw.
 //! - **Poisson disk**: no two samples closer than `spacing` (straight-line distance), and
 //!   almost no point of the surface farther than `spacing` from a sample. Candidates are
-//!   drawn as above, [`POISSON_CANDIDATES_PER_AREA`] per `spacing²` of surface, and each is
-//!   kept when no sample kept before lies within `spacing` of it (dart throwing over a
-//!   finite pool, in the order drawn). Measured on a square and on a wavy sheet (spacings
-//!   0.03 and 0.01, two seeds each): about `0.65 · area / spacing²` samples, 0.1% of the
-//!   surface farther than `spacing` from every sample and none farther than 1.13
-//!   spacings; with 8 candidates per `spacing²` it was 0.59, 0.8% and 1.36 spacings. The
-//!   distance is taken through space, not along the surface, so two sheets closer than
-//!   `spacing` (a thin wall) thin each other out.
+//!   drawn uniformly over the surface, [`POISSON_CANDIDATES_PER_AREA`] per `spacing²`,
+//!   and each is kept when no sample kept before lies within `spacing` of it (dart
+//!   throwing over a finite pool). They are drawn and tested tile by tile, in random
+//!   order within a tile (cubes of 16 spacings: the kept samples a test reads are then in
+//!   the cache; a million samples took 42–49 s in one random order over the whole
+//!   surface and 5.2–5.8 s by tiles). Measured on a square and on a wavy sheet (spacings
+//!   0.03 and 0.01, two seeds each, one random order): about `0.65 · area / spacing²`
+//!   samples, 0.1% of the surface farther than `spacing` from every sample and none
+//!   farther than 1.13 spacings; with 8 candidates per `spacing²` it was 0.59, 0.8% and
+//!   1.36 spacings. By tiles, on the unit square at spacing 0.004 (three seeds): the same
+//!   coverage and widest gap, 0.4% more samples, the same counts of neighbours at every
+//!   distance up to 3 spacings (within 1.5%), and 1.5% more samples within one spacing
+//!   of a tile's side than elsewhere. The distance is taken through space, not along the
+//!   surface, so two sheets closer than `spacing` (a thin wall) thin each other out.
 //!
 //! Normals ([`SampleNormals`]) are the sampled triangle's normal (right-hand rule), or the
 //! mesh's vertex normals interpolated and normalized (the file's normals, or area-weighted
@@ -48,11 +54,13 @@ use glam::{DVec3, Vec3};
 
 mod disk_grid;
 mod draws;
+mod tiles;
 
 use crate::rng::rng_from_seed;
 use crate::{Attribute, Error, NormalWeighting, PointSet, Result, RunContext, TriMesh};
 use disk_grid::DiskGrid;
 use draws::{Draws, FaceChoice, Sample};
+use tiles::{TILE_SPACINGS, Tiles};
 
 /// Most samples a [`SurfaceSampling::Uniform`] sampling may ask for (2²⁶, about 1.6 GB of
 /// positions and normals).
@@ -160,10 +168,14 @@ pub fn sample_surface(
     ctx: &mut RunContext,
 ) -> Result<SurfaceSamples> {
     let choice = FaceChoice::new(mesh)?;
-    let draws = Draws::new(mesh, &choice, rng_from_seed(ctx.seed()));
     let chosen = match *sampling {
-        SurfaceSampling::Uniform { count } => uniform(draws, count, ctx)?,
-        SurfaceSampling::PoissonDisk { spacing } => poisson_disk(draws, spacing, ctx)?,
+        SurfaceSampling::Uniform { count } => {
+            let draws = Draws::new(mesh, &choice, rng_from_seed(ctx.seed()));
+            uniform(draws, count, ctx)?
+        }
+        SurfaceSampling::PoissonDisk { spacing } => {
+            poisson_disk(mesh, choice.area(), spacing, ctx)?
+        }
     };
     ctx.report(STAGE, chosen.len() as u64, Some(chosen.len() as u64));
     build_samples(mesh, &chosen, normals)
@@ -194,7 +206,12 @@ fn uniform(mut draws: Draws<'_>, count: usize, ctx: &mut RunContext) -> Result<V
     Ok(chosen)
 }
 
-fn poisson_disk(mut draws: Draws<'_>, spacing: f32, ctx: &mut RunContext) -> Result<Vec<Sample>> {
+fn poisson_disk(
+    mesh: &TriMesh,
+    area: f64,
+    spacing: f32,
+    ctx: &mut RunContext,
+) -> Result<Vec<Sample>> {
     let invalid = |expected: String| Error::InvalidParameter {
         name: "spacing",
         value: spacing.to_string(),
@@ -204,7 +221,7 @@ fn poisson_disk(mut draws: Draws<'_>, spacing: f32, ctx: &mut RunContext) -> Res
         return Err(invalid("a positive finite length".into()));
     }
     let spacing = f64::from(spacing);
-    let total = draws.area();
+    let total = area;
     let candidates = (POISSON_CANDIDATES_PER_AREA * total / (spacing * spacing)).ceil();
     let least = (POISSON_CANDIDATES_PER_AREA * total / MAX_POISSON_CANDIDATES as f64).sqrt();
     if candidates > MAX_POISSON_CANDIDATES as f64 {
@@ -212,32 +229,35 @@ fn poisson_disk(mut draws: Draws<'_>, spacing: f32, ctx: &mut RunContext) -> Res
             "at least {least:.3e} for a surface of area {total:.3e} (at most {MAX_POISSON_CANDIDATES} candidates)"
         )));
     }
-    let candidates = candidates as u64;
     // A cell below the mesh's box, so that no rounding puts a sample below the grid.
-    let low = draws
-        .mesh()
+    let low = mesh
         .positions()
         .iter()
         .fold(DVec3::splat(f64::INFINITY), |m, p| m.min(p.as_dvec3()))
         - spacing;
+    let too_small = || {
+        invalid(format!(
+            "a length that spans the mesh's box in at most 2^{} cells",
+            crate::spatial::CELL_BITS + 2
+        ))
+    };
+    let tiles = Tiles::new(mesh, low, TILE_SPACINGS * spacing).ok_or_else(too_small)?;
     let mut grid = DiskGrid::new(low, spacing);
     let mut kept: Vec<Sample> = Vec::new();
-    for drawn in 0..candidates {
-        if drawn % REPORT_EVERY == 0 {
-            ctx.check_cancelled()?;
-            ctx.report(STAGE, drawn, Some(candidates));
+    let mut outside = false;
+    let per_area = POISSON_CANDIDATES_PER_AREA / (spacing * spacing);
+    tiles.each_candidate(mesh, per_area, ctx, |sample| {
+        match grid.cell(sample.position) {
+            Some(cell) if !grid.crowded(sample.position, cell) => {
+                grid.keep(sample.position, cell);
+                kept.push(sample);
+            }
+            Some(_) => {}
+            None => outside = true,
         }
-        let sample = draws.next_sample();
-        let Some(cell) = grid.cell(sample.position) else {
-            return Err(invalid(format!(
-                "a length that spans the mesh's box in at most 2^{} cells",
-                crate::spatial::CELL_BITS + 2
-            )));
-        };
-        if !grid.crowded(sample.position, cell) {
-            grid.keep(sample.position, cell);
-            kept.push(sample);
-        }
+    })?;
+    if outside {
+        return Err(too_small());
     }
     Ok(kept)
 }
