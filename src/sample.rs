@@ -1,11 +1,13 @@
 //! Stage: a mesh → oriented points on its surface, for the algorithms that work on
 //! point-set surfaces (MLS, [`crate::quilt`]) when the mesh's vertices are too few or too
-//! uneven to stand for it (what `geosynth sample` runs).
+//! uneven to stand for it (what `geosynth sample` runs); and the points' colours from a
+//! texture image at their texture coordinates ([`texture_colours`]).
 
+use image::RgbImage;
 use pointset_core::surface_sampling::{
-    SampleNormals, SurfaceSamples, SurfaceSampling, sample_surface,
+    SampleNormals, SurfaceSamples, SurfaceSampling, UV_CHANNELS, sample_surface,
 };
-use pointset_core::{RunContext, Stage, TriMesh};
+use pointset_core::{PointSet, RunContext, Stage, TriMesh};
 
 use crate::error::{Error, Result};
 
@@ -70,6 +72,75 @@ impl Stage for SampleSurface {
     }
 }
 
+/// The colour of `texture` at each point's texture coordinates (the attributes `s` and
+/// `t`, [`UV_CHANNELS`], which [`SampleSurface`] interpolates from a mesh with UVs), in
+/// `0..=1`, for [`PointSet::set_colors`].
+///
+/// The OBJ convention: `(0, 0)` is the image's lower-left corner and `(1, 1)` its
+/// upper-right; texel centres sit at half-integers; colours are interpolated bilinearly
+/// between the four nearest texels; coordinates outside `[0, 1]` repeat the image.
+///
+/// Errors: points without both attributes, or an image without pixels.
+///
+/// ```
+/// use geosynth::core::{Attribute, PointSet};
+/// use geosynth::sample::texture_colours;
+/// use glam::Vec3;
+///
+/// // A 2 × 1 image, red on the left and blue on the right.
+/// let texture = image::RgbImage::from_fn(2, 1, |x, _| {
+///     if x == 0 { image::Rgb([255, 0, 0]) } else { image::Rgb([0, 0, 255]) }
+/// });
+/// let points = PointSet::new(vec![Vec3::ZERO; 3])?
+///     .with_attribute(Attribute::new("s", vec![0.25, 0.5, 1.75]))?
+///     .with_attribute(Attribute::new("t", vec![0.5; 3]))?;
+/// let colours = texture_colours(&points, &texture)?;
+/// assert_eq!(colours[0], [1.0, 0.0, 0.0]); // the left texel's centre
+/// assert_eq!(colours[1], [0.5, 0.0, 0.5]); // halfway between the two
+/// assert_eq!(colours[2], [0.0, 0.0, 1.0]); // 1.75 repeats 0.75
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn texture_colours(points: &PointSet, texture: &RgbImage) -> Result<Vec<[f32; 3]>> {
+    let [Some(s), Some(t)] = UV_CHANNELS.map(|name| points.attribute(name)) else {
+        return Err(pointset_core::Error::InvalidParameter {
+            name: "points",
+            value: "without texture coordinates".into(),
+            expected: "the attributes `s` and `t` (points sampled from a mesh with UVs)".into(),
+        }
+        .into());
+    };
+    let (width, height) = (texture.width() as i64, texture.height() as i64);
+    if width == 0 || height == 0 {
+        return Err(pointset_core::Error::EmptyInput {
+            what: "the texture image".into(),
+        }
+        .into());
+    }
+    let texel = |x: i64, y: i64| {
+        let pixel = texture.get_pixel(x.rem_euclid(width) as u32, y.rem_euclid(height) as u32);
+        pixel.0.map(|c| f64::from(c) / 255.0)
+    };
+    Ok(s.values()
+        .iter()
+        .zip(t.values())
+        .map(|(&u, &v)| {
+            // Texel centres at half-integers, rows from the top.
+            let x = f64::from(u) * width as f64 - 0.5;
+            let y = (1.0 - f64::from(v)) * height as f64 - 0.5;
+            let (x0, y0) = (x.floor(), y.floor());
+            let (fx, fy) = (x - x0, y - y0);
+            let (x0, y0) = (x0 as i64, y0 as i64);
+            let corners = [
+                (texel(x0, y0), (1.0 - fx) * (1.0 - fy)),
+                (texel(x0 + 1, y0), fx * (1.0 - fy)),
+                (texel(x0, y0 + 1), (1.0 - fx) * fy),
+                (texel(x0 + 1, y0 + 1), fx * fy),
+            ];
+            [0, 1, 2].map(|c| corners.iter().map(|(rgb, w)| rgb[c] * w).sum::<f64>() as f32)
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -105,5 +176,35 @@ mod tests {
         .unwrap();
         assert!(SampleSurface::about(&flat, 100).is_err());
         assert!(stage.run(flat, &mut RunContext::new(2)).is_err());
+    }
+
+    #[test]
+    fn texture_rows_run_from_the_top_and_points_without_coordinates_are_an_error() {
+        // Two rows: red on top, blue below. v = 0.75 is the top row's centre.
+        let texture = RgbImage::from_fn(1, 2, |_, y| {
+            image::Rgb(if y == 0 { [255, 0, 0] } else { [0, 0, 255] })
+        });
+        let at = |v: f32| {
+            let points = PointSet::new(vec![glam::Vec3::ZERO])
+                .unwrap()
+                .with_attribute(pointset_core::Attribute::new("s", vec![0.3]))
+                .unwrap()
+                .with_attribute(pointset_core::Attribute::new("t", vec![v]))
+                .unwrap();
+            texture_colours(&points, &texture).unwrap()[0]
+        };
+        assert_eq!(at(0.75), [1.0, 0.0, 0.0]);
+        assert_eq!(at(0.25), [0.0, 0.0, 1.0]);
+        // A quarter of the way from the top row's centre to the bottom one's.
+        let between = at(0.625);
+        assert!((between[0] - 0.75).abs() < 1e-6 && (between[2] - 0.25).abs() < 1e-6);
+        let bare = PointSet::new(vec![glam::Vec3::ZERO]).unwrap();
+        assert!(texture_colours(&bare, &texture).is_err());
+        let with_uvs = bare
+            .with_attribute(pointset_core::Attribute::new("s", vec![0.3]))
+            .unwrap()
+            .with_attribute(pointset_core::Attribute::new("t", vec![0.3]))
+            .unwrap();
+        assert!(texture_colours(&with_uvs, &RgbImage::new(0, 0)).is_err());
     }
 }

@@ -7,7 +7,8 @@ use clap::{Args, ValueEnum};
 use geosynth::Stage;
 use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling};
-use geosynth::sample::SampleSurface;
+use geosynth::imagery::read_image;
+use geosynth::sample::{SampleSurface, texture_colours};
 use serde_json::json;
 
 use crate::input_file::read_geometry;
@@ -53,6 +54,12 @@ pub struct SampleArgs {
     /// unbiased, and clumped like any random draw.
     #[arg(long)]
     uniform: bool,
+    /// Colour the points from this image (PNG, JPEG, …) at their texture coordinates,
+    /// which the mesh must have (OBJ's convention: (0, 0) is the image's lower-left
+    /// corner; bilinear, repeating outside [0, 1]). The points also keep the coordinates
+    /// as `s` and `t`.
+    #[arg(long, value_name = "IMG")]
+    texture: Option<PathBuf>,
     /// Where the points' normals come from.
     #[arg(long, value_enum, default_value_t = NormalsArg::Faces)]
     normals: NormalsArg,
@@ -84,6 +91,17 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
             .into());
         }
     };
+    let texture = match &args.texture {
+        None => None,
+        Some(_) if mesh.uvs().is_none() => {
+            return Err(format!(
+                "{} has no texture coordinates for --texture to look the colours up at",
+                args.input.display()
+            )
+            .into());
+        }
+        Some(path) => Some(read_image(path)?.to_rgb8()),
+    };
     let area = mesh.area();
     let sampling = match (args.spacing, args.count) {
         (Some(spacing), _) => SurfaceSampling::PoissonDisk { spacing },
@@ -108,7 +126,11 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
         .timed("sampling", |ctx| stage.run(mesh, ctx))
         .map_err(|e| format!("{}: {e}", args.input.display()))?;
     bar.finish_and_clear();
-    let count = samples.points.len();
+    let mut points = samples.points;
+    if let Some(texture) = &texture {
+        points.set_colors(&texture_colours(&points, texture)?)?;
+    }
+    let count = points.len();
     let comment = match sampling {
         SurfaceSampling::Uniform { count } => format!(
             "{count} points sampled uniformly by area on {} by geosynth (seed {})",
@@ -125,12 +147,7 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
         .comment(comment)
         .origin(loaded.origin);
     ctx.timed("writing", |_| {
-        write_geometry_file(
-            &args.output,
-            &Geometry::Points(samples.points),
-            &options,
-            globals,
-        )
+        write_geometry_file(&args.output, &Geometry::Points(points), &options, globals)
     })?;
     let spacing = match sampling {
         SurfaceSampling::PoissonDisk { spacing } => Some(spacing),
@@ -145,6 +162,7 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
             "spacing": spacing,
             "normals": format!("{:?}", args.normals).to_lowercase(),
             "seed": args.seed,
+            "texture": args.texture.as_ref().map(|p| p.display().to_string()),
             "points": count,
             "timings": timings_json(ctx.timings()),
         });

@@ -28,8 +28,9 @@
 //! Normals ([`SampleNormals`]) are the sampled triangle's normal (right-hand rule), or the
 //! mesh's vertex normals interpolated and normalized (the file's normals, or area-weighted
 //! face normals when it has none). Every vertex attribute (colours, …) is interpolated by
-//! the same barycentric weights and quantized to its storage type. Triangles of zero area
-//! are never sampled.
+//! the same barycentric weights and quantized to its storage type, and so are the mesh's
+//! texture coordinates, into the attributes `s` and `t` ([`UV_CHANNELS`], unless the
+//! vertices have attributes of those names). Triangles of zero area are never sampled.
 //!
 //! Deterministic: the samples depend on the mesh, the sampling and the run's seed only.
 //!
@@ -130,6 +131,10 @@ impl SurfaceSampling {
     }
 }
 
+/// The attributes a mesh's texture coordinates are interpolated into (the names the PLY
+/// writer gives a mesh's UVs; MeshLab reads them).
+pub const UV_CHANNELS: [&str; 2] = ["s", "t"];
+
 /// Where the samples' normals come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -147,7 +152,7 @@ pub enum SampleNormals {
 /// The samples of [`sample_surface`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct SurfaceSamples {
-    /// Positions, unit normals and the interpolated vertex attributes.
+    /// Positions, unit normals, the interpolated vertex attributes and texture coordinates.
     pub points: PointSet,
     /// The triangle each sample lies on.
     pub faces: Vec<u32>,
@@ -262,6 +267,23 @@ fn poisson_disk(
     Ok(kept)
 }
 
+/// A quantity given at `mesh`'s vertices, interpolated at each sample by its barycentric
+/// weights.
+fn interpolated<'a>(
+    mesh: &'a TriMesh,
+    chosen: &'a [Sample],
+    at_vertex: impl Fn(usize) -> f64 + 'a,
+) -> impl Iterator<Item = f64> + 'a {
+    chosen.iter().map(move |s| {
+        let corners = mesh.triangles()[s.face as usize];
+        corners
+            .iter()
+            .zip(s.weights)
+            .map(|(&v, w)| at_vertex(v as usize) * f64::from(w))
+            .sum()
+    })
+}
+
 /// The point set of the chosen samples: positions, normals and interpolated attributes.
 fn build_samples(
     mesh: &TriMesh,
@@ -307,20 +329,20 @@ fn build_samples(
     };
     let mut points = PointSet::new(positions)?.with_normals(sample_normals)?;
     for attribute in mesh.vertices().attributes() {
-        let at_vertices = attribute.values();
-        let storage = attribute.storage();
-        let values = chosen
-            .iter()
-            .map(|s| {
-                let value = corners(s)
-                    .iter()
-                    .zip(s.weights)
-                    .map(|(&v, w)| f64::from(at_vertices[v]) * f64::from(w))
-                    .sum::<f64>();
-                storage.quantize(value) as f32
-            })
+        let (at_vertices, storage) = (attribute.values(), attribute.storage());
+        let values = interpolated(mesh, chosen, |v| f64::from(at_vertices[v]))
+            .map(|value| storage.quantize(value) as f32)
             .collect();
         points.set_attribute(Attribute::new(attribute.name(), values).with_storage(storage))?;
+    }
+    let uv_names_free = UV_CHANNELS.iter().all(|n| points.attribute(n).is_none());
+    if let Some(uvs) = mesh.uvs().filter(|_| uv_names_free) {
+        for (axis, name) in UV_CHANNELS.into_iter().enumerate() {
+            let values = interpolated(mesh, chosen, |v| f64::from(uvs[v][axis]))
+                .map(|value| value as f32)
+                .collect();
+            points.set_attribute(Attribute::new(name, values))?;
+        }
     }
     Ok(SurfaceSamples {
         points,

@@ -325,9 +325,14 @@ fn vertex_attributes_are_interpolated_and_quantized_to_their_storage() {
             corners.iter().map(|p| linear(*p)).collect(),
         ))
         .unwrap();
+    let uvs = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(0.0, 0.5),
+    ];
     let triangle = TriMesh::new(vertices, vec![[0, 1, 2]])
         .unwrap()
-        .with_uvs(vec![Vec2::ZERO; 3])
+        .with_uvs(uvs)
         .unwrap();
     let samples = sample(
         &triangle,
@@ -335,14 +340,17 @@ fn vertex_attributes_are_interpolated_and_quantized_to_their_storage() {
         SampleNormals::Faces,
     );
     let height = samples.points.attribute("height").unwrap();
+    let [s, t] = UV_CHANNELS.map(|n| samples.points.attribute(n).unwrap().values());
     assert_eq!(height.storage(), ScalarType::F32);
     let channels: Vec<&Attribute> = crate::COLOR_CHANNELS
         .iter()
         .map(|c| samples.points.attribute(c).unwrap())
         .collect();
     for (i, p) in samples.points.positions().iter().enumerate() {
-        // A linear function is reproduced by barycentric interpolation.
+        // A linear function is reproduced by barycentric interpolation: the height, and
+        // the texture coordinates (u = x/2, v = y/2 here).
         assert!((height.values()[i] - linear(*p)).abs() < 1e-5);
+        assert!((s[i] - p.x / 2.0).abs() < 1e-6 && (t[i] - p.y / 2.0).abs() < 1e-6);
         // The colour channels are the weights times 255, rounded.
         let (weights, _) = barycentric(*p, [corners[0], corners[1], corners[2]]);
         for (channel, weight) in channels.iter().zip(weights) {
