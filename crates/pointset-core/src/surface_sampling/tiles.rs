@@ -49,21 +49,10 @@ impl Tiles {
             let lowest = corners.iter().fold(Vec3::INFINITY, |m, p| m.min(*p));
             let highest = corners.iter().fold(Vec3::NEG_INFINITY, |m, p| m.max(*p));
             let (first, last) = (cells.key(lowest)?, cells.key(highest)?);
-            let span = |axis: u32| {
-                let number = |key: u64| (key >> (axis * CELL_BITS)) & ((1 << CELL_BITS) - 1);
-                number(first)..=number(last)
-            };
-            for z in span(2) {
-                for y in span(1) {
-                    for x in span(0) {
-                        let key = x | y << CELL_BITS | z << (2 * CELL_BITS);
-                        let tile = tile_box(&cells, [x, y, z]);
-                        if clipped_area(&clip(&corners.map(Vec3::as_dvec3), tile)) > 0.0 {
-                            crossings.push((key, face as u32));
-                        }
-                    }
-                }
-            }
+            let corners = corners.map(Vec3::as_dvec3);
+            crossed_tiles(&corners, &cells, [unpack(first), unpack(last)], |key| {
+                crossings.push((key, face as u32));
+            });
         }
         crossings.sort_unstable();
         Some(Self { cells, crossings })
@@ -119,6 +108,45 @@ impl Tiles {
     }
 }
 
+/// The share of a triangle's area below which a piece of it in a tile counts as none:
+/// the slivers rounding leaves where a triangle only touches a tile's side or corner.
+const NEGLIGIBLE_SHARE: f64 = 1e-12;
+
+/// Calls `crossed` with the key of each tile in the range `[first, last]` (tile numbers,
+/// inclusive) where the triangle `corners` has area (more than [`NEGLIGIBLE_SHARE`] of
+/// its own): the range is halved along its
+/// longest side while the triangle has area in it, so a long sliver across a box of n³
+/// tiles costs about n clippings a tile it crosses, not n³.
+fn crossed_tiles(
+    corners: &[DVec3; 3],
+    cells: &PackedCells,
+    range: [[u64; 3]; 2],
+    mut crossed: impl FnMut(u64),
+) {
+    let [a, b, c] = *corners;
+    let negligible = NEGLIGIBLE_SHARE * (b - a).cross(c - a).length() * 0.5;
+    let mut pending = vec![range];
+    while let Some([first, last]) = pending.pop() {
+        let [low, _] = tile_box(cells, first);
+        let [_, high] = tile_box(cells, last);
+        if clipped_area(&clip(corners, [low, high])) <= negligible {
+            continue;
+        }
+        let widths = [0, 1, 2].map(|axis| last[axis] - first[axis]);
+        let axis = (0..3).max_by_key(|&a| (widths[a], 3 - a)).unwrap_or(0);
+        if widths[axis] == 0 {
+            crossed(first[0] | first[1] << CELL_BITS | first[2] << (2 * CELL_BITS));
+            continue;
+        }
+        let middle = first[axis] + widths[axis] / 2;
+        let (mut upper_first, mut lower_last) = (first, last);
+        lower_last[axis] = middle;
+        upper_first[axis] = middle + 1;
+        pending.push([upper_first, last]);
+        pending.push([first, lower_last]);
+    }
+}
+
 /// A tile's cell numbers from its packed key.
 fn unpack(key: u64) -> [u64; 3] {
     let top = (1 << CELL_BITS) - 1;
@@ -126,10 +154,13 @@ fn unpack(key: u64) -> [u64; 3] {
 }
 
 /// The box of the tile with cell numbers `tile`: low and high corners.
+/// Each side is computed from its own tile number, so that neighbouring tiles and ranges
+/// of tiles share their sides bit for bit.
 fn tile_box(cells: &PackedCells, tile: [u64; 3]) -> [DVec3; 2] {
-    let low =
-        cells.low() + DVec3::new(tile[0] as f64, tile[1] as f64, tile[2] as f64) * cells.side();
-    [low, low + DVec3::splat(cells.side())]
+    let side = |numbers: [u64; 3]| {
+        cells.low() + DVec3::from_array(numbers.map(|n| n as f64)) * cells.side()
+    };
+    [side(tile), side(tile.map(|n| n + 1))]
 }
 
 /// The part of the triangle `corners` in the half-open box `[low, high)`: a convex
@@ -260,6 +291,49 @@ mod tests {
                 (total - area).abs() < 1e-12 * area.max(1.0),
                 "{total} for {area}"
             );
+        }
+    }
+
+    #[test]
+    fn the_tiles_a_triangle_crosses_are_those_a_search_of_every_tile_finds() {
+        let mut g = rng_from_seed(3);
+        let cells = PackedCells::new(DVec3::splat(-1.2), 0.1);
+        let mut in_box = || DVec3::new(g.random(), g.random(), g.random()) * 2.0 - 1.0;
+        for case in 0..60 {
+            // Random triangles, and slivers from corner to corner of the box.
+            let corners = if case % 3 == 0 {
+                let end = in_box();
+                [-end, end, end * 0.99 + in_box() * 0.01]
+            } else {
+                [in_box(), in_box(), in_box()]
+            };
+            let area = (corners[1] - corners[0])
+                .cross(corners[2] - corners[0])
+                .length()
+                * 0.5;
+            let tile_of = |p: DVec3| cells.key(p.as_vec3()).map(unpack);
+            let lowest = corners.iter().fold(DVec3::INFINITY, |m, p| m.min(*p));
+            let highest = corners.iter().fold(DVec3::NEG_INFINITY, |m, p| m.max(*p));
+            let (Some(first), Some(last)) = (tile_of(lowest), tile_of(highest)) else {
+                panic!("case {case} leaves the grid");
+            };
+            let mut searched = Vec::new();
+            for z in first[2]..=last[2] {
+                for y in first[1]..=last[1] {
+                    for x in first[0]..=last[0] {
+                        let piece = clipped_area(&clip(&corners, tile_box(&cells, [x, y, z])));
+                        if piece > NEGLIGIBLE_SHARE * area {
+                            searched.push(x | y << CELL_BITS | z << (2 * CELL_BITS));
+                        }
+                    }
+                }
+            }
+            let mut found = Vec::new();
+            crossed_tiles(&corners, &cells, [first, last], |key| found.push(key));
+            found.sort_unstable();
+            searched.sort_unstable();
+            assert!(!found.is_empty());
+            assert_eq!(found, searched, "case {case}");
         }
     }
 
