@@ -26,7 +26,7 @@ const NONE: u32 = u32::MAX;
 /// The 27 steps from a cell to itself and its neighbours, nearest first (the cell, its 6
 /// face neighbours, 12 edge neighbours, 8 corners): most candidates are turned down, and
 /// the nearer cells turn them down sooner.
-const NEIGHBOUR_STEPS: [[i64; 3]; 27] = {
+pub(super) const NEIGHBOUR_STEPS: [[i64; 3]; 27] = {
     let mut steps = [[0i64; 3]; 27];
     let mut filled = 0;
     let mut moved_axes = 0;

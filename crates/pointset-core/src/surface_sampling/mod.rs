@@ -14,15 +14,17 @@
 //!   and each is kept when no sample kept before lies within `spacing` of it (dart
 //!   throwing over a finite pool). They are drawn and tested tile by tile, in random
 //!   order within a tile (cubes of 16 spacings: the kept samples a test reads are then in
-//!   the cache; a million samples took 42–49 s in one random order over the whole
-//!   surface and 5.2–5.8 s by tiles). Measured on a square and on a wavy sheet (spacings
-//!   0.03 and 0.01, two seeds each, one random order): about `0.65 · area / spacing²`
-//!   samples, 0.1% of the surface farther than `spacing` from every sample and none
-//!   farther than 1.13 spacings; with 8 candidates per `spacing²` it was 0.59, 0.8% and
-//!   1.36 spacings. By tiles, on the unit square at spacing 0.004 (three seeds): the same
-//!   coverage and widest gap, 0.4% more samples, the same counts of neighbours at every
-//!   distance up to 3 spacings (within 1.5%), and 1.5% more samples within one spacing
-//!   of a tile's side than elsewhere. The distance is taken through space, not along the
+//!   the cache), the tiles in eight phases of tiles a tile apart, each phase's tiles in
+//!   parallel (module `tiles`); the result does not depend on the threads. A million
+//!   samples took 42–49 s in one random order over the whole surface, 5.2–5.8 s tile by
+//!   tile, and 3.1–3.4 s in phases on two threads (docs/performance.md). Measured on a
+//!   square and on a wavy sheet (spacings 0.03 and 0.01, two seeds each, one random
+//!   order): about `0.65 · area / spacing²` samples, 0.1% of the surface farther than
+//!   `spacing` from every sample and none farther than 1.13 spacings; with 8 candidates
+//!   per `spacing²` it was 0.59, 0.8% and 1.36 spacings. In phases of tiles, on the unit
+//!   square at spacing 0.004 (three seeds): the same coverage and widest gap, 0.4% more
+//!   samples, the same counts of neighbours at every distance up to 3 spacings (within
+//!   1.5%), and 1.5% more samples within one spacing of a tile's side than elsewhere. The distance is taken through space, not along the
 //!   surface, so two sheets closer than `spacing` (a thin wall) thin each other out.
 //!
 //! Normals ([`SampleNormals`]) are the sampled triangle's normal (right-hand rule), or the
@@ -52,12 +54,14 @@
 //! ```
 
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 mod disk_grid;
 mod draws;
 mod tiles;
 
 use crate::rng::rng_from_seed;
+use crate::spatial::CellMap;
 use crate::{Attribute, Error, NormalWeighting, PointSet, Result, RunContext, TriMesh};
 use disk_grid::DiskGrid;
 use draws::{Draws, FaceChoice, Sample};
@@ -164,7 +168,7 @@ pub struct SurfaceSamples {
 /// Errors: a mesh without triangles or whose triangles all have zero area
 /// ([`Error::EmptyInput`]); a count of 0 or above [`MAX_SURFACE_SAMPLES`], a spacing
 /// that is not positive and finite, or one so small the mesh would need more than
-/// [`MAX_POISSON_CANDIDATES`] candidates or more than 2²¹ spacings along an axis
+/// [`MAX_POISSON_CANDIDATES`] candidates or more than 2²³ spacings along an axis
 /// ([`Error::InvalidParameter`]); [`Error::Cancelled`].
 pub fn sample_surface(
     mesh: &TriMesh,
@@ -189,9 +193,10 @@ pub fn sample_surface(
 /// The progress stage's name.
 const STAGE: &str = "sample surface";
 
-/// Candidates drawn between progress reports and cancellation checks.
+/// Uniform samples drawn between progress reports and cancellation checks.
 const REPORT_EVERY: u64 = 1 << 16;
 
+/// `count` samples uniform by area.
 fn uniform(mut draws: Draws<'_>, count: usize, ctx: &mut RunContext) -> Result<Vec<Sample>> {
     if !(1..=MAX_SURFACE_SAMPLES).contains(&count) {
         return Err(Error::InvalidParameter {
@@ -211,6 +216,7 @@ fn uniform(mut draws: Draws<'_>, count: usize, ctx: &mut RunContext) -> Result<V
     Ok(chosen)
 }
 
+/// A Poisson disk of `spacing` over `mesh` (of area `area`), by tiles.
 fn poisson_disk(
     mesh: &TriMesh,
     area: f64,
@@ -247,22 +253,55 @@ fn poisson_disk(
         ))
     };
     let tiles = Tiles::new(mesh, low, TILE_SPACINGS * spacing).ok_or_else(too_small)?;
-    let mut grid = DiskGrid::new(low, spacing);
-    let mut kept: Vec<Sample> = Vec::new();
-    let mut outside = false;
     let per_area = POISSON_CANDIDATES_PER_AREA / (spacing * spacing);
-    tiles.each_candidate(mesh, per_area, ctx, |sample| {
-        match grid.cell(sample.position) {
-            Some(cell) if !grid.crowded(sample.position, cell) => {
-                grid.keep(sample.position, cell);
-                kept.push(sample);
-            }
-            Some(_) => {}
-            None => outside = true,
+    let (seed, cancel) = (ctx.seed(), ctx.cancel_flag().clone());
+    let (total_tiles, mut done) = (tiles.count() as u64, 0);
+    // The samples kept in each tile, by the tile's key.
+    let mut kept_by_tile: CellMap<Vec<Sample>> = CellMap::default();
+    let mut kept = Vec::new();
+    for phase in tiles.phases() {
+        ctx.check_cancelled()?;
+        ctx.report(STAGE, done, Some(total_tiles));
+        let by_tile = phase
+            .par_iter()
+            .map(|tile| {
+                if cancel.is_cancelled() {
+                    return Err(Error::Cancelled);
+                }
+                // The tile's own grid, first holding the samples its neighbours kept in
+                // earlier phases within two spacings of it, so that every test reads one
+                // small grid.
+                let [tile_low, tile_high] = tiles.bounds(tile);
+                let near = |p: Vec3| {
+                    let p = p.as_dvec3();
+                    p.cmpge(tile_low - 2.0 * spacing).all()
+                        && p.cmple(tile_high + 2.0 * spacing).all()
+                };
+                let mut grid = DiskGrid::new(low, spacing);
+                let around = tiles
+                    .neighbours(tile)
+                    .filter_map(|key| kept_by_tile.get(&key));
+                for sample in around.flatten().filter(|s| near(s.position)) {
+                    if let Some(cell) = grid.cell(sample.position) {
+                        grid.keep(sample.position, cell);
+                    }
+                }
+                let mut tile_kept = Vec::new();
+                for sample in tiles.candidates(mesh, tile, per_area, seed) {
+                    let cell = grid.cell(sample.position).ok_or_else(too_small)?;
+                    if !grid.crowded(sample.position, cell) {
+                        grid.keep(sample.position, cell);
+                        tile_kept.push(sample);
+                    }
+                }
+                Ok((tile.key(), tile_kept))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        for (key, tile_kept) in by_tile {
+            kept.extend_from_slice(&tile_kept);
+            kept_by_tile.insert(key, tile_kept);
         }
-    })?;
-    if outside {
-        return Err(too_small());
+        done += phase.len() as u64;
     }
     Ok(kept)
 }

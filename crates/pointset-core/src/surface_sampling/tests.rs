@@ -382,6 +382,29 @@ fn the_samples_depend_on_the_seed_only() {
 }
 
 #[test]
+fn poisson_disk_samples_do_not_depend_on_the_threads() {
+    // Tiles of 0.16: about 7 × 7 over the sheet, several in each phase.
+    let sheet = wavy_sheet(8);
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            sample(
+                &sheet,
+                SurfaceSampling::PoissonDisk { spacing: 0.01 },
+                SampleNormals::Faces,
+            )
+        })
+    };
+    let one = run(1);
+    assert!(one.points.len() > 5000);
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+}
+
+#[test]
 fn bad_meshes_and_parameters_are_errors() {
     let run = |mesh: &TriMesh, sampling: SurfaceSampling| {
         sample_surface(

@@ -6,19 +6,22 @@
 //! weights of their corners), and each piece gets its share of candidates: its area times
 //! the candidates per area, rounded down or up at random in proportion (so the expected
 //! count is exact), each uniform over the piece. A tile's candidates are shuffled, then
-//! tested in that order; tiles are visited in the order of their packed keys (z, then y,
-//! then x). Every order gives a sampling with no two samples closer than the spacing; how
-//! this one compares with one random order over the whole surface is measured in the
-//! module docs of [`super`].
+//! tested in that order. The tiles go in eight phases by the parity of their numbers
+//! ([`Tiles::phases`]): the tiles of a phase are tested at once, each in a grid of its
+//! own holding the samples its 26 neighbours kept in earlier phases; then their samples
+//! join the rest in key order, so the result does not depend on the threads. Every order gives a sampling with no two
+//! samples closer than the spacing; how this one compares with one random order over the
+//! whole surface is measured in the module docs of [`super`].
 
 use glam::{DVec3, Vec3};
 use rand::RngExt;
 use rand::seq::SliceRandom;
 
 use super::Sample;
+use super::disk_grid::NEIGHBOUR_STEPS;
+use crate::TriMesh;
 use crate::rng::{SeededRng, stream};
 use crate::spatial::{CELL_BITS, PackedCells};
-use crate::{Result, RunContext, TriMesh};
 
 /// The side of a tile in spacings.
 pub(super) const TILE_SPACINGS: f64 = 16.0;
@@ -60,51 +63,85 @@ impl Tiles {
 
     /// How many tiles the triangles cross.
     pub(super) fn count(&self) -> usize {
-        self.crossings.chunk_by(|a, b| a.0 == b.0).count()
+        self.tiles().count()
     }
 
-    /// Calls `test` on each tile's candidates, shuffled, tile after tile (module docs):
-    /// `per_area` candidates per unit of area, drawn from the stream of `seed` and the
-    /// tile. Reports progress over the tiles and stops when cancelled.
-    pub(super) fn each_candidate(
+    /// Each tile's crossings, in key order.
+    fn tiles(&self) -> impl Iterator<Item = &[(u64, u32)]> {
+        self.crossings.chunk_by(|a, b| a.0 == b.0)
+    }
+
+    /// The tiles in eight phases by the parity of their numbers along x, y and z: two
+    /// tiles of one phase have a whole tile between them, so their candidates are more
+    /// than 16 spacings apart and can be tested at the same time. Each phase in key
+    /// order.
+    pub(super) fn phases(&self) -> [Vec<Tile<'_>>; 8] {
+        let mut phases: [Vec<Tile<'_>>; 8] = Default::default();
+        for crossings in self.tiles() {
+            let key = crossings[0].0;
+            let [x, y, z] = unpack(key).map(|n| (n % 2) as usize);
+            phases[x | y << 1 | z << 2].push(Tile { key, crossings });
+        }
+        phases
+    }
+
+    /// The keys of the 26 tiles around `tile` (those inside the grid).
+    pub(super) fn neighbours<'a>(&'a self, tile: &Tile<'_>) -> impl Iterator<Item = u64> + 'a {
+        let key = tile.key;
+        NEIGHBOUR_STEPS[1..]
+            .iter()
+            .filter_map(move |step| self.cells.moved(key, *step))
+    }
+
+    /// The box of `tile`: its low and high corners.
+    pub(super) fn bounds(&self, tile: &Tile<'_>) -> [DVec3; 2] {
+        tile_box(&self.cells, unpack(tile.key))
+    }
+
+    /// The candidates of `tile`, shuffled (module docs): `per_area` per unit of area,
+    /// drawn from the stream of `seed` and the tile's key.
+    pub(super) fn candidates(
         &self,
         mesh: &TriMesh,
+        tile: &Tile<'_>,
         per_area: f64,
-        ctx: &mut RunContext,
-        mut test: impl FnMut(Sample),
-    ) -> Result<()> {
+        seed: u64,
+    ) -> Vec<Sample> {
         let positions = mesh.positions();
-        let tiles = self.count() as u64;
+        let mut rng = stream(seed, tile.key);
+        let bounds = tile_box(&self.cells, unpack(tile.key));
         let mut candidates = Vec::new();
-        for (done, crossing) in self.crossings.chunk_by(|a, b| a.0 == b.0).enumerate() {
-            ctx.check_cancelled()?;
-            ctx.report(super::STAGE, done as u64, Some(tiles));
-            let key = crossing[0].0;
-            let mut rng = stream(ctx.seed(), key);
-            let tile = tile_box(&self.cells, unpack(key));
-            candidates.clear();
-            for &(_, face) in crossing {
-                let corners =
-                    mesh.triangles()[face as usize].map(|v| positions[v as usize].as_dvec3());
-                let piece = clip(&corners, tile);
-                let area = clipped_area(&piece);
-                let expected = per_area * area;
-                let count = (expected + rng.random::<f64>()).floor() as usize;
-                for _ in 0..count {
-                    candidates.extend(point_in(&piece, area, &mut rng).map(|weights| {
-                        let [a, b, c] = corners;
-                        Sample {
-                            position: (a + (b - a) * weights.y + (c - a) * weights.z).as_vec3(),
-                            face,
-                            weights: weights.to_array().map(|w| w as f32),
-                        }
-                    }));
-                }
+        for &(_, face) in tile.crossings {
+            let corners = mesh.triangles()[face as usize].map(|v| positions[v as usize].as_dvec3());
+            let piece = clip(&corners, bounds);
+            let area = clipped_area(&piece);
+            let count = (per_area * area + rng.random::<f64>()).floor() as usize;
+            for _ in 0..count {
+                candidates.extend(point_in(&piece, area, &mut rng).map(|weights| {
+                    let [a, b, c] = corners;
+                    Sample {
+                        position: (a + (b - a) * weights.y + (c - a) * weights.z).as_vec3(),
+                        face,
+                        weights: weights.to_array().map(|w| w as f32),
+                    }
+                }));
             }
-            candidates.shuffle(&mut rng);
-            candidates.iter().for_each(|c| test(*c));
         }
-        Ok(())
+        candidates.shuffle(&mut rng);
+        candidates
+    }
+}
+
+/// One tile: its packed key and the triangles crossing it.
+pub(super) struct Tile<'t> {
+    key: u64,
+    crossings: &'t [(u64, u32)],
+}
+
+impl Tile<'_> {
+    /// The tile's packed key.
+    pub(super) fn key(&self) -> u64 {
+        self.key
     }
 }
 
@@ -114,9 +151,9 @@ const NEGLIGIBLE_SHARE: f64 = 1e-12;
 
 /// Calls `crossed` with the key of each tile in the range `[first, last]` (tile numbers,
 /// inclusive) where the triangle `corners` has area (more than [`NEGLIGIBLE_SHARE`] of
-/// its own): the range is halved along its
-/// longest side while the triangle has area in it, so a long sliver across a box of n³
-/// tiles costs about n clippings a tile it crosses, not n³.
+/// its own): the range is halved along its longest side while the triangle has area in
+/// it, so a long sliver across a box of n³ tiles costs about n clippings a tile it
+/// crosses, not n³.
 fn crossed_tiles(
     corners: &[DVec3; 3],
     cells: &PackedCells,
