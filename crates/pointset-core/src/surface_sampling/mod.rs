@@ -232,12 +232,11 @@ fn poisson_disk(
         return Err(invalid("a positive finite length".into()));
     }
     let spacing = f64::from(spacing);
-    let total = area;
-    let candidates = (POISSON_CANDIDATES_PER_AREA * total / (spacing * spacing)).ceil();
-    let least = (POISSON_CANDIDATES_PER_AREA * total / MAX_POISSON_CANDIDATES as f64).sqrt();
+    let candidates = (POISSON_CANDIDATES_PER_AREA * area / (spacing * spacing)).ceil();
+    let least = (POISSON_CANDIDATES_PER_AREA * area / MAX_POISSON_CANDIDATES as f64).sqrt();
     if candidates > MAX_POISSON_CANDIDATES as f64 {
         return Err(invalid(format!(
-            "at least {least:.3e} for a surface of area {total:.3e} (at most {MAX_POISSON_CANDIDATES} candidates)"
+            "at least {least:.3e} for a surface of area {area:.3e} (at most {MAX_POISSON_CANDIDATES} candidates)"
         )));
     }
     // A cell below the mesh's box, so that no rounding puts a sample below the grid.
@@ -256,9 +255,9 @@ fn poisson_disk(
     let per_area = POISSON_CANDIDATES_PER_AREA / (spacing * spacing);
     let (seed, cancel) = (ctx.seed(), ctx.cancel_flag().clone());
     let (total_tiles, mut done) = (tiles.count() as u64, 0);
-    // The samples kept in each tile, by the tile's key.
+    // The samples kept in each tile, by the tile's key, and the keys in the order done.
     let mut kept_by_tile: CellMap<Vec<Sample>> = CellMap::default();
-    let mut kept = Vec::new();
+    let mut order = Vec::new();
     for phase in tiles.phases() {
         ctx.check_cancelled()?;
         ctx.report(STAGE, done, Some(total_tiles));
@@ -298,12 +297,16 @@ fn poisson_disk(
             })
             .collect::<Result<Vec<_>>>()?;
         for (key, tile_kept) in by_tile {
-            kept.extend_from_slice(&tile_kept);
+            order.push(key);
             kept_by_tile.insert(key, tile_kept);
         }
         done += phase.len() as u64;
     }
-    Ok(kept)
+    Ok(order
+        .iter()
+        .filter_map(|key| kept_by_tile.remove(key))
+        .flatten()
+        .collect())
 }
 
 /// A quantity given at `mesh`'s vertices, interpolated at each sample by its barycentric
