@@ -66,8 +66,8 @@ pub struct SampleArgs {
     /// Seed of the random draws: the same mesh, options and seed give the same points.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Also write a JSON report: the mesh's area, the sampling, the points written and
-    /// each stage's seconds.
+    /// Also write a JSON report: the mesh's area, the sampling, the points written, each
+    /// stage's seconds and the peak memory.
     #[arg(long, value_name = "R.json")]
     report: Option<PathBuf>,
 }

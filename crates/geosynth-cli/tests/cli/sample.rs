@@ -43,6 +43,11 @@ fn a_torus_sampled_as_a_poisson_disk_keeps_its_spacing_lies_on_the_mesh_and_reco
     let spacing = r["spacing"].as_f64().unwrap() as f32;
     let points = read_points(&out);
     assert_eq!(r["points"], points.len());
+    assert_eq!(
+        timed_stages(&r, "timings"),
+        ["reading", "sampling", "writing"]
+    );
+    assert_peak_memory(&r);
     assert!(
         printed.contains(&format!("{} points", points.len())),
         "{printed}"
