@@ -400,6 +400,12 @@ fn poisson_disk_samples_do_not_depend_on_the_threads() {
     };
     let one = run(1);
     assert!(one.points.len() > 5000);
+    // No two closer than the spacing, across the tiles' sides too (a k-d tree's answer).
+    let points = one.points.positions();
+    let index = crate::KdIndex::new(points).unwrap();
+    for p in points {
+        assert!(index.nearest(*p, 2).unwrap()[1].distance_squared.sqrt() >= 0.01);
+    }
     assert_eq!(one, run(2));
     assert_eq!(one, run(3));
 }
