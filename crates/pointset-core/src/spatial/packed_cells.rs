@@ -1,5 +1,5 @@
 //! A regular grid whose cells are named by one packed `u64` key, for hash maps of cells
-//! that cost 8 bytes a key and one multiply-shift hash a lookup.
+//! that cost 8 bytes a key and one SplitMix64 finalizer a lookup.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
