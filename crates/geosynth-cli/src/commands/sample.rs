@@ -103,6 +103,13 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
         Some(path) => Some(read_image(path)?.to_rgb8()),
     };
     let area = mesh.area();
+    if area <= 0.0 {
+        return Err(format!(
+            "{}: every triangle has zero area: there is no surface to sample",
+            args.input.display()
+        )
+        .into());
+    }
     let sampling = match (args.spacing, args.count) {
         (Some(spacing), _) => SurfaceSampling::PoissonDisk { spacing },
         (None, count) if args.uniform => SurfaceSampling::Uniform {

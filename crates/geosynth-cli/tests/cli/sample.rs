@@ -181,6 +181,13 @@ fn points_formats_and_options_that_cannot_work_are_refused() {
         ],
         "cannot be used with",
     );
+    let flat = dir.path("flat.obj");
+    std::fs::write(&flat, "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").unwrap();
+    refused(
+        &["sample", &arg(&flat), "-o", &out],
+        "every triangle has zero area",
+    );
+    std::fs::remove_file(&flat).unwrap();
     assert!(dir.names().is_empty(), "{:?}", dir.names());
     // A format without normals keeps the positions, with a note.
     let las = dir.path("o.las");

@@ -52,11 +52,12 @@ impl FaceChoice {
             .collect();
         let area: f64 = areas.iter().sum();
         let Some(with_area) = areas.iter().position(|a| *a > 0.0) else {
+            let which = match mesh.face_count() {
+                1 => "its one triangle has".to_string(),
+                n => format!("all {n} of its triangles have"),
+            };
             return Err(Error::EmptyInput {
-                what: format!(
-                    "the surface to sample (all {} triangles have zero area)",
-                    mesh.face_count()
-                ),
+                what: format!("the surface to sample ({which} zero area)"),
             });
         };
         Ok(Self {

@@ -433,7 +433,10 @@ fn bad_meshes_and_parameters_are_errors() {
     let Err(Error::EmptyInput { what }) = run(&flat, uniform) else {
         panic!("a mesh of zero area was sampled");
     };
-    assert!(what.contains("all 2 triangles have zero area"), "{what}");
+    assert!(
+        what.contains("all 2 of its triangles have zero area"),
+        "{what}"
+    );
     let sheet = wavy_sheet(2);
     for sampling in [
         SurfaceSampling::Uniform { count: 0 },
