@@ -193,6 +193,10 @@ pub fn sample_surface(
 /// The progress stage's name.
 const STAGE: &str = "sample surface";
 
+/// Poisson-disk tiles tested between progress reports and cancellation checks: enough
+/// for both threads of a small machine to stay busy.
+const TILES_PER_BATCH: usize = 256;
+
 /// Uniform samples drawn between progress reports and cancellation checks.
 const REPORT_EVERY: u64 = 1 << 16;
 
@@ -258,10 +262,16 @@ fn poisson_disk(
     // The samples kept in each tile, by the tile's key, and the keys in the order done.
     let mut kept_by_tile: CellMap<Vec<Sample>> = CellMap::default();
     let mut order = Vec::new();
-    for phase in tiles.phases() {
+    // A phase's tiles go in batches, with progress and a cancellation check between
+    // them: tiles of one phase are not neighbours, so the batches give the same points.
+    for batch in tiles
+        .phases()
+        .iter()
+        .flat_map(|phase| phase.chunks(TILES_PER_BATCH))
+    {
         ctx.check_cancelled()?;
         ctx.report(STAGE, done, Some(total_tiles));
-        let by_tile = phase
+        let by_tile = batch
             .par_iter()
             .map(|tile| {
                 if cancel.is_cancelled() {
@@ -300,7 +310,7 @@ fn poisson_disk(
             order.push(key);
             kept_by_tile.insert(key, tile_kept);
         }
-        done += phase.len() as u64;
+        done += batch.len() as u64;
     }
     Ok(order
         .iter()
