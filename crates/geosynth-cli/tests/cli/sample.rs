@@ -19,6 +19,30 @@ fn sample(mesh: &Path, out: &Path, extra: &[&str]) -> String {
     ok(&args.iter().map(String::as_str).collect::<Vec<_>>())
 }
 
+/// A bundled fixture's path.
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fixtures")
+        .join(name)
+}
+
+/// Reconstructs `points` into `mesh` at resolution 48, with `extra` arguments.
+fn reconstruct_48(points: &Path, mesh: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "reconstruct".to_string(),
+        arg(points),
+        "-o".into(),
+        arg(mesh),
+    ];
+    args.extend(
+        ["--resolution", "48"]
+            .iter()
+            .chain(extra)
+            .map(|a| a.to_string()),
+    );
+    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+}
+
 /// The least distance between two of `points`, through their k-d tree.
 fn closest_pair(points: &[glam::Vec3]) -> f32 {
     let index = KdIndex::new(points).unwrap();
@@ -31,7 +55,7 @@ fn closest_pair(points: &[glam::Vec3]) -> f32 {
 #[test]
 fn a_torus_sampled_as_a_poisson_disk_keeps_its_spacing_lies_on_the_mesh_and_reconstructs() {
     let dir = Scratch::new();
-    let torus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus_mesh.ply");
+    let torus = fixture("torus_mesh.ply");
     let (out, report, mesh) = (dir.path("t.ply"), dir.path("r.json"), dir.path("m.ply"));
     let printed = sample(
         &torus,
@@ -65,21 +89,14 @@ fn a_torus_sampled_as_a_poisson_disk_keeps_its_spacing_lies_on_the_mesh_and_reco
         assert!((tube.length() - 0.35).abs() < 0.01, "{p}");
         assert!(n.dot(tube.normalize()) > 0.95, "{p}: {n}");
     }
-    ok(&[
-        "reconstruct",
-        &arg(&out),
-        "-o",
-        &arg(&mesh),
-        "--resolution",
-        "48",
-    ]);
+    reconstruct_48(&out, &mesh, &[]);
     assert_closed(&mesh, 0, "the sampled torus reconstructed");
 }
 
 #[test]
 fn uniform_samples_are_as_many_as_asked_and_a_seed_decides_them() {
     let dir = Scratch::new();
-    let sphere = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/icosphere_mesh.ply");
+    let sphere = fixture("icosphere_mesh.ply");
     let run = |seed: &str, name: &str| {
         let out = dir.path(name);
         sample(
@@ -217,16 +234,7 @@ fn the_shared_bunny_sampled_reconstructs_as_one_closed_piece() {
     // Signed by the winding number, as the notes advise for a closed object: with the
     // local sign, this sampling (seed 0) leaves one bubble 4 units wide near the base (z
     // 43–47 of 33–186; seeds 1–5 leave none).
-    ok(&[
-        "reconstruct",
-        &arg(&points),
-        "-o",
-        &arg(&mesh),
-        "--resolution",
-        "48",
-        "--sign",
-        "winding",
-    ]);
+    reconstruct_48(&points, &mesh, &["--sign", "winding"]);
     assert_closed(&mesh, 2, "the sampled bunny reconstructed");
 }
 

@@ -13,6 +13,19 @@ fn sample(mesh: &TriMesh, sampling: SurfaceSampling, normals: SampleNormals) -> 
     sample_surface(mesh, &sampling, normals, &mut RunContext::new(3)).unwrap()
 }
 
+/// Each sample's position, normal and triangle.
+fn each_sample(samples: &SurfaceSamples) -> impl Iterator<Item = (Vec3, Vec3, u32)> + '_ {
+    let normals = samples.points.normals().unwrap_or(&[]);
+    let positions = samples.points.positions();
+    assert_eq!(normals.len(), positions.len(), "every sample has a normal");
+    assert_eq!(
+        samples.faces.len(),
+        positions.len(),
+        "every sample has a triangle"
+    );
+    (positions.iter().zip(normals).zip(&samples.faces)).map(|((p, n), f)| (*p, *n, *f))
+}
+
 /// A sheet over the unit square, `z = 0.3 sin(3x) cos(2y)`, as an `n × n` grid of
 /// quads, each split in two.
 fn wavy_sheet(n: u32) -> TriMesh {
@@ -55,17 +68,10 @@ fn samples_lie_on_their_triangles_with_their_triangles_normals() {
         SurfaceSampling::PoissonDisk { spacing: 0.04 },
     ] {
         let samples = sample(&sheet, sampling, SampleNormals::Faces);
-        let normals = samples.points.normals().unwrap();
         let face_normals = sheet.face_normals();
-        for ((p, n), face) in samples
-            .points
-            .positions()
-            .iter()
-            .zip(normals)
-            .zip(&samples.faces)
-        {
-            let corners = sheet.triangles()[*face as usize].map(|v| sheet.positions()[v as usize]);
-            let (weights, off_plane) = barycentric(*p, corners);
+        for (p, n, face) in each_sample(&samples) {
+            let corners = sheet.triangles()[face as usize].map(|v| sheet.positions()[v as usize]);
+            let (weights, off_plane) = barycentric(p, corners);
             assert!(
                 off_plane.abs() < 1e-6,
                 "{p} is {off_plane} off its triangle's plane"
@@ -74,7 +80,7 @@ fn samples_lie_on_their_triangles_with_their_triangles_normals() {
                 weights.iter().all(|w| *w > -1e-5),
                 "{p} is outside its triangle: {weights:?}"
             );
-            assert_eq!(*n, face_normals[*face as usize]);
+            assert_eq!(n, face_normals[face as usize]);
         }
     }
 }
@@ -261,18 +267,11 @@ fn interpolated_normals_on_an_octahedron_with_radial_vertex_normals_point_along_
         SurfaceSampling::Uniform { count: 2000 },
         SampleNormals::Interpolated,
     );
-    let normals = samples.points.normals().unwrap();
     let faces = octahedron.face_normals();
     let mut turned = 0.0;
-    for ((p, n), face) in samples
-        .points
-        .positions()
-        .iter()
-        .zip(normals)
-        .zip(&samples.faces)
-    {
-        assert!((*n - p.normalize()).length() < 1e-5, "{p}: {n}");
-        turned += n.angle_between(faces[*face as usize]);
+    for (p, n, face) in each_sample(&samples) {
+        assert!((n - p.normalize()).length() < 1e-5, "{p}: {n}");
+        turned += n.angle_between(faces[face as usize]);
     }
     // And they differ from the faces' normals (by 0.2 rad on average, measured).
     assert!(turned / 2000.0 > 0.1);
