@@ -7,7 +7,10 @@
 //! - [`FarSigns::Nearest`] (the default): the sign of the answered nodes nearest to the node.
 //!   A hole in the band (nodes near the surface that got no answer, as an MLS surface leaves
 //!   over a sampling gap wider than its kernel) then stays a local matter: the inside and
-//!   outside meet in it and close it.
+//!   outside meet in it and close it. A region of far nodes that the band does not
+//!   support (a few wrong nodes at its edge signed it) then takes the other sign
+//!   (`far_regions`, private: every region's faces with the other sign against its faces
+//!   with answered nodes of its own).
 //! - [`FarSigns::RegionVote`]: one sign for each 6-connected region of far nodes, the
 //!   majority of the answered nodes around it. A hole in the band joins the inside and the
 //!   outside into one region and flips one of them whole (randomly sampled spheres of 500
@@ -19,6 +22,7 @@
 use glam::Vec4;
 use pointset_core::Surface;
 
+use crate::far_regions::flip_unsupported_regions;
 use crate::sdf::GridSpec;
 
 /// A node whose distance is not known yet (farther than the band).
@@ -35,7 +39,11 @@ pub enum FarSigns {
     /// 6-connected steps; a tie counts as outside). Exact for closed surfaces whose band
     /// is whole, and local where the band has holes. Counting the 26 neighbours, not the 6,
     /// keeps a single wrong-signed node at the band's edge from signing a one-node-wide
-    /// column of its own all the way to the grid's side.
+    /// column of its own all the way to the grid's side. A few such nodes together still
+    /// would, so a region of far nodes bordered by the other sign across more node faces
+    /// than by answered nodes of its own sign then takes the other sign, the worst first,
+    /// until none is left: the count of sign changes where no surface was found falls
+    /// with each flip.
     #[default]
     Nearest,
     /// Each 6-connected region of far nodes takes the majority sign of its contacts with
@@ -64,7 +72,11 @@ pub(crate) fn fill_far_signs(
         return if sign.is_some() { 0 } else { data.len() };
     }
     match rule {
-        FarSigns::Nearest => sign_by_nearest(data, spec.dims, band),
+        FarSigns::Nearest => {
+            let far: Vec<bool> = data.iter().map(|v| v.x == UNKNOWN).collect();
+            sign_by_nearest(data, spec.dims, band);
+            flip_unsupported_regions(data, &far, spec.dims);
+        }
         FarSigns::RegionVote => sign_by_region(data, spec.dims, band),
     }
     0
@@ -146,7 +158,7 @@ fn sign_vote(distance: f32) -> i32 {
 }
 
 /// The 6-connected neighbours of node `n` of a grid of `dims` nodes (x fastest).
-fn six_neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> [Option<usize>; 6] {
+pub(crate) fn six_neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> [Option<usize>; 6] {
     let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
     [
         (i > 0).then(|| n - 1),
@@ -286,6 +298,25 @@ mod tests {
         data[n / 2] = known(-0.5);
         fill_far_signs(&mut data, &spec, 2.0, &Silent, FarSigns::Nearest);
         assert!(data[n..].iter().all(|v| v.x == 2.0));
+    }
+
+    #[test]
+    fn a_cluster_of_wrong_nodes_at_the_band_edge_signs_no_cone_of_its_own() {
+        // Three neighbouring inside nodes in the band's edge row outvote the outside
+        // around them wave after wave, and the search alone grows them into a column out
+        // to the grid's side; bordered by the other sign along its length and by its own
+        // answered nodes at three faces, the column is flipped back.
+        let n = 15;
+        let (spec, mut data) = unknown_slab(n);
+        for node in data.iter_mut().take(n) {
+            *node = known(0.5);
+        }
+        for node in &mut data[n / 2 - 1..=n / 2 + 1] {
+            *node = known(-0.5);
+        }
+        fill_far_signs(&mut data, &spec, 2.0, &Silent, FarSigns::Nearest);
+        assert!(data[n..].iter().all(|v| v.x == 2.0));
+        assert_eq!(data[n / 2].x, -0.5, "answered nodes keep their answers");
     }
 
     #[test]

@@ -72,6 +72,7 @@
 
 mod bvh;
 mod error;
+mod far_regions;
 pub mod far_signs;
 mod iso;
 mod mesh_surface;
