@@ -5,10 +5,10 @@ use std::path::Path;
 
 use glam::{DMat3, DVec3, Vec3};
 use mls_surface::IsolatedPoints;
-use pointset_core::io::{self, ReadOptions};
+use pointset_core::io::{self, Geometry, ReadOptions};
 use pointset_core::{Aabb, KdIndex, PointSet, RunContext};
 
-use super::samples::{ExemplarNormals, texture_samples};
+use super::samples::{ExemplarNormals, longest_edge_spacings, texture_samples};
 use super::strays::{StrayPoints, isolated_handled, strays_handled};
 use super::{GeometryTexture, UpAxis};
 use crate::{Error, Result};
@@ -215,6 +215,12 @@ pub struct TextureFile {
     /// points.
     /// `None` when there are none, and for meshes.
     pub isolated_points: Option<IsolatedPoints>,
+    /// For a mesh read by its vertices: its longest edge over the median distance from a
+    /// vertex to the nearest other one. Far above 1 (say 4), some triangles are large for
+    /// the vertices' spacing and the vertices undersample the surface there;
+    /// [`TextureReading::mesh_samples`] samples it evenly instead. `None` for point sets,
+    /// sampled meshes, and meshes without an edge or a spacing (coincident vertices).
+    pub longest_edge_spacings: Option<f32>,
 }
 
 /// A texture that lies where its coordinates say (a height field, a generated exemplar):
@@ -230,6 +236,7 @@ impl From<GeometryTexture> for TextureFile {
             undefined_normals: 0,
             stray_points: None,
             isolated_points: None,
+            longest_edge_spacings: None,
         }
     }
 }
@@ -292,6 +299,13 @@ pub struct TextureReading {
     /// comments does not stretch to far points, so none is left out as stray there; a
     /// lone far point is still isolated, and left out as such.
     pub keep_strays: bool,
+    /// For a mesh exemplar: quilt about this many points sampled on its surface as a
+    /// Poisson disk, with its faces' normals and the reading's seed (`ctx`'s; `geosynth
+    /// quilt` reads with seed 0, whatever the quilt's), instead of its vertices (which
+    /// undersample a mesh whose triangles are large for its detail, such as boxes on a
+    /// plane; [`TextureFile::longest_edge_spacings`]). A point set given a count is
+    /// refused. `None` (the default) reads a mesh by its vertices.
+    pub mesh_samples: Option<usize>,
 }
 
 /// [`read_texture_file`] read as `reading` says: the up axis, the normals (for a bare point
@@ -404,10 +418,15 @@ fn read_texture_from(
     };
     // Isolated points would be bubbles under any box.
     let (geometry, isolated_points) = isolated_handled(geometry, reading.keep_strays)?;
+    let longest_edge_spacings = match (&geometry, reading.mesh_samples) {
+        (Geometry::Mesh(mesh), None) => longest_edge_spacings(mesh)?,
+        _ => None,
+    };
     let samples = texture_samples(
         path,
         geometry,
         reading.normals,
+        reading.mesh_samples,
         file_up.to_world(Vec3::Z),
         ctx,
     )?;
@@ -425,6 +444,7 @@ fn read_texture_from(
         undefined_normals: samples.undefined_normals,
         stray_points,
         isolated_points,
+        longest_edge_spacings,
     })
 }
 

@@ -6,14 +6,14 @@ use std::path::Path;
 
 use glam::{DMat3, DVec3, Vec3};
 use mls_surface::Covariance;
-use pointset_core::io::{self, ReadOptions};
+use pointset_core::io::{self, Geometry, ReadOptions};
 use pointset_core::{Aabb, PointSet, RunContext};
 
 use super::files::{
     default_box, parse_texture_comments_at, single_precision_step, texture_comments_at,
     texture_file_error,
 };
-use super::samples::{ExemplarNormals, texture_samples};
+use super::samples::{ExemplarNormals, longest_edge_spacings, texture_samples};
 use super::strays::{isolated_handled, strays_handled};
 use super::{GeometryTexture, TextureFile, UpAxis};
 use crate::Result;
@@ -73,17 +73,25 @@ pub const MAX_PLANE_SPREAD: f64 = 0.25;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_texture_file_fitted(path: &Path) -> Result<TextureFile> {
-    read_texture_file_fitted_with(path, ExemplarNormals::AsStored, &mut RunContext::new(0))
+    read_texture_file_fitted_with(
+        path,
+        ExemplarNormals::AsStored,
+        None,
+        &mut RunContext::new(0),
+    )
 }
 
 /// [`read_texture_file_fitted`] with the exemplar's normals taken as `normals` says. Normals
 /// estimated for a bare point set ([`ExemplarNormals::Estimated`]) are turned toward the
 /// side of the points' best plane that faces +Z of the file (+Y for a plane along Z, +X
-/// for one along Y and Z), and that side becomes the texture's up. Progress and
-/// cancellation as for [`super::read_texture_file_with`].
+/// for one along Y and Z), and that side becomes the texture's up. A mesh gives about
+/// `mesh_samples` points sampled on its surface instead of its vertices, when given
+/// ([`super::TextureReading::mesh_samples`]). Progress and cancellation as for
+/// [`super::read_texture_file_with`].
 pub fn read_texture_file_fitted_with(
     path: &Path,
     normals: ExemplarNormals,
+    mesh_samples: Option<usize>,
     ctx: &mut RunContext,
 ) -> Result<TextureFile> {
     let file_error = texture_file_error(path);
@@ -106,7 +114,11 @@ pub fn read_texture_file_fitted_with(
         ExemplarNormals::AsStored => Vec3::Z,
         ExemplarNormals::Estimated { .. } => facing_up(geometry.points().positions()),
     };
-    let samples = texture_samples(path, geometry, normals, up, ctx)?;
+    let longest_edge_spacings = match (&geometry, mesh_samples) {
+        (Geometry::Mesh(mesh), None) => longest_edge_spacings(mesh)?,
+        _ => None,
+    };
+    let samples = texture_samples(path, geometry, normals, mesh_samples, up, ctx)?;
     let points = samples.points;
     let normals = points.normals().ok_or_else(|| {
         // The samples come with normals (or were refused); kept as an error, not a panic.
@@ -154,6 +166,7 @@ pub fn read_texture_file_fitted_with(
         undefined_normals: samples.undefined_normals,
         stray_points,
         isolated_points,
+        longest_edge_spacings,
     })
 }
 

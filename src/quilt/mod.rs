@@ -55,7 +55,7 @@ pub use heights::{
     HeightFieldFrame, MAX_HEIGHT_SAMPLES, SampleHeights, SampledHeights, sample_heights,
 };
 pub use map_grid::MapGrid;
-pub use samples::ExemplarNormals;
+pub use samples::{ExemplarNormals, MESH_SAMPLING_STAGE};
 pub use strays::StrayPoints;
 
 /// The relief [`read_heightfield_texture`] gives a height field: its height range as a

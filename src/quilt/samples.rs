@@ -6,11 +6,12 @@ use std::path::Path;
 
 use glam::Vec3;
 use pointset_core::io::Geometry;
-use pointset_core::{NormalWeighting, PointSet, RunContext, Stage};
+use pointset_core::{KdIndex, NormalWeighting, PointSet, RunContext, Stage, TriMesh};
 
 use super::files::texture_file_error;
 use crate::Result;
 use crate::normals::EstimateNormals;
+use crate::sample::SampleSurface;
 
 /// Where the texture readers take an exemplar's normals from
 /// ([`super::read_texture_file_with`], [`super::read_texture_file_fitted_with`]).
@@ -33,6 +34,9 @@ pub enum ExemplarNormals {
         neighbours: usize,
     },
 }
+
+/// The timing a mesh exemplar's sampling records ([`super::TextureReading::mesh_samples`]).
+pub const MESH_SAMPLING_STAGE: &str = "sampling the mesh";
 
 /// A texture file's samples with unit normals, and how many of them were estimated from
 /// neighbourhoods that define no normal (0 unless normals were estimated).
@@ -68,7 +72,10 @@ fn check_stored_normals(points: &PointSet) -> std::result::Result<(), String> {
 }
 
 /// The samples of a texture file `path` whose geometry is `geometry`, with normals as
-/// `normals` says; estimated normals are turned toward `up` (the texture's up side).
+/// `normals` says; estimated normals are turned toward `up` (the texture's up side). With
+/// `mesh_samples`, a mesh gives about that many points sampled on its surface as a Poisson
+/// disk with its faces' normals ([`SampleSurface::about`], seeded by `ctx`) instead of its
+/// vertices, and a point set is refused.
 ///
 /// A mesh without vertex normals gets its vertices with normals averaged from the faces
 /// (angle-weighted), leaving out vertices no face orients (unreferenced, or on degenerate
@@ -80,11 +87,17 @@ pub(super) fn texture_samples(
     path: &Path,
     geometry: Geometry,
     normals: ExemplarNormals,
+    mesh_samples: Option<usize>,
     up: Vec3,
     ctx: &mut RunContext,
 ) -> Result<Samples> {
     let file_error = texture_file_error(path);
     let points = match (geometry, normals) {
+        (Geometry::Points(_), _) if mesh_samples.is_some() => {
+            return Err(file_error(
+                "it is a point set: only a mesh's surface is sampled for quilting".into(),
+            ));
+        }
         (Geometry::Mesh(_), ExemplarNormals::Estimated { .. }) => {
             return Err(file_error(
                 "it is a mesh: its normals come from its faces, and only a point set's \
@@ -98,6 +111,11 @@ pub(super) fn texture_samples(
                 undefined_normals: fit.undefined.len(),
                 points: fit.points,
             });
+        }
+        (Geometry::Mesh(mesh), ExemplarNormals::AsStored) if let Some(count) = mesh_samples => {
+            let stage = SampleSurface::about(&mesh, count)?;
+            ctx.timed(MESH_SAMPLING_STAGE, |ctx| stage.run(mesh, ctx))?
+                .points
         }
         (Geometry::Mesh(mesh), ExemplarNormals::AsStored)
             if mesh.vertices().normals().is_none() =>
@@ -128,18 +146,38 @@ pub(super) fn texture_samples(
     })
 }
 
+/// A mesh's longest edge over the median distance from one of its vertices to the nearest
+/// other ([`super::TextureFile::longest_edge_spacings`]); `None` without an edge or a
+/// positive spacing.
+pub(crate) fn longest_edge_spacings(mesh: &TriMesh) -> Result<Option<f32>> {
+    let positions = mesh.positions();
+    let longest = mesh
+        .triangles()
+        .iter()
+        .flat_map(|&[a, b, c]| [(a, b), (b, c), (c, a)])
+        .map(|(a, b)| positions[a as usize].distance(positions[b as usize]))
+        .fold(0.0f32, f32::max);
+    if longest <= 0.0 || positions.len() < 2 {
+        return Ok(None);
+    }
+    let spacing = KdIndex::new(positions)?.median_spacing()?;
+    Ok((spacing > 0.0).then(|| longest / spacing))
+}
+
 #[cfg(test)]
 mod tests {
     use std::path::{Path, PathBuf};
 
     use glam::{DVec3, Vec3};
     use pointset_core::io::{self, Geometry, WriteOptions};
-    use pointset_core::{CancelFlag, PointSet, RunContext, Stage};
+    use pointset_core::{CancelFlag, PointSet, RunContext, Stage, Surface};
 
     use super::ExemplarNormals;
     use crate::normals::EstimateNormals;
     use crate::quilt::{TextureReading, read_texture_file_with, texture_comments};
-    use crate::quilt::{UpAxis, read_texture_file, read_texture_file_fitted_with};
+    use crate::quilt::{
+        UpAxis, read_texture_file, read_texture_file_fitted, read_texture_file_fitted_with,
+    };
 
     const TWELVE: ExemplarNormals = ExemplarNormals::Estimated { neighbours: 12 };
 
@@ -291,8 +329,8 @@ mod tests {
                 })
                 .collect();
             let path = bare_ply(dir.path(), "turned.ply", turned, &[]);
-            let file =
-                read_texture_file_fitted_with(&path, TWELVE, &mut RunContext::new(0)).unwrap();
+            let file = read_texture_file_fitted_with(&path, TWELVE, None, &mut RunContext::new(0))
+                .unwrap();
             let normal = file.frame.z_axis;
             assert!(
                 normal.angle_between(expected) < 2f64.to_radians(),
@@ -346,5 +384,97 @@ mod tests {
         let mut ctx = RunContext::new(0).with_cancel_flag(flag);
         let stopped = read_with(&bare, None, TWELVE, &mut ctx).unwrap_err();
         assert!(stopped.is_cancelled(), "{stopped}");
+    }
+
+    #[test]
+    fn a_mesh_is_read_by_its_vertices_or_sampled_on_its_surface() {
+        let dir = tempfile::tempdir().unwrap();
+        let tile = crate::fixtures::brick_tile_mesh().unwrap();
+        let path = dir.path().join("bricks.ply");
+        io::write_geometry(
+            &path,
+            &Geometry::Mesh(tile.clone()),
+            &WriteOptions::default(),
+        )
+        .unwrap();
+        // By its vertices: the corners of the grid of brick sides, whose longest edge (a
+        // 0.4-wide square cell's diagonal) is 5.7 times their median spacing (a joint's
+        // width, 0.1).
+        let by_vertices = read_texture_file(&path, None).unwrap();
+        assert_eq!(
+            by_vertices.texture.canonical_points().len(),
+            tile.vertex_count()
+        );
+        let ratio = by_vertices.longest_edge_spacings.unwrap();
+        assert!((5.6..5.7).contains(&ratio), "{ratio}");
+        // Sampled: about as many points as asked, on the surface, seeded by the context.
+        let reading = TextureReading {
+            mesh_samples: Some(3000),
+            ..TextureReading::default()
+        };
+        let sampled = read_texture_file_with(&path, &reading, &mut RunContext::new(0)).unwrap();
+        assert_eq!(sampled.longest_edge_spacings, None);
+        let points = sampled.texture.canonical_points();
+        // The count is a Poisson disk's estimate for a plane: the walls, 0.15 high at a
+        // spacing of 0.1, hold fewer (2,643 here).
+        assert!((2500..3300).contains(&points.len()), "{}", points.len());
+        let surface = crate::sdf::MeshSurface::new(&tile).unwrap();
+        let normals = points.normals().unwrap();
+        let faces = [Vec3::Z, Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y];
+        for (&p, &n) in points.positions().iter().zip(normals) {
+            let on = surface.closest_point(p).unwrap();
+            assert!(on.point.distance(p) < 1e-4, "{p} lies off the tile");
+            // The faces' normals: up on the floor and the tops, across on the walls.
+            assert!(faces.iter().any(|f| f.dot(n) > 0.99999), "{p}: normal {n}");
+            assert!(
+                n.z > 0.99999 || (p.z > 0.0 && p.z < 0.15),
+                "{p}: normal {n}"
+            );
+        }
+        // The plate between the bricks and the bricks' tops both have their share.
+        let share = |z: f32| {
+            let near = points.positions().iter().filter(|p| (p.z - z).abs() < 1e-4);
+            near.count() as f32 / points.len() as f32
+        };
+        assert!(
+            share(0.0) > 0.1 && share(0.15) > 0.3,
+            "{} {}",
+            share(0.0),
+            share(0.15)
+        );
+        let again = read_texture_file_with(&path, &reading, &mut RunContext::new(0)).unwrap();
+        assert_eq!(again.texture.canonical_points(), points);
+        let other = read_texture_file_with(&path, &reading, &mut RunContext::new(1)).unwrap();
+        assert_ne!(other.texture.canonical_points(), points);
+        // In a fitted plane too.
+        let fitted = read_texture_file_fitted_with(
+            &path,
+            ExemplarNormals::AsStored,
+            Some(3000),
+            &mut RunContext::new(0),
+        )
+        .unwrap();
+        assert_eq!(fitted.texture.canonical_points().len(), points.len());
+        assert_eq!(fitted.longest_edge_spacings, None);
+        let fitted_vertices = read_texture_file_fitted(&path).unwrap();
+        assert_eq!(fitted_vertices.longest_edge_spacings, Some(ratio));
+    }
+
+    #[test]
+    fn a_point_set_is_not_sampled() {
+        let dir = tempfile::tempdir().unwrap();
+        let positions: Vec<Vec3> = ripples().into_iter().map(|(p, _)| p).collect();
+        let path = bare_ply(dir.path(), "bare.ply", positions, &[]);
+        let reading = TextureReading {
+            mesh_samples: Some(100),
+            ..TextureReading::default()
+        };
+        let refused = read_texture_file_with(&path, &reading, &mut RunContext::new(0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            refused.contains("bare.ply: it is a point set: only a mesh's surface"),
+            "{refused}"
+        );
     }
 }

@@ -14,6 +14,7 @@ mod locked_folders;
 mod params;
 mod quilt;
 mod quilt_maps;
+mod quilt_meshes;
 mod remesh;
 mod sample;
 #[cfg(unix)]

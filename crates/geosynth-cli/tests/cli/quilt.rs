@@ -842,12 +842,12 @@ fn isolated_points_are_left_out_of_an_exemplar_under_its_box_unless_kept() {
 }
 
 /// The JSON report at `path`.
-fn report_of(path: &str) -> serde_json::Value {
+pub(crate) fn report_of(path: &str) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// `quilt` of a flat height field with `flags` is refused: they are for point sets.
-fn refused_with_a_height_field(dir: &Scratch, flags: &[&str]) {
+pub(crate) fn refused_with_a_height_field(dir: &Scratch, flags: &[&str]) {
     let map = dir.path("flat_8x8.f32le");
     std::fs::write(&map, vec![0u8; 8 * 8 * 4]).unwrap();
     let (map, out) = (arg(&map), arg(&dir.path("from_map.ply")));

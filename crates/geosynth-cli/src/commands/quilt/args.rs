@@ -270,6 +270,28 @@ pub struct QuiltArgs {
         conflicts_with = "heightfield"
     )]
     pub(super) estimate_normals: Option<usize>,
+    /// Quilt points sampled on a mesh exemplar's surface instead of its vertices: about N,
+    /// as a Poisson disk, with the faces' normals, seed 0 whatever --seed (`--sample`
+    /// alone: 20,000, about the bundled fixtures' size). For meshes whose triangles are
+    /// large for the spacing of their vertices (boxes on a plane, a low-poly tile), which
+    /// the vertices undersample. Not for point sets or height fields.
+    #[arg(
+        long,
+        value_name = "N",
+        num_args = 0..=1,
+        default_missing_value = "20000",
+        value_parser = parse_sample_count,
+        conflicts_with = "heightfield"
+    )]
+    pub(super) sample: Option<usize>,
+}
+
+/// Parses `--sample N`: a positive count.
+fn parse_sample_count(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if n > 0 => Ok(n),
+        _ => Err(format!("`{s}` is not a positive whole number of points")),
+    }
 }
 
 /// Parses `--size W,H`: two positive numbers.

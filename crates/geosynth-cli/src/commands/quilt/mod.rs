@@ -40,6 +40,7 @@ use crate::{CliResult, Globals};
 use args::{PresetArg, TextureUpArg, box_is_ordered};
 use notes::{
     isolated_points_note, orientation_note, precision_note, size_note, stray_note, tilt_note,
+    undersampled_mesh_note,
 };
 pub use panels::texture_preview;
 
@@ -64,11 +65,16 @@ struct InputOptions {
     bounds: Option<[f64; 6]>,
     /// `--keep-strays`.
     keep_strays: bool,
+    /// `--sample`, in points (unset: a mesh's vertices).
+    sample: Option<usize>,
 }
 
 impl RecordedInput for InputOptions {
     fn check(&self) -> Result<(), String> {
         check_recorded_neighbours(self.estimate_normals)?;
+        if self.sample == Some(0) {
+            return Err("sample must be a positive number of points, not 0".into());
+        }
         if let Some(b) = self.bounds
             && !box_is_ordered(&b)
         {
@@ -96,6 +102,7 @@ impl InputOptions {
         let up = args.up.or(recorded.up).filter(|_| !heightfield);
         let bounds = args.bounds.or(recorded.bounds).filter(|_| !heightfield);
         let keep_strays = (args.keep_strays || recorded.keep_strays) && !heightfield;
+        let sample = args.sample.or(recorded.sample).filter(|_| !heightfield);
         let fitted = matches!(up, Some(TextureUpArg::Auto));
         if keep_strays && fitted {
             return Err(
@@ -120,6 +127,7 @@ impl InputOptions {
                 && estimate_normals.is_none(),
             estimate_normals,
             keep_strays,
+            sample,
         })
     }
 
@@ -136,6 +144,7 @@ impl InputOptions {
                 .bounds
                 .map(|b| [DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5])]),
             keep_strays: self.keep_strays,
+            mesh_samples: self.sample,
         }
     }
 }
@@ -238,13 +247,19 @@ fn read_texture(
         .ok_or("an exemplar or --heightfield is needed")?;
     let reading = options.reading();
     let read = |ctx: &mut RunContext| match options.up {
-        Some(TextureUpArg::Auto) => read_texture_file_fitted_with(path, reading.normals, ctx),
+        Some(TextureUpArg::Auto) => {
+            read_texture_file_fitted_with(path, reading.normals, reading.mesh_samples, ctx)
+        }
         _ => read_texture_file_with(path, &reading, ctx),
     };
-    let file = if reading.normals == ExemplarNormals::AsStored {
+    let file = if reading.normals == ExemplarNormals::AsStored && reading.mesh_samples.is_none() {
         read(&mut RunContext::new(0))
     } else {
-        let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
+        let task = match reading.mesh_samples {
+            Some(_) => "sampling the mesh",
+            None => "estimating normals",
+        };
+        let (mut ctx, bar) = progress_context(globals, 0, task, true);
         let file = read(&mut ctx);
         bar.finish_and_clear();
         timings.extend_from_slice(ctx.timings());
@@ -394,6 +409,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             .flatten(),
         strays,
         isolated_points_note(&file),
+        undersampled_mesh_note(&file),
         tilt_note(&file),
         precision_note(&file),
         from_points
@@ -476,6 +492,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             INPUT_OPTIONS_KEY: input_options,
             "input_timings": timings_json(&input_timings),
             "undefined_normals": input_options.estimate_normals.map(|_| file.undefined_normals),
+            "longest_edge_spacings": file.longest_edge_spacings,
             "stray_points": file.stray_points.map(|s| json!({
                 "count": s.count,
                 "left_out": s.left_out,

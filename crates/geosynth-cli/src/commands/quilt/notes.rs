@@ -64,6 +64,25 @@ pub(super) fn isolated_points_note(file: &TextureFile) -> Option<String> {
     ))
 }
 
+/// A mesh exemplar read by its vertices whose longest edge exceeds this many median vertex
+/// spacings gets a note suggesting `--sample`.
+const UNDERSAMPLED_EDGE_SPACINGS: f32 = 4.0;
+
+/// A hint when a mesh exemplar's vertices undersample it: some of its triangles are large
+/// for the spacing of its vertices ([`TextureFile::longest_edge_spacings`] above
+/// [`UNDERSAMPLED_EDGE_SPACINGS`]), and the quilt sees only the vertices.
+pub(super) fn undersampled_mesh_note(file: &TextureFile) -> Option<String> {
+    let ratio = file.longest_edge_spacings?;
+    (ratio > UNDERSAMPLED_EDGE_SPACINGS).then(|| {
+        format!(
+            "note: the exemplar is a mesh, quilted by its {} vertices, and its longest edge \
+             is {ratio:.0} times their median spacing: its large triangles have no samples \
+             inside; --sample [N] quilts points sampled evenly on its surface instead",
+            file.texture.canonical_points().len()
+        )
+    })
+}
+
 /// Tilts of the points' best plane against the reference plane above this (degrees) get a
 /// note suggesting `--up auto`.
 const TILT_NOTE_DEGREES: f64 = 15.0;
