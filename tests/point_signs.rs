@@ -7,52 +7,40 @@
 
 use geosynth::core::io::{self, Geometry};
 use geosynth::core::rng::rng_from_seed;
+use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling, sample_surface};
 use geosynth::core::testdata::shared_data;
-use geosynth::core::{KdIndex, PointSet, TriMesh};
+use geosynth::core::{KdIndex, PointSet, RunContext, TriMesh};
 use geosynth::reconstruct::{FieldParams, signed_distance};
 use geosynth::sdf::{MeshSign, MeshSurface, PointSign, SdfGrid, sdf_isosurface};
 use glam::Vec3;
 use rand::RngExt;
 
-/// `n` points spread uniformly over the mesh's area, with their faces' normals; a share
-/// `flipped` of them face the wrong way.
+/// `n` points spread uniformly over the mesh's area, with their faces' normals
+/// ([`sample_surface`]); a share `flipped` of them face the wrong way.
 fn sample(mesh: &TriMesh, n: usize, flipped: f64, seed: u64) -> PointSet {
-    let positions = mesh.positions();
-    let corners: Vec<[Vec3; 3]> = mesh
-        .triangles()
-        .iter()
-        .map(|t| t.map(|v| positions[v as usize]))
-        .collect();
-    let mut cumulative = Vec::with_capacity(corners.len());
-    let mut total = 0.0f32;
-    for [a, b, c] in &corners {
-        total += 0.5 * (*b - *a).cross(*c - *a).length();
-        cumulative.push(total);
-    }
+    let sampling = SurfaceSampling::Uniform { count: n };
+    let samples = sample_surface(
+        mesh,
+        &sampling,
+        SampleNormals::Faces,
+        &mut RunContext::new(seed),
+    )
+    .unwrap();
     let mut g = rng_from_seed(seed);
-    let (mut points, mut normals) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    for _ in 0..n {
-        let r: f32 = g.random_range(0.0..total);
-        let t = cumulative
-            .partition_point(|&c| c < r)
-            .min(corners.len() - 1);
-        let [a, b, c] = corners[t];
-        let (mut u, mut v): (f32, f32) = (g.random(), g.random());
-        if u + v > 1.0 {
-            (u, v) = (1.0 - u, 1.0 - v);
-        }
-        points.push(a + u * (b - a) + v * (c - a));
-        let normal = (b - a).cross(c - a).normalize();
-        normals.push(if g.random_bool(flipped) {
-            -normal
-        } else {
-            normal
-        });
-    }
-    PointSet::new(points)
+    let normals: Vec<Vec3> = samples
+        .points
+        .normals()
         .unwrap()
-        .with_normals(normals)
-        .unwrap()
+        .iter()
+        .map(|&normal| {
+            if g.random_bool(flipped) {
+                -normal
+            } else {
+                normal
+            }
+        })
+        .collect();
+    samples.points.with_normals(normals).unwrap()
 }
 
 /// Nodes farther than one spacing from the true surface whose sign is wrong, and the
