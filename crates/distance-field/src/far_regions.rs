@@ -61,10 +61,13 @@ pub(crate) fn flip_unsupported_regions(data: &mut [Vec4], far: &[bool], dims: [u
     {
         flip_and_merge(&mut regions, worst);
     }
+    // Each region's final sign once (a merge chain can be as long as the flips were many).
+    let inside: Vec<bool> = (0..regions.len() as u32)
+        .map(|r| regions[standing(&regions, r) as usize].inside)
+        .collect();
     for (value, &label) in data.iter_mut().zip(&labels) {
         if label != NO_REGION {
-            let inside = regions[standing(&regions, label) as usize].inside;
-            value.x = if inside {
+            value.x = if inside[label as usize] {
                 -value.x.abs()
             } else {
                 value.x.abs()
@@ -139,14 +142,16 @@ fn label_regions(
             }
         }
     }
-    // Number the roots in order and label every far node with its root's number.
-    let mut labels = vec![NO_REGION; data.len()];
+    // Number the roots in order and label every far node with its root's number, in
+    // place: a parent lies before its child (a union keeps the lower root, a halving
+    // points to a grandparent), so it is already relabelled when the child comes.
+    let mut labels = parent;
     let mut regions: Vec<Region> = Vec::new();
-    for n in (0..data.len()).filter(|&n| far[n]) {
-        let root = find(&mut parent, n);
-        if labels[root] == NO_REGION {
+    for n in 0..data.len() {
+        labels[n] = if !far[n] {
+            NO_REGION
+        } else if labels[n] as usize == n {
             let id = regions.len() as u32;
-            labels[root] = id;
             regions.push(Region {
                 inside: inside(n),
                 support: 0,
@@ -154,10 +159,11 @@ fn label_regions(
                 contacts: BTreeMap::new(),
                 merged_into: id,
             });
-        }
-        labels[n] = labels[root];
+            id
+        } else {
+            labels[labels[n] as usize]
+        };
     }
-    drop(parent);
     let mut between = Vec::new();
     for (n, [i, j, k]) in nodes([nx, ny, nz]) {
         for (has, step) in [(i + 1 < nx, 1), (j + 1 < ny, row), (k + 1 < nz, slice)] {
