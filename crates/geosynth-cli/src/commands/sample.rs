@@ -57,7 +57,7 @@ pub struct SampleArgs {
     /// Colour the points from this image (PNG, JPEG, …) at their texture coordinates,
     /// which the mesh must have (OBJ's convention: (0, 0) is the image's lower-left
     /// corner; bilinear, repeating outside [0, 1]). The points also keep the coordinates
-    /// as `s` and `t`.
+    /// as `s` and `t`. Replaces any vertex colours the mesh has (with a note).
     #[arg(long, value_name = "IMG")]
     texture: Option<PathBuf>,
     /// Where the points' normals come from.
@@ -135,6 +135,13 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
     bar.finish_and_clear();
     let mut points = samples.points;
     if let Some(texture) = &texture {
+        if points.colors().is_some() {
+            status(
+                globals,
+                "note: the mesh's vertex colours are replaced by the texture's; without \
+                 --texture the points keep them, interpolated",
+            );
+        }
         points.set_colors(&texture_colours(&points, texture)?)?;
     }
     let count = points.len();

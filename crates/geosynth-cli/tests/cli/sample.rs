@@ -250,22 +250,20 @@ fn a_texture_colours_the_points_at_their_texture_coordinates() {
         glam::Vec3::new(1.0, 1.0, 0.0),
         glam::Vec3::Y,
     ];
-    let uvs = corners.iter().map(|p| glam::Vec2::new(p.x, p.y)).collect();
+    let uvs: Vec<glam::Vec2> = corners.iter().map(|p| glam::Vec2::new(p.x, p.y)).collect();
     let square =
         geosynth::core::TriMesh::new(PointSet::new(corners).unwrap(), vec![[0, 1, 2], [0, 2, 3]])
             .unwrap()
-            .with_uvs(uvs)
+            .with_uvs(uvs.clone())
             .unwrap();
     write_with_defaults(&mesh_path, &Geometry::Mesh(square.clone()));
     let texture = image::RgbImage::from_fn(64, 64, |x, y| {
         image::Rgb([(x * 4) as u8, ((63 - y) * 4) as u8, 7])
     });
     texture.save(&image_path).unwrap();
-    sample(
-        &mesh_path,
-        &out,
-        &["--count", "2000", "--texture", &arg(&image_path)],
-    );
+    let with_texture = ["--count", "2000", "--texture", &arg(&image_path)];
+    let said = sample(&mesh_path, &out, &with_texture);
+    assert!(!said.contains("vertex colours are replaced"), "{said}");
     let points = read_points(&out);
     let colours = points.colors().unwrap();
     let [s, t] = ["s", "t"].map(|n| points.attribute(n).unwrap().values().to_vec());
@@ -282,6 +280,18 @@ fn a_texture_colours_the_points_at_their_texture_coordinates() {
         assert!((c[2] - 7.0 / 255.0).abs() < 1e-6);
     }
     assert!(inside > 1500, "{inside}");
+    // A mesh with vertex colours has them replaced, and is told so.
+    let coloured_path = dir.path("coloured.ply");
+    let (mut vertices, triangles, _) = square.clone().into_parts();
+    vertices.set_colors(&[[1.0, 0.0, 0.0]; 4]).unwrap();
+    let coloured = geosynth::core::TriMesh::new(vertices, triangles).unwrap();
+    write_with_defaults(
+        &coloured_path,
+        &Geometry::Mesh(coloured.with_uvs(uvs).unwrap()),
+    );
+    let said = sample(&coloured_path, &dir.path("c.ply"), &with_texture);
+    assert!(said.contains("vertex colours are replaced"), "{said}");
+    assert_eq!(read_points(&dir.path("c.ply")).colors(), Some(colours));
     // A mesh without UVs is refused before the work.
     let bare = dir.path("bare.ply");
     let (vertices, triangles, _) = square.into_parts();
