@@ -113,6 +113,12 @@ pub(super) fn texture_samples(
             });
         }
         (Geometry::Mesh(mesh), ExemplarNormals::AsStored) if let Some(count) = mesh_samples => {
+            if mesh.area() <= 0.0 {
+                return Err(file_error(
+                    "every triangle of the mesh has zero area: there is no surface to sample"
+                        .into(),
+                ));
+            }
             let stage = SampleSurface::about(&mesh, count)?;
             ctx.timed(MESH_SAMPLING_STAGE, |ctx| stage.run(mesh, ctx))?
                 .points
@@ -461,7 +467,7 @@ mod tests {
     }
 
     #[test]
-    fn a_point_set_is_not_sampled() {
+    fn a_point_set_or_a_mesh_without_area_is_not_sampled() {
         let dir = tempfile::tempdir().unwrap();
         let positions: Vec<Vec3> = ripples().into_iter().map(|(p, _)| p).collect();
         let path = bare_ply(dir.path(), "bare.ply", positions, &[]);
@@ -474,6 +480,18 @@ mod tests {
             .to_string();
         assert!(
             refused.contains("bare.ply: it is a point set: only a mesh's surface"),
+            "{refused}"
+        );
+        // A mesh without area has nothing to sample.
+        let flat = dir.path().join("flat.ply");
+        let corners = PointSet::new(vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X]).unwrap();
+        let sliver = pointset_core::TriMesh::new(corners, vec![[0, 1, 2]]).unwrap();
+        io::write_geometry(&flat, &Geometry::Mesh(sliver), &WriteOptions::default()).unwrap();
+        let refused = read_texture_file_with(&flat, &reading, &mut RunContext::new(0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            refused.contains("flat.ply: every triangle of the mesh has zero area"),
             "{refused}"
         );
     }

@@ -306,7 +306,7 @@ mod tests {
     }
 
     #[test]
-    fn a_cluster_of_wrong_nodes_at_the_band_edge_signs_no_cone_of_its_own() {
+    fn a_cluster_of_wrong_nodes_at_the_band_edge_signs_no_column_of_its_own() {
         // Three neighbouring inside nodes in the band's edge row outvote the outside
         // around them wave after wave, and the search alone grows them into a column out
         // to the grid's side; bordered by the other sign along its length and by its own
