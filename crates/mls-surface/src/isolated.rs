@@ -100,21 +100,14 @@ fn settled_by_cells(points: &[Vec3], reach: f64, wanted: usize) -> Option<Vec<bo
     for k in &keys {
         *counts.entry(*k).or_insert(0) += 1;
     }
-    const FACE_NEIGHBOURS: [[i64; 3]; 6] = [
-        [-1, 0, 0],
-        [1, 0, 0],
-        [0, -1, 0],
-        [0, 1, 0],
-        [0, 0, -1],
-        [0, 0, 1],
-    ];
     Some(
         keys.par_iter()
             .map(|&k| {
                 let count = |key: u64| counts.get(&key).copied().unwrap_or(0) as usize;
-                let around: usize = FACE_NEIGHBOURS
-                    .iter()
-                    .filter_map(|step| cells.moved(k, *step))
+                let around: usize = cells
+                    .face_neighbours(k)
+                    .into_iter()
+                    .flatten()
                     .map(count)
                     .sum();
                 count(k) + around >= wanted

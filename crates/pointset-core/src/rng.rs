@@ -11,6 +11,7 @@ use rand::SeedableRng;
 pub type SeededRng = rand_pcg::Pcg64Mcg;
 
 /// SplitMix64's finalizer: a bijective mixing of 64 bits.
+#[inline]
 pub fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
