@@ -5,10 +5,10 @@ use std::path::Path;
 
 use glam::{DMat3, DVec3, Vec3};
 use mls_surface::IsolatedPoints;
-use pointset_core::io::{self, Geometry, ReadOptions};
+use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, KdIndex, PointSet, RunContext};
 
-use super::samples::{ExemplarNormals, longest_edge_spacings, texture_samples};
+use super::samples::{ExemplarNormals, texture_samples};
 use super::strays::{StrayPoints, isolated_handled, strays_handled};
 use super::{GeometryTexture, UpAxis};
 use crate::{Error, Result};
@@ -418,10 +418,6 @@ fn read_texture_from(
     };
     // Isolated points would be bubbles under any box.
     let (geometry, isolated_points) = isolated_handled(geometry, reading.keep_strays)?;
-    let longest_edge_spacings = match (&geometry, reading.mesh_samples) {
-        (Geometry::Mesh(mesh), None) => longest_edge_spacings(mesh)?,
-        _ => None,
-    };
     let samples = texture_samples(
         path,
         geometry,
@@ -444,7 +440,7 @@ fn read_texture_from(
         undefined_normals: samples.undefined_normals,
         stray_points,
         isolated_points,
-        longest_edge_spacings,
+        longest_edge_spacings: samples.longest_edge_spacings,
     })
 }
 

@@ -6,14 +6,14 @@ use std::path::Path;
 
 use glam::{DMat3, DVec3, Vec3};
 use mls_surface::Covariance;
-use pointset_core::io::{self, Geometry, ReadOptions};
+use pointset_core::io::{self, ReadOptions};
 use pointset_core::{Aabb, PointSet, RunContext};
 
 use super::files::{
     default_box, parse_texture_comments_at, single_precision_step, texture_comments_at,
     texture_file_error,
 };
-use super::samples::{ExemplarNormals, longest_edge_spacings, texture_samples};
+use super::samples::{ExemplarNormals, texture_samples};
 use super::strays::{isolated_handled, strays_handled};
 use super::{GeometryTexture, TextureFile, UpAxis};
 use crate::Result;
@@ -114,10 +114,6 @@ pub fn read_texture_file_fitted_with(
         ExemplarNormals::AsStored => Vec3::Z,
         ExemplarNormals::Estimated { .. } => facing_up(geometry.points().positions()),
     };
-    let longest_edge_spacings = match (&geometry, mesh_samples) {
-        (Geometry::Mesh(mesh), None) => longest_edge_spacings(mesh)?,
-        _ => None,
-    };
     let samples = texture_samples(path, geometry, normals, mesh_samples, up, ctx)?;
     let points = samples.points;
     let normals = points.normals().ok_or_else(|| {
@@ -166,7 +162,7 @@ pub fn read_texture_file_fitted_with(
         undefined_normals: samples.undefined_normals,
         stray_points,
         isolated_points,
-        longest_edge_spacings,
+        longest_edge_spacings: samples.longest_edge_spacings,
     })
 }
 

@@ -46,6 +46,8 @@ pub(super) struct Samples {
     /// Points whose estimated normal is arbitrary across a line
     /// ([`mls_surface::NormalFit::undefined`]).
     pub undefined_normals: usize,
+    /// For a mesh read by its vertices: [`longest_edge_spacings`]; `None` otherwise.
+    pub longest_edge_spacings: Option<f32>,
 }
 
 /// What estimates an exemplar's normals, for the errors that ask for them.
@@ -92,6 +94,10 @@ pub(super) fn texture_samples(
     ctx: &mut RunContext,
 ) -> Result<Samples> {
     let file_error = texture_file_error(path);
+    let longest_edge_spacings = match (&geometry, mesh_samples) {
+        (Geometry::Mesh(mesh), None) => longest_edge_spacings(mesh)?,
+        _ => None,
+    };
     let points = match (geometry, normals) {
         (Geometry::Points(_), _) if mesh_samples.is_some() => {
             return Err(file_error(
@@ -110,6 +116,7 @@ pub(super) fn texture_samples(
             return Ok(Samples {
                 undefined_normals: fit.undefined.len(),
                 points: fit.points,
+                longest_edge_spacings: None,
             });
         }
         (Geometry::Mesh(mesh), ExemplarNormals::AsStored) if let Some(count) = mesh_samples => {
@@ -149,13 +156,14 @@ pub(super) fn texture_samples(
     Ok(Samples {
         points,
         undefined_normals: 0,
+        longest_edge_spacings,
     })
 }
 
 /// A mesh's longest edge over the median distance from one of its vertices to the nearest
 /// other ([`super::TextureFile::longest_edge_spacings`]); `None` without an edge or a
 /// positive spacing.
-pub(crate) fn longest_edge_spacings(mesh: &TriMesh) -> Result<Option<f32>> {
+fn longest_edge_spacings(mesh: &TriMesh) -> Result<Option<f32>> {
     let positions = mesh.positions();
     let longest = mesh
         .triangles()
@@ -475,9 +483,12 @@ mod tests {
             mesh_samples: Some(100),
             ..TextureReading::default()
         };
-        let refused = read_texture_file_with(&path, &reading, &mut RunContext::new(0))
-            .unwrap_err()
-            .to_string();
+        let refusal = |path: &Path| {
+            read_texture_file_with(path, &reading, &mut RunContext::new(0))
+                .unwrap_err()
+                .to_string()
+        };
+        let refused = refusal(&path);
         assert!(
             refused.contains("bare.ply: it is a point set: only a mesh's surface"),
             "{refused}"
@@ -487,9 +498,7 @@ mod tests {
         let corners = PointSet::new(vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X]).unwrap();
         let sliver = pointset_core::TriMesh::new(corners, vec![[0, 1, 2]]).unwrap();
         io::write_geometry(&flat, &Geometry::Mesh(sliver), &WriteOptions::default()).unwrap();
-        let refused = read_texture_file_with(&flat, &reading, &mut RunContext::new(0))
-            .unwrap_err()
-            .to_string();
+        let refused = refusal(&flat);
         assert!(
             refused.contains("flat.ply: every triangle of the mesh has zero area"),
             "{refused}"
