@@ -44,7 +44,8 @@ struct Builder<'a> {
     gradients: Option<&'a [Vec4]>,
     vertex_of_edge: HashMap<(u32, u32), u32>,
     positions: Vec<Vec3>,
-    normals: Vec<Vec3>,
+    /// Per vertex, the normals its stored gradients offer, best first (none without them).
+    normal_choices: Vec<[Vec3; 3]>,
     triangles: Vec<[u32; 3]>,
 }
 
@@ -69,13 +70,15 @@ impl Builder<'_> {
         // the nodes, along its own edge.
         let t = (va / (va - vb)).clamp(NODE_CLEARANCE, 1.0 - NODE_CLEARANCE);
         let p = pa.lerp(pb, t);
-        let n = self.gradients.map_or(Vec3::ZERO, |g| {
+        let choices = self.gradients.map_or([Vec3::ZERO; 3], |g| {
             let (ga, gb) = (g[a], g[b]);
-            Vec3::new(ga.y, ga.z, ga.w).lerp(Vec3::new(gb.y, gb.z, gb.w), t)
+            let (ga, gb) = (Vec3::new(ga.y, ga.z, ga.w), Vec3::new(gb.y, gb.z, gb.w));
+            let (near, far) = if t <= 0.5 { (ga, gb) } else { (gb, ga) };
+            [ga.lerp(gb, t), near, far].map(Vec3::normalize_or_zero)
         });
         let id = self.positions.len() as u32;
         self.positions.push(p);
-        self.normals.push(n.normalize_or_zero());
+        self.normal_choices.push(choices);
         self.vertex_of_edge.insert(key, id);
         id
     }
@@ -192,7 +195,9 @@ pub fn closed_isosurface(grid: &Grid3<f32>, iso: f32, outside: f32) -> Result<Tr
 }
 
 /// Extracts the zero set of a signed distance grid; vertex normals interpolate the stored
-/// gradients (falling back to mesh normals where they vanish).
+/// gradients. Where that faces against the mesh's own (angle-weighted) normal, or vanishes,
+/// the gradient of the edge's nearer or farther node is used if it faces with the mesh,
+/// else the mesh's own normal.
 pub fn sdf_isosurface(sdf: &SdfGrid) -> Result<TriMesh> {
     let distances = sdf.distances()?;
     extract(&distances, 0.0, Some(sdf.grid().data()))
@@ -214,7 +219,7 @@ fn extract(grid: &Grid3<f32>, iso: f32, gradients: Option<&[Vec4]>) -> Result<Tr
         gradients,
         vertex_of_edge: HashMap::new(),
         positions: Vec::new(),
-        normals: Vec::new(),
+        normal_choices: Vec::new(),
         triangles: Vec::new(),
     };
     for k in 0..nz.saturating_sub(1) {
@@ -235,18 +240,34 @@ fn extract(grid: &Grid3<f32>, iso: f32, gradients: Option<&[Vec4]>) -> Result<Tr
     }
     let Builder {
         positions,
-        mut normals,
+        normal_choices,
         triangles,
         ..
     } = b;
     let points = PointSet::new(positions)?;
     let mut mesh = TriMesh::new(points, triangles)?;
-    let fallback = mesh.vertex_normals(NormalWeighting::Angle);
-    for (n, f) in normals.iter_mut().zip(fallback) {
-        if *n == Vec3::ZERO {
-            *n = f;
-        }
-    }
+    let own = mesh.vertex_normals(NormalWeighting::Angle);
+    // A stored gradient can face against the surface it is stored on: where a field's sign
+    // was decided by another rule than its distances (a point cloud's winding number
+    // overriding its MLS surface right beside it, `WindingSigned`), a node a hair outside
+    // the surface is signed inside, the zero set bulges around it by less than a hair, and
+    // the node's gradient still points to the surface it measured, into the bulge.
+    // Renderers shade such a vertex black (the reconstructed chameleon's crest showed a
+    // dark hexagon around every such node). So a vertex takes the first of its edge's
+    // interpolated gradient, its nearer node's and its farther node's that faces the same
+    // side as the mesh around it, and the mesh's own normal if none does: a bulge that
+    // small is shaded as the surface around it.
+    let normals: Vec<Vec3> = normal_choices
+        .iter()
+        .zip(own)
+        .map(|(choices, own)| {
+            choices
+                .iter()
+                .copied()
+                .find(|n| *n != Vec3::ZERO && n.dot(own) > 0.0)
+                .unwrap_or(own)
+        })
+        .collect();
     let (vertices, tris, _) = mesh.into_parts();
     mesh = TriMesh::new(vertices.with_normals(normals)?, tris)?;
     Ok(mesh)

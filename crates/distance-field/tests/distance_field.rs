@@ -10,7 +10,7 @@ use distance_field::{
     BlockPyramid, FieldError, GridSpec, MeshSign, MeshSurface, SdfGrid, isosurface, nrrd,
     sdf_isosurface,
 };
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use mls_surface::{MlsParams, MlsSurface};
 use pointset_core::testdata::{random_direction, shared_data};
 use pointset_core::{Aabb, BandAnswer, Grid3, PointSet, Surface, SurfacePoint, TriMesh, io, rng};
@@ -708,6 +708,43 @@ fn sdf_isosurface_uses_stored_gradients_for_normals() {
     // Empty and constant fields give empty meshes, not errors.
     let flat = analytic_grid(4, 1.0, |_| 1.0);
     assert_eq!(isosurface(&flat, 0.0).unwrap().face_count(), 0);
+}
+
+#[test]
+fn stored_gradients_facing_against_the_surface_give_way_to_mesh_normals() {
+    // A sphere's field with one node a hair outside the surface signed inside, its
+    // gradient still pointing to the surface it measured (inward), as a winding number
+    // overriding an MLS surface's sign leaves it: the zero set bulges around the node.
+    let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 24, 0.2).unwrap();
+    let sdf = SdfGrid::from_surface(&AnalyticSphere(1.0), &spec, 0.5).unwrap();
+    let grid = sdf.grid();
+    let [nx, ny, nz] = grid.dims();
+    let mut data = grid.data().to_vec();
+    let mut flipped = 0;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let v = &mut data[i + nx * (j + ny * k)];
+                if v.x > 0.0 && v.x < 0.1 * grid.spacing() {
+                    let inward = -Vec3::new(v.y, v.z, v.w);
+                    *v = Vec4::new(-v.x, inward.x, inward.y, inward.z);
+                    flipped += 1;
+                }
+            }
+        }
+    }
+    assert!(flipped > 0, "no node close enough to the sphere to flip");
+    let bulged = SdfGrid::from_grid(
+        Grid3::from_vec(grid.dims(), grid.origin(), grid.spacing(), data).unwrap(),
+        sdf.band(),
+    )
+    .unwrap();
+    let mesh = sdf_isosurface(&bulged).unwrap();
+    assert_eq!(euler_characteristic_of_closed_manifold(&mesh), 2);
+    assert_eq!(mesh.normals_against_faces(), 0);
+    // The untouched field keeps its gradients (the mesh's normals are not used there).
+    let plain = sdf_isosurface(&sdf).unwrap();
+    assert_eq!(plain.normals_against_faces(), 0);
 }
 
 // ------------------------------------------------------------ NRRD

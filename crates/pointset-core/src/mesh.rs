@@ -220,6 +220,32 @@ impl TriMesh {
         acc.into_iter().map(crate::unit_vector).collect()
     }
 
+    /// How many stored vertex normals face against the faces around their vertex: a
+    /// negative dot product with the angle-weighted average of those faces' normals
+    /// ([`Self::vertex_normals`]). Renderers shade such a vertex as if lit from behind
+    /// (dark), whatever the light. Vertices without a stored normal direction or without
+    /// faces of any area are not counted; 0 without normals.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use pointset_core::{PointSet, TriMesh};
+    /// let p = PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y])?
+    ///     .with_normals(vec![Vec3::Z, -Vec3::Z, Vec3::X])?;
+    /// let mesh = TriMesh::new(p, vec![[0, 1, 2]])?; // faces +z
+    /// assert_eq!(mesh.normals_against_faces(), 1); // the second vertex's
+    /// # Ok::<(), pointset_core::Error>(())
+    /// ```
+    pub fn normals_against_faces(&self) -> usize {
+        let Some(stored) = self.vertices.normals() else {
+            return 0;
+        };
+        stored
+            .iter()
+            .zip(self.vertex_normals(NormalWeighting::Angle))
+            .filter(|(n, faces)| n.dot(*faces) < 0.0)
+            .count()
+    }
+
     /// Stores freshly computed vertex normals in the mesh.
     pub fn compute_normals(&mut self, weighting: NormalWeighting) -> Result<()> {
         let normals = self.vertex_normals(weighting);

@@ -64,6 +64,10 @@ pub struct FileInfo {
     /// Normals without a direction (zero), which a tool writes where it computed none
     /// ([`PointSet::directionless_normals`](geosynth::core::PointSet::directionless_normals)).
     zero_normals: usize,
+    /// A mesh's vertex normals that face against the faces around their vertex
+    /// ([`TriMesh::normals_against_faces`](geosynth::core::TriMesh::normals_against_faces)):
+    /// renderers shade them dark. `None` for point sets and meshes without normals.
+    normals_against_faces: Option<usize>,
     colors: bool,
     uvs: bool,
     attributes: Vec<AttributeInfo>,
@@ -192,6 +196,10 @@ impl FileInfo {
             normals: points.normals().is_some(),
             normal_disagreement: orientation_disagreement(points).ok(),
             zero_normals: points.directionless_normals(),
+            normals_against_faces: g
+                .mesh()
+                .filter(|_| points.normals().is_some())
+                .map(|m| m.normals_against_faces()),
             colors: points.colors().is_some(),
             uvs: g.mesh().is_some_and(|m| m.uvs().is_some()),
             attributes: points
@@ -285,6 +293,11 @@ impl FileInfo {
                     "no (geosynth normals estimates them)".to_string()
                 }
                 None => yes(self.normals).to_string(),
+            } + &match self.normals_against_faces {
+                Some(n) if n > 0 => format!(
+                    "; {n} vertex normals face against their faces (renderers shade them dark)"
+                ),
+                _ => String::new(),
             },
             yes(self.colors),
             yes(self.uvs),

@@ -162,6 +162,32 @@ fn info_reports_kept_attributes() {
 }
 
 #[test]
+fn info_counts_mesh_normals_that_face_against_their_faces() {
+    let scratch = Scratch::new();
+    // A square of two triangles facing +z; the third vertex's normal faces -z.
+    let path = scratch.path("square.ply");
+    std::fs::write(
+        &path,
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         element face 2\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 -1\n0 1 0 0 0 1\n3 0 1 2\n3 0 2 3\n",
+    )
+    .unwrap();
+    assert_eq!(info_json(&path)["normals_against_faces"], 1);
+    let said = ok(&["info", &arg(&path)]);
+    assert!(
+        said.contains("1 vertex normals face against their faces"),
+        "{said}"
+    );
+    // Point sets have no faces to face against.
+    let points = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    assert!(info_json(&points)["normals_against_faces"].is_null());
+    let said = ok(&["info", &arg(&points)]);
+    assert!(!said.contains("against their faces"), "{said}");
+}
+
+#[test]
 fn bad_input_fails_with_a_message_not_a_panic() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.ply");
