@@ -41,11 +41,11 @@ struct Builder<'a> {
     grid_origin: Vec3,
     spacing: f32,
     dims: [usize; 3],
-    gradients: Option<&'a [Vec4]>,
     vertex_of_edge: HashMap<(u32, u32), u32>,
     positions: Vec<Vec3>,
-    /// Per vertex, the normals its stored gradients offer, best first (none without them).
-    normal_choices: Vec<[Vec3; 3]>,
+    /// Per vertex, its edge's nodes and its place along the edge from the first (for
+    /// normals from the stored gradients).
+    crossings: Vec<(u32, u32, f32)>,
     triangles: Vec<[u32; 3]>,
 }
 
@@ -70,15 +70,9 @@ impl Builder<'_> {
         // the nodes, along its own edge.
         let t = (va / (va - vb)).clamp(NODE_CLEARANCE, 1.0 - NODE_CLEARANCE);
         let p = pa.lerp(pb, t);
-        let choices = self.gradients.map_or([Vec3::ZERO; 3], |g| {
-            let (ga, gb) = (g[a], g[b]);
-            let (ga, gb) = (Vec3::new(ga.y, ga.z, ga.w), Vec3::new(gb.y, gb.z, gb.w));
-            let (near, far) = if t <= 0.5 { (ga, gb) } else { (gb, ga) };
-            [ga.lerp(gb, t), near, far].map(Vec3::normalize_or_zero)
-        });
         let id = self.positions.len() as u32;
         self.positions.push(p);
-        self.normal_choices.push(choices);
+        self.crossings.push((a as u32, b as u32, t));
         self.vertex_of_edge.insert(key, id);
         id
     }
@@ -203,6 +197,33 @@ pub fn sdf_isosurface(sdf: &SdfGrid) -> Result<TriMesh> {
     extract(&distances, 0.0, Some(sdf.grid().data()))
 }
 
+/// The normal of the vertex at `t` along the edge from node `a` to node `b`: the stored
+/// gradients interpolated there, else the nearer node's, else the farther node's,
+/// whichever first faces the same side as `own`, the mesh's angle-weighted normal there;
+/// `own` if none does.
+///
+/// A stored gradient can face against the surface it is stored on: where a field's sign
+/// was decided by another rule than its distances (a point cloud's winding number
+/// overriding its MLS surface right beside it, `WindingSigned`), a node a hair outside the
+/// surface is signed inside, the zero set bulges around it by less than a hair, and the
+/// node's gradient still points to the surface it measured, into the bulge. Renderers
+/// shade such a vertex black (the reconstructed chameleon's crest showed a dark hexagon
+/// around every such node); a neighbouring node's gradient shades a bulge that small as
+/// the surface around it.
+fn gradient_normal(gradients: &[Vec4], (a, b, t): (u32, u32, f32), own: Vec3) -> Vec3 {
+    let at = |node: u32| {
+        let g = gradients[node as usize];
+        Vec3::new(g.y, g.z, g.w)
+    };
+    let (ga, gb) = (at(a), at(b));
+    let (near, far) = if t <= 0.5 { (ga, gb) } else { (gb, ga) };
+    [ga.lerp(gb, t), near, far]
+        .map(Vec3::normalize_or_zero)
+        .into_iter()
+        .find(|n| *n != Vec3::ZERO && n.dot(own) > 0.0)
+        .unwrap_or(own)
+}
+
 fn extract(grid: &Grid3<f32>, iso: f32, gradients: Option<&[Vec4]>) -> Result<TriMesh> {
     let values: Vec<f32> = grid
         .data()
@@ -216,10 +237,9 @@ fn extract(grid: &Grid3<f32>, iso: f32, gradients: Option<&[Vec4]>) -> Result<Tr
         grid_origin: grid.origin(),
         spacing: grid.spacing(),
         dims,
-        gradients,
         vertex_of_edge: HashMap::new(),
         positions: Vec::new(),
-        normal_choices: Vec::new(),
+        crossings: Vec::new(),
         triangles: Vec::new(),
     };
     for k in 0..nz.saturating_sub(1) {
@@ -240,34 +260,21 @@ fn extract(grid: &Grid3<f32>, iso: f32, gradients: Option<&[Vec4]>) -> Result<Tr
     }
     let Builder {
         positions,
-        normal_choices,
+        crossings,
         triangles,
         ..
     } = b;
     let points = PointSet::new(positions)?;
     let mut mesh = TriMesh::new(points, triangles)?;
     let own = mesh.vertex_normals(NormalWeighting::Angle);
-    // A stored gradient can face against the surface it is stored on: where a field's sign
-    // was decided by another rule than its distances (a point cloud's winding number
-    // overriding its MLS surface right beside it, `WindingSigned`), a node a hair outside
-    // the surface is signed inside, the zero set bulges around it by less than a hair, and
-    // the node's gradient still points to the surface it measured, into the bulge.
-    // Renderers shade such a vertex black (the reconstructed chameleon's crest showed a
-    // dark hexagon around every such node). So a vertex takes the first of its edge's
-    // interpolated gradient, its nearer node's and its farther node's that faces the same
-    // side as the mesh around it, and the mesh's own normal if none does: a bulge that
-    // small is shaded as the surface around it.
-    let normals: Vec<Vec3> = normal_choices
-        .iter()
-        .zip(own)
-        .map(|(choices, own)| {
-            choices
-                .iter()
-                .copied()
-                .find(|n| *n != Vec3::ZERO && n.dot(own) > 0.0)
-                .unwrap_or(own)
-        })
-        .collect();
+    let normals = match gradients {
+        Some(g) => crossings
+            .iter()
+            .zip(own)
+            .map(|(&crossing, own)| gradient_normal(g, crossing, own))
+            .collect(),
+        None => own,
+    };
     let (vertices, tris, _) = mesh.into_parts();
     mesh = TriMesh::new(vertices.with_normals(normals)?, tris)?;
     Ok(mesh)
