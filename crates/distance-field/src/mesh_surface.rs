@@ -16,7 +16,7 @@ use glam::Vec3;
 use pointset_core::{Aabb, BandAnswer, Surface, SurfacePoint, TriMesh};
 use rayon::prelude::*;
 
-use crate::bvh::{Bvh, Node};
+use crate::bvh::{Bvh, Node, NodeStack};
 use crate::error::{FieldError, Result};
 use crate::triangle::{Feature, closest_point};
 use crate::winding::{Dipole, triangle_solid_angle};
@@ -263,8 +263,7 @@ impl MeshSurface {
             f32::INFINITY
         };
         let mut best: Option<(usize, Vec3, Feature)> = None;
-        let mut stack: Vec<(usize, f32)> =
-            vec![(0, self.bvh.nodes[0].bounds().distance_squared(q))];
+        let mut stack = NodeStack::new((0, self.bvh.nodes[0].bounds().distance_squared(q)));
         while let Some((node, d2)) = stack.pop() {
             if d2 > best_d2 {
                 pruned_d2 = pruned_d2.min(d2);
