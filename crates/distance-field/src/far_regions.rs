@@ -21,6 +21,7 @@
 use std::collections::BTreeMap;
 
 use glam::Vec4;
+use rayon::prelude::*;
 
 /// Marks a node that belongs to no region (an answered node).
 const NO_REGION: u32 = u32::MAX;
@@ -114,81 +115,101 @@ fn flip_and_merge(regions: &mut [Region], r: usize) {
     regions[r].contacts = contacts;
 }
 
+/// A node's class for the labelling: answered or far, inside or outside.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Class {
+    far: bool,
+    inside: bool,
+}
+
+/// A run of far nodes of one class along x: nodes `start..end` of a row (x indices).
+#[derive(Clone, Copy)]
+struct Run {
+    start: usize,
+    end: usize,
+    class: Class,
+}
+
 /// Labels the 6-connected regions of far nodes of one sign and counts their faces with
-/// answered nodes and with one another: a union-find over the nodes, joining each far node
-/// to its lower neighbours along x, y and z of the same sign, then one pass over the node
-/// faces. Regions are numbered in the order of their first node. `None` when the grid has
-/// too many nodes to number.
+/// answered nodes and with one another. Each row's far nodes are taken as runs of one
+/// class; a union-find over the runs joins every run to the overlapping runs of its class
+/// in the row before it (along y) and in the layer before it (along z). Then one pass over
+/// the node faces, a layer at a time in parallel. Regions are numbered in the order of
+/// their first node (a union keeps the lower run, and runs are in node order). `None` when
+/// the grid has too many nodes to number.
 fn label_regions(
     data: &[Vec4],
     far: &[bool],
     [nx, ny, nz]: [usize; 3],
 ) -> Option<(Vec<u32>, Vec<Region>)> {
-    if data.len() >= NO_REGION as usize {
+    if data.len() >= NO_REGION as usize || data.len() != nx * ny * nz {
         return None;
     }
-    let inside = |n: usize| data[n].x < 0.0;
-    let joined = |n: usize, m: usize| far[m] && inside(m) == inside(n);
-    // Fewer nodes than `NO_REGION`, so every index fits.
-    let mut parent: Vec<u32> = (0..data.len() as u32).collect();
-    let (row, slice) = (nx, nx * ny);
-    for (n, [i, j, k]) in nodes([nx, ny, nz]) {
-        if !far[n] {
-            continue;
-        }
-        for (has, step) in [(i > 0, 1), (j > 0, row), (k > 0, slice)] {
-            if has && joined(n, n - step) {
-                union(&mut parent, n, n - step);
+    let class: Vec<Class> = data
+        .par_iter()
+        .zip(far)
+        .map(|(value, &far)| Class {
+            far,
+            inside: value.x < 0.0,
+        })
+        .collect();
+    let rows: Vec<Vec<Run>> = class.par_chunks(nx).map(runs_of_row).collect();
+    // `first[r]..first[r + 1]` are row r's runs in `runs`; fewer runs than nodes.
+    let mut first = Vec::with_capacity(rows.len() + 1);
+    first.push(0);
+    for row in &rows {
+        first.push(first.last().copied().unwrap_or(0) + row.len());
+    }
+    let runs: Vec<Run> = rows.into_iter().flatten().collect();
+    let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
+    let row_runs = |r: usize| first[r]..first[r + 1];
+    for r in 0..ny * nz {
+        let (j, k) = (r % ny, r / ny);
+        for (has, before) in [(j > 0, r.wrapping_sub(1)), (k > 0, r.wrapping_sub(ny))] {
+            if has {
+                join_overlapping(&mut parent, &runs, row_runs(r), row_runs(before));
             }
         }
     }
-    // Number the roots in order and label every far node with its root's number, in
-    // place: a parent lies before its child (a union keeps the lower root, a halving
-    // points to a grandparent), so it is already relabelled when the child comes.
-    let mut labels = parent;
+    // Number the roots in order and label every run with its root's number, in place: a
+    // parent lies before its child (a union keeps the lower root, a halving points to a
+    // grandparent), so it is already relabelled when the child comes.
+    let mut run_labels = parent;
     let mut regions: Vec<Region> = Vec::new();
-    for n in 0..data.len() {
-        labels[n] = if !far[n] {
-            NO_REGION
-        } else if labels[n] as usize == n {
-            let id = regions.len() as u32;
+    for (id, run) in runs.iter().enumerate() {
+        run_labels[id] = if run_labels[id] as usize == id {
+            let number = regions.len() as u32;
             regions.push(Region {
-                inside: inside(n),
+                inside: run.class.inside,
                 support: 0,
                 answered_conflict: 0,
                 contacts: BTreeMap::new(),
-                merged_into: id,
+                merged_into: number,
             });
-            id
+            number
         } else {
-            labels[labels[n] as usize]
+            run_labels[run_labels[id] as usize]
         };
     }
-    let mut between = Vec::new();
-    for (n, [i, j, k]) in nodes([nx, ny, nz]) {
-        for (has, step) in [(i + 1 < nx, 1), (j + 1 < ny, row), (k + 1 < nz, slice)] {
-            let m = n + step;
-            if !has || !(far[n] || far[m]) {
-                continue;
-            }
-            let same_sign = inside(n) == inside(m);
-            match (far[n], far[m]) {
-                (true, true) if !same_sign => {
-                    between.push((labels[n].min(labels[m]), labels[n].max(labels[m])));
-                }
-                (true, true) => {}
-                (true, false) | (false, true) => {
-                    let region = &mut regions[labels[if far[n] { n } else { m }] as usize];
-                    if same_sign {
-                        region.support += 1;
-                    } else {
-                        region.answered_conflict += 1;
-                    }
-                }
-                (false, false) => {}
-            }
+    let mut labels = vec![NO_REGION; data.len()];
+    labels.par_chunks_mut(nx).enumerate().for_each(|(r, row)| {
+        for id in row_runs(r) {
+            row[runs[id].start..runs[id].end].fill(run_labels[id]);
+        }
+    });
+    let faces = (0..nz)
+        .into_par_iter()
+        .map(|k| layer_faces(&class, &labels, [nx, ny, nz], k))
+        .reduce(LayerFaces::default, LayerFaces::join);
+    for (label, same_sign) in faces.with_answered {
+        let region = &mut regions[label as usize];
+        if same_sign {
+            region.support += 1;
+        } else {
+            region.answered_conflict += 1;
         }
     }
+    let mut between = faces.between;
     between.sort_unstable();
     for pair in between.chunk_by(|a, b| a == b) {
         let (a, b) = pair[0];
@@ -199,11 +220,91 @@ fn label_regions(
     Some((labels, regions))
 }
 
-/// Every node of a grid of `dims` nodes with its index and coordinates, x fastest.
-fn nodes([nx, ny, nz]: [usize; 3]) -> impl Iterator<Item = (usize, [usize; 3])> {
-    (0..nz)
-        .flat_map(move |k| (0..ny).flat_map(move |j| (0..nx).map(move |i| [i, j, k])))
-        .enumerate()
+/// The runs of far nodes of one class in a row of node classes.
+fn runs_of_row(row: &[Class]) -> Vec<Run> {
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for piece in row.chunk_by(|a, b| a == b) {
+        let end = start + piece.len();
+        if piece[0].far {
+            runs.push(Run {
+                start,
+                end,
+                class: piece[0],
+            });
+        }
+        start = end;
+    }
+    runs
+}
+
+/// Joins each run of `here` to the runs of `before` (another row's, in `runs`) that
+/// overlap it in x and have its class.
+fn join_overlapping(
+    parent: &mut [u32],
+    runs: &[Run],
+    here: std::ops::Range<usize>,
+    before: std::ops::Range<usize>,
+) {
+    let (mut a, mut b) = (here.start, before.start);
+    while a < here.end && b < before.end {
+        let (x, y) = (runs[a], runs[b]);
+        if x.class == y.class && x.start < y.end && y.start < x.end {
+            union(parent, a, b);
+        }
+        if x.end <= y.end {
+            a += 1;
+        } else {
+            b += 1;
+        }
+    }
+}
+
+/// The node faces of one layer's nodes with their neighbours after them along x, y and z
+/// that involve a far node: faces with answered nodes (the far node's region, and whether
+/// the signs agree), and faces between far nodes of different signs (the two regions,
+/// lower first).
+#[derive(Default)]
+struct LayerFaces {
+    with_answered: Vec<(u32, bool)>,
+    between: Vec<(u32, u32)>,
+}
+
+impl LayerFaces {
+    /// Both layers' faces.
+    fn join(mut self, mut other: Self) -> Self {
+        self.with_answered.append(&mut other.with_answered);
+        self.between.append(&mut other.between);
+        self
+    }
+}
+
+/// [`LayerFaces`] of layer `k`.
+fn layer_faces(class: &[Class], labels: &[u32], [nx, ny, nz]: [usize; 3], k: usize) -> LayerFaces {
+    let mut faces = LayerFaces::default();
+    let (row, slice) = (nx, nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            let n = i + row * j + slice * k;
+            for (has, step) in [(i + 1 < nx, 1), (j + 1 < ny, row), (k + 1 < nz, slice)] {
+                let m = n + step;
+                if !has || !(class[n].far || class[m].far) {
+                    continue;
+                }
+                let same_sign = class[n].inside == class[m].inside;
+                match (class[n].far, class[m].far) {
+                    (true, true) if !same_sign => {
+                        let (x, y) = (labels[n], labels[m]);
+                        faces.between.push((x.min(y), x.max(y)));
+                    }
+                    (true, false) => faces.with_answered.push((labels[n], same_sign)),
+                    (false, true) => faces.with_answered.push((labels[m], same_sign)),
+                    _ => {}
+                }
+            }
+        }
+    }
+    faces
 }
 
 /// The root of node `n`'s set, halving the path on the way.
@@ -285,6 +386,80 @@ mod tests {
             let (_, regions) = label_regions(&data, &far, dims).unwrap();
             for (r, region) in regions.iter().enumerate() {
                 prop_assert!(region.excess() <= 0, "region {} keeps an excess of {}", r, region.excess());
+            }
+        }
+    }
+
+    /// The regions of `data` found one node at a time: a flood fill from each far node
+    /// not yet labelled, in node order, then every node face counted.
+    fn regions_by_flood_fill(
+        data: &[Vec4],
+        far: &[bool],
+        dims: [usize; 3],
+    ) -> (Vec<u32>, Vec<Region>) {
+        let inside = |n: usize| data[n].x < 0.0;
+        let mut labels = vec![NO_REGION; data.len()];
+        let mut regions = Vec::new();
+        for seed in 0..data.len() {
+            if !far[seed] || labels[seed] != NO_REGION {
+                continue;
+            }
+            let id = regions.len() as u32;
+            regions.push(Region {
+                inside: inside(seed),
+                support: 0,
+                answered_conflict: 0,
+                contacts: BTreeMap::new(),
+                merged_into: id,
+            });
+            labels[seed] = id;
+            let mut pending = vec![seed];
+            while let Some(n) = pending.pop() {
+                for m in six_neighbours(n, dims).into_iter().flatten() {
+                    if far[m] && labels[m] == NO_REGION && inside(m) == inside(n) {
+                        labels[m] = id;
+                        pending.push(m);
+                    }
+                }
+            }
+        }
+        for n in 0..data.len() {
+            for m in six_neighbours(n, dims).into_iter().flatten() {
+                if !far[n] {
+                    continue;
+                }
+                let region = &mut regions[labels[n] as usize];
+                match (far[m], inside(m) == inside(n)) {
+                    (false, true) => region.support += 1,
+                    (false, false) => region.answered_conflict += 1,
+                    (true, false) => *region.contacts.entry(labels[m]).or_insert(0) += 1,
+                    (true, true) => {}
+                }
+            }
+        }
+        (labels, regions)
+    }
+
+    proptest! {
+        /// The runs' union-find and the layers' face counts give the labels, signs and
+        /// counts of a flood fill node by node.
+        #[test]
+        fn regions_by_runs_are_those_of_a_flood_fill(
+            (dims, cells) in (1usize..8, 1usize..8, 1usize..6).prop_flat_map(|(x, y, z)| {
+                (Just([x, y, z]), proptest::collection::vec(0u8..4, x * y * z))
+            })
+        ) {
+            let (data, far) = grid(&cells);
+            let (labels, regions) = label_regions(&data, &far, dims).unwrap();
+            let (expected_labels, expected) = regions_by_flood_fill(&data, &far, dims);
+            prop_assert_eq!(labels, expected_labels);
+            prop_assert_eq!(regions.len(), expected.len());
+            for (region, expected) in regions.iter().zip(expected) {
+                prop_assert_eq!(region.inside, expected.inside);
+                prop_assert_eq!(region.support, expected.support);
+                prop_assert_eq!(region.answered_conflict, expected.answered_conflict);
+                prop_assert_eq!(&region.contacts, &expected.contacts);
+                prop_assert_eq!(region.merged_into, expected.merged_into);
             }
         }
     }

@@ -24,6 +24,7 @@ use pointset_core::Surface;
 use rayon::prelude::*;
 
 use crate::far_regions::flip_unsupported_regions;
+use crate::far_waves::FarWaves;
 use crate::sdf::GridSpec;
 
 /// A node whose distance is not known yet (farther than the band).
@@ -74,8 +75,8 @@ pub(crate) fn fill_far_signs(
     }
     match rule {
         FarSigns::Nearest => {
-            let far: Vec<bool> = data.iter().map(|v| v.x == UNKNOWN).collect();
-            sign_by_nearest(data, spec.dims, band);
+            let far: Vec<bool> = data.par_iter().map(|v| v.x == UNKNOWN).collect();
+            sign_by_nearest(data, &far, spec.dims, band);
             flip_unsupported_regions(data, &far, spec.dims);
         }
         FarSigns::RegionVote => sign_by_region(data, spec.dims, band),
@@ -83,16 +84,60 @@ pub(crate) fn fill_far_signs(
     0
 }
 
-/// [`FarSigns::Nearest`]: waves of a breadth-first search from every known node. A node
-/// reached in a wave votes with its 26 neighbours signed in earlier waves; the nodes of its
-/// own wave are still unknown when the votes are counted, so the order in which a wave is
-/// visited does not matter.
-fn sign_by_nearest(data: &mut [Vec4], dims: [usize; 3], band: f32) {
-    // The votes are counted on one byte a node, not on the 16-byte values: the search
-    // reads 26 neighbours a node, and the grid is mostly far nodes.
-    let mut votes: Vec<i8> = data.iter().map(|v| sign_vote(v.x) as i8).collect();
-    let mut reached: Vec<bool> = data.iter().map(|v| v.x != UNKNOWN).collect();
-    let mut wave: Vec<usize> = (0..data.len()).filter(|&n| reached[n]).collect();
+/// [`FarSigns::Nearest`]: the far nodes (`far`) in waves of a breadth-first search from
+/// every known node. A node reached in a wave votes with its 26 neighbours signed in
+/// earlier waves; the nodes of its own wave are still unknown when the votes are counted,
+/// so the order in which a wave is visited does not matter. The waves come from
+/// [`FarWaves`] (a distance transform), or for grids too large for it from the search
+/// itself; both give the same signs.
+fn sign_by_nearest(data: &mut [Vec4], far: &[bool], dims: [usize; 3], band: f32) {
+    // The votes are counted on one byte a node, not on the 16-byte values: each node reads
+    // 26 neighbours, and the grid is mostly far nodes.
+    let mut votes: Vec<i8> = data.par_iter().map(|v| sign_vote(v.x) as i8).collect();
+    match FarWaves::new(far, dims) {
+        Some(waves) => {
+            for wave in waves.waves() {
+                vote_wave(&mut votes, wave, |n| n as usize, dims);
+            }
+        }
+        None => vote_by_search(&mut votes, far, dims),
+    }
+    data.par_iter_mut()
+        .zip(votes.par_iter().zip(far))
+        .for_each(|(value, (&sign, &far))| {
+            if far {
+                *value = Vec4::new(f32::from(sign) * band, 0.0, 0.0, 0.0);
+            }
+        });
+}
+
+/// Gives the nodes of one wave (`wave`, read as node numbers by `node`) the sign of their
+/// 26 neighbours' `votes` (a tie counts as outside), counted before any of them is signed.
+fn vote_wave<T: Copy + Sync>(
+    votes: &mut [i8],
+    wave: &[T],
+    node: impl Fn(T) -> usize + Sync,
+    dims: [usize; 3],
+) {
+    let signs: Vec<i8> = wave
+        .par_iter()
+        .map(|&m| {
+            if vote_around(votes, node(m), dims) < 0 {
+                -1
+            } else {
+                1
+            }
+        })
+        .collect();
+    for (&m, sign) in wave.iter().zip(signs) {
+        votes[node(m)] = sign;
+    }
+}
+
+/// The waves found by the breadth-first search itself, one node at a time.
+fn vote_by_search(votes: &mut [i8], far: &[bool], dims: [usize; 3]) {
+    let mut reached: Vec<bool> = far.iter().map(|&f| !f).collect();
+    let mut wave: Vec<usize> = (0..far.len()).filter(|&n| reached[n]).collect();
     while !wave.is_empty() {
         let mut next = Vec::new();
         for &n in &wave {
@@ -103,17 +148,7 @@ fn sign_by_nearest(data: &mut [Vec4], dims: [usize; 3], band: f32) {
                 }
             }
         }
-        let signs: Vec<i8> = next
-            .par_iter()
-            .map(|&m| {
-                let vote: i32 = neighbourhood(m, dims).map(|o| i32::from(votes[o])).sum();
-                if vote < 0 { -1 } else { 1 }
-            })
-            .collect();
-        for (&m, sign) in next.iter().zip(signs) {
-            votes[m] = sign;
-            data[m] = Vec4::new(f32::from(sign) * band, 0.0, 0.0, 0.0);
-        }
+        vote_wave(votes, &next, |n| n, dims);
         wave = next;
     }
 }
@@ -175,17 +210,23 @@ pub(crate) fn six_neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> [Option<usiz
     ]
 }
 
-/// The up to 26 nodes around node `n` (the 3 × 3 × 3 block without its centre).
-fn neighbourhood(n: usize, [nx, ny, nz]: [usize; 3]) -> impl Iterator<Item = usize> {
+/// The sum of `votes` over the up to 26 nodes around node `n` (the 3 × 3 × 3 block
+/// without its centre) of a grid of `dims` nodes (x fastest): nine runs of up to three
+/// consecutive nodes, summed from the slices.
+fn vote_around(votes: &[i8], n: usize, [nx, ny, nz]: [usize; 3]) -> i32 {
     let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
     let span = |c: usize, len: usize| c.saturating_sub(1)..=(c + 1).min(len - 1);
-    span(k, nz).flat_map(move |c| {
-        span(j, ny).flat_map(move |b| {
-            span(i, nx)
-                .filter(move |&a| (a, b, c) != (i, j, k))
-                .map(move |a| a + nx * (b + ny * c))
-        })
-    })
+    let (first, last) = (i.saturating_sub(1), (i + 1).min(nx - 1));
+    let mut sum = 0;
+    for c in span(k, nz) {
+        for b in span(j, ny) {
+            let row = nx * (b + ny * c);
+            if let Some(run) = votes.get(row + first..=row + last) {
+                sum += run.iter().map(|&v| i32::from(v)).sum::<i32>();
+            }
+        }
+    }
+    sum - votes.get(n).map_or(0, |&v| i32::from(v))
 }
 
 #[cfg(test)]
@@ -195,6 +236,59 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
+
+    proptest::proptest! {
+        /// The sliced sum agrees with the votes of the 26 neighbours counted one by one,
+        /// on grids down to one node wide, at corners, edges and faces.
+        #[test]
+        fn votes_around_a_node_are_its_26_neighbours_votes(
+            dims in [1usize..5, 1usize..5, 1usize..5],
+            seed in 0u64..1000,
+            node in 0usize..64,
+        ) {
+            let [nx, ny, nz] = dims;
+            let count = nx * ny * nz;
+            let votes: Vec<i8> = (0..count)
+                .map(|n| ((n as u64 * 2654435761 + seed) % 3) as i8 - 1)
+                .collect();
+            let n = node % count;
+            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+            let mut expected = 0;
+            for (a, b, c) in (0..nx).flat_map(|a| {
+                (0..ny).flat_map(move |b| (0..nz).map(move |c| (a, b, c)))
+            }) {
+                let near = a.abs_diff(i) <= 1 && b.abs_diff(j) <= 1 && c.abs_diff(k) <= 1;
+                if near && (a, b, c) != (i, j, k) {
+                    expected += i32::from(votes[a + nx * (b + ny * c)]);
+                }
+            }
+            proptest::prop_assert_eq!(vote_around(&votes, n, dims), expected);
+        }
+
+        /// The waves of the distance transform sign every far node as the breadth-first
+        /// search does, whatever the answered nodes and their signs (zeros among them).
+        #[test]
+        fn the_transform_waves_sign_as_the_search_does(
+            dims in [1usize..9, 1usize..9, 1usize..9],
+            answered in proptest::collection::vec((0usize..512, -1i8..=1), 1..12),
+        ) {
+            let count = dims[0] * dims[1] * dims[2];
+            let mut votes = vec![0i8; count];
+            let mut far = vec![true; count];
+            for (n, vote) in answered {
+                votes[n % count] = vote;
+                far[n % count] = false;
+            }
+            let mut searched = votes.clone();
+            vote_by_search(&mut searched, &far, dims);
+            let waves = FarWaves::new(&far, dims);
+            proptest::prop_assert!(waves.is_some());
+            for wave in waves.iter().flat_map(FarWaves::waves) {
+                vote_wave(&mut votes, wave, |n| n as usize, dims);
+            }
+            proptest::prop_assert_eq!(votes, searched);
+        }
+    }
 
     /// A surface that answers nothing: the fill must rely on the known nodes.
     struct Silent;

@@ -74,6 +74,7 @@ mod bvh;
 mod error;
 mod far_regions;
 pub mod far_signs;
+mod far_waves;
 mod iso;
 mod mesh_surface;
 pub mod nrrd;
