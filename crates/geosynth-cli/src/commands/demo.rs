@@ -349,16 +349,25 @@ pub fn run(args: &DemoArgs, globals: Globals) -> CliResult {
     status(
         globals,
         format!(
-            "demo: {} fixtures rendered, {} reconstructions, {} quilts, {} height maps, {} synthesized solids; results, previews and report in {}",
-            report.fixtures.len(),
-            report.reconstructions.len(),
-            report.quilts.len(),
-            report.terrain.len(),
-            report.volumes.len(),
+            "demo: {} rendered, {}, {}, {}, {} synthesized; results, previews and report in {}",
+            counted(report.fixtures.len(), "fixture"),
+            counted(report.reconstructions.len(), "reconstruction"),
+            counted(report.quilts.len(), "quilt"),
+            counted(report.terrain.len(), "height map"),
+            counted(report.volumes.len(), "solid"),
             args.out.display()
         ),
     );
     Ok(())
+}
+
+/// `count` and `noun`, in the plural unless one.
+fn counted(count: usize, noun: &str) -> String {
+    if count == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{count} {noun}s")
+    }
 }
 
 fn write_reports(report: &Report, out: &Path) -> CliResult {
@@ -741,4 +750,16 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
         });
     }
     Ok(entries)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::counted;
+
+    #[test]
+    fn the_summary_names_one_in_the_singular_and_others_in_the_plural() {
+        assert_eq!(counted(1, "height map"), "1 height map");
+        assert_eq!(counted(0, "quilt"), "0 quilts");
+        assert_eq!(counted(5, "solid"), "5 solids");
+    }
 }
