@@ -7,65 +7,111 @@ use rayon::prelude::*;
 use crate::error::{FieldError, Result, positive};
 use crate::far_signs::{FarSigns, UNKNOWN, fill_far_signs};
 
-/// Most nodes per side of the square blocks (in x and y) whose queries are asked through
-/// one [`Surface::prepared_near`] preparation.
+/// Most nodes per side of the cubic blocks whose queries are asked through one
+/// [`Surface::prepared_near`] preparation.
 const MAX_BLOCK: usize = 8;
 
 /// Blocks of fewer nodes per side than this are not prepared: too few queries share it.
 const MIN_BLOCK: usize = 3;
 
-/// Layers (nodes of one `k`) [`SdfGrid::from_surface_in`] samples between two progress
-/// reports and checks for cancellation: their block rows keep every worker busy (four
-/// layers of a 96-node grid are 48 of them), and the workers wait for each other only
-/// once per four layers.
+/// Layers (nodes of one `k`) [`SdfGrid::from_surface_in`] samples at least between two
+/// progress reports and checks for cancellation (rounded up to whole blocks): their block
+/// rows keep every worker busy, and the workers wait for each other only once per group.
 const LAYERS_PER_REPORT: usize = 4;
 
 /// The stage name [`SdfGrid::from_surface_in`] reports progress under.
 pub const SAMPLING_STAGE: &str = "distance field";
 
-/// Nodes per side of the blocks that share one preparation of `surface` on a grid of
-/// `spacing`: as many as its [`Surface::preparation_reach`] (half a block's diagonal)
-/// spans, at most [`MAX_BLOCK`]; `None` when that is fewer than [`MIN_BLOCK`] or the
-/// surface gains nothing from preparing.
-fn prepared_block(surface: &(impl Surface + ?Sized), spacing: f32) -> Option<usize> {
+/// How the grid is cut into blocks sharing one preparation of `surface` on a grid of
+/// `spacing`: cubes of as many nodes a side as its [`Surface::preparation_reach`] (half a
+/// block's diagonal) spans, at most [`MAX_BLOCK`]; squares of one layer where a cube
+/// would have fewer than [`MIN_BLOCK`] a side (a square's diagonal is shorter, so it can
+/// be wider) and a square has enough; `None` when neither has, or the surface gains
+/// nothing from preparing. Cubes where they fit: a preparation gathers the samples in a
+/// ball reaching a few support radii past the block, and a layer's square shared that
+/// ball with no other layer, so each sample was gathered again for every layer within
+/// the ball's reach.
+fn prepared_blocks(surface: &(impl Surface + ?Sized), spacing: f32) -> Option<Blocks> {
     let reach = surface.preparation_reach()?;
-    // Node intervals along a side; a NaN or negative ratio gives 0, an infinite one the
-    // largest count (`as` saturates).
-    let intervals = (2.0 * reach / (spacing * std::f32::consts::SQRT_2)).floor() as usize;
-    let side = intervals.saturating_add(1).min(MAX_BLOCK);
-    (side >= MIN_BLOCK).then_some(side)
+    // Nodes along a side of a block whose diagonal spans `diagonal` spacings a side; a
+    // NaN or negative ratio gives 1, an infinite one the most (`as` saturates).
+    let side = |diagonal: f32| {
+        let intervals = (2.0 * reach / (spacing * diagonal)).floor() as usize;
+        intervals.saturating_add(1).min(MAX_BLOCK)
+    };
+    let (cube, square) = (side(3.0f32.sqrt()), side(2.0f32.sqrt()));
+    if cube >= MIN_BLOCK {
+        Some(Blocks {
+            side: cube,
+            depth: cube,
+            prepare: true,
+        })
+    } else {
+        (square >= MIN_BLOCK).then_some(Blocks {
+            side: square,
+            depth: 1,
+            prepare: true,
+        })
+    }
 }
 
 /// What [`Surface::prepared_near`] gave for each block of a row of blocks, `None` for a
 /// block not asked yet.
 type Prepared<'s> = Vec<Option<Option<Box<dyn Surface + 's>>>>;
 
-/// Samples the rows `block_row · side ..` of layer `k` (`rows`, up to `side` of them),
-/// each block of `side` × `side` nodes through one preparation of the surface, made when
-/// the block's first node is asked; `prepare` says whether to prepare at all.
+/// How the grid is cut into blocks: `side` nodes a side in x and y, `depth` layers,
+/// `prepare` whether each block's queries share a preparation of the surface.
+#[derive(Clone, Copy)]
+struct Blocks {
+    side: usize,
+    depth: usize,
+    prepare: bool,
+}
+
+/// Samples the rows `block_row · side ..` (up to `side` of them) of the layers from `k0`
+/// (`layers`, up to `depth` of them, each the rows of one layer), each block of
+/// `side` × `side` × `depth` nodes through one preparation of the surface, made when the
+/// block's first node is asked.
 fn sample_block_row<'s, S: Surface + ?Sized>(
     surface: &'s S,
     spec: &GridSpec,
     band: f32,
-    (side, prepare): (usize, bool),
-    (block_row, k): (usize, usize),
-    rows: &mut [Vec4],
+    blocks: Blocks,
+    (block_row, k0): (usize, usize),
+    layers: Vec<&mut [Vec4]>,
 ) {
-    let [nx, ny, _] = spec.dims;
+    let [nx, ny, nz] = spec.dims;
+    let side = blocks.side;
     let mut prepared: Prepared<'s> = (0..nx.div_ceil(side)).map(|_| None).collect();
     let preparation = |block: usize| {
-        if !prepare {
+        if !blocks.prepare {
             return None;
         }
-        let lo = [block * side, block_row * side];
-        let hi = [(lo[0] + side).min(nx) - 1, (lo[1] + side).min(ny) - 1];
-        let (a, b) = (spec.node(lo[0], lo[1], k), spec.node(hi[0], hi[1], k));
+        let lo = [block * side, block_row * side, k0];
+        let hi = [
+            (lo[0] + side).min(nx) - 1,
+            (lo[1] + side).min(ny) - 1,
+            (k0 + blocks.depth).min(nz) - 1,
+        ];
+        let (a, b) = (
+            spec.node(lo[0], lo[1], lo[2]),
+            spec.node(hi[0], hi[1], hi[2]),
+        );
         surface.prepared_near(0.5 * (a + b), 0.5 * a.distance(b))
     };
-    for (dj, out) in rows.chunks_mut(nx).enumerate() {
-        let j = block_row * side + dj;
-        let blocks = (side, &mut prepared);
-        sample_row(surface, spec, band, (j, k), out, blocks, &preparation);
+    for (dk, rows) in layers.into_iter().enumerate() {
+        for (dj, out) in rows.chunks_mut(nx).enumerate() {
+            let at = (block_row * side + dj, k0 + dk);
+            sample_row(
+                surface,
+                spec,
+                band,
+                at,
+                out,
+                (side, &mut prepared),
+                &preparation,
+            );
+        }
     }
 }
 
@@ -289,26 +335,41 @@ impl SdfGrid {
         let grid = Grid3::new(spec.dims, spec.origin, spec.spacing, Vec4::ZERO)?;
         let [nx, ny, nz] = spec.dims;
         let mut data = grid.into_data();
-        // Square blocks of nodes in x and y share one preparation of the surface (when it
-        // gains from one), and are sampled in parallel, a few layers at a time.
-        let block = prepared_block(surface, spec.spacing);
-        let blocks = (block.unwrap_or(MAX_BLOCK), block.is_some());
+        // Blocks of nodes share one preparation of the surface (when it gains from one),
+        // and are sampled in parallel, a few layers at a time.
+        let blocks = prepared_blocks(surface, spec.spacing).unwrap_or(Blocks {
+            side: MAX_BLOCK,
+            depth: 1,
+            prepare: false,
+        });
+        let group_layers = LAYERS_PER_REPORT.div_ceil(blocks.depth) * blocks.depth;
         ctx.report(SAMPLING_STAGE, 0, Some(nz as u64));
-        for (group, layers) in data.chunks_mut(nx * ny * LAYERS_PER_REPORT).enumerate() {
+        for (group, layers) in data.chunks_mut(nx * ny * group_layers).enumerate() {
             ctx.check_cancelled()?;
-            let first = group * LAYERS_PER_REPORT;
-            layers
-                .par_chunks_mut(nx * ny)
-                .enumerate()
-                .for_each(|(dk, layer)| {
-                    layer.par_chunks_mut(nx * blocks.0).enumerate().for_each(
-                        |(block_row, rows)| {
-                            let at = (block_row, first + dk);
-                            sample_block_row(surface, spec, band, blocks, at, rows);
-                        },
-                    );
-                });
-            let done = (first + LAYERS_PER_REPORT).min(nz);
+            let first = group * group_layers;
+            // Each task: one row of blocks through the layers of one block depth.
+            let mut tasks = Vec::new();
+            for (slab, slab_layers) in layers.chunks_mut(nx * ny * blocks.depth).enumerate() {
+                let mut block_rows: Vec<Vec<&mut [Vec4]>> = (0..ny.div_ceil(blocks.side))
+                    .map(|_| Vec::with_capacity(blocks.depth))
+                    .collect();
+                for layer in slab_layers.chunks_mut(nx * ny) {
+                    for (rows, task) in layer.chunks_mut(nx * blocks.side).zip(&mut block_rows) {
+                        task.push(rows);
+                    }
+                }
+                let k0 = first + slab * blocks.depth;
+                tasks.extend(
+                    block_rows
+                        .into_iter()
+                        .enumerate()
+                        .map(|(block_row, rows)| ((block_row, k0), rows)),
+                );
+            }
+            tasks.into_par_iter().for_each(|(at, rows)| {
+                sample_block_row(surface, spec, band, blocks, at, rows);
+            });
+            let done = (first + group_layers).min(nz);
             ctx.report(SAMPLING_STAGE, done as u64, Some(nz as u64));
         }
         let far = data.iter().filter(|v| v.x == UNKNOWN).count();

@@ -50,7 +50,7 @@ const REGION_SLACK: f32 = 1e-4;
 /// Largest reach, in support radii, that a surface is prepared for: the gathered samples
 /// then lie within 3.5 support radii of the centre, about five times the area of one
 /// query's gathering ball on a sheet. At 2 the quality measure's fine field (nodes a
-/// quarter support apart) is prepared in whole 8 × 8 blocks; the value was not tuned
+/// quarter support apart) is prepared in whole 8 × 8 × 8 blocks; the value was not tuned
 /// beyond that (1, with runs of 8 nodes along a row, gained less: docs/performance.md).
 const PREPARED_MAX_REACH: f32 = 2.0;
 
