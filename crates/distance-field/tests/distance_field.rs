@@ -448,7 +448,8 @@ fn grids_asked_through_prepared_blocks_are_the_grids_asked_node_by_node() {
     ] {
         let mls = MlsSurface::new(&points, &params).unwrap();
         let reach = mls.preparation_reach().unwrap();
-        // Blocks of 8, 5 and 3 nodes a side, and none (too coarse to prepare).
+        // Cubes of 8 and 4 nodes a side, squares of 3 (a cube would be 2), and none (too
+        // coarse to prepare).
         for spacing in [0.1 * reach, 0.35 * reach, 0.7 * reach, 2.0 * reach] {
             let spec = GridSpec {
                 dims: ((bounds.max - bounds.min) / spacing)
