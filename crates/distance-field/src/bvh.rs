@@ -194,8 +194,8 @@ impl Bvh {
 /// How many entries a [`NodeStack`] holds in place. A median split leaves at most half
 /// (rounded up) of a node's items to each child, so a hierarchy over `n` items is at most
 /// ⌈log₂ n⌉ + 1 levels deep, and a depth-first search that pushes both children of the
-/// node it takes holds at most one entry a level more than that: 64 entries cover any
-/// hierarchy that fits in memory.
+/// node it takes holds at most one entry a level more than that: 66 entries cover a
+/// hierarchy over as many items as a `usize` counts.
 const INLINE_ENTRIES: usize = 66;
 
 /// The nodes a depth-first search of the hierarchy still has to visit (last in, first
