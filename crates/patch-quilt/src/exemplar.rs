@@ -6,7 +6,7 @@ use mls_surface::{MlsParams, MlsSurface, surface_variation};
 use pointset_core::{Aabb, BucketGrid, Surface};
 
 use crate::error::{QuiltError, Result};
-use crate::params::{Method, QuiltParams, WarpTargets};
+use crate::params::{FIELD_RESOLUTIONS, Method, QuiltParams, WarpTargets};
 use crate::texture::GeometryTexture;
 use crate::warp::foot_offsets;
 
@@ -156,6 +156,64 @@ pub const MIN_PATCH_SPACINGS: usize = 3;
 /// far taller than wide, which would otherwise ask for absurd grids.
 pub const MAX_FIELD_NODES: usize = 1 << 27;
 
+/// The error for a patch under [`MIN_PATCH_SPACINGS`] field spacings (`spacings`), with
+/// the remedies that reach the minimum: the smallest `patch_size` at this resolution, the
+/// smallest `field_resolution` for this patch, each named only where it is in range (a box
+/// far longer than wide may need a patch wider than the box at 48 nodes); failing both, the
+/// smallest `patch_size` at the finest field, and failing that a squarer box. `aspect` is
+/// the box's shorter side over its longer.
+fn too_narrow_patch(params: &QuiltParams, aspect: f32, spacings: f32) -> QuiltError {
+    // Patches round to whole spacings: the minimum is reached from `MIN − ½` on.
+    let needed = MIN_PATCH_SPACINGS as f32 - 0.5;
+    let resolution = params.field_resolution;
+    let mut remedies = Vec::new();
+    let smallest_patch = needed / (aspect * (resolution - 1) as f32);
+    if smallest_patch <= 1.0 {
+        remedies.push(format!(
+            "patch_size ≥ {smallest_patch:.3} at field_resolution {resolution}"
+        ));
+    }
+    let smallest_resolution = (needed / (params.patch_size * aspect)).ceil() + 1.0;
+    if smallest_resolution <= *FIELD_RESOLUTIONS.end() as f32 {
+        remedies.push(format!(
+            "field_resolution ≥ {smallest_resolution} for this patch_size"
+        ));
+    }
+    if remedies.is_empty() {
+        let finest = *FIELD_RESOLUTIONS.end();
+        let at_finest = needed / (aspect * (finest - 1) as f32);
+        remedies.push(if at_finest <= 1.0 {
+            format!("patch_size ≥ {at_finest:.3} with field_resolution {finest}")
+        } else {
+            format!(
+                "a squarer box: this one's shorter side is {} of its longer, and a patch as \
+                 wide as the box spans {MIN_PATCH_SPACINGS} spacings even at field_resolution \
+                 {finest} only from {} on",
+                significant(aspect),
+                significant(needed / (finest - 1) as f32)
+            )
+        });
+    }
+    QuiltError::InvalidParameter {
+        name: "patch_size",
+        value: params.patch_size.to_string(),
+        expected: format!(
+            "a patch at least {MIN_PATCH_SPACINGS} field spacings wide (this one is {}): {}",
+            significant(spacings),
+            remedies.join(", or ")
+        ),
+    }
+}
+
+/// `x` to a tenth, or with two significant digits below a tenth (`1.9e-3`, not `0.0`).
+fn significant(x: f32) -> String {
+    if x == 0.0 || x.abs() >= 0.1 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.1e}")
+    }
+}
+
 impl ExemplarFrame {
     /// The frame of `texture` for `params` (its field resolution and patch proportions).
     /// Errors: no normals, a surface that cannot be built, a patch larger than the box, or
@@ -199,18 +257,11 @@ impl ExemplarFrame {
         let patch_spacings = params.patch_size * ext.x.min(ext.y) / spacing;
         let patch_nodes = patch_spacings.round() as usize;
         if patch_nodes < MIN_PATCH_SPACINGS {
-            // The smallest fraction that rounds to the minimum.
-            let smallest = (MIN_PATCH_SPACINGS as f32 - 0.5) * spacing / ext.x.min(ext.y);
-            return Err(QuiltError::InvalidParameter {
-                name: "patch_size",
-                value: params.patch_size.to_string(),
-                expected: format!(
-                    "a patch at least {MIN_PATCH_SPACINGS} field spacings wide (this one is \
-                     {patch_spacings:.1}): patch_size ≥ {smallest:.3} at field_resolution {}, or \
-                     a finer field",
-                    params.field_resolution
-                ),
-            });
+            return Err(too_narrow_patch(
+                params,
+                ext.x.min(ext.y) / ext.x.max(ext.y),
+                patch_spacings,
+            ));
         }
         let overlap_nodes =
             ((params.overlap * patch_nodes as f32).round() as usize).clamp(1, patch_nodes / 2);

@@ -16,6 +16,10 @@ pub const MAX_RELAXATION_ROUNDS: usize = 100;
 /// pairs. The paper asks for "a few"; the default is 4.
 pub const MAX_ANCHORS_PER_CORNER: usize = 1024;
 
+/// The `field_resolution`s [`QuiltParams::validate`] accepts: nodes of `D(T_in)` along the
+/// box's longer side.
+pub const FIELD_RESOLUTIONS: std::ops::RangeInclusive<usize> = 8..=512;
+
 /// Which parts of the algorithm run. [`Method::Full`] is the paper; the others are the
 /// baselines the quality report compares against, computed by the same code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -362,7 +366,7 @@ impl QuiltParams {
         if !(self.epsilon.is_finite() && self.epsilon >= 0.0) {
             return Err(invalid("epsilon", self.epsilon, "a finite number ≥ 0"));
         }
-        if !(8..=512).contains(&self.field_resolution) {
+        if !FIELD_RESOLUTIONS.contains(&self.field_resolution) {
             return Err(invalid(
                 "field_resolution",
                 self.field_resolution,

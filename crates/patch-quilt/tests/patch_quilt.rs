@@ -356,6 +356,98 @@ fn patches_under_three_field_spacings_are_refused_naming_the_smallest_that_works
 }
 
 #[test]
+fn patches_too_narrow_in_a_long_box_are_refused_naming_remedies_in_range() {
+    // A flat sheet sampled every 0.02 in boxes 4 long and `width` wide. The patch is a
+    // fraction of the shorter side, the field's spacing a fraction of the longer one, so a
+    // long box needs a finer field, a wider patch, or both; a remedy outside the accepted
+    // ranges (a patch wider than the box, a field finer than 512 nodes) is never named.
+    let (nx, ny) = (261, 66);
+    let sheet: Vec<Vec3> = (0..nx * ny)
+        .map(|i| {
+            Vec3::new(
+                -0.6 + 0.02 * (i % nx) as f32,
+                -0.599 + 0.02 * (i / nx) as f32,
+                0.0,
+            )
+        })
+        .collect();
+    let set = PointSet::new(sheet)
+        .unwrap()
+        .with_normals(vec![Vec3::Z; nx * ny])
+        .unwrap();
+    let in_box = |width: f32| {
+        let bounds = Aabb::new(Vec3::new(0.0, 0.0, -0.1), Vec3::new(4.0, width, 0.1));
+        GeometryTexture::new(&set, bounds, UpAxis::Z).unwrap()
+    };
+    let refusal =
+        |t: &GeometryTexture, params: &QuiltParams| match quilt(t, params, &mut RunContext::new(0))
+        {
+            Err(
+                e @ QuiltError::InvalidParameter {
+                    name: "patch_size", ..
+                },
+            ) => e.to_string(),
+            other => panic!("expected a refused patch_size, got {other:?}"),
+        };
+    let number_after = |text: &str, key: &str| -> f32 {
+        text.split(key)
+            .nth(1)
+            .and_then(|rest| rest.split([' ', ',']).next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("no `{key}` in: {text}"))
+    };
+    let small = QuiltParams::default().output(OutputSize::Absolute(0.3, 0.3));
+
+    // 40 : 1. Any patch_size would be over the box at 48 nodes; 251 nodes make 0.4 work.
+    let long = in_box(0.1);
+    let refused = refusal(&long, &small);
+    assert!(!refused.contains("patch_size ≥"), "{refused}");
+    let resolution = number_after(&refused, "field_resolution ≥ ") as usize;
+    assert_eq!(resolution, 251, "{refused}");
+    let done = quilt(
+        &long,
+        &small.clone().field_resolution(resolution),
+        &mut RunContext::new(0),
+    );
+    assert!(done.is_ok(), "{refused}: {:?}", done.err());
+    assert!(
+        matches!(
+            quilt(
+                &long,
+                &small.clone().field_resolution(resolution - 1),
+                &mut RunContext::new(0)
+            ),
+            Err(QuiltError::InvalidParameter {
+                name: "patch_size",
+                ..
+            })
+        ),
+        "one node fewer still refuses"
+    );
+
+    // 167 : 1. Neither alone is in range; a wider patch at the finest field is.
+    let longer = in_box(0.024);
+    let refused = refusal(&longer, &small);
+    let patch = number_after(&refused, "patch_size ≥ ");
+    assert!(refused.contains("with field_resolution 512"), "{refused}");
+    assert!(patch < 1.0, "{refused}");
+    refusal(
+        &longer,
+        &small.clone().field_resolution(512).patch_size(patch - 0.01),
+    );
+
+    // 1000 : 1. Nothing in range: a squarer box, with the shortest side that would do.
+    let refused = refusal(&in_box(0.004), &small);
+    for part in [
+        "(this one is 1.9e-2)",
+        "a squarer box: this one's shorter side is 1.0e-3 of its longer",
+        "only from 4.9e-3 on",
+    ] {
+        assert!(refused.contains(part), "{refused}");
+    }
+}
+
+#[test]
 fn invalid_input_is_an_error() {
     let t = texture(|_, _| 0.0, 40, 0.05);
     for bad in [
