@@ -40,9 +40,9 @@
 //!
 //! | parameter | default | meaning |
 //! |---|---|---|
-//! | `kernel` | estimated | `h`; estimate = `kernel_spacing_factor` × median nearest-neighbour spacing |
+//! | `kernel` | estimated | `h`; estimate = `kernel_spacing_factor` × median nearest-neighbour spacing; at most [`pointset_core::MAX_SPAN`] |
 //! | `kernel_spacing_factor` | 1.25 | keep `support · h` below the thinnest feature's thickness |
-//! | `support` | 2.5 | truncation radius in units of `h` (`θ = 0.002` there) |
+//! | `support` | 2.5 | truncation radius in units of `h` (`θ = 0.002` there), at most [`MAX_SUPPORT`] |
 //! | `min_neighbours` | 4 | fewer points in the support → no surface (`None`) |
 //! | `tolerance` | 1e-4 | stop when `|f| < tolerance · h` |
 //! | `max_iterations` | 50 | projection cap (result flagged `converged: false`) |
@@ -112,7 +112,7 @@ pub use orientation::{
     ORIENTING_STAGE, fit_oriented_normals_with, orient_normals, orient_normals_in,
     orient_normals_with, orientation_disagreement, orientation_disagreement_with,
 };
-pub use params::MlsParams;
+pub use params::{MAX_SUPPORT, MlsParams};
 pub use pca::{
     Covariance, FITTING_STAGE, MIN_NORMAL_DEFINITENESS, NORMAL_NEIGHBOURS, NormalFit,
     PLANE_RADIUS_MAX_NEIGHBOURS, estimate_normals, fit_normals, fit_normals_in, fit_normals_with,

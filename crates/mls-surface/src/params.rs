@@ -1,8 +1,13 @@
 //! Configuration of the MLS surface.
 
-use pointset_core::KdIndex;
+use pointset_core::{KdIndex, MAX_SPAN};
 
 use crate::error::{MlsError, Result, positive};
+
+/// Largest [`MlsParams::support`]: a kernel truncated at 10 `h` is not truncated at all,
+/// as `exp(−d²/h²)` falls below `f32`'s smallest normal number (about 1.2e-38) from
+/// `d ≈ 9.3 h` on. A larger support only widens every gathering.
+pub const MAX_SUPPORT: f32 = 10.0;
 
 /// Parameters of [`crate::MlsSurface`]. Construct with `MlsParams::default()` and the
 /// by-value setters; validated when the surface is built.
@@ -127,16 +132,26 @@ impl MlsParams {
                 expected: "an explicit kernel: the points have no spacing to estimate it from (they all coincide, or lie closer together than single precision resolves)",
             });
         }
-        Ok(self.kernel_spacing_factor * spacing)
+        let h = self.kernel_spacing_factor * spacing;
+        kernel_in_span(h)?;
+        Ok(h)
     }
 
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
         if let Some(h) = self.kernel {
             positive("kernel", h)?;
+            kernel_in_span(h)?;
         }
         positive("kernel_spacing_factor", self.kernel_spacing_factor)?;
         positive("support", self.support)?;
+        if self.support > MAX_SUPPORT {
+            return Err(MlsError::InvalidParameter {
+                name: "support",
+                value: self.support.to_string(),
+                expected: "at most 10 kernels (MAX_SUPPORT): the weights are zero in f32 beyond",
+            });
+        }
         positive("tolerance", self.tolerance)?;
         if self.min_neighbours == 0 {
             return Err(MlsError::InvalidParameter {
@@ -160,5 +175,20 @@ impl MlsParams {
             });
         }
         Ok(())
+    }
+}
+
+/// Checks a kernel `h` against [`MAX_SPAN`], the widest span the library's coordinates
+/// take: squared distances in kernel units overflow `f32` from about 1.8e19 on, and a kernel
+/// wider than every point set the library accepts is wider than any of them.
+fn kernel_in_span(h: f32) -> Result<()> {
+    if h <= MAX_SPAN {
+        Ok(())
+    } else {
+        Err(MlsError::InvalidParameter {
+            name: "kernel",
+            value: format!("{h:e}"),
+            expected: "at most 1e18 (pointset_core::MAX_SPAN: squared distances beyond overflow f32)",
+        })
     }
 }

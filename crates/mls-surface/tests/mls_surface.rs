@@ -6,11 +6,11 @@
 
 use glam::Vec3;
 use mls_surface::{
-    ClusterParams, Covariance, MlsError, MlsParams, MlsSurface, NORMAL_NEIGHBOURS, RelaxParams,
-    SINGLE_PLANE_COSINE, adaptive_clusters, estimate_normals, fit_normals,
+    ClusterParams, Covariance, MAX_SUPPORT, MlsError, MlsParams, MlsSurface, NORMAL_NEIGHBOURS,
+    RelaxParams, SINGLE_PLANE_COSINE, adaptive_clusters, estimate_normals, fit_normals,
     nearest_neighbour_spread, orient_normals, plane_radius, relax, surface_variation,
 };
-use pointset_core::{BandAnswer, KdIndex, PointSet, Surface, rng};
+use pointset_core::{BandAnswer, KdIndex, MAX_SPAN, PointSet, Surface, rng};
 use proptest::prelude::*;
 use rand::RngExt;
 
@@ -223,6 +223,20 @@ fn degenerate_input_gives_values_not_panics() {
         Err(MlsError::EmptyInput { .. })
     ));
     assert!(MlsSurface::new(&points, &MlsParams::default().support(-1.0)).is_err());
+    // Kernels up to the widest span the library accepts, supports up to where the weights
+    // vanish in f32; past either, an error (a kernel of 1e30 once reached a panic).
+    for (params, fine) in [
+        (MlsParams::default().kernel(MAX_SPAN), true),
+        (MlsParams::default().kernel(2.0 * MAX_SPAN), false),
+        (MlsParams::default().kernel(f32::MAX), false),
+        (MlsParams::default().support(MAX_SUPPORT), true),
+        (MlsParams::default().support(1.01 * MAX_SUPPORT), false),
+    ] {
+        assert_eq!(params.validate().is_ok(), fine, "{params:?}");
+    }
+    let huge_spacing = MlsParams::default().kernel_spacing_factor(1e38);
+    let index = KdIndex::new(points.positions()).unwrap();
+    assert!(huge_spacing.validate().is_ok() && huge_spacing.kernel_for(&index).is_err());
     assert!(MlsSurface::new(&points, &MlsParams::default().max_iterations(0)).is_err());
 }
 

@@ -263,12 +263,17 @@ fn reconstructed(
     trim: Option<f32>,
     ctx: &mut RunContext,
 ) -> CliResult<TriMesh> {
+    let kernel = params.kernel;
     let params = params.clone();
+    let of_points = |surface, points| with_kernel_hint(surface, points, kernel);
     Ok(match (input, trim) {
-        (Geometry::Points(points), Some(trim)) => {
-            ReconstructOpen { params, trim }.run(points.clone(), ctx)?
+        (Geometry::Points(points), Some(trim)) => of_points(
+            ReconstructOpen { params, trim }.run(points.clone(), ctx),
+            points,
+        )?,
+        (Geometry::Points(points), None) => {
+            of_points(Reconstruct { params }.run(points.clone(), ctx), points)?
         }
-        (Geometry::Points(points), None) => Reconstruct { params }.run(points.clone(), ctx)?,
         (Geometry::Mesh(mesh), trim) => {
             let closed = Remesh { params }.run(mesh.clone(), ctx)?;
             match trim {
@@ -280,6 +285,23 @@ fn reconstructed(
             }
         }
     })
+}
+
+/// `surface`, or its error; a point set's [`geosynth::Error::NoSurface`] says what a large
+/// `kernel` does ([`large_kernel`]) where it is one: a unit sphere's samples at `--kernel` 1
+/// or more give a field positive everywhere.
+fn with_kernel_hint(
+    surface: geosynth::Result<TriMesh>,
+    points: &PointSet,
+    kernel: Option<f32>,
+) -> CliResult<TriMesh> {
+    match surface {
+        Err(e @ geosynth::Error::NoSurface { .. }) => Err(match large_kernel(points, kernel)? {
+            Some(large) => format!("{e}; {large}").into(),
+            None => e.into(),
+        }),
+        other => Ok(other?),
+    }
 }
 
 /// Runs `geosynth reconstruct`.
@@ -438,23 +460,70 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
 /// the note's "if" covers); open sheets (the bumpy and height-field fixtures) 0.84–0.90.
 const CLOSED_FLUX: f32 = 0.1;
 
+/// The largest kernel, as a share of the points' bounding-box diagonal, that
+/// [`grid_side_note`] calls small. Measured on the shared chameleon (diagonal 113, 32
+/// nodes): `--kernel` 10 (0.09 of it) left 3 pieces with the animal's body; 30 (0.27) a
+/// closed blob of 14 vertices; 300 and more a sheet through the grid, the MLS surface about
+/// one plane; the 2000 unit-sphere samples of the fixtures (diagonal 3.46) at `--kernel` 1
+/// (0.29) and more, a field positive everywhere: no surface at all. Doubling a kernel past
+/// this share smooths the object away.
+const LARGEST_SMALL_KERNEL: f32 = 0.1;
+
 /// The note for an untrimmed reconstruction with `open` open edges. The iso-surface of a
 /// grid is closed except where it meets the grid's sides, so open edges say the zero set
 /// ran out to them: an open scan's continuation past its border, or, on a closed object, a
 /// kernel too small for the sampling (fins past sharp edges, wrong signs at thin parts:
-/// docs/mls-surface.md, "Known limits"). `kernel` is the one asked for, if any.
+/// docs/mls-surface.md, "Known limits") or so large that the MLS surface flattens the
+/// object toward one plane ([`LARGEST_SMALL_KERNEL`]). `kernel` is the one asked for, if
+/// any.
 fn grid_side_note(open: usize, points: &PointSet, kernel: Option<f32>) -> CliResult<String> {
+    let scan = format!(
+        "note: the surface runs out to the sides of the grid ({open} open edges). An open \
+         scan does that past its border (--trim cuts it back)"
+    );
+    if let Some(large) = large_kernel(points, kernel)? {
+        return Ok(format!("{scan}; {large}"));
+    }
+    let index = KdIndex::new(points.positions())?;
     let h = MlsParams::default()
         .with_kernel(kernel)
-        .kernel_for(&KdIndex::new(points.positions())?)?;
+        .kernel_for(&index)?;
+    let largest_small = LARGEST_SMALL_KERNEL * diagonal(points);
     Ok(format!(
-        "note: the surface runs out to the sides of the grid ({open} open edges). An open \
-         scan does that past its border (--trim cuts it back); on a closed object the MLS \
-         kernel (h = {}) is probably too small for the sampling, leaving fins past sharp \
-         edges or wrong signs at thin parts (try a larger --kernel, such as {})",
+        "{scan}; on a closed object the MLS kernel (h = {}) is probably too small for the \
+         sampling, leaving fins past sharp edges or wrong signs at thin parts (try a larger \
+         --kernel, such as {})",
         three_digits(h),
-        three_digits(2.0 * h)
+        three_digits((2.0 * h).min(largest_small))
     ))
+}
+
+/// What a kernel over [`LARGEST_SMALL_KERNEL`] of the points' extent does, said with the
+/// default to come back to; `None` for a smaller one. `kernel` is the one asked for, if any.
+fn large_kernel(points: &PointSet, kernel: Option<f32>) -> CliResult<Option<String>> {
+    let index = KdIndex::new(points.positions())?;
+    let h = MlsParams::default()
+        .with_kernel(kernel)
+        .kernel_for(&index)?;
+    let diagonal = diagonal(points);
+    if h <= LARGEST_SMALL_KERNEL * diagonal {
+        return Ok(None);
+    }
+    let default = MlsParams::default().kernel_for(&index)?;
+    Ok(Some(format!(
+        "the MLS kernel h = {} spans more than a tenth of the points' extent (diagonal {}) \
+         and smooths away everything smaller: an open sheet flattens toward one plane, a \
+         closed object's opposite sides cancel (try a smaller --kernel; the default for these \
+         points is {})",
+        three_digits(h),
+        three_digits(diagonal),
+        three_digits(default)
+    )))
+}
+
+/// The diagonal of `points`' bounding box (0 for none).
+fn diagonal(points: &PointSet) -> f32 {
+    points.bounding_box().map_or(0.0, |b| b.diagonal())
 }
 
 /// What `sdf` and `reconstruct` hold per grid node, in bytes: their peak memory over

@@ -936,3 +936,47 @@ fn sdf_estimates_or_orients_a_point_sets_normals_as_reconstruct_does() {
         "--up turns normals that --orient-normals or --estimate-normals",
     );
 }
+
+#[test]
+fn kernels_over_a_tenth_of_the_points_extent_are_called_large_not_small() {
+    let dir = Scratch::new();
+    let fixtures = geosynth::fixtures::bundled_dir();
+    let (sheet, sphere) = (
+        arg(&fixtures.join("quilt_bumpy.ply")),
+        arg(&fixtures.join("sphere_points.ply")),
+    );
+    let mesh = arg(&dir.path("mesh.ply"));
+    fn args<'a>(input: &'a str, mesh: &'a str, kernel: &[&'a str]) -> Vec<&'a str> {
+        let mut args = vec!["reconstruct", input, "-o", mesh, "--resolution", "24"];
+        args.extend(kernel);
+        args
+    }
+    let reconstruct = |input, kernel| args(input, &mesh, kernel);
+    // The bumpy sheet (diagonal 8.5) runs out to the grid's sides at its default kernel,
+    // called small, and at h = 1, called large: more of it would not help.
+    let said = ok(&reconstruct(&sheet, &[]));
+    assert!(said.contains("probably too small"), "{said}");
+    assert!(!said.contains("smooths away"), "{said}");
+    let said = ok(&reconstruct(&sheet, &["--kernel", "1"]));
+    assert!(!said.contains("too small"), "{said}");
+    for part in [
+        "h = 1 spans more than a tenth of the points' extent (diagonal 8.5)",
+        "an open sheet flattens toward one plane",
+        "the default for these points is 0.0336",
+    ] {
+        assert!(said.contains(part), "{said}");
+    }
+    // The unit sphere's samples (diagonal 3.46): closed at h = 0.3, no surface at all at
+    // h = 1, and the refusal says why.
+    let said = ok(&reconstruct(&sphere, &["--kernel", "0.3"]));
+    assert!(said.contains("1 component(s), closed"), "{said}");
+    refused(
+        &reconstruct(&sphere, &["--kernel", "1"]),
+        "never crosses zero (values 0.09437914 to 0.43837994); the MLS surface of the points \
+         could not be sampled there; the MLS kernel h = 1 spans more than a tenth",
+    );
+    // Kernels whose squares overflow are refused before anything runs: at 1e30 a scan of
+    // the gathered samples once read past them and panicked.
+    refused(&reconstruct(&sphere, &["--kernel", "1e30"]), "at most 1e18");
+    refused(&reconstruct(&sphere, &["--kernel", "1e19"]), "at most 1e18");
+}

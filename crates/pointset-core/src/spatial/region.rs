@@ -168,9 +168,12 @@ impl KdRegion<'_> {
         let mut keys = Vec::new();
         self.scan(q, |first, d2| {
             for (l, &d2) in d2.iter().enumerate() {
-                if d2 <= r2 {
-                    // Padding is infinitely far, so `first + l` is a member.
-                    keys.push(nearness_key(d2, self.members[first + l]));
+                // Padding is infinitely far, but so is a radius whose square overflows:
+                // only members are read.
+                if d2 <= r2
+                    && let Some(&member) = self.members.get(first + l)
+                {
+                    keys.push(nearness_key(d2, member));
                 }
             }
         });
@@ -368,6 +371,24 @@ mod tests {
                 region.nearest_one(q).unwrap(),
                 index.nearest_one(q).unwrap()
             );
+        }
+    }
+
+    /// A radius whose square overflows `f32` (the CLI's `reconstruct --kernel 1e30` asked
+    /// for one) is infinite to the comparison, as the padding's distances are: the scan
+    /// once read past its members there and panicked.
+    #[test]
+    fn radii_whose_squares_overflow_give_every_point() {
+        let mut points = points();
+        points.truncate(points.len() - 3);
+        let index = KdIndex::new(&points).unwrap();
+        let region = index.region(Vec3::splat(0.5), 1e31).unwrap();
+        assert_eq!(region.len(), points.len());
+        assert_ne!(points.len() % LANES, 0, "the members end inside a chunk");
+        for radius in [1e20, 1e30] {
+            let within = region.within(Vec3::splat(0.4), radius).unwrap();
+            assert_eq!(within, index.within(Vec3::splat(0.4), radius).unwrap());
+            assert_eq!(within.len(), points.len());
         }
     }
 
