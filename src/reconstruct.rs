@@ -29,7 +29,8 @@ pub struct FieldParams {
     pub resolution: usize,
     /// MLS kernel size `h` for point sets; default estimated (see [`MlsParams`]).
     pub kernel: Option<f32>,
-    /// Margin around the geometry's box, in grid spacings; default 3.
+    /// Margin around the geometry's box, in grid spacings, at most half the resolution;
+    /// default 3.
     pub margin: f32,
     /// Distances are clamped to this many grid spacings (more than 1); default 4.
     pub band: f32,
@@ -114,7 +115,8 @@ impl FieldParams {
         self
     }
 
-    /// Checks ranges: resolution 4..=1024, a non-negative margin, a band over 1 spacing.
+    /// Checks ranges: resolution 4..=1024, a non-negative margin up to half the resolution,
+    /// a band over 1 spacing.
     pub fn validate(&self) -> Result<()> {
         let bad = Error::invalid::<()>;
         if !(4..=1024).contains(&self.resolution) {
@@ -130,6 +132,18 @@ impl FieldParams {
                 "margin",
                 self.margin.to_string(),
                 "a non-negative number of spacings",
+            );
+        }
+        if self.margin > self.resolution as f32 / 2.0 {
+            return bad(
+                "margin",
+                self.margin.to_string(),
+                &format!(
+                    "at most half the resolution, {} spacings: a wider margin leaves the \
+                     geometry less than half the grid (a margin of 1e30 spacings made it \
+                     smaller than one spacing, and the field never crossed zero)",
+                    self.resolution as f32 / 2.0
+                ),
             );
         }
         if !(self.band.is_finite() && self.band > 1.0) {

@@ -533,6 +533,14 @@ fn a_point_like_geometry_and_a_band_of_one_spacing_are_refused_by_name() {
         other => panic!("{other:?}"),
     }
     let sphere = Geometry::Points(fixtures::sphere_points(800).unwrap());
+    // Margins up to half the resolution; a wider one leaves the sphere under half the grid.
+    for (margin, fine) in [(8.0, true), (8.01, false), (1e30, false)] {
+        let params = FieldParams::default().resolution(16).margin(margin);
+        match signed_distance(&sphere, &params) {
+            Err(geosynth::Error::InvalidParameter { name: "margin", .. }) => assert!(!fine),
+            other => assert!(fine && other.is_ok(), "{margin}: {other:?}"),
+        }
+    }
     for band in [1.0, 0.5] {
         let mut params = FieldParams::default().resolution(16);
         params.band = band;
