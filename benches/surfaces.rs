@@ -19,6 +19,7 @@ use geosynth::mls::{
 };
 use geosynth::sdf::{
     GridSpec, MeshSign, MeshSurface, PointWinding, SdfGrid, WindingSigned, sdf_isosurface,
+    sdf_isosurface_of,
 };
 use glam::{Vec2, Vec3};
 use rand::RngExt;
@@ -128,6 +129,11 @@ fn sdf_grids(c: &mut Criterion) {
     let field = SdfGrid::from_surface(&mls, &spec, 4.0 * spec.spacing).expect("field");
     group.bench_function("isosurface_128", |b| {
         b.iter(|| sdf_isosurface(black_box(&field)))
+    });
+    // The same zero set with its crossings checked against the surface, and those the
+    // interpolation misses looked for along their edges.
+    group.bench_function("isosurface_of_surface_128", |b| {
+        b.iter(|| sdf_isosurface_of(black_box(&field), &mls))
     });
     group.finish();
 }

@@ -9,7 +9,7 @@
 
 use distance_field::{
     FarSigns, GridSpec, MeshSign, MeshSurface, PointSign, PointWinding, SdfGrid, WindingSigned,
-    sdf_isosurface,
+    sdf_isosurface_of,
 };
 use glam::Vec3;
 use mls_surface::{MlsError, MlsParams, MlsSurface};
@@ -201,10 +201,17 @@ pub fn signed_distance_in(
     params: &FieldParams,
     ctx: &mut RunContext,
 ) -> Result<SdfGrid> {
+    let surface = surface_for(geometry, params)?;
+    field_of(surface.as_ref(), geometry, params, ctx)
+}
+
+/// The surface [`signed_distance`] samples for `geometry`: the mesh, or the points' MLS
+/// surface, each signed as `params` say. Errors as [`signed_distance`]'s.
+fn surface_for<'a>(geometry: &'a Geometry, params: &FieldParams) -> Result<Box<dyn Surface + 'a>> {
     params.validate()?;
-    let spec = params.grid_for(geometry)?;
-    let band = params.band * spec.spacing;
-    let surface: Box<dyn Surface> = match geometry {
+    // The grid's own errors (no points, all at one point) come before the surface's.
+    params.grid_for(geometry)?;
+    Ok(match geometry {
         Geometry::Mesh(mesh) => Box::new(MeshSurface::new(mesh)?.with_sign(params.mesh_sign)),
         Geometry::Points(points) => {
             let mls = MlsParams::default().with_kernel(params.kernel);
@@ -232,13 +239,23 @@ pub fn signed_distance_in(
                 }
             }
         }
-    };
-    let far_signs = FarSigns::default();
+    })
+}
+
+/// `surface` sampled on the grid `params` give `geometry` (the one it was made from).
+fn field_of(
+    surface: &dyn Surface,
+    geometry: &Geometry,
+    params: &FieldParams,
+    ctx: &mut RunContext,
+) -> Result<SdfGrid> {
+    let spec = params.grid_for(geometry)?;
+    let band = params.band * spec.spacing;
     Ok(SdfGrid::from_surface_in(
-        surface.as_ref(),
+        surface,
         &spec,
         band,
-        far_signs,
+        FarSigns::default(),
         ctx,
     )?)
 }
@@ -364,8 +381,10 @@ fn zero_set(
     params: &FieldParams,
     ctx: &mut RunContext,
 ) -> Result<TriMesh> {
-    let sdf = ctx.timed(&format!("{stage}: distance field"), |ctx| {
-        signed_distance_in(geometry, params, ctx)
+    let (surface, sdf) = ctx.timed(&format!("{stage}: distance field"), |ctx| {
+        let surface = surface_for(geometry, params)?;
+        let sdf = field_of(surface.as_ref(), geometry, params, ctx)?;
+        Ok::<_, Error>((surface, sdf))
     })?;
     ctx.check_cancelled()?;
     let source = match geometry {
@@ -374,7 +393,7 @@ fn zero_set(
     };
     ctx.report(ISO_SURFACE_STAGE, 0, Some(1));
     let mesh = ctx.timed(&format!("{stage}: iso-surface"), |_| {
-        surface_of(&sdf, source)
+        surface_of(&sdf, surface.as_ref(), source)
     })?;
     ctx.report(ISO_SURFACE_STAGE, 1, Some(1));
     Ok(mesh)
@@ -458,10 +477,11 @@ impl Stage for ReconstructOpen {
     }
 }
 
-/// The zero set of `sdf`, or [`Error::NoSurface`] when the field never crosses zero (an
-/// empty mesh is not a reconstruction); `source` names what was sampled.
-fn surface_of(sdf: &SdfGrid, source: &str) -> Result<TriMesh> {
-    let mesh = sdf_isosurface(sdf)?;
+/// The zero set of `sdf`, sampled from `surface` ([`sdf_isosurface_of`]), or
+/// [`Error::NoSurface`] when the field never crosses zero (an empty mesh is not a
+/// reconstruction); `source` names what was sampled.
+fn surface_of(sdf: &SdfGrid, surface: &dyn Surface, source: &str) -> Result<TriMesh> {
+    let mesh = sdf_isosurface_of(sdf, surface)?;
     if mesh.face_count() == 0 {
         let (lo, hi) = sdf.distances()?.value_range();
         let [x, y, z] = sdf.grid().dims();
@@ -779,10 +799,24 @@ mod tests {
             grid.data_mut()[21].x = value;
             SdfGrid::from_grid(grid, 2.0).unwrap()
         };
-        let err = surface_of(&field(0.5), "the field").unwrap_err();
+        // A triangle far off: on one side of it everywhere near the grid, so it moves no
+        // crossing.
+        let corners = vec![
+            Vec3::splat(100.0),
+            Vec3::new(101.0, 100.0, 100.0),
+            Vec3::Y + 100.0,
+        ];
+        let far = TriMesh::new(PointSet::new(corners).unwrap(), vec![[0, 1, 2]]).unwrap();
+        let far = MeshSurface::new(&far).unwrap();
+        let err = surface_of(&field(0.5), &far, "the field").unwrap_err();
         assert!(matches!(err, Error::NoSurface { .. }), "{err}");
         assert!(err.to_string().contains("never crosses zero"), "{err}");
         // One node inside: a small closed surface around it.
-        assert!(surface_of(&field(-0.5), "the field").unwrap().face_count() > 0);
+        assert!(
+            surface_of(&field(-0.5), &far, "the field")
+                .unwrap()
+                .face_count()
+                > 0
+        );
     }
 }

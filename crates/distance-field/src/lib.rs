@@ -86,7 +86,7 @@ pub mod winding;
 
 pub use error::{FieldError, Result};
 pub use far_signs::FarSigns;
-pub use iso::{closed_isosurface, isosurface, sdf_isosurface};
+pub use iso::{CROSSING_MISS, closed_isosurface, isosurface, sdf_isosurface, sdf_isosurface_of};
 pub use mesh_surface::{MeshHit, MeshSign, MeshSurface};
 pub use point_winding::{PointSign, PointWinding, WindingSigned};
 pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};

@@ -375,6 +375,14 @@ impl Surface for MeshSurface {
             .ok()
     }
 
+    /// The bounded closest-point search alone: no pseudo-normal, no winding number.
+    fn distance_within(&self, query: Vec3, max_distance: f32) -> Option<f32> {
+        let hit = self
+            .closest_or_gap(query * self.scale, max_distance * self.scale)
+            .ok()?;
+        Some(hit.distance_squared.sqrt() / self.scale)
+    }
+
     /// The `likely` bound first, then `max_distance`; with nothing within it, the
     /// clearance is how much farther the nearest pruned box or passed-over triangle is
     /// ([`BandAnswer::from_bounded_search`]).

@@ -342,6 +342,11 @@ impl<S: Surface> Surface for WindingSigned<S> {
             .map(|answer| self.resigned(query, answer))
     }
 
+    /// The wrapped surface's distance: the winding number only signs it.
+    fn distance_within(&self, query: Vec3, max_distance: f32) -> Option<f32> {
+        self.surface.distance_within(query, max_distance)
+    }
+
     fn signed_distance_or_clearance(
         &self,
         query: Vec3,

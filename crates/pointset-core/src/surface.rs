@@ -48,6 +48,15 @@ pub trait Surface: Send + Sync {
             .filter(|(d, _)| d.abs() <= max_distance)
     }
 
+    /// The distance from `query` to the surface when it is at most `max_distance`
+    /// (`None` otherwise, or where the surface is not defined near `query`), unsigned.
+    /// The default takes [`Surface::signed_distance_within`]'s magnitude; surfaces whose
+    /// sign costs more than their distance (a winding number) answer without it.
+    fn distance_within(&self, query: Vec3, max_distance: f32) -> Option<f32> {
+        self.signed_distance_within(query, max_distance)
+            .map(|(d, _)| d.abs())
+    }
+
     /// [`Surface::signed_distance_within`], and when it has no answer, how far around
     /// `query` that stays so ([`BandAnswer::Beyond`]): grids sampling the surface skip the
     /// nodes inside that clearance without asking. `likely` is a smaller bound the answer
