@@ -6,6 +6,12 @@
 //! closed remesh at the grid's resolution (an open or holed mesh closed where its sign rule
 //! closes it). [`SignedDistance`] samples a point set (through its MLS surface) or a mesh
 //! (exactly) into an [`SdfGrid`].
+//!
+//! The zero sets are extracted with [`distance_field::sdf_isosurface_of`]: where a sign
+//! rule other than the nearest surface's side (winding numbers, pseudo-normals where
+//! pieces meet) changes the sign away from the surface, the crossing is looked for along
+//! its grid edge instead of interpolated, so the surface follows the sign's boundary
+//! instead of a staircase of the grid.
 
 use distance_field::{
     FarSigns, GridSpec, MeshSign, MeshSurface, PointSign, PointWinding, SdfGrid, WindingSigned,

@@ -268,16 +268,18 @@ pub fn sdf_isosurface(sdf: &SdfGrid) -> Result<TriMesh> {
 ///
 /// Here each vertex's interpolated position is checked against `surface`: where it lies
 /// more than [`CROSSING_MISS`] of its edge from the surface (or the surface gives no
-/// distance there), the edge is bisected on the sign of `surface.signed_distance` (12
-/// halvings, a 4096th of the edge), provided that sign agrees with both nodes' (otherwise,
-/// as between two far nodes signed by their neighbours, the interpolation stays). Where
-/// the surface does cross the edge, that finds the crossing more closely than the
-/// interpolation did; where only the sign changes, it finds where it does. Moved vertices
-/// take the mesh's own normal, as the stored gradients point at the surface, not across
-/// the sign's boundary. Every other vertex is as [`sdf_isosurface`] places it.
+/// distance there), the change of `surface.signed_distance`'s sign along the edge is
+/// looked for by false position and halving in turn (down to a 4096th of the edge),
+/// provided that sign agrees with both nodes' (otherwise, as between two far nodes signed
+/// by their neighbours, the interpolation stays). Where the surface does cross the edge,
+/// that finds the crossing more closely than the interpolation did; where only the sign
+/// changes, it finds where it does. Moved vertices take the mesh's own normal, as the
+/// stored gradients point at the surface, not across the sign's boundary. Every other
+/// vertex is as [`sdf_isosurface`] places it.
 ///
-/// Cost: one bounded distance per vertex ([`Surface::distance_within`]), and 14 signed
-/// distances per moved one, in parallel.
+/// Cost: one bounded distance per vertex ([`Surface::distance_within`]); per checked
+/// edge, signed distances at its two ends and a step or two along it where the surface
+/// crosses it, up to 24 where only the sign jumps; in parallel.
 pub fn sdf_isosurface_of(sdf: &SdfGrid, surface: &dyn Surface) -> Result<TriMesh> {
     let distances = sdf.distances()?;
     extract(&distances, 0.0, Some(sdf.grid().data()), Some(surface))

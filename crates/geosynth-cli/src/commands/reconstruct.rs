@@ -296,10 +296,13 @@ fn with_kernel_hint(
     kernel: Option<f32>,
 ) -> CliResult<TriMesh> {
     match surface {
-        Err(e @ geosynth::Error::NoSurface { .. }) => Err(match large_kernel(points, kernel)? {
-            Some(large) => format!("{e}; {large}").into(),
-            None => e.into(),
-        }),
+        Err(e @ geosynth::Error::NoSurface { .. }) => {
+            let index = KdIndex::new(points.positions())?;
+            Err(match large_kernel(points, &index, kernel)? {
+                Some(large) => format!("{e}; {large}").into(),
+                None => e.into(),
+            })
+        }
         other => Ok(other?),
     }
 }
@@ -481,10 +484,10 @@ fn grid_side_note(open: usize, points: &PointSet, kernel: Option<f32>) -> CliRes
         "note: the surface runs out to the sides of the grid ({open} open edges). An open \
          scan does that past its border (--trim cuts it back)"
     );
-    if let Some(large) = large_kernel(points, kernel)? {
+    let index = KdIndex::new(points.positions())?;
+    if let Some(large) = large_kernel(points, &index, kernel)? {
         return Ok(format!("{scan}; {large}"));
     }
-    let index = KdIndex::new(points.positions())?;
     let h = MlsParams::default()
         .with_kernel(kernel)
         .kernel_for(&index)?;
@@ -499,17 +502,19 @@ fn grid_side_note(open: usize, points: &PointSet, kernel: Option<f32>) -> CliRes
 }
 
 /// What a kernel over [`LARGEST_SMALL_KERNEL`] of the points' extent does, said with the
-/// default to come back to; `None` for a smaller one. `kernel` is the one asked for, if any.
-fn large_kernel(points: &PointSet, kernel: Option<f32>) -> CliResult<Option<String>> {
-    let index = KdIndex::new(points.positions())?;
-    let h = MlsParams::default()
-        .with_kernel(kernel)
-        .kernel_for(&index)?;
+/// default to come back to; `None` for a smaller one. `index` holds `points`; `kernel` is
+/// the one asked for, if any.
+fn large_kernel(
+    points: &PointSet,
+    index: &KdIndex,
+    kernel: Option<f32>,
+) -> CliResult<Option<String>> {
+    let h = MlsParams::default().with_kernel(kernel).kernel_for(index)?;
     let diagonal = diagonal(points);
     if h <= LARGEST_SMALL_KERNEL * diagonal {
         return Ok(None);
     }
-    let default = MlsParams::default().kernel_for(&index)?;
+    let default = MlsParams::default().kernel_for(index)?;
     Ok(Some(format!(
         "the MLS kernel h = {} spans more than a tenth of the points' extent (diagonal {}) \
          and smooths away everything smaller: an open sheet flattens toward one plane, a \
