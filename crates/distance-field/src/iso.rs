@@ -51,6 +51,14 @@ const CROSSING_BISECTIONS: usize = 12;
 /// [`CROSSING_MISS`] (a 400th of the edge).
 const CROSSING_SETTLED: f32 = 0.25;
 
+/// Least cosine between a moved vertex's normal from the stored gradients and the mesh's
+/// own normal there ([`sdf_isosurface_of`]), about 26°. Where the sign jumps, the nodes'
+/// gradients point at the surface, not across the sign's boundary, and fail it; where a
+/// vertex moved onto the surface, they pass. With the mesh's normals at every moved vertex
+/// the bunny scan's reconstruction came out speckled; with the gradients at every one (any
+/// facing the same side), the teapot's collar was shaded as the staircase it no longer was.
+const MOVED_NORMAL_AGREEMENT: f32 = 0.9;
+
 /// Builds the welded mesh while cells are visited.
 struct Builder<'a> {
     values: &'a [f32],
@@ -273,9 +281,11 @@ pub fn sdf_isosurface(sdf: &SdfGrid) -> Result<TriMesh> {
 /// provided that sign agrees with both nodes' (otherwise, as between two far nodes signed
 /// by their neighbours, the interpolation stays). Where the surface does cross the edge,
 /// that finds the crossing more closely than the interpolation did; where only the sign
-/// changes, it finds where it does. Moved vertices take the mesh's own normal, as the
-/// stored gradients point at the surface, not across the sign's boundary. Every other
-/// vertex is as [`sdf_isosurface`] places it.
+/// changes, it finds where it does. Moved vertices take their normal from the stored
+/// gradients only where it lies within about 26° of the mesh's own
+/// ([`MOVED_NORMAL_AGREEMENT`]), the mesh's own otherwise: across a jump of the sign the
+/// gradients point at the surface, not across the sign's boundary. Every other vertex is
+/// as [`sdf_isosurface`] places it.
 ///
 /// Cost: one bounded distance per vertex ([`Surface::distance_within`]); per checked
 /// edge, signed distances at its two ends and a step or two along it where the surface
@@ -333,8 +343,8 @@ fn sign_change(
 
 /// The normal of the vertex at `t` along the edge from node `a` to node `b`: the stored
 /// gradients interpolated there, else the nearer node's, else the farther node's,
-/// whichever first faces the same side as `own`, the mesh's angle-weighted normal there;
-/// `own` if none does.
+/// whichever first faces the same side as `own`, the mesh's angle-weighted normal there
+/// (its cosine with `own` over `agreement`); `own` if none does.
 ///
 /// A stored gradient can face against the surface it is stored on: where a field's sign
 /// was decided by another rule than its distances (a point cloud's winding number
@@ -344,7 +354,12 @@ fn sign_change(
 /// shade such a vertex black (the reconstructed chameleon's crest showed a dark hexagon
 /// around every such node); a neighbouring node's gradient shades a bulge that small as
 /// the surface around it.
-fn gradient_normal(gradients: &[Vec4], (a, b, t): (u32, u32, f32), own: Vec3) -> Vec3 {
+fn gradient_normal(
+    gradients: &[Vec4],
+    (a, b, t): (u32, u32, f32),
+    own: Vec3,
+    agreement: f32,
+) -> Vec3 {
     let at = |node: u32| {
         let g = gradients[node as usize];
         Vec3::new(g.y, g.z, g.w)
@@ -354,7 +369,7 @@ fn gradient_normal(gradients: &[Vec4], (a, b, t): (u32, u32, f32), own: Vec3) ->
     [ga.lerp(gb, t), near, far]
         .map(Vec3::normalize_or_zero)
         .into_iter()
-        .find(|n| *n != Vec3::ZERO && n.dot(own) > 0.0)
+        .find(|n| *n != Vec3::ZERO && n.dot(own) > agreement)
         .unwrap_or(own)
 }
 
@@ -416,11 +431,12 @@ fn extract(
             .zip(own)
             .enumerate()
             .map(|(v, (&crossing, own))| {
-                if located.binary_search(&v).is_ok() {
-                    own
+                let agreement = if located.binary_search(&v).is_ok() {
+                    MOVED_NORMAL_AGREEMENT
                 } else {
-                    gradient_normal(g, crossing, own)
-                }
+                    0.0
+                };
+                gradient_normal(g, crossing, own, agreement)
             })
             .collect(),
         None => own,
