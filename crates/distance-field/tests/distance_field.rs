@@ -1387,6 +1387,16 @@ fn crossings_sit_on_the_surface_or_where_its_sign_changes() {
         .map(|p| (p.z - 1.0).abs())
         .fold(f32::MAX, f32::min);
     assert!(middle < 0.1 * spec.spacing, "{middle}");
+    // There the cap faces straight up, as its vertex's normal does: the stored gradients
+    // point at the box's walls, not across the cap.
+    let normals = located.vertices().normals().unwrap();
+    let (_, up) = located
+        .positions()
+        .iter()
+        .zip(normals)
+        .map(|(p, n)| (p.distance(Vec3::new(0.5, 0.5, 1.0)), *n))
+        .fold((f32::MAX, Vec3::ZERO), |a, b| if b.0 < a.0 { b } else { a });
+    assert!(up.z > 0.95, "{up}");
 
     // A closed, consistent mesh signed by pseudo-normals: the sign changes only at the
     // surface, so the vertices that move get nearer to it, none farther.
@@ -1430,4 +1440,37 @@ fn the_teapots_remesh_follows_its_winding_sign() {
     let after = misplaced(&sdf_isosurface_of(&sdf, &surface).unwrap());
     assert!(before > 1000, "{before}");
     assert_eq!(after, 0);
+}
+
+/// Vertices moved onto a smooth surface keep the stored gradients' normals, which the
+/// mesh's own facets would only approximate: on 2000 sphere samples' MLS surface at 40
+/// nodes, 307 of 14,714 vertices move, their normals within 0.12° of the sphere's where
+/// the mesh's own reach 1.6°.
+#[test]
+fn vertices_moved_onto_a_smooth_surface_keep_smooth_normals() {
+    let points = fibonacci_sphere(2000, 1.0);
+    let mls = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+    let spec = GridSpec::covering(Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)), 40, 0.2).unwrap();
+    let sdf = SdfGrid::from_surface(&mls, &spec, 4.0 * spec.spacing).unwrap();
+    let plain = sdf_isosurface(&sdf).unwrap();
+    let located = sdf_isosurface_of(&sdf, &mls).unwrap();
+    let given = located.vertices().normals().unwrap();
+    let own = located.vertex_normals(pointset_core::NormalWeighting::Angle);
+    let (mut moved, mut worst_given, mut worst_own) = (0, 1.0f32, 1.0f32);
+    for (v, (p, q)) in plain
+        .positions()
+        .iter()
+        .zip(located.positions())
+        .enumerate()
+    {
+        if p != q {
+            moved += 1;
+            worst_given = worst_given.min(given[v].dot(q.normalize()));
+            worst_own = worst_own.min(own[v].dot(q.normalize()));
+        }
+    }
+    assert!(moved > 100, "{moved}");
+    // Cosines of 0.5° and 1°.
+    assert!(worst_given > 0.99996, "{worst_given}");
+    assert!(worst_own < 0.99985, "{worst_own}");
 }
