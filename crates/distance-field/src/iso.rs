@@ -57,7 +57,7 @@ const CROSSING_SETTLED: f32 = 0.25;
 /// vertex moved onto the surface, they pass. With the mesh's normals at every moved vertex
 /// the bunny scan's reconstruction came out speckled; with the gradients at every one (any
 /// facing the same side), the teapot's collar was shaded as the staircase it no longer was.
-const MOVED_NORMAL_AGREEMENT: f32 = 0.9;
+pub const MOVED_NORMAL_AGREEMENT: f32 = 0.9;
 
 /// Builds the welded mesh while cells are visited.
 struct Builder<'a> {

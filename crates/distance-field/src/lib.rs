@@ -86,7 +86,10 @@ pub mod winding;
 
 pub use error::{FieldError, Result};
 pub use far_signs::FarSigns;
-pub use iso::{CROSSING_MISS, closed_isosurface, isosurface, sdf_isosurface, sdf_isosurface_of};
+pub use iso::{
+    CROSSING_MISS, MOVED_NORMAL_AGREEMENT, closed_isosurface, isosurface, sdf_isosurface,
+    sdf_isosurface_of,
+};
 pub use mesh_surface::{MeshHit, MeshSign, MeshSurface};
 pub use point_winding::{PointSign, PointWinding, WindingSigned};
 pub use pyramid::{BlockPyramid, Quantizer, mean_squared_difference};
