@@ -207,17 +207,20 @@ pub fn signed_distance_in(
     params: &FieldParams,
     ctx: &mut RunContext,
 ) -> Result<SdfGrid> {
-    let surface = surface_for(geometry, params)?;
-    field_of(surface.as_ref(), geometry, params, ctx)
+    let (surface, spec) = surface_for(geometry, params)?;
+    field_of(surface.as_ref(), &spec, params, ctx)
 }
 
 /// The surface [`signed_distance`] samples for `geometry`: the mesh, or the points' MLS
-/// surface, each signed as `params` say. Errors as [`signed_distance`]'s.
-fn surface_for<'a>(geometry: &'a Geometry, params: &FieldParams) -> Result<Box<dyn Surface + 'a>> {
+/// surface, each signed as `params` say, and the grid it is sampled on. Errors as
+/// [`signed_distance`]'s; the grid's own (no points, all at one point) come first.
+fn surface_for<'a>(
+    geometry: &'a Geometry,
+    params: &FieldParams,
+) -> Result<(Box<dyn Surface + 'a>, GridSpec)> {
     params.validate()?;
-    // The grid's own errors (no points, all at one point) come before the surface's.
-    params.grid_for(geometry)?;
-    Ok(match geometry {
+    let spec = params.grid_for(geometry)?;
+    let surface: Box<dyn Surface + 'a> = match geometry {
         Geometry::Mesh(mesh) => Box::new(MeshSurface::new(mesh)?.with_sign(params.mesh_sign)),
         Geometry::Points(points) => {
             let mls = MlsParams::default().with_kernel(params.kernel);
@@ -245,21 +248,21 @@ fn surface_for<'a>(geometry: &'a Geometry, params: &FieldParams) -> Result<Box<d
                 }
             }
         }
-    })
+    };
+    Ok((surface, spec))
 }
 
-/// `surface` sampled on the grid `params` give `geometry` (the one it was made from).
+/// `surface` sampled on `spec`, within `params`' band.
 fn field_of(
     surface: &dyn Surface,
-    geometry: &Geometry,
+    spec: &GridSpec,
     params: &FieldParams,
     ctx: &mut RunContext,
 ) -> Result<SdfGrid> {
-    let spec = params.grid_for(geometry)?;
     let band = params.band * spec.spacing;
     Ok(SdfGrid::from_surface_in(
         surface,
-        &spec,
+        spec,
         band,
         FarSigns::default(),
         ctx,
@@ -388,8 +391,8 @@ fn zero_set(
     ctx: &mut RunContext,
 ) -> Result<TriMesh> {
     let (surface, sdf) = ctx.timed(&format!("{stage}: distance field"), |ctx| {
-        let surface = surface_for(geometry, params)?;
-        let sdf = field_of(surface.as_ref(), geometry, params, ctx)?;
+        let (surface, spec) = surface_for(geometry, params)?;
+        let sdf = field_of(surface.as_ref(), &spec, params, ctx)?;
         Ok::<_, Error>((surface, sdf))
     })?;
     ctx.check_cancelled()?;

@@ -298,7 +298,10 @@ fn with_kernel_hint(
     match surface {
         Err(e @ geosynth::Error::NoSurface { .. }) => {
             let index = KdIndex::new(points.positions())?;
-            Err(match large_kernel(points, &index, kernel)? {
+            let h = MlsParams::default()
+                .with_kernel(kernel)
+                .kernel_for(&index)?;
+            Err(match large_kernel(points, &index, h)? {
                 Some(large) => format!("{e}; {large}").into(),
                 None => e.into(),
             })
@@ -485,12 +488,12 @@ fn grid_side_note(open: usize, points: &PointSet, kernel: Option<f32>) -> CliRes
          scan does that past its border (--trim cuts it back)"
     );
     let index = KdIndex::new(points.positions())?;
-    if let Some(large) = large_kernel(points, &index, kernel)? {
-        return Ok(format!("{scan}; {large}"));
-    }
     let h = MlsParams::default()
         .with_kernel(kernel)
         .kernel_for(&index)?;
+    if let Some(large) = large_kernel(points, &index, h)? {
+        return Ok(format!("{scan}; {large}"));
+    }
     let largest_small = LARGEST_SMALL_KERNEL * diagonal(points);
     Ok(format!(
         "{scan}; on a closed object the MLS kernel (h = {}) is probably too small for the \
@@ -501,15 +504,10 @@ fn grid_side_note(open: usize, points: &PointSet, kernel: Option<f32>) -> CliRes
     ))
 }
 
-/// What a kernel over [`LARGEST_SMALL_KERNEL`] of the points' extent does, said with the
-/// default to come back to; `None` for a smaller one. `index` holds `points`; `kernel` is
-/// the one asked for, if any.
-fn large_kernel(
-    points: &PointSet,
-    index: &KdIndex,
-    kernel: Option<f32>,
-) -> CliResult<Option<String>> {
-    let h = MlsParams::default().with_kernel(kernel).kernel_for(index)?;
+/// What the kernel `h` does when it is over [`LARGEST_SMALL_KERNEL`] of the points'
+/// extent, said with the default to come back to; `None` for a smaller one. `index` holds
+/// `points`.
+fn large_kernel(points: &PointSet, index: &KdIndex, h: f32) -> CliResult<Option<String>> {
     let diagonal = diagonal(points);
     if h <= LARGEST_SMALL_KERNEL * diagonal {
         return Ok(None);
