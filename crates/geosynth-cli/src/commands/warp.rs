@@ -153,17 +153,19 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
         .origin(loaded.origin);
     let warp_seconds = start.elapsed().as_secs_f64();
     write_geometry_file(&args.output, &out, &options, globals)?;
+    // In double precision: distances between single-precision points near f32::MAX
+    // overflow f32 (the report would say null).
     let missed = pairs
         .from
         .iter()
         .zip(&pairs.to)
-        .map(|(&s, &q)| spline.eval(s).distance(q))
-        .fold(0.0f32, f32::max);
+        .map(|(&s, &q)| spline.eval(s).as_dvec3().distance(q.as_dvec3()))
+        .fold(0.0f64, f64::max);
     let moved = before
         .iter()
         .zip(out.points().positions())
-        .map(|(a, b)| a.distance(*b))
-        .fold(0.0f32, f32::max);
+        .map(|(a, b)| a.as_dvec3().distance(b.as_dvec3()))
+        .fold(0.0f64, f64::max);
     if let Some(path) = &args.report {
         let report = json!({
             "input": args.input.display().to_string(),

@@ -593,6 +593,20 @@ fn warp_moves_points_through_the_pairs_and_turns_normals() {
     let r = read_report();
     assert_eq!(r["folded_points"], 0);
     assert!(r["largest_target_miss"].as_f64().unwrap() > 0.1, "{r}");
+    // x ↦ (x + 1)·1e30 stays within single precision; the report still measures how far
+    // the sphere's point at x = 1 moves, 2e30 (its square overflows f32: the report said
+    // null).
+    let far: String = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+        .iter()
+        .map(|(x, y, z)| format!("{x} {y} {z} {}e30 {y} {z}\n", x + 1))
+        .collect();
+    std::fs::write(&pairs, far).unwrap();
+    ok(&with_report);
+    let moved = read_report()["largest_displacement"].as_f64();
+    assert!(
+        moved.is_some_and(|d| (d / 2e30 - 1.0).abs() < 1e-3),
+        "{moved:?}"
+    );
     // Bad pairs files fail with the line.
     std::fs::write(&pairs, "1 0 0 0 1 0\n1 2 3\n").unwrap();
     let args = warp(&input, &out);
