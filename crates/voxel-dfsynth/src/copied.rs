@@ -37,7 +37,8 @@ pub struct RelaxParams {
     pub weld_radius: f32,
     /// Smoothing + projection rounds; default 8, at most [`MAX_RELAX_ITERATIONS`].
     pub iterations: usize,
-    /// Vertices within this many edges of a weld are relaxed; default 2.
+    /// Vertices within this many edges of a weld are relaxed; default 2. Any count
+    /// beyond the mesh's reach relaxes every vertex connected to a weld.
     pub rings: usize,
     /// Umbrella step in `(0, 1]`; default 0.5.
     pub step: f32,
@@ -471,15 +472,22 @@ fn relaxed_vertices(triangles: &[[u32; 3]], welded: &[bool], rings: usize) -> Ve
     let mut frontier: Vec<bool> = welded.to_vec();
     for _ in 0..rings {
         let mut next = vec![false; reached.len()];
+        let mut grew = false;
         for t in triangles {
             if t.iter().any(|&v| frontier[v as usize]) {
                 for &v in t {
                     if !reached[v as usize] {
                         reached[v as usize] = true;
                         next[v as usize] = true;
+                        grew = true;
                     }
                 }
             }
+        }
+        if !grew {
+            // Every vertex connected to a weld is reached: more rings add nothing (a
+            // count of 2^64 − 1 ran one pass each).
+            break;
         }
         frontier = next;
     }
@@ -613,7 +621,9 @@ mod tests {
         fn relaxed_vertices_and_their_neighbours_match_a_breadth_first_search(
             ts in soup(20),
             welded in prop::collection::vec(any::<bool>(), 20),
-            rings in 0usize..4,
+            // usize::MAX: every vertex connected to a weld (the search stops when no ring
+            // grows).
+            rings in prop_oneof![0usize..4, Just(usize::MAX)],
         ) {
             let mut lists: Vec<Vec<u32>> = vec![Vec::new(); 20];
             for t in &ts {
