@@ -192,14 +192,7 @@ pub fn source_field_in(
     sign: MeshSign,
     ctx: &mut RunContext,
 ) -> Result<SdfGrid> {
-    if !(4..=512).contains(&resolution) {
-        return Err(Error::InvalidParameter {
-            name: "source resolution",
-            value: resolution.to_string(),
-            expected: "4 to 512 samples".into(),
-        });
-    }
-    let spec = GridSpec::covering(exemplar.bounds, resolution, 0.0)?;
+    let spec = source_spec(exemplar, resolution)?;
     let surface = MeshSurface::new(&exemplar.mesh)?.with_sign(sign);
     let diagonal = exemplar.bounds.extent().length().max(2.0 * spec.spacing);
     let far_signs = FarSigns::default();
@@ -208,9 +201,22 @@ pub fn source_field_in(
     )?)
 }
 
-/// Samples along x, y, z of [`source_field`] at `resolution`.
+/// Samples along x, y, z of [`source_field`] at `resolution`; the same range errors.
 pub fn source_dims(exemplar: &VoxelExemplar, resolution: usize) -> Result<[usize; 3]> {
-    Ok(GridSpec::covering(exemplar.bounds, resolution, 0.0)?.dims)
+    Ok(source_spec(exemplar, resolution)?.dims)
+}
+
+/// The grid of [`source_field`]: `resolution` (4 to 512) samples along the box's longest
+/// side.
+fn source_spec(exemplar: &VoxelExemplar, resolution: usize) -> Result<GridSpec> {
+    if !(4..=512).contains(&resolution) {
+        return Err(Error::InvalidParameter {
+            name: "source resolution",
+            value: resolution.to_string(),
+            expected: "4 to 512 samples".into(),
+        });
+    }
+    Ok(GridSpec::covering(exemplar.bounds, resolution, 0.0)?)
 }
 
 /// Stage: exemplar → synthesized field and both reconstructions.
@@ -384,6 +390,22 @@ mod tests {
                 Err(Error::TextureFile { .. })
             ));
         }
+    }
+
+    #[test]
+    fn source_resolutions_out_of_range_are_refused_before_the_grid_is_sized() {
+        let exemplar = VoxelExemplar::from(&crate::fixtures::volumes::grid(1).unwrap());
+        for resolution in [0, 1, 3, 513, 1 << 32, usize::MAX] {
+            for refused in [
+                source_dims(&exemplar, resolution).map(|_| ()),
+                source_field(&exemplar, resolution, MeshSign::PseudoNormal).map(|_| ()),
+            ] {
+                let message = refused.unwrap_err().to_string();
+                assert!(message.contains("source resolution"), "{message}");
+            }
+        }
+        let dims = source_dims(&exemplar, 4).unwrap();
+        assert_eq!(*dims.iter().max().unwrap(), 4, "{dims:?}");
     }
 
     #[test]
