@@ -1010,3 +1010,42 @@ fn bundled_and_shared_point_sets_have_no_isolated_samples() {
         }
     }
 }
+
+/// Compiles only for a stage that a modeller can run on a worker thread: the stage, its
+/// input and its output can be sent to and shared between threads.
+fn assert_thread_safe_stage<S>()
+where
+    S: geosynth::Stage + Send + Sync,
+    S::Input: Send + Sync,
+    S::Output: Send + Sync,
+{
+}
+
+#[test]
+fn every_stage_its_input_and_output_cross_threads() {
+    use geosynth::{normals, quilt, reconstruct, sample, strays, voxel, warp};
+    assert_thread_safe_stage::<normals::EstimateNormals>();
+    assert_thread_safe_stage::<quilt::Quilt>();
+    assert_thread_safe_stage::<quilt::SampleHeights>();
+    assert_thread_safe_stage::<reconstruct::SignedDistance>();
+    assert_thread_safe_stage::<reconstruct::Reconstruct>();
+    assert_thread_safe_stage::<reconstruct::ReconstructOpen>();
+    assert_thread_safe_stage::<reconstruct::Remesh>();
+    assert_thread_safe_stage::<sample::SampleSurface>();
+    assert_thread_safe_stage::<strays::LeaveOutStrays>();
+    assert_thread_safe_stage::<voxel::VoxelSynth>();
+    assert_thread_safe_stage::<warp::Warp>();
+    // Errors travel back from workers; a run's context moves to the thread that runs it.
+    fn assert_send_sync<T: Send + Sync>() {}
+    fn assert_send<T: Send>() {}
+    assert_send_sync::<geosynth::Error>();
+    assert_send::<geosynth::RunContext>();
+    // Run one on a worker thread, as a modeller would.
+    let points = fixtures::sphere_points(500).unwrap();
+    let handle = std::thread::spawn(move || {
+        let mut ctx = geosynth::RunContext::new(1);
+        geosynth::Stage::run(&strays::LeaveOutStrays::default(), points, &mut ctx)
+    });
+    let found = handle.join().unwrap().unwrap();
+    assert_eq!(found.points.len(), 500);
+}
