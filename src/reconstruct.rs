@@ -201,15 +201,27 @@ pub fn signed_distance(geometry: &Geometry, params: &FieldParams) -> Result<SdfG
 
 /// [`signed_distance`] within a run: the grid's layers are reported as they are sampled
 /// (stage [`distance_field::SAMPLING_STAGE`]), and a cancelled run stops within a few
-/// layers with an error for which [`Error::is_cancelled`] holds.
+/// layers with an error for which [`Error::is_cancelled`] holds. The run's timings get
+/// [`SURFACE_TIMING`] (the mesh's or the points' search structures) and
+/// [`SAMPLING_TIMING`] (the grid).
 pub fn signed_distance_in(
     geometry: &Geometry,
     params: &FieldParams,
     ctx: &mut RunContext,
 ) -> Result<SdfGrid> {
-    let (surface, spec) = surface_for(geometry, params)?;
-    field_of(surface.as_ref(), &spec, params, ctx)
+    let (surface, spec) = ctx.timed(SURFACE_TIMING, |_| surface_for(geometry, params))?;
+    ctx.timed(SAMPLING_TIMING, |ctx| {
+        field_of(surface.as_ref(), &spec, params, ctx)
+    })
 }
+
+/// The timing [`signed_distance_in`] records for building the surface it samples: a
+/// mesh's bounding-volume hierarchy, or the points' index and MLS surface (and their
+/// winding-number hierarchy when they are signed by it).
+pub const SURFACE_TIMING: &str = "signed distance: surface";
+
+/// The timing [`signed_distance_in`] records for sampling the grid.
+pub const SAMPLING_TIMING: &str = "signed distance: sampling";
 
 /// The surface [`signed_distance`] samples for `geometry`: the mesh, or the points' MLS
 /// surface, each signed as `params` say, and the grid it is sampled on. Errors as

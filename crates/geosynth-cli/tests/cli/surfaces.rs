@@ -928,8 +928,13 @@ fn sdf_estimates_or_orients_a_point_sets_normals_as_reconstruct_does() {
     assert_eq!(json["input_options"]["estimate_normals"], 12);
     let stages = timed_stages(&json, "timings");
     assert_eq!(
-        stages[..2],
-        ["fitting normals", "orienting normals"],
+        stages,
+        [
+            "fitting normals",
+            "orienting normals",
+            "signed distance: surface",
+            "signed distance: sampling"
+        ],
         "{stages:?}"
     );
     // `--params` reads the bare points as the report's run did.
