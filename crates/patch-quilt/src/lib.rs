@@ -187,8 +187,8 @@ pub use blend::{BlendCounts, Overlap};
 pub use error::{QuiltError, Result};
 pub use exemplar::{BASE_SIDE, MAX_FIELD_NODES, MIN_PATCH_SPACINGS, PatchGeometry};
 pub use params::{
-    FIELD_RESOLUTIONS, MAX_ANCHORS_PER_CORNER, MAX_RELAXATION_ROUNDS, Method, OutputSize,
-    QuiltParams, WarpTargets,
+    FIELD_RESOLUTIONS, MAX_ANCHORS_PER_CORNER, MAX_OUTPUT_SCALE, MAX_RELAXATION_ROUNDS, Method,
+    OutputSize, QuiltParams, WarpTargets,
 };
 pub use quality::windows::MAX_MEASURE_NODES;
 pub use quality::{FEATURELESS_VARIATION, QualityMeasure, QualityReport, evaluate};

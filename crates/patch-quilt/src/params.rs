@@ -16,6 +16,12 @@ pub const MAX_RELAXATION_ROUNDS: usize = 100;
 /// pairs. The paper asks for "a few"; the default is 4.
 pub const MAX_ANCHORS_PER_CORNER: usize = 1024;
 
+/// Largest output side as a multiple of the exemplar box's side: the largest
+/// [`OutputSize::Scale`] [`QuiltParams::validate`] accepts, and the bound
+/// [`GeometryTexture::checked_output_extent`](crate::GeometryTexture::checked_output_extent)
+/// puts on an [`OutputSize::Absolute`] size.
+pub const MAX_OUTPUT_SCALE: f32 = 64.0;
+
 /// The `field_resolution`s [`QuiltParams::validate`] accepts: nodes of `D(T_in)` along the
 /// box's longer side.
 pub const FIELD_RESOLUTIONS: std::ops::RangeInclusive<usize> = 8..=512;
@@ -383,7 +389,7 @@ impl QuiltParams {
                     "a positive width and depth",
                 ));
             }
-            OutputSize::Scale(s) if !(s.is_finite() && s > 0.0 && s <= 64.0) => {
+            OutputSize::Scale(s) if !(s.is_finite() && s > 0.0 && s <= MAX_OUTPUT_SCALE) => {
                 return Err(invalid("output", s, "a scale in (0, 64]"));
             }
             _ => {}

@@ -13,7 +13,7 @@ use crate::error::{QuiltError, Result, invalid};
 use crate::exemplar::{
     Exemplar, ExemplarFrame, PatchGeometry, texture_field, texture_mls_params, to_base_units,
 };
-use crate::params::{Method, OutputSize, QuiltParams};
+use crate::params::{Method, QuiltParams};
 use crate::search::{OverlapNode, candidates, distances};
 use crate::texture::GeometryTexture;
 use crate::warp::{Neighbourhood, PairTargets, SourceAttributes, WarpCounts, warp_patch};
@@ -108,44 +108,25 @@ struct Layout {
     out_hi: Vec2,
 }
 
-/// Largest output side as a multiple of the exemplar box's side (as for
-/// [`OutputSize::Scale`]).
-const MAX_OUTPUT_SCALE: f32 = 64.0;
-
 impl Layout {
-    /// The scan-line layout covering `output`; an absolute size beyond
-    /// [`MAX_OUTPUT_SCALE`] times the exemplar box is refused.
-    fn new(frame: &ExemplarFrame, output: OutputSize) -> Result<Self> {
+    /// The scan-line layout covering an output of `size` (from
+    /// [`GeometryTexture::checked_output_extent`]).
+    fn new(frame: &ExemplarFrame, size: Vec2) -> Self {
         let g = frame.geometry;
         let lo = frame.bounds.min.truncate();
-        let ext = frame.bounds.extent().truncate();
-        let size = match output {
-            OutputSize::Absolute(w, h) => Vec2::new(w, h),
-            OutputSize::Scale(s) => ext * s,
-        };
-        if (size / ext).max_element() > MAX_OUTPUT_SCALE {
-            return Err(invalid(
-                "output",
-                format!("{} x {}", size.x, size.y),
-                format!(
-                    "at most {MAX_OUTPUT_SCALE} times the exemplar's box ({} x {}) per side",
-                    ext.x, ext.y
-                ),
-            ));
-        }
         let start = lo - Vec2::splat(g.extra());
         let step = g.patch() - g.overlap();
         let count =
             |span: f32| ((span + g.extra() - g.patch()) / step).ceil().max(0.0) as usize + 1;
         // Cover [start, lo + size + w_E]: the trim removes w_E on every side.
-        Ok(Self {
+        Self {
             start,
             step,
             cols: count(size.x + g.extra()),
             rows: count(size.y + g.extra()),
             out_lo: lo,
             out_hi: lo + size,
-        })
+        }
     }
 
     fn origin(&self, col: usize, row: usize) -> Vec2 {
@@ -247,7 +228,7 @@ pub fn quilt(
     let ex = Exemplar::new(texture, params)?;
     let frame = &ex.frame;
     let g = frame.geometry;
-    let layout = Layout::new(frame, params.output)?;
+    let layout = Layout::new(frame, texture.checked_output_extent(params.output)?);
     let mut pairing = params.pairing.clone().unwrap_or_default();
     if !pairing.max_distance.is_finite() {
         pairing.max_distance = params.pair_distance * g.spacing;

@@ -4,7 +4,7 @@ use glam::{Vec2, Vec3};
 use pointset_core::{Aabb, HeightField, PointSet, RunContext};
 
 use crate::error::{QuiltError, Result};
-use crate::params::OutputSize;
+use crate::params::{MAX_OUTPUT_SCALE, OutputSize};
 
 /// The axis normal to the reference plane (the texture's "up").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -326,6 +326,38 @@ impl GeometryTexture {
             OutputSize::Absolute(w, h) => Vec2::new(w, h),
             OutputSize::Scale(s) => (hi - lo) * s,
         }
+    }
+
+    /// [`Self::output_extent`], refused as [`quilt`](crate::quilt()) refuses it when a side
+    /// exceeds [`MAX_OUTPUT_SCALE`] times the footprint's: for checking a size before
+    /// anything is sized from it (a `1e30 × 1` quilt was first estimated at 5.8·10²⁶
+    /// million points).
+    ///
+    /// ```
+    /// use patch_quilt::{GeometryTexture, OutputSize};
+    /// use pointset_core::HeightField;
+    ///
+    /// let field = HeightField::new(40, 20, vec![0.0; 800])?;
+    /// let texture = GeometryTexture::from_heightfield(&field, 0.1, 1.0, 4)?;
+    /// assert!(texture.checked_output_extent(OutputSize::Absolute(5.0, 1.0)).is_ok());
+    /// assert!(texture.checked_output_extent(OutputSize::Absolute(1e30, 1.0)).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn checked_output_extent(&self, size: OutputSize) -> Result<Vec2> {
+        let extent = self.output_extent(size);
+        let (lo, hi) = self.footprint();
+        let box_side = hi - lo;
+        if (extent / box_side).max_element() > MAX_OUTPUT_SCALE {
+            return Err(crate::error::invalid(
+                "output",
+                format!("{} x {}", extent.x, extent.y),
+                format!(
+                    "at most {MAX_OUTPUT_SCALE} times the exemplar's box ({} x {}) per side",
+                    box_side.x, box_side.y
+                ),
+            ));
+        }
+        Ok(extent)
     }
 
     /// Samples per unit area of the reference plane: the points whose projection lies in

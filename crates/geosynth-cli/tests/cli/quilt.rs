@@ -259,6 +259,22 @@ fn quilt_writes_output_report_with_baselines_and_preview() {
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let reason = r["run"]["quality"]["not_measured"].as_str().unwrap();
     assert!(reason.contains("quality window"), "{reason}");
+    // An output wider than 64 exemplar boxes is refused before any note sizes it (it was
+    // first announced as 5.8e26 million points), and nothing is written.
+    let vast = dir.path().join("vast.ply");
+    let vast_arg = vast.to_str().unwrap();
+    let args = [
+        "quilt",
+        exemplar.to_str().unwrap(),
+        "-o",
+        vast_arg,
+        "--size",
+        "1e30,1",
+    ];
+    refused(&args, "at most 64 times the exemplar's box");
+    let said = String::from_utf8_lossy(&geosynth(&args).stderr).into_owned();
+    assert!(!said.contains("output points expected"), "{said}");
+    assert!(!vast.exists());
     // Height fields work directly; `--no-quality` skips the measure and the report says so.
     let hf = dir.path().join("bumps_64x64.f32le");
     let heights: Vec<u8> = (0..64 * 64)

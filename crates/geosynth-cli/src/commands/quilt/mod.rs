@@ -390,8 +390,9 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             args.map_range,
         )?),
     };
+    // The output's size is checked before the notes size anything from it.
+    let extent = file.texture.checked_output_extent(params.output)?;
     if let Some(placement) = &map_placement {
-        let extent = file.texture.output_extent(params.output);
         placement.frame.map_size(extent)?;
     }
     let texture = &file.texture;
