@@ -88,19 +88,33 @@ pub(super) fn parse_neighbours(s: &str) -> Result<usize, String> {
 
 /// A note when some points' neighbourhoods define no normal
 /// ([`geosynth::mls::NormalFit::undefined`]): their normals, and the orientation spread
-/// through them, are arbitrary. `flag` is the option that sets the neighbours.
+/// through them, are arbitrary. `neighbours` is the count used (at most `points`); `flag`
+/// is the option that sets it.
 pub(super) fn undefined_note(
     undefined: usize,
     points: usize,
     neighbours: usize,
     flag: &str,
 ) -> Option<String> {
+    // Every point among every point's neighbours: a larger count cannot help, a smaller
+    // one fits local planes (a sphere's whole set is spread alike every way).
+    let remedy = if neighbours >= points {
+        format!(
+            "{flag} takes in all {points} points here, so each plane is fitted to the whole \
+             set instead of its surroundings; a smaller {flag} (the default is \
+             {NORMAL_NEIGHBOURS}) fits local planes"
+        )
+    } else {
+        format!(
+            "Scan lines sampled far more densely along than across do that; {flag} large \
+             enough to reach the next line fixes it"
+        )
+    };
     (undefined > 0).then(|| {
         format!(
             "note: {undefined} of {points} points ({:.1}%) have {neighbours} nearest \
              neighbours that fix no normal (along one line, at one place, or spread alike \
-             every way): theirs are arbitrary. Scan lines sampled far more densely along \
-             than across do that; {flag} large enough to reach the next line fixes it",
+             every way): theirs are arbitrary. {remedy}",
             100.0 * undefined as f64 / points as f64
         )
     })

@@ -155,6 +155,28 @@ fn write_scan_lines(path: &Path) {
 }
 
 #[test]
+fn neighbours_taking_in_every_point_are_told_to_shrink_not_grow() {
+    // A sphere's 2,000 points, each fitted to all of them: spread alike every way, no
+    // plane. The note says the count takes in every point and names the default, not
+    // that a larger count would reach further.
+    let dir = Scratch::new();
+    let sphere = geosynth::fixtures::bundled_dir().join("sphere_points.ply");
+    let out = dir.path("sphere.ply");
+    let said = ok(&[
+        "normals",
+        &arg(&sphere),
+        "-o",
+        &arg(&out),
+        "--neighbours",
+        "100000",
+    ]);
+    assert!(said.contains("2000 of 2000 points"), "{said}");
+    assert!(said.contains("takes in all 2000 points"), "{said}");
+    assert!(said.contains("the default is 12"), "{said}");
+    assert!(!said.contains("large enough to reach"), "{said}");
+}
+
+#[test]
 fn scan_lines_too_far_apart_for_the_neighbours_or_the_kernel_get_notes() {
     let dir = Scratch::new();
     let scan = dir.path("scan.xyz");
