@@ -183,13 +183,18 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
         write_json_report(path, "sample", &report)?;
     }
     let spread = match spacing {
+        // One sample: the surface's area drew no candidate at this spacing.
+        Some(spacing) if count == 1 => {
+            format!("the surface is too small for a spacing of {spacing}")
+        }
         Some(spacing) => format!("none closer than {spacing}"),
         None => "uniform by area".into(),
     };
+    let points = if count == 1 { "point" } else { "points" };
     status(
         globals,
         format!(
-            "wrote {} ({count} points, {spread}; area {area:.4})",
+            "wrote {} ({count} {points}, {spread}; area {area:.4})",
             args.output.display()
         ),
     );

@@ -169,6 +169,18 @@ fn points_formats_and_options_that_cannot_work_are_refused() {
         "at least",
     );
     refused(&["sample", &sphere, "-o", &out, "--count", "0"], "count");
+    // A count too large is refused as a count (it was refused by the spacing it gave).
+    refused(
+        &[
+            "sample",
+            &sphere,
+            "-o",
+            &out,
+            "--count",
+            "18446744073709551615",
+        ],
+        "parameter `count` = 18446744073709551615",
+    );
     refused(
         &["sample", &sphere, "-o", &out, "--uniform", "--count", "0"],
         "count",
@@ -206,6 +218,14 @@ fn points_formats_and_options_that_cannot_work_are_refused() {
     );
     std::fs::remove_file(&flat).unwrap();
     assert!(dir.names().is_empty(), "{:?}", dir.names());
+    // A spacing wider than the sphere draws no candidate: one point, so said.
+    let said = ok(&["sample", &sphere, "-o", &out, "--spacing", "1e30"]);
+    assert!(
+        said.contains("(1 point, the surface is too small"),
+        "{said}"
+    );
+    assert_eq!(read_points(&dir.path("o.ply")).len(), 1);
+    std::fs::remove_file(dir.path("o.ply")).unwrap();
     // A format without normals keeps the positions, with a note.
     let las = dir.path("o.las");
     let printed = ok(&["sample", &sphere, "-o", &arg(&las), "--count", "50"]);

@@ -81,6 +81,13 @@ pub const POISSON_CANDIDATES_PER_AREA: f64 = 32.0;
 /// mesh.
 pub const MAX_POISSON_CANDIDATES: u64 = 1 << 30;
 
+/// Most samples [`SurfaceSampling::poisson_disk_for_count`] may aim for: the count
+/// whose spacing draws [`MAX_POISSON_CANDIDATES`] candidates (about 21.8 million), less
+/// a part in a million for the spacing's rounding.
+pub const MAX_POISSON_SAMPLES: usize = (MAX_POISSON_CANDIDATES as f64 * POISSON_SAMPLES_PER_AREA
+    / POISSON_CANDIDATES_PER_AREA
+    * (1.0 - 1e-6)) as usize;
+
 /// How many samples, and how they spread (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -91,7 +98,9 @@ pub enum SurfaceSampling {
         /// How many samples.
         count: usize,
     },
-    /// No two samples closer than `spacing` (positive, finite), the surface covered.
+    /// No two samples closer than `spacing` (positive, finite), the surface covered. A
+    /// surface whose area draws no candidate (far below one `spacing²`) gets one sample,
+    /// uniform by area.
     PoissonDisk {
         /// The least distance between two samples.
         spacing: f32,
@@ -107,7 +116,8 @@ impl SurfaceSampling {
     /// area `area` (within a few percent on smooth surfaces; a thin wall keeps fewer):
     /// `spacing = √(0.65 · area / count)`.
     ///
-    /// Errors: a count of 0 or an area that is not positive and finite.
+    /// Errors: a count of 0 or above [`MAX_POISSON_SAMPLES`], or an area that is not
+    /// positive and finite.
     ///
     /// ```
     /// use pointset_core::surface_sampling::SurfaceSampling;
@@ -121,6 +131,17 @@ impl SurfaceSampling {
                 name: "count",
                 value: "0".into(),
                 expected: "at least 1 sample".into(),
+            });
+        }
+        if count > MAX_POISSON_SAMPLES {
+            return Err(Error::InvalidParameter {
+                name: "count",
+                value: count.to_string(),
+                expected: format!(
+                    "1 to {MAX_POISSON_SAMPLES} samples for a Poisson disk (about \
+                     {:.0} candidates a sample, at most {MAX_POISSON_CANDIDATES})",
+                    POISSON_CANDIDATES_PER_AREA / POISSON_SAMPLES_PER_AREA
+                ),
             });
         }
         if !(area.is_finite() && area > 0.0) {
@@ -183,7 +204,15 @@ pub fn sample_surface(
             uniform(draws, count, ctx)?
         }
         SurfaceSampling::PoissonDisk { spacing } => {
-            poisson_disk(mesh, choice.area(), spacing, ctx)?
+            let kept = poisson_disk(mesh, choice.area(), spacing, ctx)?;
+            if kept.is_empty() {
+                // No candidate was drawn: the surface's area is far below one spacing²
+                // (`spacing` 1e30 on a torus gave an empty point set). One sample,
+                // uniform by area, is the disk.
+                vec![Draws::new(mesh, &choice, rng_from_seed(ctx.seed())).next_sample()]
+            } else {
+                kept
+            }
         }
     };
     ctx.report(STAGE, chosen.len() as u64, Some(chosen.len() as u64));

@@ -237,6 +237,52 @@ fn a_spacing_chosen_for_a_count_gives_about_that_many_samples() {
     assert!(SurfaceSampling::poisson_disk_for_count(1.0, 0).is_err());
     assert!(SurfaceSampling::poisson_disk_for_count(0.0, 10).is_err());
     assert!(SurfaceSampling::poisson_disk_for_count(f64::NAN, 10).is_err());
+    // The most samples: a spacing whose candidates the sampling accepts (on any area);
+    // one more is refused by its count (a count of 2^64 − 1 was refused by the spacing
+    // it gave, naming a spacing nobody asked for).
+    for area in [1e-6, 13.75, 1e9] {
+        let Ok(SurfaceSampling::PoissonDisk { spacing }) =
+            SurfaceSampling::poisson_disk_for_count(area, MAX_POISSON_SAMPLES)
+        else {
+            panic!("the most samples refused on area {area}");
+        };
+        let spacing = f64::from(spacing);
+        let candidates = (POISSON_CANDIDATES_PER_AREA * area / (spacing * spacing)).ceil();
+        assert!(candidates <= MAX_POISSON_CANDIDATES as f64, "{candidates}");
+    }
+    for count in [MAX_POISSON_SAMPLES + 1, usize::MAX] {
+        let Err(Error::InvalidParameter { name, .. }) =
+            SurfaceSampling::poisson_disk_for_count(13.75, count)
+        else {
+            panic!("{count} samples accepted");
+        };
+        assert_eq!(name, "count");
+    }
+}
+
+#[test]
+fn a_spacing_wider_than_the_surface_gives_one_sample_on_it() {
+    // Expected candidates about 32 · area / spacing² ≪ 1: none is drawn, and the disk is
+    // one sample, uniform by area (it was an empty point set).
+    let sheet = wavy_sheet(4);
+    for spacing in [1e3, 1e30] {
+        let samples = sample(
+            &sheet,
+            SurfaceSampling::PoissonDisk { spacing },
+            SampleNormals::Faces,
+        );
+        assert_eq!(samples.points.len(), 1, "spacing {spacing}");
+        for (p, n, face) in each_sample(&samples) {
+            let [a, b, c] = sheet.triangles()[face as usize].map(|v| sheet.positions()[v as usize]);
+            let (weights, off) = barycentric(p, [a, b, c]);
+            assert!(off.abs() < 1e-5, "{p} lies {off} off its triangle's plane");
+            assert!(
+                weights.iter().all(|w| (-1e-4..=1.0 + 1e-4).contains(w)),
+                "{weights:?}"
+            );
+            assert!(n.is_finite());
+        }
+    }
 }
 
 #[test]
