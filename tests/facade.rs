@@ -192,6 +192,25 @@ fn committed_fixtures_match_the_generators_bit_for_bit() {
 }
 
 #[test]
+fn a_texture_density_too_low_to_quilt_is_refused_by_name() {
+    use geosynth::fixtures::textures;
+    // At 0.01 points per unit area the chain mail had no point at all, and was written.
+    for density in [1e-30, 0.01] {
+        let refused = textures::sampled(density, 1, 1)
+            .err()
+            .map(|e| e.to_string());
+        let message = refused.unwrap_or_default();
+        assert!(message.contains("parameter `density`"), "{message}");
+        assert!(message.contains("too few for a texture"), "{message}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    assert!(fixtures::write_textures(dir.path(), 1, 1, 0.01).is_err());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // Sparse, but each texture has its 16 points.
+    assert_eq!(textures::sampled(10.0, 1, 1).unwrap().len(), 4);
+}
+
+#[test]
 fn a_texture_sampled_anew_keeps_its_surface() {
     use geosynth::fixtures::textures;
     use geosynth::mls::{MlsParams, MlsSurface};
