@@ -18,7 +18,7 @@ pub enum VoxelError {
         /// The value given.
         value: String,
         /// The accepted range, in words.
-        expected: &'static str,
+        expected: String,
     },
 }
 
@@ -26,12 +26,12 @@ pub enum VoxelError {
 pub(crate) fn invalid(
     name: &'static str,
     value: impl ToString,
-    expected: &'static str,
+    expected: impl Into<String>,
 ) -> VoxelError {
     VoxelError::InvalidParameter {
         name,
         value: value.to_string(),
-        expected,
+        expected: expected.into(),
     }
 }
 

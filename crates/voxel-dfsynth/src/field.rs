@@ -27,7 +27,7 @@ impl QuantizedField {
             return Err(VoxelError::InvalidParameter {
                 name: "values",
                 value: format!("{} values for {dims:?}", values.len()),
-                expected: "one value per node of a non-empty grid",
+                expected: "one value per node of a non-empty grid".into(),
             });
         }
         Ok(Self { dims, values })
@@ -68,7 +68,8 @@ impl QuantizedField {
                 name: "block size",
                 value: format!("{n} (the field is {x} × {y} × {z} samples)"),
                 expected: "a block that fits in the field along every axis (a thin solid needs \
-                           a higher resolution or a smaller block)",
+                           a higher resolution or a smaller block)"
+                    .into(),
             })
     }
 

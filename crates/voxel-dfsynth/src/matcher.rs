@@ -33,7 +33,7 @@ fn check_query(query: &[u8], n: usize) -> Result<()> {
         Err(VoxelError::InvalidParameter {
             name: "query",
             value: format!("{} values", query.len()),
-            expected: "N³ values",
+            expected: "N³ values".into(),
         })
     }
 }
@@ -205,7 +205,7 @@ impl BruteForce {
         let (ssd, id) = best.ok_or(VoxelError::InvalidParameter {
             name: "field",
             value: "no blocks".into(),
-            expected: "at least one block",
+            expected: "at least one block".into(),
         })?;
         Ok(Match {
             corner: self.corner(id),
@@ -408,7 +408,7 @@ impl BlockMatcher for FftMatcher {
             .ok_or(VoxelError::InvalidParameter {
                 name: "field",
                 value: "no blocks".into(),
-                expected: "at least one block",
+                expected: "at least one block".into(),
             })?;
         Ok(Match {
             corner: [id % px, (id / px) % py, id / (px * py)],

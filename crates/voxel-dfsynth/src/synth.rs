@@ -78,7 +78,7 @@ impl FromStr for MatcherKind {
             other => Err(VoxelError::InvalidParameter {
                 name: "matcher",
                 value: other.to_string(),
-                expected: "tree, brute, fft or random",
+                expected: "tree, brute, fft or random".into(),
             }),
         }
     }
@@ -174,14 +174,25 @@ impl VoxelParams {
                 "at least 1, with block / 2^(levels − 1) ≥ 2",
             ));
         }
-        for t in self.target_dims {
-            if t < self.block || t % (self.block / 2) != 0 {
-                return Err(invalid(
-                    "target dims",
-                    format!("{:?}", self.target_dims),
-                    "each ≥ block and a multiple of block / 2",
-                ));
-            }
+        let half = self.block / 2;
+        if self
+            .target_dims
+            .iter()
+            .any(|&t| t < self.block || t % half != 0)
+        {
+            // The nearest sizes that fit, so the message names numbers, not rules.
+            let fitting = self
+                .target_dims
+                .map(|t| (t.div_ceil(half) * half).max(self.block));
+            return Err(invalid(
+                "target dims",
+                format!("{:?}", self.target_dims),
+                format!(
+                    "each at least the block ({}) and a multiple of half of it ({half}), \
+                     such as {fitting:?}",
+                    self.block
+                ),
+            ));
         }
         let samples = self
             .target_dims

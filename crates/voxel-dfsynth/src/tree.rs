@@ -148,7 +148,7 @@ impl SearchTree {
             return Err(VoxelError::InvalidParameter {
                 name: "block size",
                 value: n.to_string(),
-                expected: "a power of two ≥ 2",
+                expected: "a power of two ≥ 2".into(),
             });
         }
         let positions = field.fitting_positions(n)?;
@@ -157,7 +157,7 @@ impl SearchTree {
             return Err(VoxelError::InvalidParameter {
                 name: "field",
                 value: format!("{count} blocks"),
-                expected: "fewer than 2^32 blocks",
+                expected: "fewer than 2^32 blocks".into(),
             });
         }
         let levels = n.trailing_zeros() as usize + 1;
@@ -574,7 +574,7 @@ impl SearchTree {
             return Err(VoxelError::InvalidParameter {
                 name: "drop",
                 value: drop.to_string(),
-                expected: "fewer levels than the block pyramid has",
+                expected: "fewer levels than the block pyramid has".into(),
             });
         }
         let m = self.n >> drop;
@@ -582,7 +582,7 @@ impl SearchTree {
             return Err(VoxelError::InvalidParameter {
                 name: "query",
                 value: format!("{} values", query.len()),
-                expected: "(N / 2^drop)³ values",
+                expected: "(N / 2^drop)³ values".into(),
             });
         }
         let q = self.prepare(query, drop)?;
@@ -673,7 +673,7 @@ impl SearchTree {
         Err(VoxelError::InvalidParameter {
             name: "tree",
             value: "empty".into(),
-            expected: "at least one block",
+            expected: "at least one block".into(),
         })
     }
 }

@@ -232,6 +232,29 @@ fn invalid_parameters_are_range_errors() {
     }
     assert!("kd".parse::<MatcherKind>().is_err());
     assert_eq!("fft".parse::<MatcherKind>().unwrap(), MatcherKind::Fft);
+    // Target sizes that do not fit the block are refused with the block's numbers and a
+    // size that fits, which validates.
+    for (dims, fitting) in [
+        ([16, 16, 4], [16, 16, 16]),
+        ([30, 17, 0], [32, 24, 16]),
+        ([1, 40, 20], [16, 40, 24]),
+    ] {
+        let p = params(32, 2, 16, MatcherKind::Brute).target_dims(dims);
+        let message = p
+            .validate()
+            .map_err(|e| e.to_string())
+            .err()
+            .unwrap_or_default();
+        assert!(
+            message.contains("at least the block (16) and a multiple of half of it (8)"),
+            "{message}"
+        );
+        assert!(
+            message.contains(&format!("such as {fitting:?}")),
+            "{message}"
+        );
+        assert!(p.target_dims(fitting).validate().is_ok(), "{fitting:?}");
+    }
 }
 
 #[test]
