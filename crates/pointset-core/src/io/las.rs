@@ -18,9 +18,13 @@
 //! and a point count the file's bytes cannot hold (checked before anything is allocated).
 //!
 //! Writing ([`write_las`]): each coordinate is an integer times a decimal scale around the
-//! data's centre, the scale the finest power of ten that keeps every integer within
+//! data's centre, each axis's scale the finest power of ten that keeps its integers within
 //! ±2·10⁹ (10⁻⁹ for a box 4 wide; 10⁻⁵ for 10 km of terrain), far finer than the
-//! positions' own single precision. `intensity` and `classification` attributes are written
+//! positions' own single precision. One scale for all three axes, as first written, lost
+//! a flat axis of a cloud spread wide along another (1e30 wide: heights 0 to 5 all came
+//! back as 3), and tiny clouds below a floor of 10⁻¹² (points 10⁻³⁰ apart came back
+//! equal). What int32 steps cannot hold stays lost: an axis spanning 10³⁰ is stored in
+//! steps of 10²¹. `intensity` and `classification` attributes are written
 //! when their values are whole numbers that fit (0–65535; classes 0–31, the legacy
 //! record's 5 bits), colours as 16-bit values; each record says return 1 of 1. Normals,
 //! other attributes and faces are not stored ([`super::FileFormat::unstored`]; a mesh is
@@ -463,13 +467,23 @@ pub fn write_las(geometry: &Geometry, out: &mut impl Write) -> Result<()> {
     write_las_at(geometry, DVec3::ZERO, out)
 }
 
-/// The scale and offset that hold `lo..hi` in 32-bit integers (see the module docs).
-fn scale_and_offset(lo: DVec3, hi: DVec3) -> (f64, DVec3) {
+/// The scales and offset that hold `lo..hi` in 32-bit integers, each axis on its own
+/// (see the module docs).
+fn scale_and_offset(lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
     let offset = (0.5 * (lo + hi)).round();
-    let reach = (hi - offset).max(offset - lo).max_element().max(1e-300);
-    let scale = 10f64.powf((reach / 2e9).log10().ceil()).max(1e-12);
-    (scale, offset)
+    let reach = (hi - offset).max(offset - lo);
+    let scale = reach.to_array().map(|r| {
+        // An axis where every point has the offset's value keeps the finest scale the
+        // others would get at a reach of 1 (10⁻⁹), a normal number for every reader.
+        let r = if r > 0.0 { r } else { 1.0 };
+        10f64.powf((r / 2e9).log10().ceil()).max(MIN_SCALE)
+    });
+    (DVec3::from_array(scale), offset)
 }
+
+/// The finest scale [`write_las`] writes: 10⁻³⁰⁰, where `f64` is still a normal number.
+/// Reaches under about 10⁻²⁹⁰ get it (positions that small are zero in `f32`).
+const MIN_SCALE: f64 = 1e-300;
 
 /// [`write_las`] with the stored positions relative to `origin`: the file's coordinates
 /// are their sums, in double precision.
@@ -525,7 +539,7 @@ pub(crate) fn write_las_at(geometry: &Geometry, origin: DVec3, out: &mut impl Wr
     // Every point is return 1 of 1.
     header[111..115].copy_from_slice(&count.to_le_bytes());
     for (k, v) in [
-        scale, scale, scale, offset.x, offset.y, offset.z, hi.x, lo.x, hi.y, lo.y, hi.z, lo.z,
+        scale.x, scale.y, scale.z, offset.x, offset.y, offset.z, hi.x, lo.x, hi.y, lo.y, hi.z, lo.z,
     ]
     .iter()
     .enumerate()

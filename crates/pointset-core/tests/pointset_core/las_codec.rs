@@ -140,6 +140,48 @@ fn points_round_trip_with_intensity_class_and_colours_far_from_the_origin() {
 }
 
 #[test]
+fn each_axis_gets_its_own_scale() {
+    // Spread 2e30 along x, 0 to 5 in z: with one scale for all axes (10²¹) the heights all
+    // came back as 3. And a cloud 2e-30 across: a floor of 10⁻¹² on the scale made its
+    // points equal.
+    let round_trip = |positions: Vec<Vec3>| {
+        let geometry = Geometry::Points(PointSet::new(positions).unwrap());
+        let bytes =
+            io::encode_geometry(&geometry, FileFormat::Las, &WriteOptions::default()).unwrap();
+        let back =
+            io::read_geometry_bytes_with(Path::new("r.las"), &bytes, &ReadOptions::default())
+                .unwrap();
+        assert_eq!(back.origin, DVec3::ZERO);
+        back.geometry.points().positions().to_vec()
+    };
+    let wide = vec![
+        Vec3::new(1e30, 0.0, 0.0),
+        Vec3::new(-1e30, 1.0, 5.0),
+        Vec3::new(0.0, 2.0, 3.0),
+    ];
+    let back = round_trip(wide.clone());
+    for (p, q) in wide.iter().zip(&back) {
+        assert!((p.x - q.x).abs() <= 1e21, "{p} vs {q}");
+        assert!(
+            (p.y - q.y).abs() < 1e-6 && (p.z - q.z).abs() < 1e-6,
+            "{p} vs {q}"
+        );
+    }
+    let tiny = vec![
+        Vec3::ZERO,
+        Vec3::splat(1e-30),
+        Vec3::new(2e-30, 0.0, -1e-30),
+    ];
+    let back = round_trip(tiny.clone());
+    for (p, q) in tiny.iter().zip(&back) {
+        assert!((*p - *q).abs().max_element() < 1e-36, "{p:?} vs {q:?}");
+    }
+    // A cloud with one flat axis and one coincident point keeps them.
+    let flat = vec![Vec3::new(3.0, 7.0, 0.25), Vec3::new(4.0, 7.0, 0.25)];
+    assert_eq!(round_trip(flat.clone()), flat);
+}
+
+#[test]
 fn what_las_cannot_hold_is_named_or_refused() {
     let mut points = PointSet::new(vec![Vec3::ZERO, Vec3::X])
         .unwrap()
