@@ -495,6 +495,21 @@ impl Stage for ReconstructOpen {
         ctx.timed("trim", |_| {
             trim_to_indexed_samples(&mesh, &samples, self.trim * spacing)
         })
+        .map_err(|e| match e {
+            Error::InvalidParameter {
+                name: "max_distance",
+                ..
+            } => Error::InvalidParameter {
+                name: "trim",
+                value: self.trim.to_string(),
+                expected: format!(
+                    "spacings that keep part of the surface (no corner of any face lies \
+                     within {} of a sample; the default is {DEFAULT_TRIM_SPACINGS})",
+                    self.trim * spacing
+                ),
+            },
+            other => other,
+        })
     }
 }
 
@@ -528,7 +543,8 @@ fn surface_of(sdf: &SdfGrid, surface: &dyn Surface, source: &str) -> Result<TriM
 /// The vertices no kept face uses are dropped; normals and UVs are kept (UVs were dropped
 /// before the twenty-eighth session). A closed surface sampled all over loses nothing.
 ///
-/// Errors: no samples, a non-finite sample, `max_distance` not positive.
+/// Errors: no samples, a non-finite sample, `max_distance` not positive, or so small
+/// that no face is left.
 ///
 /// ```
 /// use geosynth::reconstruct::{FieldParams, Reconstruct, trim_to_samples};
@@ -562,7 +578,12 @@ fn trim_to_indexed_samples(mesh: &TriMesh, index: &KdIndex, max_distance: f32) -
                 .is_some_and(|n| n.distance_squared <= limit))
         })
         .collect::<Result<Vec<bool>>>()?;
-    cut_runaway_regions(mesh, &near, samples_box.inflated(max_distance))
+    cut_runaway_regions(
+        mesh,
+        &near,
+        samples_box.inflated(max_distance),
+        max_distance,
+    )
 }
 
 /// `mesh` (a [`Remesh`] of `source`) without the parts that run away from `source`: what
@@ -571,7 +592,8 @@ fn trim_to_indexed_samples(mesh: &TriMesh, index: &KdIndex, max_distance: f32) -
 /// than `max_distance` from `source`; far regions that leave `source`'s box (grown by
 /// `max_distance`) are cut, and those inside it (holes the remesh closed) stay.
 ///
-/// Errors: `source` without faces, `max_distance` not positive.
+/// Errors: `source` without faces, `max_distance` not positive, or so small that no face
+/// is left.
 ///
 /// ```
 /// use geosynth::reconstruct::{trim_to_mesh, FieldParams, Remesh};
@@ -607,7 +629,7 @@ pub fn trim_to_mesh(mesh: &TriMesh, source: &TriMesh, max_distance: f32) -> Resu
                 .is_some_and(|c| c.point.distance(p) <= max_distance)
         })
         .collect();
-    cut_runaway_regions(mesh, &near, source_box.inflated(max_distance))
+    cut_runaway_regions(mesh, &near, source_box.inflated(max_distance), max_distance)
 }
 
 /// Refuses a trim distance that is not a positive length.
@@ -626,8 +648,14 @@ fn check_trim_distance(max_distance: f32) -> Result<()> {
 /// `mesh` without its far regions that leave `reach`. A face is far when none of its
 /// corners is `near`; far faces that share corners form a region. A region with a corner
 /// outside `reach` (the source's box, grown by the trim distance) runs on past the source;
-/// one that stays inside fills a gap in it and is kept.
-fn cut_runaway_regions(mesh: &TriMesh, near: &[bool], reach: Aabb) -> Result<TriMesh> {
+/// one that stays inside fills a gap in it and is kept. An error when nothing is left of a
+/// mesh with faces.
+fn cut_runaway_regions(
+    mesh: &TriMesh,
+    near: &[bool],
+    reach: Aabb,
+    max_distance: f32,
+) -> Result<TriMesh> {
     let triangles = mesh.triangles();
     let is_far = |t: &[u32; 3]| t.iter().all(|&v| !near[v as usize]);
     // Regions of far faces: their corners joined face by face.
@@ -645,7 +673,17 @@ fn cut_runaway_regions(mesh: &TriMesh, near: &[bool], reach: Aabb) -> Result<Tri
             runaway[root as usize] = true;
         }
     }
-    Ok(mesh.with_triangles_kept(|_, t| !(is_far(t) && runaway[regions.root(t[0]) as usize]))?)
+    let kept =
+        mesh.with_triangles_kept(|_, t| !(is_far(t) && runaway[regions.root(t[0]) as usize]))?;
+    if kept.face_count() == 0 && mesh.face_count() > 0 {
+        // No corner of any face was near: nothing of the surface is left to return.
+        return Error::invalid(
+            "max_distance",
+            max_distance,
+            "a distance that keeps part of the surface (no corner of any face lies that near)",
+        );
+    }
+    Ok(kept)
 }
 
 /// What [`drop_small_pieces`] leaves.
@@ -744,6 +782,21 @@ mod tests {
                 "{err}"
             );
         }
+        // A trim so short that no face keeps a corner near a sample cuts the whole sheet
+        // away: refused as a trim, not returned as an empty mesh.
+        let stage = ReconstructOpen {
+            trim: 1e-30,
+            ..Default::default()
+        };
+        let err = stage
+            .run(terrain.clone(), &mut RunContext::new(0))
+            .unwrap_err();
+        let message = err.to_string();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: "trim", .. })
+                && message.contains("keep part of the surface"),
+            "{message}"
+        );
     }
 
     #[test]

@@ -9,8 +9,8 @@ use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, plane_radius};
 use geosynth::reconstruct::{
-    FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
-    trim_to_mesh,
+    DEFAULT_TRIM_SPACINGS, FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces,
+    signed_distance_in, trim_to_mesh,
 };
 use geosynth::sdf::{MeshSign, PointSign, PointWinding, nrrd};
 use geosynth::{RunContext, Stage};
@@ -20,6 +20,7 @@ use serde_json::{Value, json};
 use super::normals::UpArg;
 use super::point_prep::{LeftOut, PointPrep, PointPrepArgs, check_recorded_neighbours};
 use super::{SignArgs, no_faces_to_orient, three_digits};
+use crate::CliError;
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
 use crate::memory::available_bytes;
@@ -279,7 +280,22 @@ fn reconstructed(
             match trim {
                 Some(trim) => {
                     let spacing = KdIndex::new(mesh.positions())?.median_spacing()?;
-                    ctx.timed("trim", |_| trim_to_mesh(&closed, mesh, trim * spacing))?
+                    ctx.timed("trim", |_| trim_to_mesh(&closed, mesh, trim * spacing))
+                        .map_err(|e| -> CliError {
+                            match e {
+                                geosynth::Error::InvalidParameter {
+                                    name: "max_distance",
+                                    ..
+                                } => format!(
+                                    "--trim {trim} keeps none of the surface: no corner of \
+                                     any face lies within {trim} spacings ({}) of the mesh; \
+                                     the default is {DEFAULT_TRIM_SPACINGS}",
+                                    trim * spacing
+                                )
+                                .into(),
+                                other => other.into(),
+                            }
+                        })?
                 }
                 None => closed,
             }
@@ -357,6 +373,16 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     if let Some(spacings) = options.drop_pieces {
         let limit = spacings * spacing()?;
         let kept = ctx.timed("drop pieces", |_| drop_small_pieces(&mesh, limit))?;
+        if kept.mesh.face_count() == 0 {
+            // Nothing written: an empty mesh is not a reconstruction.
+            return Err(format!(
+                "--drop-pieces {spacings} drops every piece ({} of them): none spans \
+                 {spacings} median sample spacings ({limit}); a smaller value keeps the \
+                 larger ones",
+                kept.dropped
+            )
+            .into());
+        }
         (mesh, pieces_dropped) = (kept.mesh, Some(kept.dropped));
     }
     bar.finish_and_clear();

@@ -800,6 +800,20 @@ fn reconstruct_drops_small_pieces_when_asked_and_says_so_when_not() {
         ],
         "--drop-pieces",
     );
+    // A limit above every piece would leave nothing: refused, nothing written (an empty
+    // mesh was written).
+    let empty = dir.path("empty.ply");
+    refused(
+        &[
+            "reconstruct",
+            &arg(&points),
+            "-o",
+            &arg(&empty),
+            "--drop-pieces=1e30",
+        ],
+        "drops every piece (2 of them)",
+    );
+    assert!(!empty.exists());
 }
 
 #[test]
