@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use crate::{Error, PointSet, Result, TriMesh};
 
@@ -127,16 +127,28 @@ impl HeightField {
 
     /// Unit surface normal at a sample from central differences (one-sided at borders);
     /// indices past the border read the border's samples, as [`HeightField::position`]
-    /// does for its height.
+    /// does for its height. Slopes too steep for single precision (their squares
+    /// overflow: a relief of 10³⁰ made every normal zero) are worked out in double.
     pub fn normal(&self, col: usize, row: usize, spacing: f32, scale: f32) -> Vec3 {
         let (col, row) = (col.min(self.width - 1), row.min(self.height - 1));
-        let at = |c: usize, r: usize| self.heights[r * self.width + c] * scale;
         let (c0, c1) = (col.saturating_sub(1), (col + 1).min(self.width - 1));
         let (r0, r1) = (row.saturating_sub(1), (row + 1).min(self.height - 1));
+        let height = |c: usize, r: usize| self.heights[r * self.width + c];
+        let at = |c: usize, r: usize| height(c, r) * scale;
         let dzdx = (at(c1, row) - at(c0, row)) / ((c1 - c0) as f32 * spacing);
         // Rows grow downward, y grows upward.
         let dzdy = (at(col, r0) - at(col, r1)) / ((r1 - r0) as f32 * spacing);
-        Vec3::new(-dzdx, -dzdy, 1.0).normalize()
+        Vec3::new(-dzdx, -dzdy, 1.0)
+            .try_normalize()
+            .unwrap_or_else(|| {
+                let at = |c: usize, r: usize| f64::from(height(c, r)) * f64::from(scale);
+                let spacing = f64::from(spacing);
+                let dzdx = (at(c1, row) - at(c0, row)) / ((c1 - c0) as f64 * spacing);
+                let dzdy = (at(col, r0) - at(col, r1)) / ((r1 - r0) as f64 * spacing);
+                DVec3::new(-dzdx, -dzdy, 1.0)
+                    .normalize_or(DVec3::Z)
+                    .as_vec3()
+            })
     }
 
     /// Every sample as an oriented point.
@@ -202,6 +214,20 @@ mod tests {
         for n in mesh.face_normals() {
             assert!(n.z > 0.0);
         }
+    }
+
+    #[test]
+    fn slopes_too_steep_for_single_precision_keep_their_normals() {
+        // z = 10³⁰·x: dz/dx squared overflows f32 (every normal came out zero), and the
+        // normal is −x to within 10⁻³⁰ of a radian.
+        let hf = HeightField::new(3, 2, vec![0.0, 1.0, 2.0, 0.0, 1.0, 2.0]).unwrap();
+        for scale in [1e19, 1e30, -1e30] {
+            let n = hf.normal(1, 0, 1.0, scale);
+            let expected = Vec3::new(-scale.signum(), 0.0, 0.0);
+            assert!((n - expected).length() < 1e-6, "{n} for scale {scale}");
+        }
+        let points = hf.to_points(1.0, 1e30).unwrap();
+        assert_eq!(points.directionless_normals(), 0);
     }
 
     #[test]
