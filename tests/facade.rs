@@ -201,12 +201,12 @@ fn a_texture_density_too_low_to_quilt_is_refused_by_name() {
             .map(|e| e.to_string());
         let message = refused.unwrap_or_default();
         assert!(message.contains("parameter `density`"), "{message}");
-        assert!(message.contains("too few for a texture"), "{message}");
+        assert!(message.contains("too few for a texture (at least 16)"), "{message}");
     }
     let dir = tempfile::tempdir().unwrap();
     assert!(fixtures::write_textures(dir.path(), 1, 1, 0.01).is_err());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
-    // Sparse, but each texture has its 16 points.
+    // Sparse, but each texture has its MIN_TEXTURE_POINTS.
     assert_eq!(textures::sampled(10.0, 1, 1).unwrap().len(), 4);
 }
 

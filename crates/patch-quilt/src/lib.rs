@@ -193,5 +193,5 @@ pub use params::{
 pub use quality::windows::MAX_MEASURE_NODES;
 pub use quality::{FEATURELESS_VARIATION, QualityMeasure, QualityReport, evaluate};
 pub use quilt::{Placement, QuiltOutput, QuiltStats, quilt};
-pub use texture::{GeometryTexture, UpAxis};
+pub use texture::{GeometryTexture, MIN_TEXTURE_POINTS, UpAxis};
 pub use warp::WarpCounts;

@@ -6,6 +6,9 @@ use pointset_core::{Aabb, HeightField, PointSet, RunContext};
 use crate::error::{QuiltError, Result};
 use crate::params::{MAX_OUTPUT_SCALE, OutputSize};
 
+/// Fewest points [`GeometryTexture::new`] takes for a texture.
+pub const MIN_TEXTURE_POINTS: usize = 16;
+
 /// The axis normal to the reference plane (the texture's "up").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum UpAxis {
@@ -110,9 +113,17 @@ impl GeometryTexture {
                 ),
             });
         }
-        if points.len() < 16 {
+        if points.len() < MIN_TEXTURE_POINTS {
             return Err(QuiltError::InvalidTexture {
-                reason: format!("{} points are too few for a texture", points.len()),
+                reason: format!(
+                    "{} {} too few for a texture (at least {MIN_TEXTURE_POINTS})",
+                    points.len(),
+                    if points.len() == 1 {
+                        "point is"
+                    } else {
+                        "points are"
+                    }
+                ),
             });
         }
         pointset_core::check_span(points.positions(), "exemplar points")?;
