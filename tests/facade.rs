@@ -201,7 +201,10 @@ fn a_texture_density_too_low_to_quilt_is_refused_by_name() {
             .map(|e| e.to_string());
         let message = refused.unwrap_or_default();
         assert!(message.contains("parameter `density`"), "{message}");
-        assert!(message.contains("too few for a texture (at least 16)"), "{message}");
+        assert!(
+            message.contains("too few for a texture (at least 16)"),
+            "{message}"
+        );
     }
     let dir = tempfile::tempdir().unwrap();
     assert!(fixtures::write_textures(dir.path(), 1, 1, 0.01).is_err());

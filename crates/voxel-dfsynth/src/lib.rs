@@ -71,7 +71,7 @@
 //! |---|---|---|
 //! | `target_dims` | 128³ (the paper's) | target samples along x, y, z at the finest iteration; each ≥ `block` and a multiple of `block / 2`; at most 512³ in all |
 //! | `levels` | 3 (the paper's) | iterations (resolution levels), with `block / 2^(levels − 1) ≥ 2` |
-//! | `block` | 16 (the paper's) | block size of the last iteration, a power of two ≥ 2 |
+//! | `block` | 16 (the paper's) | block size of the last iteration, a power of two from 2 to 512 |
 //! | `matcher` | [`MatcherKind::Brute`] | the block search: `Tree` (the paper's), `Brute` (linear, pruned), `Fft` (masked SSD) — all exact and equal — or `Random` (the baseline) |
 //! | `range` | the source's largest \|distance\| | half-range of the 256-level quantization |
 //! | `seed` | 0 | the random seeding of the first iteration (and the baseline's picks) |

@@ -96,7 +96,7 @@ pub struct VoxelParams {
     pub target_dims: [usize; 3],
     /// Iterations (resolution levels), ≥ 1, with `block / 2^(levels − 1) ≥ 2`; default 3 (the paper's).
     pub levels: usize,
-    /// Block size of the last iteration (a power of two ≥ 2); default 16 (the paper's).
+    /// Block size of the last iteration (a power of two from 2 to 512); default 16 (the paper's).
     pub block: usize,
     /// Block search; default [`MatcherKind::Brute`] (exact, the fastest here).
     pub matcher: MatcherKind,
@@ -164,14 +164,21 @@ impl VoxelParams {
 
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<()> {
-        if !self.block.is_power_of_two() || self.block < 2 {
-            return Err(invalid("block", self.block, "a power of two ≥ 2"));
+        // A block holds block³ samples of the target, which holds at most 512³.
+        if !self.block.is_power_of_two() || !(2..=512).contains(&self.block) {
+            return Err(invalid("block", self.block, "a power of two from 2 to 512"));
         }
-        if self.levels == 0 || self.levels > 31 || (self.block >> (self.levels - 1)) < 2 {
+        // The first level's block, block / 2^(levels − 1), is at least 2.
+        let most_levels = self.block.ilog2() as usize;
+        if !(1..=most_levels).contains(&self.levels) {
             return Err(invalid(
                 "levels",
                 self.levels,
-                "at least 1, with block / 2^(levels − 1) ≥ 2",
+                format!(
+                    "1 to {most_levels} for a block of {} (the first level's block, block / \
+                     2^(levels − 1), is at least 2)",
+                    self.block
+                ),
             ));
         }
         let half = self.block / 2;

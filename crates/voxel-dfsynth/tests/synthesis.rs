@@ -255,6 +255,22 @@ fn invalid_parameters_are_range_errors() {
         );
         assert!(p.target_dims(fitting).validate().is_ok(), "{fitting:?}");
     }
+    // Levels name their range for the block; a block above 512 is refused as a block
+    // (a suggested target of 1024³ would have been refused next).
+    let message = |p: VoxelParams| {
+        p.validate()
+            .map_err(|e| e.to_string())
+            .err()
+            .unwrap_or_default()
+    };
+    let levels = message(params(64, 5, 16, MatcherKind::Brute));
+    assert!(levels.contains("1 to 4 for a block of 16"), "{levels}");
+    assert!(params(64, 4, 16, MatcherKind::Brute).validate().is_ok());
+    let block = message(params(1024, 1, 1024, MatcherKind::Brute));
+    assert!(
+        block.contains("`block` = 1024") && block.contains("2 to 512"),
+        "{block}"
+    );
 }
 
 #[test]
