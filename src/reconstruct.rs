@@ -141,14 +141,21 @@ impl FieldParams {
             );
         }
         if self.margin > self.resolution as f32 / 2.0 {
+            // The resolution that would hold this margin, where one is accepted.
+            let fitting = (2.0 * self.margin).ceil();
+            let or_resolution = if fitting <= 1024.0 {
+                format!(" (or a resolution of at least {fitting} for this margin)")
+            } else {
+                String::new()
+            };
             return bad(
                 "margin",
                 self.margin.to_string(),
                 &format!(
-                    "at most half the resolution, {} spacings: a wider margin leaves the \
-                     geometry less than half the grid (a margin of 1e30 spacings made it \
-                     smaller than one spacing, and the field never crossed zero)",
-                    self.resolution as f32 / 2.0
+                    "at most half the resolution, {} spacings{or_resolution}: a wider margin \
+                     leaves the geometry less than half the grid (a margin of 1e30 spacings \
+                     made it smaller than one spacing, and the field never crossed zero)",
+                    self.resolution as f32 / 2.0,
                 ),
             );
         }

@@ -563,6 +563,24 @@ fn a_point_like_geometry_and_a_band_of_one_spacing_are_refused_by_name() {
             other => assert!(fine && other.is_ok(), "{margin}: {other:?}"),
         }
     }
+    // The default margin at the smallest resolution: the error names a resolution that
+    // holds it (only where one is accepted), which does.
+    let small = FieldParams::default().resolution(4);
+    let message = signed_distance(&sphere, &small)
+        .map_err(|e| e.to_string())
+        .err();
+    let message = message.unwrap_or_default();
+    assert!(message.contains("a resolution of at least 6"), "{message}");
+    assert!(signed_distance(&sphere, &small.clone().resolution(6)).is_ok());
+    let far = FieldParams::default().resolution(16).margin(1e30);
+    let message = signed_distance(&sphere, &far)
+        .map_err(|e| e.to_string())
+        .err();
+    assert!(
+        !message
+            .unwrap_or_default()
+            .contains("a resolution of at least")
+    );
     for band in [1.0, 0.5] {
         let mut params = FieldParams::default().resolution(16);
         params.band = band;
