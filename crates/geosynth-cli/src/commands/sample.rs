@@ -183,10 +183,9 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
         write_json_report(path, "sample", &report)?;
     }
     let spread = match spacing {
-        // One sample: the surface's area drew no candidate at this spacing.
-        Some(spacing) if count == 1 => {
-            format!("the surface is too small for a spacing of {spacing}")
-        }
+        // One sample (as asked, or as all a surface far under one spacing² gets): no
+        // pair to be apart.
+        Some(spacing) if count == 1 => format!("alone at a spacing of {spacing}"),
         Some(spacing) => format!("none closer than {spacing}"),
         None => "uniform by area".into(),
     };

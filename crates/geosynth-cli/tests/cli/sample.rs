@@ -221,7 +221,7 @@ fn points_formats_and_options_that_cannot_work_are_refused() {
     // A spacing wider than the sphere draws no candidate: one point, so said.
     let said = ok(&["sample", &sphere, "-o", &out, "--spacing", "1e30"]);
     assert!(
-        said.contains("(1 point, the surface is too small"),
+        said.contains("(1 point, alone at a spacing of 1000000000000000000000000000000"),
         "{said}"
     );
     assert_eq!(read_points(&dir.path("o.ply")).len(), 1);
