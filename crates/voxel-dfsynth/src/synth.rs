@@ -187,16 +187,22 @@ impl VoxelParams {
             .iter()
             .any(|&t| t < self.block || t % half != 0)
         {
-            // The nearest sizes that fit, so the message names numbers, not rules.
+            // The nearest sizes that fit, so the message names numbers, not rules (where
+            // they are not too many samples in turn).
             let fitting = self
                 .target_dims
-                .map(|t| (t.div_ceil(half) * half).max(self.block));
+                .map(|t| t.div_ceil(half).saturating_mul(half).max(self.block));
+            let such_as = fitting
+                .iter()
+                .try_fold(1usize, |n, &t| n.checked_mul(t))
+                .filter(|&n| n <= MAX_TARGET_SAMPLES)
+                .map_or(String::new(), |_| format!(", such as {fitting:?}"));
             return Err(invalid(
                 "target dims",
                 format!("{:?}", self.target_dims),
                 format!(
-                    "each at least the block ({}) and a multiple of half of it ({half}), \
-                     such as {fitting:?}",
+                    "each at least the block ({}) and a multiple of half of it \
+                     ({half}){such_as}",
                     self.block
                 ),
             ));

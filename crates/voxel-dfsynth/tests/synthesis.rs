@@ -255,6 +255,17 @@ fn invalid_parameters_are_range_errors() {
         );
         assert!(p.target_dims(fitting).validate().is_ok(), "{fitting:?}");
     }
+    // No size is suggested that would be too many samples in turn.
+    let huge = params(32, 2, 16, MatcherKind::Brute).target_dims([512, 512, 513]);
+    let message = huge
+        .validate()
+        .map_err(|e| e.to_string())
+        .err()
+        .unwrap_or_default();
+    assert!(
+        message.contains("multiple of half of it (8)") && !message.contains("such as"),
+        "{message}"
+    );
     // Levels name their range for the block; a block above 512 is refused as a block
     // (a suggested target of 1024³ would have been refused next).
     let message = |p: VoxelParams| {
