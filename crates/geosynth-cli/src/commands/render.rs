@@ -101,7 +101,8 @@ pub struct RenderArgs {
     /// Draw pictures as height fields (grey level = height) instead of as pictures.
     #[arg(long)]
     heightfield: bool,
-    /// Height range of drawn height fields, relative to their longer side.
+    /// Height range of drawn height fields, relative to their longer side (at most
+    /// 100).
     #[arg(long, default_value_t = 0.2)]
     relief: f32,
     #[command(flatten)]
@@ -174,11 +175,20 @@ fn zero_surface(path: &Path) -> CliResult<TriMesh> {
     Ok(mesh)
 }
 
+/// The tallest `--relief`: heights spanning 100 times the terrain's longer side.
+const MAX_RELIEF: f32 = 100.0;
+
 /// Runs `geosynth render`.
 pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
     check_output_paths([], [args.output.as_path()])?;
-    if !(args.relief.is_finite() && args.relief > 0.0) {
-        return Err(format!("--relief must be a positive number, not {}", args.relief).into());
+    // Taller, a terrain framed whole is a needle under a pixel wide (from about 1000 the
+    // picture came out blank).
+    if !(args.relief.is_finite() && args.relief > 0.0 && args.relief <= MAX_RELIEF) {
+        return Err(format!(
+            "--relief must be a positive number up to {MAX_RELIEF}, not {}",
+            args.relief
+        )
+        .into());
     }
     if args.heightfield && !args.files.iter().any(|p| imagery::is_image_path(p)) {
         status(

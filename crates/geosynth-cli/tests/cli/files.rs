@@ -96,6 +96,26 @@ fn info_and_render_work_on_every_shared_file() {
         terrain.to_str().unwrap(),
     ]);
     assert!(!said.contains("note"), "{said}");
+    // Reliefs above 100 times the longer side are refused (from about 1000 the picture
+    // came out blank); 100 is drawn.
+    let terrain_arg = arg(&terrain);
+    let with_relief = |relief: &str| {
+        [
+            "render",
+            "--heightfield",
+            hf.to_str().unwrap(),
+            "-o",
+            &terrain_arg,
+            "--relief",
+            relief,
+        ]
+        .map(String::from)
+    };
+    refused(
+        &with_relief("1e30").each_ref().map(String::as_str),
+        "up to 100",
+    );
+    ok(&with_relief("100").each_ref().map(String::as_str));
     // Without a picture among the files, --heightfield has nothing to do, and says so.
     let points = arg(&geosynth::fixtures::bundled_dir().join("sphere_points.ply"));
     let said = ok(&["render", "--heightfield", &points, "-o", &arg(&terrain)]);
