@@ -123,12 +123,47 @@ pub fn read_heightfield(path: &Path) -> Result<HeightField> {
 }
 
 /// A height field as a mesh for viewing: the longer side spans 1 unit and the height range
-/// spans `relief` units (a flat field stays flat).
+/// spans `relief` units (a flat field stays flat). Errors as [`relief_scale`].
 pub fn heightfield_mesh(field: &HeightField, relief: f32) -> Result<TriMesh> {
     let spacing = 1.0 / (field.width().max(field.height()) - 1) as f32;
+    Ok(field.to_mesh(spacing, relief_scale(field, relief)?)?)
+}
+
+/// The factor that makes `field`'s heights span `range` (1 for a flat field).
+///
+/// Errors ([`Error::InvalidParameter`] `heights`): heights whose range single precision
+/// cannot scale to `range`, or whose scaled values it cannot hold. Heights from −3.4·10³⁸
+/// to 3.4·10³⁸ have a range beyond `f32` (it was infinite, and the terrain came out
+/// flat); a range of 10⁻⁴⁰ needs a scale beyond `f32` (and came out not finite).
+///
+/// ```
+/// use geosynth::core::HeightField;
+/// use geosynth::imagery::relief_scale;
+///
+/// let field = HeightField::new(2, 2, vec![1.0, 2.0, 3.0, 5.0])?;
+/// assert_eq!(relief_scale(&field, 0.8)?, 0.2);
+/// let extreme = HeightField::new(2, 2, vec![-3.4e38, 0.0, 0.0, 3.4e38])?;
+/// assert!(relief_scale(&extreme, 0.8).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn relief_scale(field: &HeightField, range: f32) -> Result<f32> {
     let (lo, hi) = field.range();
-    let scale = if hi > lo { relief / (hi - lo) } else { 1.0 };
-    Ok(field.to_mesh(spacing, scale)?)
+    if hi <= lo {
+        return Ok(1.0);
+    }
+    let scale = range / (hi - lo);
+    if scale.is_normal() && (lo.abs().max(hi.abs()) * scale).is_finite() {
+        return Ok(scale);
+    }
+    let needed = f64::from(range) / (f64::from(hi) - f64::from(lo));
+    Error::invalid(
+        "heights",
+        format!("{lo:e} .. {hi:e}"),
+        &format!(
+            "heights whose range single precision can scale to {range} (the factor would \
+             be {needed:e}): rescale the file's heights"
+        ),
+    )
 }
 
 /// A height field written by [`write_heightfield`].

@@ -192,6 +192,31 @@ fn committed_fixtures_match_the_generators_bit_for_bit() {
 }
 
 #[test]
+fn height_fields_whose_range_single_precision_cannot_scale_are_refused() {
+    // Heights at ±f32::MAX (their range was infinite, and the terrain came out flat) and
+    // heights 1e-40 apart (their scale was infinite): refused by the quilt's reader, the
+    // viewer's mesh and the scale itself, naming the heights.
+    let dir = tempfile::tempdir().unwrap();
+    for (name, heights) in [
+        ("wide_4x4.f32le", [-3.4e38f32, 3.4e38, 0.0, 1.0]),
+        ("narrow_4x4.f32le", [0.0f32, 1e-40, 0.0, 5e-41]),
+    ] {
+        let path = dir.path().join(name);
+        let bytes: Vec<u8> = (0..16).flat_map(|i| heights[i % 4].to_le_bytes()).collect();
+        std::fs::write(&path, bytes).unwrap();
+        let field = geosynth::imagery::read_heightfield(&path).unwrap();
+        for refused in [
+            geosynth::imagery::relief_scale(&field, 0.4).map(|_| ()),
+            geosynth::imagery::heightfield_mesh(&field, 0.2).map(|_| ()),
+            geosynth::quilt::read_heightfield_texture_framed(&path, 0.1).map(|_| ()),
+        ] {
+            let message = refused.map_err(|e| e.to_string()).err().unwrap_or_default();
+            assert!(message.contains("parameter `heights`"), "{name}: {message}");
+        }
+    }
+}
+
+#[test]
 fn a_texture_density_too_low_to_quilt_is_refused_by_name() {
     use geosynth::fixtures::textures;
     // At 0.01 points per unit area the chain mail had no point at all, and was written.

@@ -139,14 +139,9 @@ pub fn read_heightfield_texture_framed(
         );
     }
     let field = crate::imagery::read_heightfield(path)?;
-    let (lo, hi) = field.range();
     let extent = 4.0;
     let spacing = extent / (field.width().max(field.height()) - 1) as f32;
-    let scale = if hi > lo {
-        relief * extent / (hi - lo)
-    } else {
-        1.0
-    };
+    let scale = crate::imagery::relief_scale(&field, relief * extent)?;
     let padding = field.width().min(field.height()) / 6;
     let texture = GeometryTexture::from_heightfield(&field, spacing, scale, padding)?;
     let frame = HeightFieldFrame {

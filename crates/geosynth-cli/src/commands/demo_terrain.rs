@@ -101,12 +101,7 @@ fn terrain_preview(
     height: u32,
 ) -> CliResult {
     let spacing = 1.0 / (input.width().max(input.height()) - 1) as f32;
-    let (lo, hi) = input.range();
-    let scale = if hi > lo {
-        DEFAULT_RELIEF / (hi - lo)
-    } else {
-        1.0
-    };
+    let scale = geosynth::imagery::relief_scale(input, DEFAULT_RELIEF)?;
     let meshes = [
         Geometry::Mesh(input.to_mesh(spacing, scale)?),
         Geometry::Mesh(output.to_mesh(spacing, scale)?),
