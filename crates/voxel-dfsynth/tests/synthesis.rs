@@ -234,17 +234,19 @@ fn invalid_parameters_are_range_errors() {
     assert_eq!("fft".parse::<MatcherKind>().unwrap(), MatcherKind::Fft);
     // Target sizes that do not fit the block are refused with the block's numbers and a
     // size that fits, which validates.
+    let message = |p: &VoxelParams| {
+        p.validate()
+            .map_err(|e| e.to_string())
+            .err()
+            .unwrap_or_default()
+    };
     for (dims, fitting) in [
         ([16, 16, 4], [16, 16, 16]),
         ([30, 17, 0], [32, 24, 16]),
         ([1, 40, 20], [16, 40, 24]),
     ] {
         let p = params(32, 2, 16, MatcherKind::Brute).target_dims(dims);
-        let message = p
-            .validate()
-            .map_err(|e| e.to_string())
-            .err()
-            .unwrap_or_default();
+        let message = message(&p);
         assert!(
             message.contains("at least the block (16) and a multiple of half of it (8)"),
             "{message}"
@@ -256,28 +258,17 @@ fn invalid_parameters_are_range_errors() {
         assert!(p.target_dims(fitting).validate().is_ok(), "{fitting:?}");
     }
     // No size is suggested that would be too many samples in turn.
-    let huge = params(32, 2, 16, MatcherKind::Brute).target_dims([512, 512, 513]);
-    let message = huge
-        .validate()
-        .map_err(|e| e.to_string())
-        .err()
-        .unwrap_or_default();
+    let huge = message(&params(32, 2, 16, MatcherKind::Brute).target_dims([512, 512, 513]));
     assert!(
-        message.contains("multiple of half of it (8)") && !message.contains("such as"),
-        "{message}"
+        huge.contains("multiple of half of it (8)") && !huge.contains("such as"),
+        "{huge}"
     );
     // Levels name their range for the block; a block above 512 is refused as a block
     // (a suggested target of 1024³ would have been refused next).
-    let message = |p: VoxelParams| {
-        p.validate()
-            .map_err(|e| e.to_string())
-            .err()
-            .unwrap_or_default()
-    };
-    let levels = message(params(64, 5, 16, MatcherKind::Brute));
+    let levels = message(&params(64, 5, 16, MatcherKind::Brute));
     assert!(levels.contains("1 to 4 for a block of 16"), "{levels}");
     assert!(params(64, 4, 16, MatcherKind::Brute).validate().is_ok());
-    let block = message(params(1024, 1, 1024, MatcherKind::Brute));
+    let block = message(&params(1024, 1, 1024, MatcherKind::Brute));
     assert!(
         block.contains("`block` = 1024") && block.contains("2 to 512"),
         "{block}"
