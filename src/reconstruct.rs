@@ -502,22 +502,37 @@ impl Stage for ReconstructOpen {
         ctx.timed("trim", |_| {
             trim_to_indexed_samples(&mesh, &samples, self.trim * spacing)
         })
-        .map_err(|e| match e {
-            Error::InvalidParameter {
-                name: "max_distance",
-                ..
-            } => Error::InvalidParameter {
-                name: "trim",
-                value: self.trim.to_string(),
-                expected: format!(
-                    "spacings that keep part of the surface (no corner of any face lies \
-                     within {} of a sample; the default is {DEFAULT_TRIM_SPACINGS})",
-                    self.trim * spacing
-                ),
-            },
-            other => other,
-        })
+        .map_err(|e| as_trim_error(e, self.trim, spacing))
     }
+}
+
+/// A trim distance refused for leaving no face ([`trim_to_samples`], [`trim_to_mesh`]),
+/// told as the `trim` in `spacing`s that gave it; other errors pass through.
+fn as_trim_error(error: Error, trim: f32, spacing: f32) -> Error {
+    match error {
+        Error::InvalidParameter {
+            name: "max_distance",
+            ..
+        } => Error::InvalidParameter {
+            name: "trim",
+            value: trim.to_string(),
+            expected: format!(
+                "spacings that keep part of the surface (no corner of any face lies within \
+                 {} of the samples; the default is {DEFAULT_TRIM_SPACINGS})",
+                trim * spacing
+            ),
+        },
+        other => other,
+    }
+}
+
+/// [`trim_to_mesh`] with the distance in `trim` median vertex spacings of `source`, as
+/// [`ReconstructOpen`] trims in sample spacings: `geosynth reconstruct MESH --trim`.
+///
+/// Errors: those of [`trim_to_mesh`], a trim that leaves no face as `trim`.
+pub fn trim_to_mesh_spacings(mesh: &TriMesh, source: &TriMesh, trim: f32) -> Result<TriMesh> {
+    let spacing = KdIndex::new(source.positions())?.median_spacing()?;
+    trim_to_mesh(mesh, source, trim * spacing).map_err(|e| as_trim_error(e, trim, spacing))
 }
 
 /// The zero set of `sdf`, sampled from `surface` ([`sdf_isosurface_of`]), or
@@ -823,6 +838,39 @@ mod tests {
             let err = trim_to_mesh(&closed, &sphere, bad).unwrap_err();
             assert!(err.to_string().contains("max_distance"), "{err}");
         }
+    }
+
+    #[test]
+    fn a_mesh_trim_in_spacings_that_leaves_nothing_is_refused_as_a_trim() {
+        // A unit square remeshed runs out to the grid's sides; trimmed at a tenth of a
+        // vertex spacing it keeps its middle. Against the square lifted by 0.5 no face
+        // is near at 1e-30 spacings, which is refused by name.
+        let corners = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let square =
+            TriMesh::new(PointSet::new(corners).unwrap(), vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        let params = FieldParams::default().resolution(20).margin(8.0);
+        let remeshed = Remesh { params }
+            .run(square.clone(), &mut RunContext::new(0))
+            .unwrap();
+        let kept = trim_to_mesh_spacings(&remeshed, &square, 0.1).unwrap();
+        assert!(kept.face_count() > 0 && kept.face_count() < remeshed.face_count());
+        let lifted = TriMesh::new(
+            PointSet::new(
+                square
+                    .positions()
+                    .iter()
+                    .map(|p| *p + Vec3::Z * 0.5)
+                    .collect(),
+            )
+            .unwrap(),
+            square.triangles().to_vec(),
+        )
+        .unwrap();
+        let err = trim_to_mesh_spacings(&remeshed, &lifted, 1e-30).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: "trim", .. }),
+            "{err}"
+        );
     }
 
     #[test]

@@ -9,8 +9,8 @@ use geosynth::core::io::{self, Geometry, WriteOptions};
 use geosynth::core::{PointSet, TriMesh};
 use geosynth::mls::{MlsParams, PLANE_RADIUS_MAX_NEIGHBOURS, plane_radius};
 use geosynth::reconstruct::{
-    DEFAULT_TRIM_SPACINGS, FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces,
-    signed_distance_in, trim_to_mesh,
+    FieldParams, Reconstruct, ReconstructOpen, Remesh, drop_small_pieces, signed_distance_in,
+    trim_to_mesh_spacings,
 };
 use geosynth::sdf::{MeshSign, PointSign, PointWinding, nrrd};
 use geosynth::{RunContext, Stage};
@@ -20,7 +20,6 @@ use serde_json::{Value, json};
 use super::normals::UpArg;
 use super::point_prep::{LeftOut, PointPrep, PointPrepArgs, check_recorded_neighbours};
 use super::{SignArgs, no_faces_to_orient, three_digits};
-use crate::CliError;
 use crate::input_file::read_geometry;
 use crate::json_report::{timings_json, write_json_report};
 use crate::memory::available_bytes;
@@ -278,25 +277,7 @@ fn reconstructed(
         (Geometry::Mesh(mesh), trim) => {
             let closed = Remesh { params }.run(mesh.clone(), ctx)?;
             match trim {
-                Some(trim) => {
-                    let spacing = KdIndex::new(mesh.positions())?.median_spacing()?;
-                    ctx.timed("trim", |_| trim_to_mesh(&closed, mesh, trim * spacing))
-                        .map_err(|e| -> CliError {
-                            match e {
-                                geosynth::Error::InvalidParameter {
-                                    name: "max_distance",
-                                    ..
-                                } => format!(
-                                    "--trim {trim} keeps none of the surface: no corner of \
-                                     any face lies within {trim} spacings ({}) of the mesh; \
-                                     the default is {DEFAULT_TRIM_SPACINGS}",
-                                    trim * spacing
-                                )
-                                .into(),
-                                other => other.into(),
-                            }
-                        })?
-                }
+                Some(trim) => ctx.timed("trim", |_| trim_to_mesh_spacings(&closed, mesh, trim))?,
                 None => closed,
             }
         }
