@@ -10,15 +10,20 @@ use serde_json::{Number, Value, json};
 use crate::CliResult;
 use crate::memory::peak_resident_bytes;
 use crate::params_file::COMMAND_KEY;
+use crate::phases::wall_seconds;
 
 /// The key under which a report records the peak resident memory of the process that
 /// wrote it, in bytes: everything the run held at once, reading and writing files included.
 pub const PEAK_MEMORY_KEY: &str = "peak_memory_bytes";
 
+/// The key under which a report records the seconds from the command's start to the
+/// report's writing ([`crate::phases::wall_seconds`]): the time its `timings` share out.
+pub const WALL_SECONDS_KEY: &str = "wall_seconds";
+
 /// Writes the report of `geosynth COMMAND` to `path` as indented JSON, naming the command
 /// under [`COMMAND_KEY`] (so `--params` can tell one command's report from another's) and
 /// the process's peak resident memory so far under [`PEAK_MEMORY_KEY`] (`null` where the
-/// platform does not tell).
+/// platform does not tell) and the command's time so far under [`WALL_SECONDS_KEY`].
 /// Numbers that are exactly a single-precision value are written as that value's shortest
 /// decimal: `json!` and `serde_json::to_value` widen an `f32` to the `f64` it equals, which
 /// prints `0.1f32` as `0.10000000149011612`. Read back as `f32` (as `--params` does), the
@@ -31,6 +36,7 @@ pub fn write_json_report(path: &Path, command: &str, report: &impl Serialize) ->
             PEAK_MEMORY_KEY.to_string(),
             Value::from(peak_resident_bytes()),
         );
+        fields.insert(WALL_SECONDS_KEY.to_string(), Value::from(wall_seconds()));
     }
     shorten_single_precision(&mut value);
     let text = serde_json::to_string_pretty(&value)?;

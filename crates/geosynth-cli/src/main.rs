@@ -7,6 +7,7 @@ mod json_report;
 mod memory;
 mod output;
 mod params_file;
+mod phases;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -74,6 +75,7 @@ pub(crate) struct Globals {
 }
 
 fn main() -> ExitCode {
+    phases::start_clock();
     interrupt::install();
     let matches = Cli::command().get_matches();
     let cli = match Cli::from_arg_matches(&matches) {

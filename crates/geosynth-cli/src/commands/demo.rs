@@ -702,10 +702,13 @@ fn synthesize_volumes(args: &DemoArgs, globals: Globals) -> CliResult<Vec<Volume
                 .seed(args.seed),
             ..VoxelSynth::default()
         };
-        let run =
-            crate::commands::voxel::measured_run(exemplar.clone(), &stage, true, globals, |_| {
-                Ok(())
-            })?;
+        let run = crate::commands::voxel::measured_run(
+            exemplar.clone(),
+            &stage,
+            true,
+            globals,
+            |_, _| Ok(()),
+        )?;
         let dir = args.out.join("geometry");
         let write = |suffix: &str, geometry: &Geometry| -> CliResult<PathBuf> {
             let path = dir.join(format!("{}_{suffix}.ply", volume.name));

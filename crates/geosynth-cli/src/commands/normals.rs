@@ -21,6 +21,7 @@ use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
     write_geometry_file,
 };
+use crate::phases::{READING, WRITING};
 use crate::{CliResult, Globals};
 
 /// The direction estimated normals are turned toward where nothing else decides.
@@ -176,7 +177,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     };
     // The bar follows the stages: the fit, then the orientation.
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
-    ctx.record_timing("reading", read_time);
+    ctx.record_timing(READING, read_time);
     // One index of the positions serves the fit, the orientation and its check.
     let index = ctx.timed("indexing", |_| KdIndex::new(points.positions()))?;
     let count = points.len();
@@ -218,7 +219,7 @@ pub fn run(args: &NormalsArgs, globals: Globals) -> CliResult {
     let options = WriteOptions::default()
         .comment(comment)
         .origin(loaded.origin);
-    ctx.timed("writing", |_| {
+    ctx.timed(WRITING, |_| {
         write_geometry_file(&args.output, &Geometry::Points(oriented), &options, globals)
     })?;
     if let Some(path) = &args.report {

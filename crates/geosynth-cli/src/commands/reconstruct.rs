@@ -31,6 +31,7 @@ use crate::params_file::{
     GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, RECONSTRUCT_REPORTS, RecordedInput, ReportKind,
     SDF_REPORTS, check_positive,
 };
+use crate::phases::{self, PREPARING, READING, Timings, WRITING};
 use crate::{CliResult, Globals};
 
 /// Grid settings, the parameter file and the report, shared by both commands.
@@ -314,18 +315,15 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
     let params = args.grid.params(&file, &args.sign, given)?;
     let options = ReconstructInputOptions::of(args, &file)?;
     // Georeferenced points are reconstructed relative to an origin and written back there.
-    let loaded = read_geometry(&args.input, globals)?;
+    let mut preparing = Timings::new();
+    let loaded = phases::timed(&mut preparing, READING, || {
+        read_geometry(&args.input, globals)
+    })?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(&args.output, true, loaded.origin)?;
-    let mut preparing = Vec::new();
-    let (input, left_out) = prepared_input(
-        args,
-        loaded.geometry,
-        &options,
-        &params,
-        globals,
-        &mut preparing,
-    )?;
+    let (input, left_out) = phases::timed_rest(&mut preparing, PREPARING, |preparing| {
+        prepared_input(args, loaded.geometry, &options, &params, globals, preparing)
+    })?;
     let from_points = matches!(input, Geometry::Points(_));
     let winding = if from_points {
         params.point_sign == PointSign::WindingNumber
@@ -373,12 +371,14 @@ pub fn run_reconstruct(args: &ReconstructArgs, given: GivenFlags, globals: Globa
             args.input.display()
         ))
         .origin(loaded.origin);
-    write_geometry_file(
-        &args.output,
-        &Geometry::Mesh(mesh.clone()),
-        &write_options,
-        globals,
-    )?;
+    ctx.timed(WRITING, |_| {
+        write_geometry_file(
+            &args.output,
+            &Geometry::Mesh(mesh.clone()),
+            &write_options,
+            globals,
+        )
+    })?;
     let timings: Vec<String> = ctx
         .timings()
         .iter()
@@ -726,40 +726,44 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
         ..args.sign
     };
     // Georeferenced inputs are sampled relative to an origin; the header's origin adds it.
-    let mut loaded = read_geometry(&args.input, globals)?;
+    let mut preparing = Timings::new();
+    let mut loaded = phases::timed(&mut preparing, READING, || {
+        read_geometry(&args.input, globals)
+    })?;
     report_not_kept(globals, &args.input, &loaded.notes);
-    let mut preparing = Vec::new();
     let mut left_out = LeftOut::default();
-    loaded.geometry = match loaded.geometry {
-        io::Geometry::Points(read) => {
-            let points;
-            (points, left_out) = options.normals().prepared(
-                read,
-                params.kernel,
-                &args.input,
-                globals,
-                &mut preparing,
-            )?;
-            if sign.orient_faces {
-                status(globals, no_faces_to_orient(&args.input));
+    loaded.geometry = phases::timed_rest(&mut preparing, PREPARING, |preparing| {
+        CliResult::Ok(match loaded.geometry {
+            io::Geometry::Points(read) => {
+                let points;
+                (points, left_out) = options.normals().prepared(
+                    read,
+                    params.kernel,
+                    &args.input,
+                    globals,
+                    preparing,
+                )?;
+                if sign.orient_faces {
+                    status(globals, no_faces_to_orient(&args.input));
+                }
+                if let Some(note) = line_gap_note(&points, params.kernel, false)? {
+                    status(globals, note);
+                }
+                io::Geometry::Points(points)
             }
-            if let Some(note) = line_gap_note(&points, params.kernel, false)? {
-                status(globals, note);
+            io::Geometry::Mesh(mesh) => {
+                options.normals().refuse_for_mesh(&args.input)?;
+                let (mesh, change) = sign.oriented(mesh)?;
+                if let Some(line) = change {
+                    status(globals, line);
+                }
+                if let Some(note) = sign.note(&mesh, params.mesh_sign)? {
+                    status(globals, note);
+                }
+                io::Geometry::Mesh(mesh)
             }
-            io::Geometry::Points(points)
-        }
-        io::Geometry::Mesh(mesh) => {
-            options.normals().refuse_for_mesh(&args.input)?;
-            let (mesh, change) = sign.oriented(mesh)?;
-            if let Some(line) = change {
-                status(globals, line);
-            }
-            if let Some(note) = sign.note(&mesh, params.mesh_sign)? {
-                status(globals, note);
-            }
-            io::Geometry::Mesh(mesh)
-        }
-    };
+        })
+    })?;
     check_grid_fits(&params, &loaded.geometry)?;
     let (mut ctx, bar) = progress_context(globals, 0, "sampling distances", false);
     for (stage, time) in preparing {
@@ -770,14 +774,17 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let offset = loaded.origin;
-    if args.gradient {
-        nrrd::write_file(&args.output, |f| nrrd::write_vec4_at(f, sdf.grid(), offset))?;
-    } else {
-        let distances = sdf.distances()?;
-        nrrd::write_file(&args.output, |f| {
-            nrrd::write_scalar_at(f, &distances, offset)
-        })?;
-    }
+    ctx.timed(WRITING, |_| -> CliResult {
+        if args.gradient {
+            nrrd::write_file(&args.output, |f| nrrd::write_vec4_at(f, sdf.grid(), offset))?;
+        } else {
+            let distances = sdf.distances()?;
+            nrrd::write_file(&args.output, |f| {
+                nrrd::write_scalar_at(f, &distances, offset)
+            })?;
+        }
+        Ok(())
+    })?;
     let [x, y, z] = sdf.dims();
     write_report(
         &args.grid,

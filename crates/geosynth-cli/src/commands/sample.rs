@@ -17,6 +17,7 @@ use crate::output::{
     check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
     write_geometry_file,
 };
+use crate::phases::{READING, WRITING};
 use crate::{CliResult, Globals};
 
 /// Points `sample` aims for when given neither `--count` nor `--spacing`.
@@ -128,7 +129,7 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
         },
     };
     let (mut ctx, bar) = progress_context(globals, args.seed, "sampling", false);
-    ctx.record_timing("reading", read_time);
+    ctx.record_timing(READING, read_time);
     let samples = ctx
         .timed("sampling", |ctx| stage.run(mesh, ctx))
         .map_err(|e| format!("{}: {e}", args.input.display()))?;
@@ -160,7 +161,7 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
     let options = WriteOptions::default()
         .comment(comment)
         .origin(loaded.origin);
-    ctx.timed("writing", |_| {
+    ctx.timed(WRITING, |_| {
         write_geometry_file(&args.output, &Geometry::Points(points), &options, globals)
     })?;
     let spacing = match sampling {

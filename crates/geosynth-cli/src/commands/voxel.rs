@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
+use geosynth::RunContext;
 use geosynth::core::io::{Geometry, WriteOptions};
 use geosynth::preview::{self, Panel, RenderOptions, UpAxis};
 use geosynth::sdf::{GridSpec, nrrd};
@@ -17,11 +18,12 @@ use serde_json::{Value, json};
 use super::SignArgs;
 use super::voxel_memory::{check_reconstruction_fits, check_synthesis_fits};
 use crate::input_file::named;
-use crate::json_report::write_json_report;
+use crate::json_report::{timings_json, write_json_report};
 use crate::output::{
     check_geometry_output, check_output_paths, progress_context, status, write_geometry_file,
 };
 use crate::params_file::{GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, VOXEL_REPORTS};
+use crate::phases::{self, MEASURING, PREPARING, READING, Timings, WRITING};
 use crate::{CliResult, Globals};
 
 /// Block search.
@@ -115,12 +117,15 @@ fn parse_dims(s: &str) -> Result<[usize; 3], String> {
     super::comma_values(s, "X,Y,Z")
 }
 
+/// The phase of synthesizing the random-block baseline (`--baseline`).
+const BASELINE: &str = "random baseline";
+
 /// One measured run of the stage.
 pub struct VoxelRun {
     /// What the stage produced.
     pub output: VoxelOutput,
-    /// `(stage, seconds)`.
-    pub timings: Vec<(String, f64)>,
+    /// The run's phases: the stage's own, then measuring the quality and the baseline's.
+    pub timings: Timings,
     /// Wall time.
     pub seconds: f64,
     /// Quality against the source.
@@ -131,43 +136,45 @@ pub struct VoxelRun {
 
 /// Runs the stage with a progress bar, measures it, and optionally the random baseline.
 /// `after_synthesis` sees the synthesized field before the meshes are built from it (to
-/// write it, or to check that they fit) and can stop the run.
+/// write it, or to check that they fit; timing what it does in the context it is given)
+/// and can stop the run.
 pub fn measured_run(
     exemplar: VoxelExemplar,
     stage: &VoxelSynth,
     baseline: bool,
     globals: Globals,
-    after_synthesis: impl FnOnce(&SynthesizedField) -> CliResult,
+    after_synthesis: impl FnOnce(&SynthesizedField, &mut RunContext) -> CliResult,
 ) -> CliResult<VoxelRun> {
     let (mut ctx, bar) = progress_context(globals, stage.params.seed, "blocks", true);
     let start = Instant::now();
     let field = stage.synthesize_field(&exemplar, &mut ctx)?;
     let mut seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    after_synthesis(&field)?;
+    after_synthesis(&field, &mut ctx)?;
     let start = Instant::now();
     let output = stage.reconstruct(&exemplar, field, &mut ctx)?;
     seconds += start.elapsed().as_secs_f64();
-    let quantizer = source_quantizer(&output.source, &stage.params)?;
-    let source = quantize_source(&output.source, &quantizer)?;
     let qp = QualityParams::default()
         .window(8.min(stage.params.block))
         .seed(stage.params.seed);
-    let quality = evaluate(&source, &quantizer, &output.synthesis, &qp)?;
+    let (quantizer, source, quality) = ctx.timed(MEASURING, |_| -> CliResult<_> {
+        let quantizer = source_quantizer(&output.source, &stage.params)?;
+        let source = quantize_source(&output.source, &quantizer)?;
+        let quality = evaluate(&source, &quantizer, &output.synthesis, &qp)?;
+        Ok((quantizer, source, quality))
+    })?;
     let baseline = if baseline {
         let params = stage.params.clone().matcher(MatcherKind::Random);
-        let (mut ctx, bar) = progress_context(globals, params.seed, "baseline", true);
-        let random = synthesize(&output.source, &params, &mut ctx)?;
+        let (mut baseline_ctx, bar) = progress_context(globals, params.seed, "baseline", true);
+        let random = ctx.timed(BASELINE, |_| {
+            synthesize(&output.source, &params, &mut baseline_ctx)
+        })?;
         bar.finish_and_clear();
-        Some(evaluate(&source, &quantizer, &random, &qp)?)
+        Some(ctx.timed(MEASURING, |_| evaluate(&source, &quantizer, &random, &qp))?)
     } else {
         None
     };
-    let timings = ctx
-        .timings()
-        .iter()
-        .map(|(n, d)| (n.clone(), d.as_secs_f64()))
-        .collect();
+    let timings = ctx.timings().to_vec();
     Ok(VoxelRun {
         output,
         timings,
@@ -212,7 +219,7 @@ pub fn run_json(run: &VoxelRun, stage: &VoxelSynth) -> Value {
             "branching_factor": t.branching_factor, "memory_bytes": t.memory_bytes,
             "build_seconds": t.build_seconds,
         })),
-        "timings": run.timings.iter().map(|(n, t)| json!({"stage": n, "seconds": t})).collect::<Vec<_>>(),
+        "timings": timings_json(&run.timings),
         "isosurface": { "vertices": run.output.isosurface.vertex_count(), "faces": run.output.isosurface.face_count() },
         "copied": {
             "triangles": c.copied_triangles, "boundary_edges_before": c.boundary_edges_before,
@@ -318,37 +325,53 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let file = ParamsFile::read(args.params.as_deref(), VOXEL_REPORTS)?;
     let stage = run_stage(args, &file, given)?;
     let (sign, input_options) = args.sign.with_recorded(&file)?;
-    let mut exemplar = read_exemplar(&args.exemplar).map_err(named(&args.exemplar))?;
+    let mut timings = Timings::new();
+    let mut exemplar = phases::timed(&mut timings, READING, || read_exemplar(&args.exemplar))
+        .map_err(named(&args.exemplar))?;
     for path in std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()) {
         check_geometry_output(path, true, exemplar.origin)?;
     }
-    if let Some(note) = precision_note(&exemplar, stage.source_resolution) {
-        status(globals, note);
-    }
-    let (mesh, change) = sign.oriented(exemplar.mesh)?;
-    exemplar.mesh = mesh;
-    if let Some(line) = change {
-        status(globals, line);
-    }
-    if let Some(note) = sign.note(&exemplar.mesh, stage.mesh_sign)? {
-        status(globals, note);
-    }
-    if let Some(note) = check_synthesis_fits(&stage, &exemplar, args.isosurface.is_some())? {
-        status(globals, note);
-    }
-    let run = measured_run(exemplar.clone(), &stage, args.baseline, globals, |field| {
-        if let Some(path) = &args.field {
-            let grid = field.synthesis.distances()?;
-            nrrd::write_file(path, |f| nrrd::write_scalar_at(f, &grid, exemplar.origin))?;
+    phases::timed(&mut timings, PREPARING, || -> CliResult {
+        if let Some(note) = precision_note(&exemplar, stage.source_resolution) {
+            status(globals, note);
         }
-        check_reconstruction_fits(
-            &stage,
-            &exemplar,
-            field,
-            args.isosurface.is_some(),
-            args.field.as_deref(),
-        )
+        let (mesh, change) = sign.oriented(std::mem::take(&mut exemplar.mesh))?;
+        exemplar.mesh = mesh;
+        if let Some(line) = change {
+            status(globals, line);
+        }
+        if let Some(note) = sign.note(&exemplar.mesh, stage.mesh_sign)? {
+            status(globals, note);
+        }
+        if let Some(note) = check_synthesis_fits(&stage, &exemplar, args.isosurface.is_some())? {
+            status(globals, note);
+        }
+        Ok(())
     })?;
+    let run = measured_run(
+        exemplar.clone(),
+        &stage,
+        args.baseline,
+        globals,
+        |field, ctx| {
+            if let Some(path) = &args.field {
+                ctx.timed(WRITING, |_| -> CliResult {
+                    let grid = field.synthesis.distances()?;
+                    nrrd::write_file(path, |f| nrrd::write_scalar_at(f, &grid, exemplar.origin))?;
+                    Ok(())
+                })?;
+            }
+            ctx.timed("checking the meshes fit", |_| {
+                check_reconstruction_fits(
+                    &stage,
+                    &exemplar,
+                    field,
+                    args.isosurface.is_some(),
+                    args.field.as_deref(),
+                )
+            })
+        },
+    )?;
     let options = WriteOptions::default()
         .comment(format!(
             "synthesized by geosynth voxel (seed {}, matcher {})",
@@ -361,17 +384,23 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let report = run_json(&run, &stage);
     let note = empty_copy_note(&exemplar, &run, args.isosurface.is_some());
     let faces = run.output.copied.mesh.face_count();
+    phases::extend(&mut timings, &run.timings);
     let copied = Geometry::Mesh(run.output.copied.mesh);
-    write_geometry_file(&args.output, &copied, &options, globals)?;
     let isosurface = Geometry::Mesh(run.output.isosurface);
-    if let Some(path) = &args.isosurface {
-        write_geometry_file(path, &isosurface, &options, globals)?;
-    }
-    if let Some(path) = &args.preview {
-        voxel_preview(&exemplar, &copied, &isosurface, path, 400)?;
-    }
+    phases::timed(&mut timings, WRITING, || -> CliResult {
+        write_geometry_file(&args.output, &copied, &options, globals)?;
+        if let Some(path) = &args.isosurface {
+            write_geometry_file(path, &isosurface, &options, globals)?;
+        }
+        if let Some(path) = &args.preview {
+            voxel_preview(&exemplar, &copied, &isosurface, path, 400)?;
+        }
+        Ok(())
+    })?;
     if let Some(path) = &args.report {
         let mut report = report;
+        // The command's phases: the input's, the run's, the outputs'.
+        report["timings"] = timings_json(&timings);
         report["exemplar"] = Value::from(args.exemplar.display().to_string());
         report[INPUT_OPTIONS_KEY] = serde_json::to_value(input_options)?;
         report["stage"] = serde_json::to_value(&stage)?;

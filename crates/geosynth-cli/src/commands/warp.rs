@@ -1,7 +1,6 @@
 //! `geosynth warp`: apply a thin-plate spline given by explicit pairs.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use clap::Args;
 use geosynth::core::io::WriteOptions;
@@ -11,10 +10,11 @@ use glam::{DVec3, Vec3};
 use serde_json::json;
 
 use crate::input_file::read_geometry;
-use crate::json_report::write_json_report;
+use crate::json_report::{timings_json, write_json_report};
 use crate::output::{
     check_geometry_output, check_output_paths, report_not_kept, status, write_geometry_file,
 };
+use crate::phases::{self, READING, Timings, WRITING};
 use crate::{CliError, CliResult, Globals};
 
 /// Arguments of `geosynth warp`.
@@ -115,35 +115,46 @@ fn fit_spline(pairs: &Pairs, path: &Path, smoothing: f64) -> CliResult<ThinPlate
 /// Runs `geosynth warp`.
 pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], args.report.as_deref())?;
-    let text = std::fs::read_to_string(&args.pairs)
-        .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
-    // Georeferenced inputs are warped relative to an origin and written back there.
-    let loaded = read_geometry(&args.input, globals)?;
+    let mut timings = Timings::new();
+    let (text, loaded) = phases::timed(&mut timings, READING, || -> CliResult<_> {
+        let text = std::fs::read_to_string(&args.pairs)
+            .map_err(|e| format!("cannot read {}: {e}", args.pairs.display()))?;
+        // Georeferenced inputs are warped relative to an origin and written back there.
+        Ok((text, read_geometry(&args.input, globals)?))
+    })?;
     report_not_kept(globals, &args.input, &loaded.notes);
     check_geometry_output(
         &args.output,
         loaded.geometry.mesh().is_some(),
         loaded.origin,
     )?;
-    let pairs = parse_pairs(&text, &args.pairs, loaded.origin)?;
-    let start = Instant::now();
-    let spline = fit_spline(&pairs, &args.pairs, args.smoothing)?;
-    let fit_seconds = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    let folded = spline.folded_points(loaded.geometry.points().positions());
-    let before = loaded.geometry.points().positions().to_vec();
-    let out = warp_geometry(&spline, loaded.geometry).map_err(|e| -> CliError {
-        match e {
-            geosynth::Error::WarpOverflow { index } => format!(
-                "the spline through {} sends point {index} of {} beyond single precision; its \
-             targets lie too far from their sources",
-                args.pairs.display(),
-                args.input.display()
-            )
-            .into(),
-            other => other.into(),
-        }
+    let pairs = phases::timed(&mut timings, READING, || {
+        parse_pairs(&text, &args.pairs, loaded.origin)
     })?;
+    let spline = phases::timed(&mut timings, "fitting the spline", || {
+        fit_spline(&pairs, &args.pairs, args.smoothing)
+    })?;
+    let (folded, before, out) = phases::timed(
+        &mut timings,
+        "warping and finding folds",
+        || -> CliResult<_> {
+            let folded = spline.folded_points(loaded.geometry.points().positions());
+            let before = loaded.geometry.points().positions().to_vec();
+            let out = warp_geometry(&spline, loaded.geometry).map_err(|e| -> CliError {
+                match e {
+                    geosynth::Error::WarpOverflow { index } => format!(
+                        "the spline through {} sends point {index} of {} beyond single \
+                         precision; its targets lie too far from their sources",
+                        args.pairs.display(),
+                        args.input.display()
+                    )
+                    .into(),
+                    other => other.into(),
+                }
+            })?;
+            Ok((folded, before, out))
+        },
+    )?;
     let options = WriteOptions::default()
         .comment(format!(
             "warped by {} pairs from {}",
@@ -151,8 +162,9 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
             args.pairs.display()
         ))
         .origin(loaded.origin);
-    let warp_seconds = start.elapsed().as_secs_f64();
-    write_geometry_file(&args.output, &out, &options, globals)?;
+    phases::timed(&mut timings, WRITING, || {
+        write_geometry_file(&args.output, &out, &options, globals)
+    })?;
     // In double precision: distances between single-precision points near f32::MAX
     // overflow f32 (the report would say null).
     let missed = pairs
@@ -178,10 +190,7 @@ pub fn run(args: &WarpArgs, globals: Globals) -> CliResult {
             "largest_target_miss": missed,
             "largest_displacement": moved,
             "folded_points": folded.len(),
-            "timings": [
-                {"stage": "fitting the spline", "seconds": fit_seconds},
-                {"stage": "warping and finding folds", "seconds": warp_seconds},
-            ],
+            "timings": timings_json(&timings),
         });
         write_json_report(path, "warp", &report)?;
     }

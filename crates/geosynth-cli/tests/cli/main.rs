@@ -21,6 +21,7 @@ mod sample;
 mod signals;
 mod strays;
 mod surfaces;
+mod timings;
 mod voxel;
 
 fn geosynth(args: &[&str]) -> Output {
@@ -175,6 +176,16 @@ const TINY_VOXEL: &[&str] = &[
     "1",
     "--block",
     "8",
+];
+
+/// The phases a `normals` report times, in order.
+const NORMALS_PHASES: &[&str] = &[
+    "reading",
+    "indexing",
+    "fitting normals",
+    "orienting normals",
+    "checking the orientation",
+    "writing",
 ];
 
 /// An icosphere, and the same with every 9th triangle turned over.

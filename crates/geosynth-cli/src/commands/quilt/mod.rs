@@ -36,6 +36,7 @@ use crate::output::{
 use crate::params_file::{
     GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, QUILT_REPORTS, RecordedInput, check_positive,
 };
+use crate::phases::{self, MEASURING, PREPARING, READING, Timings, WRITING};
 use crate::{CliResult, Globals};
 use args::{PresetArg, TextureUpArg, box_is_ordered};
 use notes::{
@@ -45,7 +46,17 @@ use notes::{
 pub use panels::texture_preview;
 
 pub use args::QuiltArgs;
+use measured::{Measure, MeasuredRun};
 pub use measured::{measure_for, measured_run, run_json, unmeasured_run};
+
+/// The phase of the quilt itself (its own stages: the report's `run.timings`).
+const SYNTHESIS: &str = "synthesis";
+/// The phase of meshing the output and writing the mesh (`--mesh`).
+const MESH: &str = "mesh";
+/// The phase of sampling the output's heights and writing the map (`--heightfield-out`).
+const HEIGHT_MAP: &str = "height map";
+/// The phase of preparing the quality measure: the exemplar's fine distance field.
+const MEASURE_SETUP: &str = "preparing the measure";
 
 /// How the exemplar is read: the options a report records under
 /// [`INPUT_OPTIONS_KEY`], so that `--params REPORT` reads it as the reported run did.
@@ -362,8 +373,10 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let params_file = ParamsFile::read(args.params.as_deref(), QUILT_REPORTS)?;
     let params = run_params(args, &params_file, given)?;
     let input_options = InputOptions::of(args, &params_file)?;
-    let mut input_timings = Vec::new();
-    let (file, heightfield_frame) = load(args, &input_options, globals, &mut input_timings)?;
+    let mut timings = Timings::new();
+    let (file, heightfield_frame) = phases::timed_rest(&mut timings, READING, |timings| {
+        load(args, &input_options, globals, timings)
+    })?;
     if let Some(mesh) = &args.mesh {
         // Georeferenced exemplars are written back in place: can the mesh's format say so?
         check_geometry_output(mesh, true, file.origin)?;
@@ -402,31 +415,33 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     // apart is no sign of unoriented data).
     let from_points = heightfield_frame.is_none();
     let strays = stray_note(&file);
-    for note in [
-        // A box given by hand says the axes and the extent are the user's choice; stray
-        // points explain a tall box better than another up axis does.
-        (from_points && input_options.bounds.is_none() && strays.is_none())
-            .then(|| orientation_note(texture))
-            .flatten(),
-        strays,
-        isolated_points_note(&file),
-        undersampled_mesh_note(&file),
-        tilt_note(&file),
-        precision_note(&file),
-        from_points
-            .then(|| super::unoriented_normals_note(texture.canonical_points(), Some(Vec3::Z)))
-            .flatten(),
-        size_note(texture, &params),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    let notes = phases::timed(&mut timings, PREPARING, || {
+        [
+            // A box given by hand says the axes and the extent are the user's choice;
+            // stray points explain a tall box better than another up axis does.
+            (from_points && input_options.bounds.is_none() && strays.is_none())
+                .then(|| orientation_note(texture))
+                .flatten(),
+            strays,
+            isolated_points_note(&file),
+            undersampled_mesh_note(&file),
+            tilt_note(&file),
+            precision_note(&file),
+            from_points
+                .then(|| super::unoriented_normals_note(texture.canonical_points(), Some(Vec3::Z)))
+                .flatten(),
+            size_note(texture, &params),
+        ]
+    });
+    for note in notes.into_iter().flatten() {
         status(globals, note);
     }
     // The output (and its preview) are written before it is measured: on large exemplars
     // the measure can take longer than the synthesis, and an interrupted measure must not
     // cost the result.
-    let main = unmeasured_run(texture, &params, globals, "quilt")?;
+    let main = phases::timed(&mut timings, SYNTHESIS, || {
+        unmeasured_run(texture, &params, globals, "quilt")
+    })?;
     let mut comments = vec![format!(
         "quilted by geosynth (seed {}, {:?})",
         params.seed, params.method
@@ -436,30 +451,35 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     for c in comments {
         options = options.comment(c);
     }
-    let written = Geometry::Points(file.to_file_frame(&main.output.points)?);
-    write_geometry_file(&args.output, &written, &options, globals)?;
-    if let Some(path) = &args.preview {
-        texture_preview(texture, &[&main.output], path, 480, 360)?;
-    }
+    let written = phases::timed(&mut timings, WRITING, || -> CliResult<_> {
+        let written = Geometry::Points(file.to_file_frame(&main.output.points)?);
+        write_geometry_file(&args.output, &written, &options, globals)?;
+        if let Some(path) = &args.preview {
+            texture_preview(texture, &[&main.output], path, 480, 360)?;
+        }
+        Ok(written)
+    })?;
     // The written points, taken back for the mesh (no copy of them is made).
     let mesh = match (&args.mesh, written) {
-        (Some(path), Geometry::Points(points)) => {
-            Some(write_sheet_mesh(path, points, &options, globals)?)
-        }
+        (Some(path), Geometry::Points(points)) => Some(phases::timed(&mut timings, MESH, || {
+            write_sheet_mesh(path, points, &options, globals)
+        })?),
         _ => None,
     };
     let heightfield_out = match (&args.heightfield_out, map_placement) {
-        (Some(path), Some(placement)) => {
-            Some(write_sheet_heights(path, &main.output, placement, globals)?)
-        }
+        (Some(path), Some(placement)) => Some(phases::timed(&mut timings, HEIGHT_MAP, || {
+            write_sheet_heights(path, &main.output, placement, globals)
+        })?),
         _ => None,
     };
     let measure = if args.no_quality {
         Err("skipped (--no-quality)".to_string())
     } else {
-        measure_for(texture, &params, globals)
+        phases::timed(&mut timings, MEASURE_SETUP, || {
+            measure_for(texture, &params, globals)
+        })
     };
-    let main = main.measured(&measure, globals, "quilt");
+    let main = timed_measure(main, &measure, globals, "quilt", &mut timings);
     // The baselines: their report entries, and their qualities for the summary lines
     // (their outputs are dropped run by run, so no two are held at once).
     let mut compared = Vec::new();
@@ -482,7 +502,10 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             runs.push(("same_layout_pasted", "full's layout, pasted", pasted));
         }
         for (key, label, run_params) in runs {
-            let run = measured_run(texture, &run_params, &measure, globals, label)?;
+            let run = phases::timed(&mut timings, label, || {
+                unmeasured_run(texture, &run_params, globals, label)
+            })?;
+            let run = timed_measure(run, &measure, globals, label, &mut timings);
             compared.push((key, label, run_json(&run), run.quality));
         }
     }
@@ -491,7 +514,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             "exemplar": args.exemplar.as_ref().or(args.heightfield.as_ref())
                 .map(|path| path.display().to_string()),
             INPUT_OPTIONS_KEY: input_options,
-            "input_timings": timings_json(&input_timings),
+            "timings": timings_json(&timings),
             "undefined_normals": input_options.estimate_normals.map(|_| file.undefined_normals),
             "longest_edge_spacings": file.longest_edge_spacings,
             "stray_points": file.stray_points.map(|s| json!({
@@ -528,6 +551,21 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
         status(globals, format!("  {label}: {}", quality_summary(quality)));
     }
     Ok(())
+}
+
+/// `run` measured by `measure` ([`MeasuredRun::measured`]), timed in `timings` where
+/// there is a measure.
+fn timed_measure(
+    run: MeasuredRun,
+    measure: &Measure<'_>,
+    globals: Globals,
+    label: &str,
+    timings: &mut Timings,
+) -> MeasuredRun {
+    match measure {
+        Ok(_) => phases::timed(timings, MEASURING, || run.measured(measure, globals, label)),
+        Err(_) => run.measured(measure, globals, label),
+    }
 }
 
 /// Refuses `--baselines` where its results would land nowhere: without `--report` only
