@@ -20,8 +20,11 @@ pub mod warp;
 use std::path::Path;
 
 use clap::Args;
-use geosynth::core::{PointSet, TriMesh};
-use geosynth::mls::{LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disagreement};
+use geosynth::core::{KdIndex, PointSet, TriMesh};
+use geosynth::mls::{
+    LIKELY_UNORIENTED, ORIENTATION_NEIGHBOURS, orientation_disagreement,
+    orientation_disagreement_with,
+};
 use geosynth::reconstruct::FieldParams;
 use geosynth::sdf::{MeshSign, MeshSurface, PointSign};
 use glam::{DVec3, Vec3};
@@ -213,7 +216,12 @@ impl SignArgs {
 /// holes or a wrong surface without an error. `None` when they look consistent, when there
 /// are none, and when nearly all face the side of `up` (a sheet seen from above, such as
 /// a rough terrain scan, whose neighbouring normals may tilt apart but are oriented).
-pub fn unoriented_normals_note(points: &PointSet, up: Option<Vec3>) -> Option<String> {
+/// `index`, when given, indexes the points' positions (otherwise one is built if needed).
+pub fn unoriented_normals_note(
+    points: &PointSet,
+    up: Option<Vec3>,
+    index: Option<&KdIndex>,
+) -> Option<String> {
     let normals = points.normals()?;
     if let Some(up) = up {
         let facing_up = normals.iter().filter(|n| n.dot(up) > 0.0).count();
@@ -221,7 +229,11 @@ pub fn unoriented_normals_note(points: &PointSet, up: Option<Vec3>) -> Option<St
             return None;
         }
     }
-    let share = orientation_disagreement(points).ok()?;
+    let share = match index {
+        Some(index) => orientation_disagreement_with(index, points),
+        None => orientation_disagreement(points),
+    }
+    .ok()?;
     (share > LIKELY_UNORIENTED).then(|| {
         format!(
             "note: the normals look unoriented: {:.0}% of the points face away from most of \

@@ -6,9 +6,11 @@ use std::path::Path;
 use std::time::Duration;
 
 use clap::Args;
-use geosynth::core::PointSet;
-use geosynth::mls::{IsolatedFate, IsolatedPoints, MlsParams, ORIENTING_STAGE, orient_normals_in};
-use geosynth::normals::EstimateNormals;
+use geosynth::core::{KdIndex, PointSet};
+use geosynth::mls::{
+    IsolatedFate, IsolatedPoints, MlsParams, ORIENTING_STAGE, fit_oriented_normals_with,
+    orient_normals_with,
+};
 use geosynth::strays::{LeaveOutStrays, StraysFound};
 use geosynth::{RunContext, Stage};
 
@@ -17,6 +19,16 @@ use super::three_digits;
 use super::unoriented_normals_note;
 use crate::output::{progress_context, status};
 use crate::{CliResult, Globals};
+
+/// A point set prepared for its MLS surface ([`PointPrep::prepared`]).
+pub struct PreparedPoints {
+    /// The points kept, with their normals as prepared.
+    pub points: PointSet,
+    /// What was left out of the points read.
+    pub left_out: LeftOut,
+    /// An index of the kept points' positions.
+    pub index: KdIndex,
+}
 
 /// The flags that prepare a point set.
 #[derive(Debug, Args)]
@@ -119,7 +131,7 @@ impl PointPrep {
     /// (isolated for an MLS surface of the `kernel` given, or estimated), with their
     /// normals estimated or oriented as asked, each stage's time added to `timings`, and
     /// refused when their MLS surface could still not use them; prints the notes about
-    /// them. Returns the points and what was left out.
+    /// them. Returns the points, what was left out and an index of the points' positions.
     pub fn prepared(
         &self,
         points: PointSet,
@@ -127,7 +139,7 @@ impl PointPrep {
         path: &Path,
         globals: Globals,
         timings: &mut Vec<(String, Duration)>,
-    ) -> CliResult<(PointSet, LeftOut)> {
+    ) -> CliResult<PreparedPoints> {
         let leave_out = LeaveOutStrays {
             kernel,
             keep: self.keep_strays,
@@ -135,24 +147,33 @@ impl PointPrep {
         let found = leave_out.run(points, &mut RunContext::new(0))?;
         let left_out = self.noted(&found, path, globals);
         let mut points = found.points;
+        // One index serves the estimation or orientation of the normals, the check of
+        // their orientation and the caller's notes: only the normals change.
+        let index = KdIndex::new(points.positions())?;
         if let Some(neighbours) = self.estimate {
-            points = estimated(points, neighbours, self.up, globals, timings)?;
+            points = estimated(&index, points, neighbours, self.up, globals, timings)?;
         }
         check_usable(&points, path)?;
         if self.orient {
             let (mut ctx, bar) = progress_context(globals, 0, "orienting normals", false);
             let up = self.up.vector();
-            points = ctx.timed(ORIENTING_STAGE, |ctx| orient_normals_in(&points, up, ctx))?;
+            points = ctx.timed(ORIENTING_STAGE, |ctx| {
+                orient_normals_with(&index, &points, up, ctx)
+            })?;
             bar.finish_and_clear();
             timings.extend_from_slice(ctx.timings());
         }
         // Normals estimated here come oriented; the note would suggest --orient-normals.
         if self.estimate.is_none()
-            && let Some(note) = unoriented_normals_note(&points, None)
+            && let Some(note) = unoriented_normals_note(&points, None, Some(&index))
         {
             status(globals, note);
         }
-        Ok((points, left_out))
+        Ok(PreparedPoints {
+            points,
+            left_out,
+            index,
+        })
     }
 
     /// Notes what [`LeaveOutStrays`] found in the points read from `path`, and returns what
@@ -258,6 +279,7 @@ pub struct LeftOut {
 /// `geosynth normals` estimates them (the stages' times added to `timings`); notes the
 /// points whose neighbourhoods define none.
 fn estimated(
+    index: &KdIndex,
     points: PointSet,
     neighbours: usize,
     up: UpArg,
@@ -266,11 +288,8 @@ fn estimated(
 ) -> CliResult<PointSet> {
     let (mut ctx, bar) = progress_context(globals, 0, "estimating normals", true);
     let count = points.len();
-    let stage = EstimateNormals {
-        neighbours,
-        up: up.vector(),
-    };
-    let fit = stage.run(points, &mut ctx)?;
+    // As the `EstimateNormals` stage does, with the index already built.
+    let fit = fit_oriented_normals_with(index, points, neighbours, up.vector(), &mut ctx)?;
     bar.finish_and_clear();
     timings.extend_from_slice(ctx.timings());
     if let Some(note) = undefined_note(

@@ -242,17 +242,18 @@ fn prepared_input(
             Ok((Geometry::Mesh(mesh), LeftOut::default()))
         }
         Geometry::Points(points) => {
-            let (points, left_out) =
+            let prepared =
                 options
                     .normals()
                     .prepared(points, params.kernel, &args.input, globals, timings)?;
             if options.orient_faces {
                 status(globals, no_faces_to_orient(&args.input));
             }
-            if let Some(note) = line_gap_note(&points, params.kernel, options.trim.is_some())? {
+            let trimmed = options.trim.is_some();
+            if let Some(note) = line_gap_note(&prepared.index, params.kernel, trimmed)? {
                 status(globals, note);
             }
-            Ok((Geometry::Points(points), left_out))
+            Ok((Geometry::Points(prepared.points), prepared.left_out))
         }
     }
 }
@@ -593,17 +594,12 @@ const LINE_GAP_TRIM: f32 = 0.6;
 /// `plane_radius / h`: 0.8–1.7 on the shared point sets, meshes and every fixture; 40 on
 /// lines 0.5 apart sampled every 0.01. Suggests a kernel of half that radius (clean at
 /// 0.2 and 0.3 on those lines, ridged edges at 0.1) and, with `trimmed`, a trim of
-/// [`LINE_GAP_TRIM`] times the radius, in spacings.
-fn line_gap_note(
-    points: &PointSet,
-    kernel: Option<f32>,
-    trimmed: bool,
-) -> CliResult<Option<String>> {
-    let index = KdIndex::new(points.positions())?;
+/// [`LINE_GAP_TRIM`] times the radius, in spacings. `index` indexes the points.
+fn line_gap_note(index: &KdIndex, kernel: Option<f32>, trimmed: bool) -> CliResult<Option<String>> {
     let mls = MlsParams::default().with_kernel(kernel);
-    let h = mls.kernel_for(&index)?;
+    let h = mls.kernel_for(index)?;
     let reach = mls.support * h;
-    let radius = plane_radius(&index)?;
+    let radius = plane_radius(index)?;
     if radius.is_some_and(|r| r <= reach) {
         return Ok(None);
     }
@@ -735,8 +731,7 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
     loaded.geometry = phases::timed_rest(&mut preparing, PREPARING, |preparing| {
         CliResult::Ok(match loaded.geometry {
             io::Geometry::Points(read) => {
-                let points;
-                (points, left_out) = options.normals().prepared(
+                let prepared = options.normals().prepared(
                     read,
                     params.kernel,
                     &args.input,
@@ -746,10 +741,11 @@ pub fn run_sdf(args: &SdfArgs, given: GivenFlags, globals: Globals) -> CliResult
                 if sign.orient_faces {
                     status(globals, no_faces_to_orient(&args.input));
                 }
-                if let Some(note) = line_gap_note(&points, params.kernel, false)? {
+                if let Some(note) = line_gap_note(&prepared.index, params.kernel, false)? {
                     status(globals, note);
                 }
-                io::Geometry::Points(points)
+                left_out = prepared.left_out;
+                io::Geometry::Points(prepared.points)
             }
             io::Geometry::Mesh(mesh) => {
                 options.normals().refuse_for_mesh(&args.input)?;

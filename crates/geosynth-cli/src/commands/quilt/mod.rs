@@ -428,7 +428,9 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             tilt_note(&file),
             precision_note(&file),
             from_points
-                .then(|| super::unoriented_normals_note(texture.canonical_points(), Some(Vec3::Z)))
+                .then(|| {
+                    super::unoriented_normals_note(texture.canonical_points(), Some(Vec3::Z), None)
+                })
                 .flatten(),
             size_note(texture, &params),
         ]
