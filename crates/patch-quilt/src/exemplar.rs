@@ -205,12 +205,46 @@ fn too_narrow_patch(params: &QuiltParams, aspect: f32, spacings: f32) -> QuiltEr
     }
 }
 
-/// `x` to a tenth, or with two significant digits below a tenth (`1.9e-3`, not `0.0`).
+/// `x` to a tenth, or with two significant digits below a tenth (`1.9e-3`, not `0.0`)
+/// and from a million up (`4.0e29`, not thirty digits).
 fn significant(x: f32) -> String {
-    if x == 0.0 || x.abs() >= 0.1 {
+    if x == 0.0 || (0.1..1e6).contains(&x.abs()) {
         format!("{x:.1}")
     } else {
         format!("{x:.1e}")
+    }
+}
+
+/// The error for geometry (its box `all`) that spans less than a patch and its extra
+/// region `E` from the low corner of the exemplar box `bounds` (canonical frame), with the
+/// lengths, and the remedy: a box inside the points where it reaches past them, else a
+/// smaller patch or extra region.
+fn short_of_extra_region(geometry: &PatchGeometry, bounds: Aabb, all: Aabb) -> QuiltError {
+    let need = geometry.patch() + geometry.extra();
+    let span = all.max.truncate() - bounds.min.truncate();
+    let remedy = if bounds.max.x > all.max.x || bounds.max.y > all.max.y {
+        let (box_extent, points_extent) = (bounds.extent(), all.extent());
+        format!(
+            "the box ({} × {}) reaches past the points ({} × {}): give a box inside them",
+            significant(box_extent.x),
+            significant(box_extent.y),
+            significant(points_extent.x),
+            significant(points_extent.y)
+        )
+    } else {
+        "a smaller patch_size or extra_width would fit".to_string()
+    };
+    QuiltError::InvalidTexture {
+        reason: format!(
+            "the geometry spans {} along x and {} along y (the reference plane's axes) from \
+             the box's low corner, less than a patch with its extra region needs ({}: the \
+             patch {} and w_E {}); {remedy}",
+            significant(span.x),
+            significant(span.y),
+            significant(need),
+            significant(geometry.patch()),
+            significant(geometry.extra())
+        ),
     }
 }
 
@@ -301,13 +335,7 @@ impl ExemplarFrame {
             origin + (patch_nodes + extra_nodes) as f32 * spacing <= far + 1e-6 * spacing
         };
         if !fits(spec.origin.x, all.max.x) || !fits(spec.origin.y, all.max.y) {
-            return Err(QuiltError::InvalidTexture {
-                reason: format!(
-                    "the geometry does not extend far enough beyond the box for the extra region (w_E = {}; padding {})",
-                    geometry.extra(),
-                    texture.padding()
-                ),
-            });
+            return Err(short_of_extra_region(&geometry, bounds, all));
         }
         let cell = (2.0 * spacing).max(f32::MIN_POSITIVE);
         let mut bins = BucketGrid::new(cell)?;

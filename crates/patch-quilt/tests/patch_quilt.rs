@@ -448,6 +448,37 @@ fn patches_too_narrow_in_a_long_box_are_refused_naming_remedies_in_range() {
 }
 
 #[test]
+fn geometry_short_of_the_extra_region_is_refused_with_its_lengths_and_remedy() {
+    let refusal = |t: &GeometryTexture, p: &QuiltParams| match quilt(t, p, &mut RunContext::new(0))
+    {
+        Err(QuiltError::InvalidTexture { reason }) => reason,
+        other => panic!("{:?}", other.map(|o| o.points.len())),
+    };
+    // The wavy sheet spans 2.35 with 8 samples (0.4) of padding: 1.95 from the box's low
+    // corner, where a patch of 0.9 of the box (1.55, snapped to 1.4 on the field's nodes)
+    // and half as much again need 2.1 and more.
+    let wavy = wavy_texture();
+    let wide = small_params().patch_size(0.9).extra_width(0.5);
+    let reason = refusal(&wavy, &wide);
+    assert!(
+        reason.contains("spans 2.0 along x and 2.0 along y")
+            && reason.contains("(2.2: the patch 1.4 and w_E 0.7)")
+            && reason.ends_with("a smaller patch_size or extra_width would fit"),
+        "{reason}"
+    );
+    // A box a hundred times wider than the points: the box is the mistake.
+    let points = wavy.canonical_points().clone();
+    let bounds = Aabb::new(Vec3::new(0.0, 0.0, -1.0), Vec3::new(200.0, 200.0, 1.0));
+    let boxed = GeometryTexture::new(&points, bounds, UpAxis::Z).unwrap();
+    let reason = refusal(&boxed, &small_params());
+    assert!(
+        reason.contains("the box (200.0 × 200.0) reaches past the points (2.4 × 2.4)")
+            && reason.ends_with("give a box inside them"),
+        "{reason}"
+    );
+}
+
+#[test]
 fn invalid_input_is_an_error() {
     let t = texture(|_, _| 0.0, 40, 0.05);
     for bad in [
