@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use super::three_digits;
 use crate::input_file::{named, read_geometry};
-use crate::output::{print_line, status};
+use crate::output::{print_line, spinner, status};
 use crate::{CliResult, Globals};
 
 /// Arguments of `geosynth info`.
@@ -578,7 +578,10 @@ pub fn run(args: &InfoArgs, globals: Globals) -> CliResult {
         return print(globals, args.json, &info, text);
     }
     let loaded = read_geometry(path, globals)?;
+    // Stray and isolated points, welds and topology take seconds on millions of points.
+    let bar = spinner(globals, "examining the geometry");
     let info = FileInfo::new(path, &loaded);
+    bar.finish_and_clear();
     let text = info.text();
     print(globals, args.json, &info, text)
 }
