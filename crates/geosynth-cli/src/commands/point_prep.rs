@@ -17,7 +17,7 @@ use geosynth::{RunContext, Stage};
 use super::normals::{UpArg, parse_neighbours, undefined_note};
 use super::three_digits;
 use super::unoriented_normals_note;
-use crate::output::{progress_context, status};
+use crate::output::{progress_context, spinner, status};
 use crate::{CliResult, Globals};
 
 /// A point set prepared for its MLS surface ([`PointPrep::prepared`]).
@@ -144,12 +144,20 @@ impl PointPrep {
             kernel,
             keep: self.keep_strays,
         };
-        let found = leave_out.run(points, &mut RunContext::new(0))?;
+        // Seconds on millions of points, before any stage shows a bar.
+        let bar = spinner(globals, "looking for stray and isolated points");
+        let found = leave_out
+            .run(points, &mut RunContext::new(0))
+            .and_then(|found| {
+                // One index serves the estimation or orientation of the normals, the check of
+                // their orientation and the caller's notes: only the normals change.
+                let index = KdIndex::new(found.points.positions())?;
+                Ok((found, index))
+            });
+        bar.finish_and_clear();
+        let (found, index) = found?;
         let left_out = self.noted(&found, path, globals);
         let mut points = found.points;
-        // One index serves the estimation or orientation of the normals, the check of
-        // their orientation and the caller's notes: only the normals change.
-        let index = KdIndex::new(points.positions())?;
         if let Some(neighbours) = self.estimate {
             points = estimated(&index, points, neighbours, self.up, globals, timings)?;
         }
