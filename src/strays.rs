@@ -2,8 +2,8 @@
 //! [`crate::reconstruct`] for scans with outliers (what `geosynth reconstruct` and `sdf`
 //! do first).
 
-use mls_surface::{IsolatedPoints, MlsParams, without_isolated};
-use pointset_core::{PointSet, RunContext, Stage};
+use mls_surface::{IsolatedPoints, MlsParams, without_isolated_indexed};
+use pointset_core::{KdIndex, PointSet, RunContext, Stage};
 
 use crate::error::{Error, Result};
 
@@ -83,6 +83,18 @@ impl Stage for LeaveOutStrays {
 
     fn run(&self, input: PointSet, ctx: &mut RunContext) -> Result<StraysFound> {
         ctx.check_cancelled()?;
+        Ok(self.run_indexed(input)?.0)
+    }
+}
+
+impl LeaveOutStrays {
+    /// What [`Stage::run`] finds, with an index of the positions of the points it hands
+    /// on ([`mls_surface::without_isolated_indexed`]), for steps after it that search
+    /// them: `geosynth reconstruct` and `sdf` estimate or orient normals and check them
+    /// with it instead of indexing the points again.
+    ///
+    /// Errors: those of [`Stage::run`].
+    pub fn run_indexed(&self, input: PointSet) -> Result<(StraysFound, KdIndex)> {
         let (points, strays) = if self.keep {
             let count = input.stray_count();
             (input, count)
@@ -90,12 +102,13 @@ impl Stage for LeaveOutStrays {
             input.without_strays()
         };
         let params = MlsParams::default().with_kernel(self.kernel);
-        let (points, isolated) = without_isolated(points, &params, self.keep)?;
-        Ok(StraysFound {
+        let (points, isolated, index) = without_isolated_indexed(points, &params, self.keep)?;
+        let found = StraysFound {
             points,
             strays,
             isolated,
-        })
+        };
+        Ok((found, index))
     }
 }
 
@@ -117,6 +130,11 @@ mod tests {
         let run = |stage: LeaveOutStrays| stage.run(noisy.clone(), &mut RunContext::new(0));
         let left = run(LeaveOutStrays::default()).unwrap();
         assert_eq!(left.points.positions(), sphere.positions());
+        // The same found with an index of the points kept.
+        let (indexed, index) = LeaveOutStrays::default()
+            .run_indexed(noisy.clone())
+            .unwrap();
+        assert_eq!((&indexed, index.points()), (&left, sphere.positions()));
         let kept = run(LeaveOutStrays {
             keep: true,
             ..LeaveOutStrays::default()

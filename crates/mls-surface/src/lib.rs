@@ -106,6 +106,7 @@ pub use heights::{HeightMethod, TopHeight};
 pub use isolated::{ISOLATION_REACH, isolated_samples};
 pub use isolated_points::{
     IsolatedFate, IsolatedPoints, SPARSE_SAMPLING_SHARE, isolated_points, without_isolated,
+    without_isolated_indexed,
 };
 pub use orientation::{
     LIKELY_UNORIENTED, LINKING_STAGE, ORIENTATION_GRAPH_NEIGHBOURS, ORIENTATION_NEIGHBOURS,

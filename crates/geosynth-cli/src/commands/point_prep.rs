@@ -12,7 +12,6 @@ use geosynth::mls::{
     orient_normals_with,
 };
 use geosynth::strays::{LeaveOutStrays, StraysFound};
-use geosynth::{RunContext, Stage};
 
 use super::normals::{UpArg, parse_neighbours, undefined_note};
 use super::three_digits;
@@ -146,14 +145,10 @@ impl PointPrep {
         };
         // Seconds on millions of points, before any stage shows a bar.
         let bar = spinner(globals, "looking for stray and isolated points");
-        let found = leave_out
-            .run(points, &mut RunContext::new(0))
-            .and_then(|found| {
-                // One index serves the estimation or orientation of the normals, the check of
-                // their orientation and the caller's notes: only the normals change.
-                let index = KdIndex::new(found.points.positions())?;
-                Ok((found, index))
-            });
+        // The index the isolated points were looked for with serves the estimation or
+        // orientation of the normals, the check of their orientation and the caller's
+        // notes: only the normals change.
+        let found = leave_out.run_indexed(points);
         bar.finish_and_clear();
         let (found, index) = found?;
         let left_out = self.noted(&found, path, globals);
