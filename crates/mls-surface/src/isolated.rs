@@ -97,7 +97,7 @@ fn settled_by_cells(points: &[Vec3], reach: f64, wanted: usize) -> Option<Vec<bo
         .iter()
         .fold(DVec3::splat(f64::INFINITY), |m, p| m.min(p.as_dvec3()));
     let cells = PackedCells::new(low, (1.0 - 1e-6) * reach / 6f64.sqrt());
-    // Each sample's cell key beside its number, 12 bytes a sample, sorted by cell.
+    // Each sample's cell key beside its number (16 bytes a sample), sorted by cell.
     let mut by_cell = points
         .par_iter()
         .enumerate()
@@ -149,11 +149,9 @@ fn settled_cells(
                 while keys.get(*at).is_some_and(|&k| k < neighbour) {
                     *at += 1;
                 }
-                let held = keys
-                    .get(*at)
-                    .filter(|&&k| k == neighbour)
-                    .map(|_| counts[*at]);
-                total + held.map_or(0, |n| n as usize)
+                let held = keys.get(*at).zip(counts.get(*at));
+                let held = held.filter(|&(&k, _)| k == neighbour);
+                total + held.map_or(0, |(_, &n)| n as usize)
             });
             total >= wanted
         })
