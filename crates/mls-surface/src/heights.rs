@@ -2,11 +2,16 @@
 //! plane, for writing a sampled sheet (a quilted terrain) back as a height map.
 
 use glam::{Vec2, Vec3};
-use pointset_core::KdIndex;
+use pointset_core::{KdIndex, Neighbour};
 use rayon::prelude::*;
 
 use crate::Result;
 use crate::surface::MlsSurface;
+
+/// Relative slack on the radius within which a column's samples are gathered for its
+/// ray: a sample within the support radius of a point of the ray is within it in
+/// projection, up to the rounding of the two squared distances.
+const COLUMN_SLACK: f32 = 1e-5;
 
 /// How [`MlsSurface::top_heights`] found a column's height.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,28 +72,33 @@ impl MlsSurface {
         let flat: Vec<Vec3> = self.points().iter().map(|p| p.with_z(0.0)).collect();
         let index = KdIndex::new(&flat)?;
         let reach = self.support_radius();
+        // The ray's fits read the samples within the support radius of the column in
+        // projection, and a little beyond, for the rounding of distances in 3D.
+        let gather = reach * (1.0 + COLUMN_SLACK);
         columns
             .par_iter()
             .map(|column| {
-                let near = index.within(column.extend(0.0), reach)?;
-                Ok(self.top_height_among(*column, near.iter().map(|n| n.index)))
+                let gathered = index.within(column.extend(0.0), gather)?;
+                Ok(self.top_height_among(*column, &gathered))
             })
             .collect()
     }
 
-    /// [`Self::top_heights`] at one column whose samples within the support radius in
-    /// projection are `near` (indices into [`Self::points`], nearest first).
-    fn top_height_among(
-        &self,
-        column: Vec2,
-        near: impl Iterator<Item = usize>,
-    ) -> Option<TopHeight> {
-        let mut heights = near.map(|i| self.points()[i].z);
+    /// [`Self::top_heights`] at one column, from the samples `gathered` within a little
+    /// more than the support radius of it in projection (nearest first).
+    fn top_height_among(&self, column: Vec2, gathered: &[Neighbour]) -> Option<TopHeight> {
+        let reach = self.support_radius();
+        let within = reach * reach;
+        let mut heights = gathered
+            .iter()
+            .take_while(|n| n.distance_squared <= within)
+            .map(|n| self.points()[n.index].z);
         let nearest = heights.next()?;
         let (low, high) = heights.fold((nearest, nearest), |(lo, hi), z| (lo.min(z), hi.max(z)));
-        let reach = self.support_radius();
         let origin = column.extend(high + reach);
-        if let Some(hit) = self.intersect_ray(origin, Vec3::NEG_Z, high - low + 2.0 * reach) {
+        let length = high - low + 2.0 * reach;
+        let candidates = gathered.iter().map(|n| n.index);
+        if let Some(hit) = self.intersect_ray_among(origin, Vec3::NEG_Z, length, candidates) {
             return Some(TopHeight {
                 z: hit.point.z,
                 method: HeightMethod::Ray,
@@ -183,6 +193,71 @@ mod tests {
         for h in surface.top_heights(&columns).unwrap() {
             assert!((h.unwrap().z - 0.7).abs() < 1e-4);
         }
+    }
+
+    #[test]
+    fn a_columns_hit_is_the_hit_of_the_ray_searching_the_whole_surface() {
+        // Steep walls (slope up to 4) far from the origin: the fits along each column's
+        // ray read only the samples within reach of the column in projection; the public
+        // ray gathers its own from the whole index. Their hits agree bit for bit.
+        let offset = Vec2::new(2.0e3, -1.5e3);
+        let cliffs = |x: f32, y: f32| {
+            let (u, v) = (x - offset.x, y - offset.y);
+            let z = 300.0 + 0.3 * (8.0 * u).sin() * (3.0 * v).cos();
+            let dz = Vec2::new(
+                2.4 * (8.0 * u).cos() * (3.0 * v).cos(),
+                -0.9 * (8.0 * u).sin() * (3.0 * v).sin(),
+            );
+            (z, dz)
+        };
+        let shifted = |x: f32, y: f32| cliffs(x + offset.x, y + offset.y);
+        let local = sampled(50, 0.04, shifted);
+        let moved: Vec<Vec3> = local
+            .points()
+            .iter()
+            .map(|p| *p + offset.extend(0.0))
+            .collect();
+        let points = PointSet::new(moved)
+            .unwrap()
+            .with_normals(local.normals().to_vec())
+            .unwrap();
+        let surface = MlsSurface::new(&points, &MlsParams::default()).unwrap();
+        let columns: Vec<Vec2> = interior_columns(50, 0.04)
+            .iter()
+            .map(|c| *c + offset)
+            .collect();
+        let reach = surface.support_radius();
+        let (mut by_ray, mut compared) = (0, 0);
+        for (c, h) in columns.iter().zip(surface.top_heights(&columns).unwrap()) {
+            let near: Vec<f32> = surface
+                .points()
+                .iter()
+                .filter(|p| p.truncate().distance(*c) <= reach)
+                .map(|p| p.z)
+                .collect();
+            let high = near.iter().copied().fold(f32::MIN, f32::max);
+            let low = near.iter().copied().fold(f32::MAX, f32::min);
+            let ray = surface.intersect_ray(
+                c.extend(high + reach),
+                Vec3::NEG_Z,
+                high - low + 2.0 * reach,
+            );
+            if let Some(hit) = ray {
+                assert_eq!(
+                    h,
+                    Some(TopHeight {
+                        z: hit.point.z,
+                        method: HeightMethod::Ray
+                    }),
+                    "{c}"
+                );
+                by_ray += 1;
+            } else {
+                assert_ne!(h.map(|h| h.method), Some(HeightMethod::Ray), "{c}");
+            }
+            compared += 1;
+        }
+        assert!(by_ray > compared * 9 / 10, "{by_ray} of {compared}");
     }
 
     #[test]

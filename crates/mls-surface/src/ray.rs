@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 
-use crate::surface::{MlsSurface, Projection};
+use crate::surface::{LocalFit, MlsSurface, Projection};
 
 /// A ray hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,11 +41,41 @@ pub struct Snap {
     pub method: SnapMethod,
 }
 
-/// The input points near one ray's segment, gathered once for every fit along it, and
-/// scratch space for ordering them.
-struct NearSegment {
+/// The input points near one ray, gathered once for every fit along it (every point
+/// within the support radius of some point of the ray that is marched), the ray, and
+/// scratch space for ordering a fit's points.
+struct NearRay {
+    origin: Vec3,
+    dir: Vec3,
     gathered: Vec<usize>,
     order: Vec<u64>,
+}
+
+impl NearRay {
+    /// The ray from `origin` in the unit direction `dir`, and the points `gathered` near it.
+    fn new(origin: Vec3, dir: Vec3, gathered: Vec<usize>) -> Self {
+        Self {
+            origin,
+            dir,
+            gathered,
+            order: Vec::new(),
+        }
+    }
+
+    /// The point `origin + t·dir` of the ray.
+    fn point(&self, t: f32) -> Vec3 {
+        self.origin + t * self.dir
+    }
+
+    /// The surface's fit at [`Self::point`]`(t)` ([`MlsSurface::fit_among`] the points
+    /// gathered).
+    fn fit_at(&mut self, surface: &MlsSurface, t: f32) -> Option<LocalFit> {
+        surface.fit_among(
+            self.point(t),
+            self.gathered.iter().copied(),
+            &mut self.order,
+        )
+    }
 }
 
 impl MlsSurface {
@@ -71,31 +101,57 @@ impl MlsSurface {
         if !(origin.is_finite() && max_t.is_finite() && max_t >= 0.0) {
             return None;
         }
-        let step = 0.25 * self.kernel();
-        let steps = (max_t / step).ceil() as usize;
         // Every fit lies on the ray up to `max_t`, or (stopping) up to a step past `stop`:
         // the points near that segment, gathered once, serve them all.
-        let end = max_t.min(stop + step);
-        let mut near = NearSegment {
-            gathered: self.gather_along(origin, origin + end * dir),
-            order: Vec::new(),
-        };
-        let mut prev: Option<(f32, f32)> = self
-            .value_along(origin, dir, 0.0, &mut near)
-            .map(|f| (0.0, f));
+        let end = max_t.min(stop + self.march_step());
+        let gathered = self.gather_along(origin, origin + end * dir);
+        self.march(&mut NearRay::new(origin, dir, gathered), max_t, stop)
+    }
+
+    /// [`Self::intersect_ray`] of the ray from `origin` in the unit direction `dir`, with
+    /// the fits made from `candidates` (indices of the points), which must include every
+    /// point within the support radius of some point of the ray up to `max_t`.
+    pub(crate) fn intersect_ray_among(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        max_t: f32,
+        candidates: impl IntoIterator<Item = usize>,
+    ) -> Option<RayHit> {
+        if !(origin.is_finite() && dir.is_normalized() && max_t.is_finite() && max_t >= 0.0) {
+            return None;
+        }
+        let gathered = candidates.into_iter().collect();
+        self.march(
+            &mut NearRay::new(origin, dir, gathered),
+            max_t,
+            f32::INFINITY,
+        )
+    }
+
+    /// The march's step along a ray: a quarter kernel.
+    fn march_step(&self) -> f32 {
+        0.25 * self.kernel()
+    }
+
+    /// The march of [`Self::intersect_ray_before`] along `ray` from its origin.
+    fn march(&self, ray: &mut NearRay, max_t: f32, stop: f32) -> Option<RayHit> {
+        let step = self.march_step();
+        let steps = (max_t / step).ceil() as usize;
+        let mut prev: Option<(f32, f32)> = self.value_along(ray, 0.0).map(|f| (0.0, f));
         for k in 1..=steps.max(1) {
             if ((k - 1) as f32 * step).min(max_t) >= stop {
                 return None;
             }
             let t = (k as f32 * step).min(max_t);
-            let current = self.value_along(origin, dir, t, &mut near).map(|f| (t, f));
+            let current = self.value_along(ray, t).map(|f| (t, f));
             if let (Some((t0, f0)), Some((t1, f1))) = (prev, current) {
                 if f0 == 0.0 {
-                    return self.hit(origin, dir, t0, &mut near);
+                    return self.hit(ray, t0);
                 }
                 let crossing = (f0 < 0.0) != (f1 < 0.0);
                 if crossing && f0.abs().min(f1.abs()) <= step {
-                    return self.refine(origin, dir, (t0, f0), (t1, f1), &mut near);
+                    return self.refine(ray, (t0, f0), (t1, f1));
                 }
             }
             prev = current;
@@ -103,26 +159,18 @@ impl MlsSurface {
         None
     }
 
-    /// `f` at `origin + t·dir`, from the points gathered along the ray.
-    fn value_along(&self, origin: Vec3, dir: Vec3, t: f32, near: &mut NearSegment) -> Option<f32> {
-        self.fit_among(origin + t * dir, &near.gathered, &mut near.order)
-            .map(|f| f.value)
+    /// `f` at the point `t` along `ray`.
+    fn value_along(&self, ray: &mut NearRay, t: f32) -> Option<f32> {
+        ray.fit_at(self, t).map(|f| f.value)
     }
 
-    fn refine(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        mut lo: (f32, f32),
-        mut hi: (f32, f32),
-        near: &mut NearSegment,
-    ) -> Option<RayHit> {
+    fn refine(&self, ray: &mut NearRay, mut lo: (f32, f32), mut hi: (f32, f32)) -> Option<RayHit> {
         let tolerance = self.params().tolerance * self.kernel();
         for _ in 0..40 {
             let t = 0.5 * (lo.0 + hi.0);
-            let f = self.value_along(origin, dir, t, near)?;
+            let f = self.value_along(ray, t)?;
             if f.abs() < tolerance || (hi.0 - lo.0) < 1e-7 * self.kernel() {
-                return self.hit(origin, dir, t, near);
+                return self.hit(ray, t);
             }
             if (f < 0.0) == (lo.1 < 0.0) {
                 lo = (t, f);
@@ -130,17 +178,14 @@ impl MlsSurface {
                 hi = (t, f);
             }
         }
-        self.hit(origin, dir, 0.5 * (lo.0 + hi.0), near)
+        self.hit(ray, 0.5 * (lo.0 + hi.0))
     }
 
-    fn hit(&self, origin: Vec3, dir: Vec3, t: f32, near: &mut NearSegment) -> Option<RayHit> {
-        let point = origin + t * dir;
+    fn hit(&self, ray: &mut NearRay, t: f32) -> Option<RayHit> {
         Some(RayHit {
             t,
-            point,
-            normal: self
-                .fit_among(point, &near.gathered, &mut near.order)?
-                .normal,
+            point: ray.point(t),
+            normal: ray.fit_at(self, t)?.normal,
         })
     }
 

@@ -178,14 +178,15 @@ impl MlsSurface {
         self.candidates(0.5 * (from + to), reach * (1.0 + 1e-5) + 1e-6 * self.h)
     }
 
-    /// [`Self::fit`] at `x` from `gathered` ([`Self::gather_along`] a segment through
-    /// `x`) instead of the spatial index: the points within the support taken in the order
-    /// the index returns them (nearest first, ties to the lower index), so the sums, and
-    /// the fit, are the same. `order` is scratch space.
+    /// [`Self::fit`] at `x` from `gathered` (indices of points that include every one
+    /// within the support of `x`, such as [`Self::gather_along`] a segment through `x`)
+    /// instead of the spatial index: the points within the support taken in the order the
+    /// index returns them (nearest first, ties to the lower index), so the sums, and the
+    /// fit, are the same. `order` is scratch space.
     pub(crate) fn fit_among(
         &self,
         x: Vec3,
-        gathered: &[usize],
+        gathered: impl IntoIterator<Item = usize>,
         order: &mut Vec<u64>,
     ) -> Option<LocalFit> {
         if !x.is_finite() {
@@ -194,7 +195,7 @@ impl MlsSurface {
         let radius = self.support_radius();
         let r2 = radius * radius;
         order.clear();
-        order.extend(gathered.iter().filter_map(|&i| {
+        order.extend(gathered.into_iter().filter_map(|i| {
             let d2 = (self.points[i] - x).length_squared();
             // Lossless: a `KdIndex`, and so this surface, holds at most `u32::MAX` points.
             (d2 <= r2).then_some(nearness_key(d2, i as u32))
@@ -763,7 +764,10 @@ mod tests {
             for k in 0..=16 {
                 let x = from.lerp(to, k as f32 / 16.0);
                 let by_index = surface.fit(x);
-                assert_eq!(surface.fit_among(x, &gathered, &mut order), by_index);
+                assert_eq!(
+                    surface.fit_among(x, gathered.iter().copied(), &mut order),
+                    by_index
+                );
                 compared += 1;
                 fitted += usize::from(by_index.is_some());
             }
