@@ -14,9 +14,11 @@ use crate::{Error, Result};
 mod envi;
 mod georeference;
 mod geotiff;
+mod samples;
 mod sidecars;
 
 pub use georeference::GeoReference;
+pub use samples::{HeightSamples, Voids};
 pub use sidecars::{MapDescription, PlanPlacement, write_map_sidecars};
 
 /// Whether a path names an image the workspace reads (`.png`, `.jpg`, `.jpeg`).
@@ -95,6 +97,25 @@ pub fn read_image(path: &Path) -> Result<DynamicImage> {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_heightfield(path: &Path) -> Result<HeightField> {
+    read_height_samples(path)?.into_field(path)
+}
+
+/// Reads a height file's samples as [`read_heightfield`] does, voids included (samples on
+/// the file's no-data value, or not finite): for describing a DEM that has them.
+///
+/// ```
+/// use geosynth::imagery::read_height_samples;
+///
+/// let raw = std::env::temp_dir().join("geosynth_doc_voids_3x2.f32le");
+/// let heights = [1.0f32, f32::NAN, 2.0, 3.0, 4.0, 5.0];
+/// std::fs::write(&raw, heights.iter().flat_map(|h| h.to_le_bytes()).collect::<Vec<u8>>())?;
+/// let samples = read_height_samples(&raw)?;
+/// assert_eq!(samples.voids().map(|v| (v.count(), v.first)), Some((1, (1, 0))));
+/// assert!(geosynth::imagery::read_heightfield(&raw).is_err());
+/// # std::fs::remove_file(&raw)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_height_samples(path: &Path) -> Result<HeightSamples> {
     if is_envi_raw_path(path)
         && let Some(header) = envi::header_beside(path)
     {
@@ -102,8 +123,15 @@ pub fn read_heightfield(path: &Path) -> Result<HeightField> {
     }
     if is_raw_heightfield_path(path) {
         let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("");
-        if pointset_core::dims_from_name(stem).is_some() {
-            return Ok(HeightField::read_f32le(path)?);
+        if let Some((width, height)) = pointset_core::dims_from_name(stem) {
+            let bytes = std::fs::read(path).map_err(io_error(path))?;
+            let heights = HeightField::f32le_samples(&bytes, width, height)?;
+            return Ok(HeightSamples {
+                width,
+                height,
+                heights,
+                no_data: None,
+            });
         }
         let Some(header) = envi::header_beside(path) else {
             let reason = "a raw height field needs its size: a name like \
@@ -118,8 +146,12 @@ pub fn read_heightfield(path: &Path) -> Result<HeightField> {
     }
     let grey = read_image(path)?.into_luma16();
     let (w, h) = grey.dimensions();
-    let heights = grey.pixels().map(|p| f32::from(p.0[0]) / 65535.0).collect();
-    Ok(HeightField::new(w as usize, h as usize, heights)?)
+    Ok(HeightSamples {
+        width: w as usize,
+        height: h as usize,
+        heights: grey.pixels().map(|p| f32::from(p.0[0]) / 65535.0).collect(),
+        no_data: None,
+    })
 }
 
 /// A height field as a mesh for viewing: the longer side spans 1 unit and the height range
@@ -315,23 +347,6 @@ pub(crate) fn mapped_heights(field: &HeightField, map: impl Fn(f64) -> f64) -> R
         .map(|&h| map(f64::from(h)) as f32)
         .collect();
     Ok(HeightField::new(field.width(), field.height(), heights)?)
-}
-
-/// Refuses `heights` read from `path` if any equals the file's no-data value `no_data`
-/// (or is NaN when that is NaN): a height field has no holes.
-fn refuse_no_data(path: &Path, heights: &[f32], no_data: f32) -> Result<()> {
-    let marked = heights
-        .iter()
-        .filter(|&&h| h == no_data || (h.is_nan() && no_data.is_nan()))
-        .count();
-    if marked == 0 {
-        return Ok(());
-    }
-    let reason = format!(
-        "{marked} samples hold the no-data value {no_data}; a height field has no holes \
-         (fill them first, e.g. with gdal_fillnodata)"
-    );
-    Err(format_error(path, reason))
 }
 
 /// The error for the file `path`, whose content is not what its kind needs: `reason`.

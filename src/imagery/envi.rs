@@ -7,13 +7,13 @@
 //! 32-bit integers, 14 and 15 signed and unsigned 64-bit integers: heights as stored, cast
 //! to `f32` as the TIFF reader casts them), `byte order` (0 little-endian, 1 big-endian;
 //! default 0), `header offset` (bytes before the samples; default 0), `bands` (1) and `data
-//! ignore value` (a no-data marker: samples equal to it are refused, since a height field
-//! has no holes). Other keys (`map info`, `interleave`, which one band does not need,
+//! ignore value` (a no-data marker: samples equal to it are voids, which
+//! [`super::read_heightfield`] refuses, since a height field has no holes). Other keys (`map info`, `interleave`, which one band does not need,
 //! `description`, …) are skipped. Values in braces may span lines.
 
 use std::path::{Path, PathBuf};
 
-use pointset_core::HeightField;
+use super::HeightSamples;
 
 use super::GeoReference;
 use super::georeference::NamedSystem;
@@ -120,12 +120,11 @@ impl SampleType {
     }
 }
 
-/// Reads the height field `raw` as the ENVI header `header` lays it out. Errors: a header
-/// that is not ENVI, lacks the size, has more than one band, a data type that is not a
-/// real number or an unknown byte order; a file whose length is not the header offset
-/// plus `samples · lines` samples of the data type; samples equal to the no-data value,
-/// or not finite (as `f32`).
-pub(super) fn read_with_header(raw: &Path, header: &Path) -> Result<HeightField> {
+/// Reads the samples of the height field `raw` as the ENVI header `header` lays it out,
+/// voids included. Errors: a header that is not ENVI, lacks the size, has more than one
+/// band, a data type that is not a real number or an unknown byte order; a file whose
+/// length is not the header offset plus `samples · lines` samples of the data type.
+pub(super) fn read_with_header(raw: &Path, header: &Path) -> Result<HeightSamples> {
     let text = std::fs::read_to_string(header).map_err(super::io_error(header))?;
     let layout = parse_header(&text).map_err(|reason| super::format_error(header, reason))?;
     let bytes = std::fs::read(raw).map_err(super::io_error(raw))?;
@@ -152,10 +151,12 @@ pub(super) fn read_with_header(raw: &Path, header: &Path) -> Result<HeightField>
         .chunks_exact(size)
         .map(|c| layout.sample.decode(c, layout.big_endian))
         .collect();
-    if let Some(no_data) = layout.no_data {
-        super::refuse_no_data(raw, &heights, no_data)?;
-    }
-    Ok(HeightField::new(layout.width, layout.height, heights)?)
+    Ok(HeightSamples {
+        width: layout.width,
+        height: layout.height,
+        heights,
+        no_data: layout.no_data,
+    })
 }
 
 /// The layout `text`, an ENVI header, gives; the error says what is missing or unread.

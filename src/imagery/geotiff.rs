@@ -8,8 +8,8 @@
 //! DEM's metres stay metres), cast to `f32`; the first image of the file is read, which is
 //! the full-resolution one where overviews follow it.
 //!
-//! GDAL's no-data tag (`GDAL_NODATA`, 42113) is read: samples equal to it (or NaN when it
-//! is `nan`) are refused, since a height field has no holes. The GeoTIFF placement tags are
+//! GDAL's no-data tag (`GDAL_NODATA`, 42113) is read: samples equal to it (or NaN) are
+//! voids, which [`super::read_heightfield`] refuses, since a height field has no holes. The GeoTIFF placement tags are
 //! read apart ([`super::GeoReference::read`]).
 //!
 //! Written: one band of 32-bit floats, Deflate-compressed, placed by GeoTIFF's tie point
@@ -25,14 +25,16 @@ use ::tiff::encoder::compression::DeflateLevel;
 use ::tiff::encoder::{Compression, TiffEncoder, colortype};
 use ::tiff::tags::Tag;
 use pointset_core::HeightField;
+
+use super::HeightSamples;
 use pointset_core::io::{FileReplacement, replace_file};
 
 use crate::{Error, Result};
 
-/// Reads the first image of the TIFF file `path` as a height field. Errors: a file TIFF
-/// cannot decode (truncated, an unsupported compression), more than one sample per pixel,
-/// samples on the no-data value or not finite, fewer than 2 × 2 samples.
-pub(super) fn read(path: &Path) -> Result<HeightField> {
+/// Reads the samples of the first image of the TIFF file `path`, voids included. Errors:
+/// a file TIFF cannot decode (truncated, an unsupported compression), more than one
+/// sample per pixel, a no-data tag that is not a number.
+pub(super) fn read(path: &Path) -> Result<HeightSamples> {
     let decoding = decoding_error(path);
     let mut decoder = open(path)?;
     let colour = decoder.colortype().map_err(&decoding)?;
@@ -47,11 +49,12 @@ pub(super) fn read(path: &Path) -> Result<HeightField> {
         Some(value) => Some(no_data_value(path, value)?),
         None => None,
     };
-    let heights = as_f32(decoder.read_image().map_err(&decoding)?);
-    if let Some(no_data) = no_data {
-        super::refuse_no_data(path, &heights, no_data)?;
-    }
-    Ok(HeightField::new(width as usize, height as usize, heights)?)
+    Ok(HeightSamples {
+        width: width as usize,
+        height: height as usize,
+        heights: as_f32(decoder.read_image().map_err(&decoding)?),
+        no_data,
+    })
 }
 
 /// A decoder of the TIFF file `path`, its first directory read. Errors: I/O, and a file
@@ -159,6 +162,11 @@ mod tests {
         path
     }
 
+    /// The height field of the TIFF file `path` (its samples, voids refused).
+    fn read(path: &Path) -> Result<HeightField> {
+        super::read(path)?.into_field(path)
+    }
+
     #[test]
     fn every_sample_type_reads_as_stored() {
         let expected = [-2.0, 0.0, 1.0, 3.0, 250.0, -125.0];
@@ -233,12 +241,15 @@ mod tests {
     fn no_data_samples_are_refused_and_other_values_pass() {
         let values = [7, -32768, 8, 9, 10, 11];
         let path = write::<colortype::GrayI16>("void.tif", &values, Some("-32768"));
-        assert_refused(&path, "1 samples hold the no-data value -32768");
+        assert_refused(
+            &path,
+            "1 of its 6 samples holds the no-data value -32768, the first at column 1, row 0",
+        );
         let path = write::<colortype::GrayI16>("void.tif", &values, Some("-9999"));
         assert_eq!(read(&path).unwrap().get(1, 0), Some(-32768.0));
         let nan = [1.0, f32::NAN, 2.0, 3.0, 4.0, f32::NAN];
         let path = write::<colortype::Gray32Float>("void.tif", &nan, Some("nan"));
-        assert_refused(&path, "2 samples hold the no-data value NaN");
+        assert_refused(&path, "2 of its 6 samples hold the no-data value NaN");
         std::fs::remove_file(path).unwrap();
     }
 

@@ -197,7 +197,7 @@ mod tests {
 
     #[test]
     fn a_columns_hit_is_the_hit_of_the_ray_searching_the_whole_surface() {
-        // Steep walls (slope up to 4) far from the origin: the fits along each column's
+        // Steep walls (slopes up to 2.6) far from the origin: the fits along each column's
         // ray read only the samples within reach of the column in projection; the public
         // ray gathers its own from the whole index. Their hits agree bit for bit.
         let offset = Vec2::new(2.0e3, -1.5e3);

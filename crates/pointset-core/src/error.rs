@@ -139,6 +139,23 @@ pub enum Error {
         /// Index of the offending record.
         index: usize,
     },
+    /// Height samples that are NaN or infinite (a DEM's voids): a height field has no
+    /// holes.
+    #[error(
+        "{count} of the {total} height samples are not finite (NaN or infinite), the first \
+         at column {column}, row {row}: a height field has no holes (fill them first, e.g. \
+         with gdal_fillnodata)"
+    )]
+    NonFiniteHeights {
+        /// How many samples are not finite.
+        count: usize,
+        /// How many samples the field has.
+        total: usize,
+        /// The first one's column (from the left).
+        column: usize,
+        /// The first one's row (from the top).
+        row: usize,
+    },
     /// A face references a vertex that does not exist.
     #[error("face {face} references vertex {vertex}, but there are only {vertex_count} vertices")]
     IndexOutOfRange {

@@ -42,10 +42,12 @@ impl HeightField {
                 found: heights.len(),
             });
         }
-        if let Some(index) = heights.iter().position(|h| !h.is_finite()) {
-            return Err(Error::NonFinite {
-                what: "height sample".into(),
-                index,
+        if let Some(first) = heights.iter().position(|h| !h.is_finite()) {
+            return Err(Error::NonFiniteHeights {
+                count: heights.iter().filter(|h| !h.is_finite()).count(),
+                total: heights.len(),
+                column: first % width,
+                row: first / width,
             });
         }
         Ok(Self {
@@ -57,6 +59,12 @@ impl HeightField {
 
     /// Decodes raw little-endian `f32` samples (e.g. `*_317x460.f32le` files).
     pub fn from_f32le(bytes: &[u8], width: usize, height: usize) -> Result<Self> {
+        Self::new(width, height, Self::f32le_samples(bytes, width, height)?)
+    }
+
+    /// The `width × height` raw little-endian `f32` samples in `bytes`, as stored (NaN
+    /// included). Errors: a length other than 4 bytes a sample.
+    pub fn f32le_samples(bytes: &[u8], width: usize, height: usize) -> Result<Vec<f32>> {
         let needed = width.checked_mul(height).and_then(|n| n.checked_mul(4));
         if needed != Some(bytes.len()) {
             return Err(Error::RawSizeMismatch {
@@ -66,11 +74,10 @@ impl HeightField {
                 found_bytes: bytes.len(),
             });
         }
-        let heights = bytes
+        Ok(bytes
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
-        Self::new(width, height, heights)
+            .collect())
     }
 
     /// Reads a raw `f32le` file whose name carries its size as `_WxH` (as in
@@ -234,7 +241,16 @@ mod tests {
     fn bad_fields_are_errors() {
         assert!(HeightField::new(1, 5, vec![0.0; 5]).is_err());
         assert!(HeightField::new(2, 2, vec![0.0; 3]).is_err());
-        assert!(HeightField::new(2, 2, vec![0.0, f32::NAN, 0.0, 0.0]).is_err());
+        let voids = HeightField::new(3, 2, vec![0.0, 1.0, 2.0, f32::NAN, 0.0, f32::INFINITY]);
+        assert!(matches!(
+            voids,
+            Err(Error::NonFiniteHeights {
+                count: 2,
+                total: 6,
+                column: 0,
+                row: 1
+            })
+        ));
         let short = HeightField::from_f32le(&[0u8; 15], 2, 2).unwrap_err();
         assert!(
             matches!(

@@ -381,8 +381,17 @@ pub struct GridInfo {
     width: usize,
     height: usize,
     channels: Option<String>,
+    /// A height field's lowest and highest height, its voids left out (`None` for a
+    /// picture, or when every sample is a void).
     min: Option<f32>,
     max: Option<f32>,
+    /// A height field's voids: samples on its no-data value or not finite, which
+    /// `quilt --heightfield` refuses (`None` for a picture).
+    voids: Option<usize>,
+    /// A height field's no-data value, when the file names one.
+    no_data: Option<f32>,
+    /// The first void's column and row (row 0 at the top).
+    first_void: Option<[usize; 2]>,
     /// A placed height field's (GeoTIFF tags or ENVI `map info`): model units per sample
     /// along x and y.
     pixel_size: Option<[f64; 2]>,
@@ -405,8 +414,9 @@ impl GridInfo {
             .to_ascii_uppercase();
         let envi_raw = imagery::is_envi_raw_path(path);
         if imagery::is_heightfield_path(path) || envi_raw {
-            let field = imagery::read_heightfield(path)?;
-            let (lo, hi) = field.range();
+            let samples = imagery::read_height_samples(path)?;
+            let range = samples.range();
+            let voids = samples.voids();
             let format = if imagery::is_tiff_path(path) {
                 "TIFF"
             } else if envi_raw {
@@ -419,11 +429,14 @@ impl GridInfo {
                 path: path.display().to_string(),
                 format: format.into(),
                 kind: "heightfield",
-                width: field.width(),
-                height: field.height(),
+                width: samples.width,
+                height: samples.height,
                 channels: None,
-                min: Some(lo),
-                max: Some(hi),
+                min: range.map(|(lo, _)| lo),
+                max: range.map(|(_, hi)| hi),
+                voids: Some(voids.map_or(0, |v| v.count())),
+                no_data: samples.no_data,
+                first_void: voids.map(|v| [v.first.0, v.first.1]),
                 pixel_size: reference.as_ref().map(|r| [r.scale[0], r.scale[1]]),
                 raster_origin: reference.as_ref().map(|r| [r.origin[0], r.origin[1]]),
                 epsg: reference.as_ref().and_then(|r| r.epsg()),
@@ -440,6 +453,9 @@ impl GridInfo {
             channels: Some(format!("{:?}", img.color())),
             min: None,
             max: None,
+            voids: None,
+            no_data: None,
+            first_void: None,
             pixel_size: None,
             raster_origin: None,
             epsg: None,
@@ -457,6 +473,19 @@ impl GridInfo {
         }
         if let (Some(lo), Some(hi)) = (self.min, self.max) {
             s.push_str(&format!("\nheights:     {lo} .. {hi}"));
+        }
+        if let Some([column, row]) = self.first_void {
+            let marker = match self.no_data {
+                Some(v) => format!("on the no-data value {v} or not finite"),
+                None => "not finite".into(),
+            };
+            s.push_str(&format!(
+                "\nvoids:       {} ({marker}; the first at column {column}, row {row}): \
+                 fill them before quilting it (e.g. gdal_fillnodata)",
+                self.voids.unwrap_or(0)
+            ));
+        } else if self.voids.is_some() && self.no_data.is_some() {
+            s.push_str("\nvoids:       none");
         }
         if let (Some([dx, dy]), Some([x, y])) = (self.pixel_size, self.raster_origin) {
             let system = match (self.epsg, self.geo_keys) {

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use geosynth::imagery::{GeoReference, write_geotiff};
+use serde_json::json;
 
 use crate::{Scratch, arg, height_map_entry, info_json, ok, quilt_height_field_into, refused};
 
@@ -71,11 +72,37 @@ fn a_raw_height_field_with_an_envi_header_needs_no_size_in_its_name() {
     let bare = write("bare.f32le", &bytes, None);
     for (file, message) in [
         (&short, "needs 4800 bytes"),
-        (&holed, "1 samples hold the no-data value -9999"),
         (&bare, "or an ENVI header beside it"),
     ] {
         refused(&["info", file], message);
     }
+    // `info` describes the void (and leaves it out of the range); the quilt refuses it.
+    let info = info_json(Path::new(&holed));
+    assert_eq!(
+        [&info["voids"], &info["no_data"], &info["first_void"]],
+        [&json!(1), &json!(-9999.0), &json!([17, 0])]
+    );
+    assert!(info["min"].as_f64().unwrap() > 111.9);
+    let out = arg(&dir.path("holed.ply"));
+    refused(
+        &["quilt", "--heightfield", &holed, "-o", &out],
+        "1 of its 1200 samples holds the no-data value -9999, the first at column 17, row 0",
+    );
+    // NaN marks a void without a header's marker, as float DEMs often do.
+    let mut nan = heights.clone();
+    nan[45] = f32::NAN;
+    nan[46] = f32::NAN;
+    let nan: Vec<u8> = nan.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let nan = write("nan.f32le", &nan, Some(&header));
+    let info = info_json(Path::new(&nan));
+    assert_eq!(
+        [&info["voids"], &info["no_data"], &info["first_void"]],
+        [&json!(2), &json!(null), &json!([5, 1])]
+    );
+    refused(
+        &["quilt", "--heightfield", &nan, "-o", &out],
+        "2 of its 1200 samples are not finite (NaN or infinite), the first at column 5, row 1",
+    );
 }
 
 /// A big-endian TIFF of one band of `i16` samples, `width` × `height` in strips of
@@ -224,12 +251,22 @@ fn a_tiff_dem_reads_and_quilts_as_its_raw_twin_does() {
     std::fs::write(&holed, int16_tiff(40, 30, 10, &voided, Some("-32768"))).unwrap();
     let short = dir.path("short.tif");
     std::fs::write(&short, int16_tiff(40, 30, 10, &centimetres[..800], None)).unwrap();
-    for (file, message) in [
-        (&holed, "1 samples hold the no-data value -32768"),
-        (&short, "cannot read TIFF"),
-    ] {
-        refused(&["info", &arg(file)], message);
-    }
+    refused(&["info", &arg(&short)], "cannot read TIFF");
+    let info = info_json(&holed);
+    assert_eq!(
+        [&info["voids"], &info["no_data"], &info["first_void"]],
+        [&json!(1), &json!(-32768.0), &json!([3, 3])]
+    );
+    refused(
+        &[
+            "quilt",
+            "--heightfield",
+            &arg(&holed),
+            "-o",
+            &arg(&dir.path("holed.ply")),
+        ],
+        "1 of its 1200 samples holds the no-data value -32768",
+    );
 }
 
 #[test]
