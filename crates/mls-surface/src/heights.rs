@@ -97,8 +97,8 @@ impl MlsSurface {
         let (low, high) = heights.fold((nearest, nearest), |(lo, hi), z| (lo.min(z), hi.max(z)));
         let origin = column.extend(high + reach);
         let length = high - low + 2.0 * reach;
-        let candidates = gathered.iter().map(|n| n.index);
-        if let Some(hit) = self.intersect_ray_among(origin, Vec3::NEG_Z, length, candidates) {
+        let candidates: Vec<usize> = gathered.iter().map(|n| n.index).collect();
+        if let Some(hit) = self.intersect_ray_among(origin, Vec3::NEG_Z, length, &candidates) {
             return Some(TopHeight {
                 z: hit.point.z,
                 method: HeightMethod::Ray,

@@ -44,16 +44,16 @@ pub struct Snap {
 /// The input points near one ray, gathered once for every fit along it (every point
 /// within the support radius of some point of the ray that is marched), the ray, and
 /// scratch space for ordering a fit's points.
-struct NearRay {
+struct NearRay<'a> {
     origin: Vec3,
     dir: Vec3,
-    gathered: Vec<usize>,
+    gathered: &'a [usize],
     order: Vec<u64>,
 }
 
-impl NearRay {
+impl<'a> NearRay<'a> {
     /// The ray from `origin` in the unit direction `dir`, and the points `gathered` near it.
-    fn new(origin: Vec3, dir: Vec3, gathered: Vec<usize>) -> Self {
+    fn new(origin: Vec3, dir: Vec3, gathered: &'a [usize]) -> Self {
         Self {
             origin,
             dir,
@@ -105,7 +105,7 @@ impl MlsSurface {
         // the points near that segment, gathered once, serve them all.
         let end = max_t.min(stop + self.march_step());
         let gathered = self.gather_along(origin, origin + end * dir);
-        self.march(&mut NearRay::new(origin, dir, gathered), max_t, stop)
+        self.march(&mut NearRay::new(origin, dir, &gathered), max_t, stop)
     }
 
     /// [`Self::intersect_ray`] of the ray from `origin` in the unit direction `dir`, with
@@ -116,14 +116,13 @@ impl MlsSurface {
         origin: Vec3,
         dir: Vec3,
         max_t: f32,
-        candidates: impl IntoIterator<Item = usize>,
+        candidates: &[usize],
     ) -> Option<RayHit> {
         if !(origin.is_finite() && dir.is_normalized() && max_t.is_finite() && max_t >= 0.0) {
             return None;
         }
-        let gathered = candidates.into_iter().collect();
         self.march(
-            &mut NearRay::new(origin, dir, gathered),
+            &mut NearRay::new(origin, dir, candidates),
             max_t,
             f32::INFINITY,
         )
@@ -189,6 +188,26 @@ impl MlsSurface {
         })
     }
 
+    /// The hits of [`Self::snap`]'s two rays from `p`, along `n` and along `−n`, each up
+    /// to the support radius: those of [`Self::intersect_ray`], the backward one only
+    /// where it is strictly closer (its march stops where the forward hit lies). Both
+    /// rays fit from the points within the support radius of the segment they span
+    /// (`p ± radius·n̂`), gathered once.
+    fn snap_rays(&self, p: Vec3, n: Vec3) -> (Option<RayHit>, Option<RayHit>) {
+        let max_t = self.support_radius();
+        let Some(dir) = n.try_normalize() else {
+            return (None, None);
+        };
+        if !(p.is_finite() && max_t.is_finite()) {
+            return (None, None);
+        }
+        let near = self.gather_around(p - max_t * dir, p + max_t * dir);
+        let forward = self.march(&mut NearRay::new(p, dir, &near), max_t, f32::INFINITY);
+        let stop = forward.map_or(f32::INFINITY, |hit| hit.t);
+        let backward = self.march(&mut NearRay::new(p, -dir, &near), max_t, stop);
+        (forward, backward)
+    }
+
     /// Paper 000 §5.3: shoots rays from `p` along `+n` and `−n` (up to the kernel support),
     /// keeps the closer hit, and falls back to [`MlsSurface::project`] when neither ray hits.
     /// The returned signed distance is `p`'s offset from the hit along `n`.
@@ -223,12 +242,7 @@ impl MlsSurface {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn snap(&self, p: Vec3, n: Vec3) -> Option<Snap> {
-        let max_t = self.support_radius();
-        let forward = self.intersect_ray(p, n, max_t);
-        // A backward hit counts only if strictly closer, so its march can stop where the
-        // forward hit lies.
-        let stop = forward.map_or(f32::INFINITY, |hit| hit.t);
-        let backward = self.intersect_ray_before(p, -n, max_t, stop);
+        let (forward, backward) = self.snap_rays(p, n);
         let best = match (forward, backward) {
             (Some(a), Some(b)) => Some(if a.t <= b.t { (a, -1.0) } else { (b, 1.0) }),
             (Some(a), None) => Some((a, -1.0)),

@@ -178,6 +178,33 @@ impl MlsSurface {
         self.candidates(0.5 * (from + to), reach * (1.0 + 1e-5) + 1e-6 * self.h)
     }
 
+    /// The input points within the support radius of some point of the segment
+    /// `from`–`to` (a capsule around it), and a little beyond, for the rounding of points
+    /// computed along the segment far from the origin. [`Self::fit_among`] fits at points
+    /// of the segment from them, as from [`Self::gather_along`]'s ball, which holds more
+    /// (on a sheet across the segment's middle, a disc 1.5 support radii wide for a
+    /// segment one support radius long, against one support radius for the capsule).
+    pub(crate) fn gather_around(&self, from: Vec3, to: Vec3) -> Vec<usize> {
+        let size = from.abs().max_element().max(to.abs().max_element());
+        let reach =
+            self.support_radius() * (1.0 + 1e-5) + 1e-6 * self.h + 8.0 * f32::EPSILON * size;
+        let axis = to - from;
+        let length2 = axis.length_squared();
+        let half = 0.5 * length2.sqrt();
+        let ball = self.candidates(0.5 * (from + to), half + reach);
+        ball.into_iter()
+            .filter(|&i| {
+                let offset = self.points[i] - from;
+                let along = if length2 > 0.0 {
+                    (offset.dot(axis) / length2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (offset - along * axis).length_squared() <= reach * reach
+            })
+            .collect()
+    }
+
     /// [`Self::fit`] at `x` from `gathered` (indices of points that include every one
     /// within the support of `x`, such as [`Self::gather_along`] a segment through `x`)
     /// instead of the spatial index: the points within the support taken in the order the

@@ -481,8 +481,20 @@ fn the_snap_is_the_closer_of_two_full_rays() {
     // `snap` stops the backward march where the forward hit lies. Rebuilt here from two
     // full rays: the closer hit, the forward one on a tie, else the projection. Half the
     // rays run along a short chord just inside the sphere, so both hit at nearly the same
-    // distance, often within one march step of each other.
-    let surface = MlsSurface::new(&sphere(1000, 1.0), &MlsParams::default()).unwrap();
+    // distance, often within one march step of each other. Far from the origin, where
+    // points along the rays round to a coarse grid, as well as around it.
+    for centre in [Vec3::ZERO, Vec3::new(3.0e3, -2.0e3, 1.0e3)] {
+        snaps_are_the_closer_of_two_full_rays(centre);
+    }
+}
+
+/// [`the_snap_is_the_closer_of_two_full_rays`] on a unit sphere around `centre`.
+fn snaps_are_the_closer_of_two_full_rays(centre: Vec3) {
+    let unit = sphere(1000, 1.0);
+    let moved: Vec<Vec3> = unit.positions().iter().map(|p| *p + centre).collect();
+    let normals = unit.normals().unwrap().to_vec();
+    let set = PointSet::new(moved).unwrap().with_normals(normals).unwrap();
+    let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
     let reach = surface.support_radius();
     let mut g = rng::rng_from_seed(8);
     let (mut forward_won, mut backward_won, mut close_calls, mut projected) = (0, 0, 0, 0);
@@ -498,6 +510,7 @@ fn the_snap_is_the_closer_of_two_full_rays() {
             let r = (1.0 - (0.5 * reach).powi(2)).sqrt();
             (u * r + along * g.random_range(-0.02..0.02), along)
         };
+        let p = p + centre;
         let snap = surface.snap(p, n);
         let forward = surface.intersect_ray(p, n, reach);
         let backward = surface.intersect_ray(p, -n, reach);
@@ -531,8 +544,8 @@ fn the_snap_is_the_closer_of_two_full_rays() {
     }
     assert!(
         forward_won > 100 && backward_won > 100 && close_calls > 100 && projected > 100,
-        "forward {forward_won}, backward {backward_won} ({close_calls} within a step of \
-         the forward hit), projection {projected}"
+        "around {centre}: forward {forward_won}, backward {backward_won} ({close_calls} \
+         within a step of the forward hit), projection {projected}"
     );
 }
 
