@@ -8,8 +8,9 @@
 //! to `f32` as the TIFF reader casts them), `byte order` (0 little-endian, 1 big-endian;
 //! default 0), `header offset` (bytes before the samples; default 0), `bands` (1) and `data
 //! ignore value` (a no-data marker: samples equal to it are voids, which
-//! [`super::read_heightfield`] refuses, since a height field has no holes). Other keys (`map info`, `interleave`, which one band does not need,
-//! `description`, …) are skipped. Values in braces may span lines.
+//! [`super::read_heightfield`] refuses, since a height field has no holes). Other keys
+//! (`map info`, `interleave`, which one band does not need, `description`, …) are
+//! skipped. Values in braces may span lines.
 
 use std::path::{Path, PathBuf};
 

@@ -9,8 +9,8 @@
 //! the full-resolution one where overviews follow it.
 //!
 //! GDAL's no-data tag (`GDAL_NODATA`, 42113) is read: samples equal to it (or NaN) are
-//! voids, which [`super::read_heightfield`] refuses, since a height field has no holes. The GeoTIFF placement tags are
-//! read apart ([`super::GeoReference::read`]).
+//! voids, which [`super::read_heightfield`] refuses, since a height field has no holes.
+//! The GeoTIFF placement tags are read apart ([`super::GeoReference::read`]).
 //!
 //! Written: one band of 32-bit floats, Deflate-compressed, placed by GeoTIFF's tie point
 //! and pixel scale when the map has a place in its file's x–y plane.
