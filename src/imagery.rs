@@ -12,11 +12,13 @@ use pointset_core::{HeightField, TriMesh};
 use crate::{Error, Result};
 
 mod envi;
+mod fill;
 mod georeference;
 mod geotiff;
 mod samples;
 mod sidecars;
 
+pub use fill::fill_harmonic;
 pub use georeference::GeoReference;
 pub use samples::{HeightSamples, Voids};
 pub use sidecars::{MapDescription, PlanPlacement, write_map_sidecars};

@@ -103,6 +103,39 @@ impl HeightSamples {
         Ok(HeightField::new(self.width, self.height, self.heights)?)
     }
 
+    /// The height field of the samples with their voids filled
+    /// ([`super::fill_harmonic`]: each the mean of its grid neighbours, the other samples
+    /// fixed), and how many were filled. Errors: every sample a void, fewer than 2 × 2
+    /// samples.
+    ///
+    /// ```
+    /// use geosynth::imagery::HeightSamples;
+    ///
+    /// let samples = HeightSamples {
+    ///     width: 3,
+    ///     height: 2,
+    ///     heights: vec![1.0, -9999.0, 3.0, 1.0, f32::NAN, 3.0],
+    ///     no_data: Some(-9999.0),
+    /// };
+    /// let (field, filled) = samples.filled()?;
+    /// assert_eq!(filled, 2);
+    /// assert!((field.get(1, 0).ok_or("no sample")? - 2.0).abs() < 1e-6);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn filled(self) -> Result<(HeightField, usize)> {
+        let known: Vec<Option<f32>> = self
+            .heights
+            .iter()
+            .map(|&h| (!self.is_void(h)).then_some(h))
+            .collect();
+        let voids = known.iter().filter(|h| h.is_none()).count();
+        let heights =
+            super::fill_harmonic(&known, self.width).ok_or_else(|| crate::Error::NoSurface {
+                reason: format!("every one of its {} samples is a void", known.len()),
+            })?;
+        Ok((HeightField::new(self.width, self.height, heights)?, voids))
+    }
+
     /// Why the samples, with `voids`, are not a height field.
     fn voids_refused(&self, voids: Voids) -> String {
         let total = self.heights.len();
@@ -123,7 +156,8 @@ impl HeightSamples {
         let (column, row) = voids.first;
         format!(
             "{} of its {total} samples {what}, the first at column {column}, row {row}: a \
-             height field has no holes (fill them first, e.g. with gdal_fillnodata)",
+             height field has no holes (`geosynth quilt --fill-voids` fills them, as does \
+             gdal_fillnodata)",
             voids.count()
         )
     }

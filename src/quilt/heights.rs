@@ -3,24 +3,19 @@
 //! own spacing with heights in its length units.
 
 use std::borrow::Cow;
-use std::collections::VecDeque;
 
 use glam::Vec2;
 use mls_surface::{HeightMethod, MlsParams, MlsSurface};
 use patch_quilt::{GeometryTexture, QuiltOutput, UpAxis};
 use pointset_core::{Aabb, HeightField, PointSet, RunContext, Stage};
 
+use crate::imagery::fill_harmonic;
 use crate::{Error, Result};
 
 /// Most samples [`sample_heights`] writes: an 8192 × 8192 map (a 2048² height field
 /// quilted at the default scale gives about 2730 × 2730). Sampling holds about 32 bytes
 /// a sample.
 pub const MAX_HEIGHT_SAMPLES: usize = 1 << 26;
-
-/// Most Gauss–Seidel sweeps [`fill_holes`] makes over a map's holes. A hole `n` samples
-/// across settles in about `n²` sweeps; the gaps a warp opens on a cliff are a few
-/// samples wide.
-const MAX_FILL_SWEEPS: usize = 500;
 
 /// Where a height map's samples lie in a texture's frame: sample `(c, r)` of a height
 /// field read as a texture ([`super::read_heightfield_texture_framed`]) at
@@ -260,7 +255,7 @@ pub fn sample_heights(
         .map(|h| h.map(|h| h.z / frame.scale))
         .collect();
     let filled = known.iter().filter(|h| h.is_none()).count();
-    let heights = fill_holes(known, cols).ok_or_else(|| Error::NoSurface {
+    let heights = fill_harmonic(&known, cols).ok_or_else(|| Error::NoSurface {
         reason: format!(
             "the {} points have no surface over any of the {cols} × {rows} samples",
             points.len()
@@ -283,71 +278,6 @@ fn too_large(steps: Vec2) -> Error {
     }
 }
 
-/// The grid `known` (row-major, `cols` wide) with its missing values filled: first each
-/// from the nearest known one ([`fill_from_nearest`]), then relaxed by Gauss–Seidel sweeps
-/// towards the mean of their grid neighbours (a discrete harmonic fill with the known
-/// values fixed) until no value moves by more than a millionth of the known range, or
-/// [`MAX_FILL_SWEEPS`]. `None` when no value is known.
-fn fill_holes(known: Vec<Option<f32>>, cols: usize) -> Option<Vec<f32>> {
-    let holes: Vec<usize> = (0..known.len()).filter(|&k| known[k].is_none()).collect();
-    let (lo, hi) = known
-        .iter()
-        .flatten()
-        .fold((f32::MAX, f32::MIN), |(lo, hi), &h| (lo.min(h), hi.max(h)));
-    let mut heights = fill_from_nearest(known, cols)?;
-    let rows = heights.len() / cols;
-    let settled = 1e-6 * (hi - lo).max(f32::MIN_POSITIVE);
-    for _ in 0..MAX_FILL_SWEEPS {
-        let mut largest_move = 0.0f32;
-        for &k in &holes {
-            let (sum, count) = grid_neighbours(k, cols, rows)
-                .fold((0.0f32, 0u8), |(s, n), m| (s + heights[m], n + 1));
-            let mean = sum / f32::from(count.max(1));
-            largest_move = largest_move.max((mean - heights[k]).abs());
-            heights[k] = mean;
-        }
-        if largest_move <= settled {
-            break;
-        }
-    }
-    Some(heights)
-}
-
-/// The grid `known` (row-major, `cols` wide) with each missing value taken from the
-/// nearest known one in grid steps (4-neighbour breadth-first order, ties to the one
-/// reached first); `None` when no value is known.
-fn fill_from_nearest(known: Vec<Option<f32>>, cols: usize) -> Option<Vec<f32>> {
-    let mut queue: VecDeque<usize> = (0..known.len()).filter(|&k| known[k].is_some()).collect();
-    if queue.is_empty() {
-        return None;
-    }
-    let rows = known.len() / cols;
-    let mut heights = known;
-    while let Some(k) = queue.pop_front() {
-        let value = heights[k];
-        for m in grid_neighbours(k, cols, rows) {
-            if heights[m].is_none() {
-                heights[m] = value;
-                queue.push_back(m);
-            }
-        }
-    }
-    heights.into_iter().collect()
-}
-
-/// The 4 neighbours of sample `k` of a row-major `cols × rows` grid that lie on it.
-fn grid_neighbours(k: usize, cols: usize, rows: usize) -> impl Iterator<Item = usize> {
-    let (c, r) = (k % cols, k / cols);
-    [
-        (c > 0).then(|| k - 1),
-        (c + 1 < cols).then(|| k + 1),
-        (r > 0).then(|| k - cols),
-        (r + 1 < rows).then(|| k + cols),
-    ]
-    .into_iter()
-    .flatten()
-}
-
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -355,45 +285,6 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
-
-    #[test]
-    fn missing_heights_come_from_the_nearest_known_sample() {
-        let known = vec![
-            Some(1.0),
-            None,
-            None,
-            None,
-            //
-            None,
-            None,
-            None,
-            Some(5.0),
-        ];
-        let filled = fill_from_nearest(known, 4).unwrap();
-        assert_eq!(filled, vec![1.0, 1.0, 1.0, 5.0, 1.0, 1.0, 5.0, 5.0]);
-        assert!(fill_from_nearest(vec![None; 6], 3).is_none());
-    }
-
-    #[test]
-    fn a_hole_in_a_ramp_is_filled_with_the_ramp() {
-        let ramp = |k: usize| 0.5 * (k % 30) as f32 - 0.2 * (k / 30) as f32;
-        let in_hole = |k: usize| {
-            let (c, r) = ((k % 30) as i32, (k / 30) as i32);
-            (c - 12).abs() <= 4 && (r - 9).abs() <= 6
-        };
-        let known: Vec<Option<f32>> = (0..600).map(|k| (!in_hole(k)).then(|| ramp(k))).collect();
-        let nearest = fill_from_nearest(known.clone(), 30).unwrap();
-        let filled = fill_holes(known, 30).unwrap();
-        let worst = |heights: &[f32]| {
-            (0..600)
-                .map(|k| (heights[k] - ramp(k)).abs())
-                .fold(0.0, f32::max)
-        };
-        // A linear ramp is harmonic: the fill finds it; the nearest value is off by up to
-        // half the hole's width times the slope.
-        assert!(worst(&filled) < 1e-3, "{}", worst(&filled));
-        assert!(worst(&nearest) > 1.0, "{}", worst(&nearest));
-    }
 
     #[test]
     fn the_grid_covers_the_footprint_at_the_frames_spacing() {

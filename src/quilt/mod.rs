@@ -32,7 +32,7 @@ pub use patch_quilt::{
     WarpCounts, WarpTargets, evaluate, quilt,
 };
 use pointset_core::io::Geometry;
-use pointset_core::{RunContext, Stage};
+use pointset_core::{HeightField, RunContext, Stage};
 
 use crate::fixtures::textures::TextureExemplar;
 use crate::{Error, Result};
@@ -131,19 +131,58 @@ pub fn read_heightfield_texture_framed(
     path: &Path,
     relief: f32,
 ) -> Result<(GeometryTexture, HeightFieldFrame)> {
-    if !(relief.is_finite() && relief > 0.0) {
-        return Error::invalid(
-            "relief",
-            relief,
-            "a positive fraction of the height field's extent",
-        );
+    check_relief(relief)?;
+    heightfield_texture(&crate::imagery::read_heightfield(path)?, relief)
+}
+
+/// [`read_heightfield_texture_framed`] of a file whose voids (samples on its no-data
+/// value, or not finite, which that refuses) are filled first
+/// ([`crate::imagery::HeightSamples::filled`]); also returns how many were filled.
+///
+/// ```
+/// let path = std::env::temp_dir().join("geosynth_doc_voids_20x20.f32le");
+/// let mut heights: Vec<f32> = (0..20 * 20).map(|i| (i % 20) as f32).collect();
+/// heights[210] = f32::NAN;
+/// std::fs::write(&path, heights.iter().flat_map(|h| h.to_le_bytes()).collect::<Vec<u8>>())?;
+/// assert!(geosynth::quilt::read_heightfield_texture_framed(&path, 0.1).is_err());
+/// let (_, _, filled) = geosynth::quilt::read_heightfield_texture_filling(&path, 0.1)?;
+/// assert_eq!(filled, 1);
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_heightfield_texture_filling(
+    path: &Path,
+    relief: f32,
+) -> Result<(GeometryTexture, HeightFieldFrame, usize)> {
+    check_relief(relief)?;
+    let (field, filled) = crate::imagery::read_height_samples(path)?.filled()?;
+    let (texture, frame) = heightfield_texture(&field, relief)?;
+    Ok((texture, frame, filled))
+}
+
+/// Errors on a relief that is not positive and finite.
+fn check_relief(relief: f32) -> Result<()> {
+    if relief.is_finite() && relief > 0.0 {
+        return Ok(());
     }
-    let field = crate::imagery::read_heightfield(path)?;
+    Error::invalid(
+        "relief",
+        relief,
+        "a positive fraction of the height field's extent",
+    )
+}
+
+/// The texture of `field` as [`read_heightfield_texture_framed`] samples it, and its frame.
+fn heightfield_texture(
+    field: &HeightField,
+    relief: f32,
+) -> Result<(GeometryTexture, HeightFieldFrame)> {
+    check_relief(relief)?;
     let extent = 4.0;
     let spacing = extent / (field.width().max(field.height()) - 1) as f32;
-    let scale = crate::imagery::relief_scale(&field, relief * extent)?;
+    let scale = crate::imagery::relief_scale(field, relief * extent)?;
     let padding = field.width().min(field.height()) / 6;
-    let texture = GeometryTexture::from_heightfield(&field, spacing, scale, padding)?;
+    let texture = GeometryTexture::from_heightfield(field, spacing, scale, padding)?;
     let frame = HeightFieldFrame {
         spacing,
         scale,

@@ -481,7 +481,7 @@ impl GridInfo {
             };
             s.push_str(&format!(
                 "\nvoids:       {} ({marker}; the first at column {column}, row {row}): \
-                 fill them before quilting it (e.g. gdal_fillnodata)",
+                 `quilt --fill-voids` fills them",
                 self.voids.unwrap_or(0)
             ));
         } else if self.voids.is_some() && self.no_data.is_some() {

@@ -103,6 +103,28 @@ fn a_raw_height_field_with_an_envi_header_needs_no_size_in_its_name() {
         &["quilt", "--heightfield", &nan, "-o", &out],
         "2 of its 1200 samples are not finite (NaN or infinite), the first at column 5, row 1",
     );
+    // Filled, the quilt runs; the report counts the voids, and a rerun from it fills
+    // them again to the same output.
+    let report = arg(&dir.path("filled.json"));
+    let quilt = |extra: &[&str]| {
+        let mut all = vec!["quilt", "--heightfield", &nan, "-o", &out];
+        all.extend_from_slice(extra);
+        ok(&all);
+        std::fs::read(&out).unwrap()
+    };
+    let filled = quilt(&[
+        "--fill-voids",
+        "--resolution",
+        "20",
+        "--no-quality",
+        "--report",
+        &report,
+    ]);
+    let recorded: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(recorded["voids_filled"], json!(2));
+    assert_eq!(recorded["input_options"]["fill_voids"], json!(true));
+    assert!(filled == quilt(&["--params", &report]));
 }
 
 /// A big-endian TIFF of one band of `i16` samples, `width` × `height` in strips of

@@ -109,6 +109,11 @@ pub struct QuiltArgs {
     /// spacing's unit, so this is the one shape parameter it does not carry.
     #[arg(long, conflicts_with = "exemplar")]
     pub(super) relief: Option<f32>,
+    /// With `--heightfield`: fill the file's voids (samples on its no-data value, or NaN,
+    /// which are refused otherwise) with the smooth surface the heights around them bound,
+    /// each the mean of its neighbours, before quilting; `geosynth info` counts them
+    #[arg(long, conflicts_with = "exemplar")]
+    pub(super) fill_voids: bool,
     /// The exemplar file's up axis when it has no `texture_up` comment (default z), or
     /// `auto` to fit the reference plane to the points; a file whose comments name another
     /// axis (or any, with `auto`) is refused.

@@ -14,8 +14,8 @@ use geosynth::imagery::{GeoReference, check_heightfield_output, is_heightfield_p
 use geosynth::mls::IsolatedFate;
 use geosynth::quilt::{
     DEFAULT_RELIEF, ExemplarNormals, HeightFieldFrame, Method, OutputSize, QualityReport,
-    QuiltParams, TextureFile, TextureReading, read_heightfield_texture_framed,
-    read_texture_file_fitted_with, read_texture_file_with,
+    QuiltParams, TextureFile, TextureReading, read_heightfield_texture_filling,
+    read_heightfield_texture_framed, read_texture_file_fitted_with, read_texture_file_with,
 };
 use geosynth::tps::{PairingParams, Table1Preset};
 use glam::{DVec3, Vec3};
@@ -67,6 +67,8 @@ struct InputOptions {
     up: Option<TextureUpArg>,
     /// `--relief`, for height fields (unset: [`DEFAULT_RELIEF`]).
     relief: Option<f32>,
+    /// `--fill-voids`, for height fields.
+    fill_voids: bool,
     /// `--orient-normals`.
     orient_normals: bool,
     /// `--estimate-normals`, in neighbours (unset: the file's own normals).
@@ -134,6 +136,7 @@ impl InputOptions {
             up,
             bounds,
             relief: heightfield.then(|| args.relief.or(recorded.relief).unwrap_or(DEFAULT_RELIEF)),
+            fill_voids: (args.fill_voids || recorded.fill_voids) && heightfield,
             orient_normals: (args.orient_normals || recorded.orient_normals)
                 && estimate_normals.is_none(),
             estimate_normals,
@@ -207,6 +210,14 @@ fn run_params(args: &QuiltArgs, file: &ParamsFile, given: GivenFlags) -> CliResu
     Ok(p)
 }
 
+/// The exemplar as read: its file, for a height field where its samples were placed, and
+/// how many voids `--fill-voids` filled.
+struct Loaded {
+    file: TextureFile,
+    heightfield: Option<HeightFieldFrame>,
+    voids_filled: Option<usize>,
+}
+
 /// Loads the texture named by the arguments as `options` say (a height field is at the
 /// origin), its normals estimated or oriented if asked (the estimation's stages timed in
 /// `timings`), and for a height field where its samples were placed.
@@ -215,8 +226,9 @@ fn load(
     options: &InputOptions,
     globals: Globals,
     timings: &mut Vec<(String, Duration)>,
-) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
-    let (mut file, frame) = read_texture(args, options, globals, timings)?;
+) -> CliResult<Loaded> {
+    let mut loaded = read_texture(args, options, globals, timings)?;
+    let file = &mut loaded.file;
     let count = file.texture.canonical_points().len();
     if let Some(neighbours) = options.estimate_normals
         && let Some(note) = undefined_note(
@@ -234,7 +246,7 @@ fn load(
         bar.finish_and_clear();
         timings.extend_from_slice(ctx.timings());
     }
-    Ok((file, frame))
+    Ok(loaded)
 }
 
 /// Reads the texture named by the arguments with the axis, relief and normals of
@@ -245,12 +257,33 @@ fn read_texture(
     options: &InputOptions,
     globals: Globals,
     timings: &mut Vec<(String, Duration)>,
-) -> CliResult<(TextureFile, Option<HeightFieldFrame>)> {
+) -> CliResult<Loaded> {
     if let Some(path) = &args.heightfield {
         let relief = options.relief.unwrap_or(DEFAULT_RELIEF);
-        let (texture, frame) =
-            read_heightfield_texture_framed(path, relief).map_err(named(path))?;
-        return Ok((texture.into(), Some(frame)));
+        let (texture, frame, voids_filled) = if options.fill_voids {
+            let (texture, frame, filled) =
+                read_heightfield_texture_filling(path, relief).map_err(named(path))?;
+            let samples = texture.canonical_points().len();
+            status(
+                globals,
+                format!(
+                    "{}: filled {filled} voids ({:.2}% of its samples) from the heights \
+                     around them",
+                    path.display(),
+                    100.0 * filled as f64 / samples.max(1) as f64
+                ),
+            );
+            (texture, frame, Some(filled))
+        } else {
+            let (texture, frame) =
+                read_heightfield_texture_framed(path, relief).map_err(named(path))?;
+            (texture, frame, None)
+        };
+        return Ok(Loaded {
+            file: texture.into(),
+            heightfield: Some(frame),
+            voids_filled,
+        });
     }
     let path = args
         .exemplar
@@ -277,7 +310,11 @@ fn read_texture(
         file
     }
     .map_err(named(path))?;
-    Ok((file, None))
+    Ok(Loaded {
+        file,
+        heightfield: None,
+        voids_filled: None,
+    })
 }
 
 /// Writes the quilted points `points` (in the file's frame) as a mesh to `path`, with the
@@ -374,7 +411,11 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let params = run_params(args, &params_file, given)?;
     let input_options = InputOptions::of(args, &params_file)?;
     let mut timings = Timings::new();
-    let (file, heightfield_frame) = phases::timed_rest(&mut timings, READING, |timings| {
+    let Loaded {
+        file,
+        heightfield: heightfield_frame,
+        voids_filled,
+    } = phases::timed_rest(&mut timings, READING, |timings| {
         load(args, &input_options, globals, timings)
     })?;
     if let Some(mesh) = &args.mesh {
@@ -518,6 +559,7 @@ pub fn run(args: &QuiltArgs, given: GivenFlags, globals: Globals) -> CliResult {
             INPUT_OPTIONS_KEY: input_options,
             "timings": timings_json(&timings),
             "undefined_normals": input_options.estimate_normals.map(|_| file.undefined_normals),
+            "voids_filled": voids_filled,
             "longest_edge_spacings": file.longest_edge_spacings,
             "stray_points": file.stray_points.map(|s| json!({
                 "count": s.count,
