@@ -14,10 +14,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::HeightSamples;
-
-use super::GeoReference;
 use super::georeference::NamedSystem;
+use super::{GeoReference, HeightSamples};
 use crate::Result;
 
 /// The header of the raw file `raw`, if one lies beside it: `NAME.hdr` (the name GDAL

@@ -25,10 +25,9 @@ use ::tiff::encoder::compression::DeflateLevel;
 use ::tiff::encoder::{Compression, TiffEncoder, colortype};
 use ::tiff::tags::Tag;
 use pointset_core::HeightField;
-
-use super::HeightSamples;
 use pointset_core::io::{FileReplacement, replace_file};
 
+use super::HeightSamples;
 use crate::{Error, Result};
 
 /// Reads the samples of the first image of the TIFF file `path`, voids included. Errors:

@@ -172,12 +172,12 @@ fn check_relief(relief: f32) -> Result<()> {
     )
 }
 
-/// The texture of `field` as [`read_heightfield_texture_framed`] samples it, and its frame.
+/// The texture of `field` as [`read_heightfield_texture_framed`] samples it with a checked
+/// `relief` ([`check_relief`]), and its frame.
 fn heightfield_texture(
     field: &HeightField,
     relief: f32,
 ) -> Result<(GeometryTexture, HeightFieldFrame)> {
-    check_relief(relief)?;
     let extent = 4.0;
     let spacing = extent / (field.width().max(field.height()) - 1) as f32;
     let scale = crate::imagery::relief_scale(field, relief * extent)?;

@@ -133,7 +133,8 @@ impl MlsSurface {
         0.25 * self.kernel()
     }
 
-    /// The march of [`Self::intersect_ray_before`] along `ray` from its origin.
+    /// The march along `ray` from its origin up to `max_t`, stopping before a step that
+    /// starts at or beyond `stop` ([`Self::intersect_ray_before`]).
     fn march(&self, ray: &mut NearRay, max_t: f32, stop: f32) -> Option<RayHit> {
         let step = self.march_step();
         let steps = (max_t / step).ceil() as usize;

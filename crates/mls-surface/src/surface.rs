@@ -181,9 +181,9 @@ impl MlsSurface {
     /// The input points within the support radius of some point of the segment
     /// `from`–`to` (a capsule around it), and a little beyond, for the rounding of points
     /// computed along the segment far from the origin. [`Self::fit_among`] fits at points
-    /// of the segment from them, as from [`Self::gather_along`]'s ball, which holds more
-    /// (on a sheet across the segment's middle, a disc 1.5 support radii wide for a
-    /// segment one support radius long, against one support radius for the capsule).
+    /// of the segment from them, as from [`Self::gather_along`]'s ball around it, which
+    /// holds more: a sheet across a segment one support radius long meets that ball in a
+    /// disc of 1.5 support radii, and the capsule in a disc of one.
     pub(crate) fn gather_around(&self, from: Vec3, to: Vec3) -> Vec<usize> {
         let size = from.abs().max_element().max(to.abs().max_element());
         let reach =
