@@ -163,6 +163,43 @@ pub fn heightfield_mesh(field: &HeightField, relief: f32) -> Result<TriMesh> {
     Ok(field.to_mesh(spacing, relief_scale(field, relief)?)?)
 }
 
+/// [`heightfield_mesh`] of a height file's samples, voids included: the voids are filled to
+/// place their vertices ([`HeightSamples::filled`]), and every triangle with a corner on
+/// one is left out, so that they show as holes. Also returns how many voids there are.
+/// Errors as [`HeightSamples::filled`] and [`relief_scale`].
+///
+/// ```
+/// use geosynth::imagery::{HeightSamples, height_samples_mesh};
+///
+/// // A 3 × 3 grid with a void in the middle: 6 of its 8 triangles have a corner there
+/// // (the quads' diagonals keep two corner triangles clear of it).
+/// let mut heights = vec![0.0f32; 9];
+/// heights[4] = f32::NAN;
+/// let samples = HeightSamples { width: 3, height: 3, heights, no_data: None };
+/// let (mesh, voids) = height_samples_mesh(samples, 0.2)?;
+/// assert_eq!((mesh.triangles().len(), voids), (2, 1));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn height_samples_mesh(samples: HeightSamples, relief: f32) -> Result<(TriMesh, usize)> {
+    let void: Vec<bool> = samples
+        .heights
+        .iter()
+        .map(|&h| samples.is_void(h))
+        .collect();
+    let (field, voids) = samples.filled()?;
+    let mesh = heightfield_mesh(&field, relief)?;
+    if voids == 0 {
+        return Ok((mesh, 0));
+    }
+    let kept: Vec<[u32; 3]> = mesh
+        .triangles()
+        .iter()
+        .filter(|t| t.iter().all(|&v| !void[v as usize]))
+        .copied()
+        .collect();
+    Ok((TriMesh::new(mesh.vertices().clone(), kept)?, voids))
+}
+
 /// The factor that makes `field`'s heights span `range` (1 for a flat field).
 ///
 /// Errors ([`Error::InvalidParameter`] `heights`): heights whose range single precision

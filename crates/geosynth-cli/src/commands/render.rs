@@ -120,8 +120,14 @@ fn load(path: &Path, args: &RenderArgs, globals: Globals) -> CliResult<Input> {
         || imagery::is_envi_raw_path(path)
         || (args.heightfield && imagery::is_image_path(path));
     if as_heightfield {
-        let field = imagery::read_heightfield(path)?;
-        let mesh = imagery::heightfield_mesh(&field, args.relief)?;
+        let samples = imagery::read_height_samples(path)?;
+        let (mesh, voids) = imagery::height_samples_mesh(samples, args.relief)?;
+        if voids > 0 {
+            status(
+                globals,
+                format!("{}: {voids} voids drawn as holes", path.display()),
+            );
+        }
         return Ok(Input::Geometry(Geometry::Mesh(mesh), UpAxis::Z));
     }
     if imagery::is_image_path(path) {

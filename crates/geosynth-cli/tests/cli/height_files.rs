@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use geosynth::imagery::{GeoReference, write_geotiff};
+use geosynth::imagery::{GeoReference, read_height_samples, write_geotiff};
 use serde_json::json;
 
 use crate::{Scratch, arg, height_map_entry, info_json, ok, quilt_height_field_into, refused};
@@ -103,6 +103,22 @@ fn a_raw_height_field_with_an_envi_header_needs_no_size_in_its_name() {
         &["quilt", "--heightfield", &nan, "-o", &out],
         "2 of its 1200 samples are not finite (NaN or infinite), the first at column 5, row 1",
     );
+    // Rendered, the voids are holes: the picture differs from that of the same terrain
+    // with the voids filled as the quilt fills them.
+    let render = |input: &str, name: &str| {
+        let png = dir.path(name);
+        ok(&["render", input, "-o", &arg(&png)]);
+        std::fs::read(png).unwrap()
+    };
+    let samples = read_height_samples(Path::new(&nan)).unwrap();
+    let (filled, _) = samples.filled().unwrap();
+    let filled: Vec<u8> = filled
+        .heights()
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let filled = write("filled.f32le", &filled, Some(&header));
+    assert!(render(&nan, "holed.png") != render(&filled, "filled.png"));
     // Filled, the quilt runs; the report counts the voids, and a rerun from it fills
     // them again to the same output.
     let report = arg(&dir.path("filled.json"));
