@@ -398,10 +398,18 @@ voided[5:8, 9:13] = -32768
 path = foreign / 'dem_void.tif'
 with rasterio.open(path, 'w', **placed, dtype='int16', nodata=-32768) as dataset:
     dataset.write(voided, 1)
-result = subprocess.run([G, 'info', str(path)], capture_output=True, text=True)
-ok = result.returncode != 0 and '12 samples hold the no-data value -32768' in result.stderr
+# `info` counts and places the voids; the quilt refuses them, naming the same.
+ours, _ = info_json(path)
+counted = (ours.get('voids') == 12 and ours.get('no_data') == -32768
+           and ours.get('first_void') == [9, 5])
+result = subprocess.run([G, 'quilt', '--heightfield', str(path), '-o',
+                         str(foreign / 'dem_void.ply')], capture_output=True, text=True)
+refused = (result.returncode != 0 and 'samples hold the no-data value -32768, the first at '
+           'column 9, row 5' in result.stderr)
+ok = counted and refused
 bad += not ok
-print(('ok  ' if ok else 'BAD ') + f"foreign/dem_void.tif (GDAL GTiff, no-data -32768): "
+print(('ok  ' if ok else 'BAD ') + f"foreign/dem_void.tif (GDAL GTiff, no-data -32768): info "
+      f"{ours.get('voids')} voids from {ours.get('first_void')}; quilt: "
       f"{result.stderr.strip() or 'read without complaint'}")
 # 7. Their meshes remeshed by us: `geosynth reconstruct` of a mesh trimesh wrote gives a
 #    surface trimesh finds watertight and consistently wound, of the same Euler number and
