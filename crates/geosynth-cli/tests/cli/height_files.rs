@@ -119,16 +119,29 @@ fn a_raw_height_field_with_an_envi_header_needs_no_size_in_its_name() {
         .collect();
     let filled = write("filled.f32le", &filled, Some(&header));
     assert!(render(&nan, "holed.png") != render(&filled, "filled.png"));
+    // A file without voids is said to have none to fill.
+    let said = ok(&[
+        "quilt",
+        "--heightfield",
+        &filled,
+        "-o",
+        &out,
+        "--fill-voids",
+        "--resolution",
+        "20",
+        "--no-quality",
+    ]);
+    assert!(said.contains("no voids to fill"), "{said}");
     // Filled, the quilt runs; the report counts the voids, and a rerun from it fills
     // them again to the same output.
     let report = arg(&dir.path("filled.json"));
     let quilt = |extra: &[&str]| {
         let mut all = vec!["quilt", "--heightfield", &nan, "-o", &out];
         all.extend_from_slice(extra);
-        ok(&all);
-        std::fs::read(&out).unwrap()
+        let said = ok(&all);
+        (std::fs::read(&out).unwrap(), said)
     };
-    let filled = quilt(&[
+    let (filled, said) = quilt(&[
         "--fill-voids",
         "--resolution",
         "20",
@@ -140,7 +153,11 @@ fn a_raw_height_field_with_an_envi_header_needs_no_size_in_its_name() {
         serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
     assert_eq!(recorded["voids_filled"], json!(2));
     assert_eq!(recorded["input_options"]["fill_voids"], json!(true));
-    assert!(filled == quilt(&["--params", &report]));
+    assert!(
+        said.contains("filled 2 voids (0.17% of its samples)"),
+        "{said}"
+    );
+    assert!(filled == quilt(&["--params", &report]).0);
 }
 
 /// A big-endian TIFF of one band of `i16` samples, `width` × `height` in strips of

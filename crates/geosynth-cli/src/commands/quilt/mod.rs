@@ -264,15 +264,17 @@ fn read_texture(
             let (texture, frame, filled) =
                 read_heightfield_texture_filling(path, relief).map_err(named(path))?;
             let samples = texture.canonical_points().len();
-            status(
-                globals,
-                format!(
-                    "{}: filled {filled} voids ({:.2}% of its samples) from the heights \
+            let message = match filled {
+                0 => format!("{}: no voids to fill", path.display()),
+                _ => format!(
+                    "{}: filled {filled} void{} ({:.2}% of its samples) from the heights \
                      around them",
                     path.display(),
+                    if filled == 1 { "" } else { "s" },
                     100.0 * filled as f64 / samples.max(1) as f64
                 ),
-            );
+            };
+            status(globals, message);
             (texture, frame, Some(filled))
         } else {
             let (texture, frame) =
