@@ -3,13 +3,17 @@
 //!
 //! The ray is marched through the kernel's support in steps of `h / 4`, evaluating the
 //! implicit function `f`; the first sign change between two points where `f` is defined
-//! brackets a root, which is refined by bisection to `|f| < tolerance · h` (or 40 halvings).
+//! brackets a root, which is refined to `|f| < tolerance · h` (or 40 fits) by intersecting
+//! the ray with the local fit's plane, as Adamson and Alexa do, safeguarded by bisection.
 //! Sign changes where `|f|` at both ends exceeds the step length are rejected: they are
 //! jumps of `f` between two sheets of the surface, not crossings.
 
 use glam::Vec3;
 
 use crate::surface::{LocalFit, MlsSurface, Projection};
+
+/// Most fits [`MlsSurface::refine`] makes to find a root it has bracketed.
+const REFINE_STEPS: usize = 40;
 
 /// A ray hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,12 +46,15 @@ pub struct Snap {
 }
 
 /// The input points near one ray, gathered once for every fit along it (every point
-/// within the support radius of some point of the ray that is marched), the ray, and
-/// scratch space for ordering a fit's points.
+/// within the support radius of some point of the ray that is marched), the ray, the fit
+/// at its origin once made, and scratch space for ordering a fit's points.
 struct NearRay<'a> {
     origin: Vec3,
     dir: Vec3,
     gathered: &'a [usize],
+    /// The fit at `origin` (`Some(None)`: the surface is undefined there), kept when
+    /// the ray turns around ([`Self::turn_around`]).
+    at_origin: Option<Option<LocalFit>>,
     order: Vec<u64>,
 }
 
@@ -58,8 +65,17 @@ impl<'a> NearRay<'a> {
             origin,
             dir,
             gathered,
+            at_origin: None,
             order: Vec::new(),
         }
+    }
+
+    /// Turns the ray around: the same origin, the opposite direction, the same gathered
+    /// points (which must include every point within the support radius of the turned
+    /// ray's marched points too, as a gathering around both rays' segment does). The fit
+    /// at the origin stays the same, so it is not made again.
+    fn turn_around(&mut self) {
+        self.dir = -self.dir;
     }
 
     /// The point `origin + t·dir` of the ray.
@@ -67,14 +83,32 @@ impl<'a> NearRay<'a> {
         self.origin + t * self.dir
     }
 
+    /// The hit at `t`, where the surface's fit is `fit`.
+    fn hit(&self, t: f32, fit: &LocalFit) -> RayHit {
+        RayHit {
+            t,
+            point: self.point(t),
+            normal: fit.normal,
+        }
+    }
+
     /// The surface's fit at [`Self::point`]`(t)` ([`MlsSurface::fit_among`] the points
     /// gathered).
     fn fit_at(&mut self, surface: &MlsSurface, t: f32) -> Option<LocalFit> {
-        surface.fit_among(
+        if t == 0.0
+            && let Some(fit) = self.at_origin
+        {
+            return fit;
+        }
+        let fit = surface.fit_among(
             self.point(t),
             self.gathered.iter().copied(),
             &mut self.order,
-        )
+        );
+        if t == 0.0 {
+            self.at_origin = Some(fit);
+        }
+        fit
     }
 }
 
@@ -138,20 +172,21 @@ impl MlsSurface {
     fn march(&self, ray: &mut NearRay, max_t: f32, stop: f32) -> Option<RayHit> {
         let step = self.march_step();
         let steps = (max_t / step).ceil() as usize;
-        let mut prev: Option<(f32, f32)> = self.value_along(ray, 0.0).map(|f| (0.0, f));
+        let mut prev = ray.fit_at(self, 0.0).map(|fit| (0.0, fit));
         for k in 1..=steps.max(1) {
             if ((k - 1) as f32 * step).min(max_t) >= stop {
                 return None;
             }
             let t = (k as f32 * step).min(max_t);
-            let current = self.value_along(ray, t).map(|f| (t, f));
-            if let (Some((t0, f0)), Some((t1, f1))) = (prev, current) {
+            let current = ray.fit_at(self, t).map(|fit| (t, fit));
+            if let (Some((t0, fit0)), Some((t1, fit1))) = (prev, current) {
+                let (f0, f1) = (fit0.value, fit1.value);
                 if f0 == 0.0 {
-                    return self.hit(ray, t0);
+                    return Some(ray.hit(t0, &fit0));
                 }
                 let crossing = (f0 < 0.0) != (f1 < 0.0);
                 if crossing && f0.abs().min(f1.abs()) <= step {
-                    return self.refine(ray, (t0, f0), (t1, f1));
+                    return self.refine(ray, (t0, fit0), (t1, fit1));
                 }
             }
             prev = current;
@@ -159,41 +194,69 @@ impl MlsSurface {
         None
     }
 
-    /// `f` at the point `t` along `ray`.
-    fn value_along(&self, ray: &mut NearRay, t: f32) -> Option<f32> {
-        ray.fit_at(self, t).map(|f| f.value)
-    }
-
-    fn refine(&self, ray: &mut NearRay, mut lo: (f32, f32), mut hi: (f32, f32)) -> Option<RayHit> {
+    /// The root of `f` along `ray` between `lo` and `hi` (ray parameters, `lo.0 < hi.0`,
+    /// with fits of opposite signs): the hit where `|f| < tolerance · h`, or where the
+    /// bracket has shrunk below `10⁻⁷ h`, after at most [`REFINE_STEPS`] fits.
+    ///
+    /// Each step intersects the ray with the plane of the last fit, as Adamson and Alexa
+    /// trace rays: `f(x) = n · (x − a)` is the distance to that plane, so the ray meets it
+    /// at `t − f / (n · d)`. Near the surface `f` is nearly linear along the ray and this
+    /// converges in a few fits. The step is safeguarded: where it would leave the bracket,
+    /// or where the previous one did not halve `|f|`, the bracket's middle is taken
+    /// instead. (Bisection alone took about 11 fits a hit at the default tolerance.) The
+    /// bracket keeps a sign change throughout, so the hit is never outside it.
+    fn refine(
+        &self,
+        ray: &mut NearRay,
+        mut lo: (f32, LocalFit),
+        mut hi: (f32, LocalFit),
+    ) -> Option<RayHit> {
         let tolerance = self.params().tolerance * self.kernel();
-        for _ in 0..40 {
-            let t = 0.5 * (lo.0 + hi.0);
-            let f = self.value_along(ray, t)?;
-            if f.abs() < tolerance || (hi.0 - lo.0) < 1e-7 * self.kernel() {
-                return self.hit(ray, t);
-            }
-            if (f < 0.0) == (lo.1 < 0.0) {
-                lo = (t, f);
+        let shortest = 1e-7 * self.kernel();
+        let mut last = if lo.1.value.abs() <= hi.1.value.abs() {
+            lo
+        } else {
+            hi
+        };
+        let mut newton = true;
+        for _ in 0..REFINE_STEPS {
+            let middle = 0.5 * (lo.0 + hi.0);
+            let slope = last.1.normal.dot(ray.dir);
+            let along_plane = last.0 - last.1.value / slope;
+            let t = if newton && along_plane > lo.0 && along_plane < hi.0 {
+                along_plane
             } else {
-                hi = (t, f);
+                middle
+            };
+            let fit = ray.fit_at(self, t)?;
+            if fit.value.abs() < tolerance || (hi.0 - lo.0) < shortest {
+                return Some(ray.hit(t, &fit));
             }
+            newton = fit.value.abs() <= 0.5 * last.1.value.abs();
+            if (fit.value < 0.0) == (lo.1.value < 0.0) {
+                lo = (t, fit);
+            } else {
+                hi = (t, fit);
+            }
+            last = (t, fit);
         }
-        self.hit(ray, 0.5 * (lo.0 + hi.0))
-    }
-
-    fn hit(&self, ray: &mut NearRay, t: f32) -> Option<RayHit> {
-        Some(RayHit {
-            t,
-            point: ray.point(t),
-            normal: ray.fit_at(self, t)?.normal,
-        })
+        let t = 0.5 * (lo.0 + hi.0);
+        let fit = ray.fit_at(self, t)?;
+        Some(ray.hit(t, &fit))
     }
 
     /// The hits of [`Self::snap`]'s two rays from `p`, along `n` and along `−n`, each up
-    /// to the support radius: those of [`Self::intersect_ray`], the backward one only
-    /// where it is strictly closer (its march stops where the forward hit lies). Both
-    /// rays fit from the points within the support radius of the segment they span
-    /// (`p ± radius·n̂`), gathered once.
+    /// to the support radius: those of [`Self::intersect_ray`], except that the ray
+    /// marched second stops where the first one's hit lies, so its hit is only found
+    /// where it is as close or closer (the forward ray) or strictly closer (the backward
+    /// one). Both rays fit from the points within the support radius of the segment they
+    /// span (`p ± radius·n̂`), gathered once, and share the fit at `p`.
+    ///
+    /// The ray toward the surface as `f(p)` tells it goes first: where `f(p) > 0`, `p`
+    /// lies on the side the normals point to, so the surface is most likely behind it,
+    /// along `−n`. Marched first, the backward ray's hit then cuts the forward march short,
+    /// which would otherwise run its whole length for nothing. The order does not change
+    /// the snap: the closer hit wins either way, the forward one on a tie.
     fn snap_rays(&self, p: Vec3, n: Vec3) -> (Option<RayHit>, Option<RayHit>) {
         let max_t = self.support_radius();
         let Some(dir) = n.try_normalize() else {
@@ -203,10 +266,24 @@ impl MlsSurface {
             return (None, None);
         }
         let near = self.gather_around(p - max_t * dir, p + max_t * dir);
-        let forward = self.march(&mut NearRay::new(p, dir, &near), max_t, f32::INFINITY);
-        let stop = forward.map_or(f32::INFINITY, |hit| hit.t);
-        let backward = self.march(&mut NearRay::new(p, -dir, &near), max_t, stop);
-        (forward, backward)
+        let mut ray = NearRay::new(p, dir, &near);
+        let behind = ray.fit_at(self, 0.0).is_some_and(|fit| fit.value > 0.0);
+        if behind {
+            ray.turn_around();
+            let backward = self.march(&mut ray, max_t, f32::INFINITY);
+            // A forward hit as far as the backward one wins the tie, so the forward
+            // march also takes a step that starts exactly there.
+            let stop = backward.map_or(f32::INFINITY, |hit| hit.t.next_up());
+            ray.turn_around();
+            let forward = self.march(&mut ray, max_t, stop);
+            (forward, backward)
+        } else {
+            let forward = self.march(&mut ray, max_t, f32::INFINITY);
+            let stop = forward.map_or(f32::INFINITY, |hit| hit.t);
+            ray.turn_around();
+            let backward = self.march(&mut ray, max_t, stop);
+            (forward, backward)
+        }
     }
 
     /// Paper 000 §5.3: shoots rays from `p` along `+n` and `−n` (up to the kernel support),

@@ -267,6 +267,90 @@ fn rays_hit_the_sphere_where_geometry_says() {
 }
 
 #[test]
+fn a_ray_hits_the_first_crossing_of_a_wavy_sheet_converged() {
+    // Waves sampled on a grid, normals from the slope. Rays come down from above at
+    // angles down to grazing, so that many cross the sheet more than once: the hit must
+    // be the first crossing a fine scan of `f` along the ray finds, and `f` must have
+    // converged there. The root search steps along the fits' planes, safeguarded by
+    // bisection; a search that strayed to a later root, or stopped early, fails this.
+    let wave = |x: f32, y: f32| 0.1 * (x * 9.0).sin() * (y * 7.0).cos();
+    let slope = |x: f32, y: f32| {
+        Vec3::new(
+            0.9 * (x * 9.0).cos() * (y * 7.0).cos(),
+            -0.7 * (x * 9.0).sin() * (y * 7.0).sin(),
+            0.0,
+        )
+    };
+    let (mut positions, mut normals) = (Vec::new(), Vec::new());
+    for i in 0..100 {
+        for j in 0..100 {
+            let (x, y) = (i as f32 * 0.02, j as f32 * 0.02);
+            positions.push(Vec3::new(x, y, wave(x, y)));
+            let g = slope(x, y);
+            normals.push(Vec3::new(-g.x, -g.y, 1.0).normalize());
+        }
+    }
+    let set = PointSet::new(positions)
+        .unwrap()
+        .with_normals(normals)
+        .unwrap();
+    let surface = MlsSurface::new(&set, &MlsParams::default()).unwrap();
+    let h = surface.kernel();
+    let tolerance = surface.params().tolerance * h;
+    let mut g = rng::rng_from_seed(21);
+    let (mut hits, mut crossed_again) = (0, 0);
+    for _ in 0..200 {
+        let origin = Vec3::new(g.random_range(0.5..1.5), g.random_range(0.5..1.5), 0.11);
+        let down = g.random_range(0.03..0.35f32);
+        let heading = g.random_range(0.0..std::f32::consts::TAU);
+        let dir = Vec3::new(
+            heading.cos(),
+            heading.sin(),
+            -down / (1.0 - down * down).sqrt(),
+        )
+        .normalize();
+        let max_t = 0.9;
+        // The first sign change of `f` at steps of h / 200, both ends defined.
+        let fine = h / 200.0;
+        let values: Vec<(f32, Option<f32>)> = (0..=(max_t / fine) as usize)
+            .map(|k| {
+                let t = k as f32 * fine;
+                (t, surface.implicit(origin + t * dir))
+            })
+            .collect();
+        let crossings: Vec<(f32, f32)> = values
+            .windows(2)
+            .filter_map(|w| match (w[0], w[1]) {
+                ((t0, Some(f0)), (t1, Some(f1))) if (f0 < 0.0) != (f1 < 0.0) => Some((t0, t1)),
+                _ => None,
+            })
+            .collect();
+        let hit = surface.intersect_ray(origin, dir, max_t);
+        let Some(&(lo, hi)) = crossings.first() else {
+            assert!(hit.is_none(), "a hit where no sign changes: {hit:?}");
+            continue;
+        };
+        let hit = hit.unwrap_or_else(|| panic!("no hit from {origin} along {dir}"));
+        hits += 1;
+        crossed_again += usize::from(crossings.len() > 1);
+        // Converged means `|f| < tolerance`, which leaves the hit off the root by about
+        // `|f|` over the slope of `f` along the ray (small for grazing rays).
+        let slack = 1e-3 * h + 2.0 * tolerance / hit.normal.dot(dir).abs();
+        assert!(
+            hit.t >= lo - slack && hit.t <= hi + slack,
+            "hit at {} outside the first crossing [{lo}, {hi}] from {origin} along {dir}",
+            hit.t
+        );
+        let f = surface.implicit(hit.point).unwrap();
+        assert!(f.abs() < tolerance, "|f| = {} at the hit", f.abs());
+    }
+    assert!(
+        hits > 120 && crossed_again > 40,
+        "{hits} hits, {crossed_again} crossing again"
+    );
+}
+
+#[test]
 fn the_signed_distance_is_its_definition_near_and_far() {
     // `Surface::signed_distance` shares one neighbour search between the projection and
     // `f(query)`. Rebuilt here from the public parts: magnitude from `closest_point`, sign
