@@ -117,29 +117,18 @@ impl MlsSurface {
     /// surface. `direction` need not be unit length (it is normalized); `None` when there is
     /// no crossing within `max_t` or the input is degenerate.
     pub fn intersect_ray(&self, origin: Vec3, direction: Vec3, max_t: f32) -> Option<RayHit> {
-        self.intersect_ray_before(origin, direction, max_t, f32::INFINITY)
-    }
-
-    /// [`Self::intersect_ray`], except that the march stops before a step that starts at
-    /// or beyond `stop` and answers `None` there: every hit it could still find would lie
-    /// at `t ≥ stop`. Below `stop` it visits the same points, so any hit it returns is
-    /// the one [`Self::intersect_ray`] returns.
-    fn intersect_ray_before(
-        &self,
-        origin: Vec3,
-        direction: Vec3,
-        max_t: f32,
-        stop: f32,
-    ) -> Option<RayHit> {
         let dir = direction.try_normalize()?;
         if !(origin.is_finite() && max_t.is_finite() && max_t >= 0.0) {
             return None;
         }
-        // Every fit lies on the ray up to `max_t`, or (stopping) up to a step past `stop`:
-        // the points near that segment, gathered once, serve them all.
-        let end = max_t.min(stop + self.march_step());
-        let gathered = self.gather_along(origin, origin + end * dir);
-        self.march(&mut NearRay::new(origin, dir, &gathered), max_t, stop)
+        // Every fit lies on the ray up to `max_t`: the points near that segment, gathered
+        // once, serve them all.
+        let gathered = self.gather_along(origin, origin + max_t * dir);
+        self.march(
+            &mut NearRay::new(origin, dir, &gathered),
+            max_t,
+            f32::INFINITY,
+        )
     }
 
     /// [`Self::intersect_ray`] of the ray from `origin` in the unit direction `dir`, with
@@ -168,7 +157,9 @@ impl MlsSurface {
     }
 
     /// The march along `ray` from its origin up to `max_t`, stopping before a step that
-    /// starts at or beyond `stop` ([`Self::intersect_ray_before`]).
+    /// starts at or beyond `stop` and answering `None` there: every hit it could still
+    /// find would lie at `t ≥ stop`. Below `stop` it visits the same points, so any hit it
+    /// returns is the one of the whole march.
     fn march(&self, ray: &mut NearRay, max_t: f32, stop: f32) -> Option<RayHit> {
         let step = self.march_step();
         let steps = (max_t / step).ceil() as usize;
