@@ -19,7 +19,7 @@ pub struct FixturesArgs {
     #[arg(long, default_value_t = fixtures::FIXTURE_SEED)]
     seed: u64,
     /// Write only the four geometry textures, at this many points per unit area (the
-    /// committed ones use 300; about 700 gives the paper's 70k-point chain mail).
+    /// committed ones use 300; 450 gives a 70k-point chain mail, the size of the paper's).
     #[arg(long)]
     texture_density: Option<f32>,
     /// With `--texture-density`: seed of the sample positions (default: `--seed`, as

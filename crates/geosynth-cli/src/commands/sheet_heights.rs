@@ -20,7 +20,7 @@ use crate::output::{spinner, status};
 use crate::{CliResult, Globals};
 
 /// The share of filled samples above which a map gets a note that it shows little of
-/// the surface: the bundled chain mail and weave fill 39% and 37% of theirs (gaps between
+/// the surface: the bundled chain mail and weave fill 27% and 37% of theirs (gaps between
 /// rings and threads), bumpy and the flowers 11%, Spot's texture 0.4%.
 const MANY_FILLED: f64 = 0.2;
 

@@ -37,9 +37,10 @@ const SAMPLE: usize = 4096;
 /// normals of more than half of their [`ORIENTATION_NEIGHBOURS`] nearest neighbours.
 ///
 /// Measured (all points): the bundled bumpy height field, torus, sphere and cylinder 0;
-/// Stanford bunny scan 0.0001; chameleon 0.019; the chain mail and flowers fixtures 0.021
+/// Stanford bunny scan 0.0001; chameleon 0.019; the chain mail and flowers fixtures 0.007
 /// and 0.042 (neighbours across a thin tube or petal face the other way; the weave scored
-/// 0.025 while its threads crossed through each other, 0.0003 since); a sheet with random
+/// 0.025 while its threads crossed through each other, 0.0003 since, and the chain mail
+/// 0.021 while its rings did); a sheet with random
 /// normal signs 0.34. Examines at most 4096 points, evenly
 /// strided, so the result is deterministic. Errors: no normals, a non-finite position.
 ///
@@ -135,15 +136,16 @@ const ROOT_MIN_COSINE: f32 = 0.5;
 /// (the same result but for the few points no usable edge reaches, which keep their sign:
 /// 17 of the flowers' 15,796): the bumpy fixture, torus, sphere, cylinder and the bunny
 /// scan all restored, and the weave since its threads no longer cross through each other
-/// (forty-eighth session; 54% before); chameleon 97%; flowers 92% (97% at density 700).
-/// **Tubes that pass through one another are not restored**: on the chain mail fixture,
-/// whose rings interpenetrate, about half the points come out reversed in large
-/// consistent pieces at every sampling density measured (300 to 3,000 points per unit
-/// area): where two surfaces cross, edges between them pass both filters, and the sign
-/// each ring gets hangs on the crossing edge its tree takes (docs/mls-surface.md; the
-/// weave's threads crossed through each other too until they were fixed, and are now
-/// restored from the true normals). [`orientation_disagreement`] cannot see that, since
-/// each piece is consistent in itself.
+/// (forty-eighth session; 54% before); chameleon 97%; flowers 92% (97% at density 700);
+/// the chain mail 90% at the fixtures' density (tubes about seven samples around) and
+/// all of it at 1,200 and 3,000 points per unit area.
+/// **Tubes that pass through one another are not restored**: on the chain mail fixture
+/// before the sixtieth session, whose rings interpenetrated, about half the points came
+/// out reversed in large consistent pieces at every sampling density measured (300 to
+/// 3,000): where two surfaces cross, edges between them pass both filters, and the sign
+/// each ring gets hangs on the crossing edge its tree takes (docs/mls-surface.md).
+/// [`orientation_disagreement`] cannot see that, since each piece is consistent in
+/// itself.
 ///
 /// Errors: no normals, a non-finite position, an `up` that is zero or not finite.
 ///

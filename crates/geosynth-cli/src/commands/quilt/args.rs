@@ -251,7 +251,7 @@ pub struct QuiltArgs {
     pub(super) map_range: Option<(f32, f32)>,
     /// Skip the quality measure: it builds distance fields of the exemplar and of every
     /// output and can take longer than the synthesis (a 70k → 200k chain mail takes about
-    /// 6 s with it, 3 s without). The report then says why its quality is missing.
+    /// 5 s with it, 2.4 s without). The report then says why its quality is missing.
     #[arg(long)]
     pub(super) no_quality: bool,
     /// Make the exemplar's normal signs consistent by propagation from the side facing up
