@@ -261,19 +261,23 @@ impl MlsSurface {
         let behind = ray.fit_at(self, 0.0).is_some_and(|fit| fit.value > 0.0);
         if behind {
             ray.turn_around();
-            let backward = self.march(&mut ray, max_t, f32::INFINITY);
-            // A forward hit as far as the backward one wins the tie, so the forward
-            // march also takes a step that starts exactly there.
-            let stop = backward.map_or(f32::INFINITY, |hit| hit.t.next_up());
-            ray.turn_around();
-            let forward = self.march(&mut ray, max_t, stop);
-            (forward, backward)
+        }
+        let first = self.march(&mut ray, max_t, f32::INFINITY);
+        // The second march stops where the first hit lies; a forward hit as far as the
+        // backward one wins the tie, so a forward march going second also takes a step
+        // that starts exactly there.
+        let stop = first.map_or(
+            f32::INFINITY,
+            |hit| {
+                if behind { hit.t.next_up() } else { hit.t }
+            },
+        );
+        ray.turn_around();
+        let second = self.march(&mut ray, max_t, stop);
+        if behind {
+            (second, first)
         } else {
-            let forward = self.march(&mut ray, max_t, f32::INFINITY);
-            let stop = forward.map_or(f32::INFINITY, |hit| hit.t);
-            ray.turn_around();
-            let backward = self.march(&mut ray, max_t, stop);
-            (forward, backward)
+            (first, second)
         }
     }
 
