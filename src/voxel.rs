@@ -82,6 +82,10 @@ pub struct VoxelExemplar {
     /// they sit on (as [`crate::quilt::TextureFile::single_precision_step`]): recentring
     /// cannot restore what the file lost.
     pub single_precision_step: Option<f64>,
+    /// What the file had that the reader could not keep
+    /// ([`pointset_core::io::LoadedGeometry::notes`]: a PLY's extra elements, an OBJ's
+    /// texture coordinates, …); empty for generated exemplars and NRRD volumes.
+    pub notes: Vec<String>,
 }
 
 impl From<&VolumeExemplar> for VoxelExemplar {
@@ -91,6 +95,7 @@ impl From<&VolumeExemplar> for VoxelExemplar {
             bounds: v.bounds,
             origin: DVec3::ZERO,
             single_precision_step: None,
+            notes: Vec::new(),
         }
     }
 }
@@ -136,6 +141,7 @@ pub fn read_exemplar(path: &Path) -> Result<VoxelExemplar> {
         mesh,
         bounds,
         origin: loaded.origin,
+        notes: loaded.notes,
     })
 }
 
@@ -168,6 +174,7 @@ fn read_volume_exemplar(path: &Path) -> Result<VoxelExemplar> {
         bounds,
         origin,
         single_precision_step: None,
+        notes: Vec::new(),
     })
 }
 

@@ -20,7 +20,8 @@ use super::voxel_memory::{check_reconstruction_fits, check_synthesis_fits};
 use crate::input_file::named;
 use crate::json_report::{timings_json, write_json_report};
 use crate::output::{
-    check_geometry_output, check_output_paths, progress_context, status, write_geometry_file,
+    check_geometry_output, check_output_paths, progress_context, report_not_kept, status,
+    write_geometry_file,
 };
 use crate::params_file::{GivenFlags, INPUT_OPTIONS_KEY, ParamsFile, VOXEL_REPORTS};
 use crate::phases::{self, MEASURING, PREPARING, READING, Timings, WRITING};
@@ -328,6 +329,7 @@ pub fn run(args: &VoxelArgs, given: GivenFlags, globals: Globals) -> CliResult {
     let mut timings = Timings::new();
     let mut exemplar = phases::timed(&mut timings, READING, || read_exemplar(&args.exemplar))
         .map_err(named(&args.exemplar))?;
+    report_not_kept(globals, &args.exemplar, &exemplar.notes);
     for path in std::iter::once(args.output.as_path()).chain(args.isosurface.as_deref()) {
         check_geometry_output(path, true, exemplar.origin)?;
     }

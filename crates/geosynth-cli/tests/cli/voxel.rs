@@ -102,6 +102,9 @@ fn voxel_says_why_a_few_large_triangles_copy_to_nothing() {
     ] {
         obj += &format!("f {} {} {}\n", f[0], f[1], f[2]);
     }
+    // A colour on one vertex only, which a mesh cannot keep: the reader's note reaches the
+    // user.
+    obj = obj.replacen("v 0 0 0", "v 0 0 0 1 0 0", 1);
     std::fs::write(&cube, obj).unwrap();
     assert_closed(&cube, 2, "the cube");
     let out = dir.path().join("v.ply");
@@ -120,6 +123,10 @@ fn voxel_says_why_a_few_large_triangles_copy_to_nothing() {
         "4",
     ]);
     assert!(said.contains("no source triangle was copied"), "{said}");
+    assert!(
+        said.contains("cube.obj: colours dropped: 1 of 8 `v` lines"),
+        "{said}"
+    );
     assert!(said.contains("--isosurface writes"), "{said}");
     assert_eq!(info_json(&out)["faces"], 0);
 }
