@@ -83,8 +83,9 @@ pub struct VoxelExemplar {
     /// cannot restore what the file lost.
     pub single_precision_step: Option<f64>,
     /// What the file had that the reader could not keep
-    /// ([`pointset_core::io::LoadedGeometry::notes`]: a PLY's extra elements, an OBJ's
-    /// texture coordinates, …); empty for generated exemplars and NRRD volumes.
+    /// ([`pointset_core::io::LoadedGeometry::notes`]: a PLY's extra elements, colours or
+    /// texture coordinates that only some vertices or corners have, …); empty for
+    /// generated exemplars and NRRD volumes.
     pub notes: Vec<String>,
 }
 
