@@ -266,12 +266,11 @@ impl MlsSurface {
         // The second march stops where the first hit lies; a forward hit as far as the
         // backward one wins the tie, so a forward march going second also takes a step
         // that starts exactly there.
-        let stop = first.map_or(
-            f32::INFINITY,
-            |hit| {
-                if behind { hit.t.next_up() } else { hit.t }
-            },
-        );
+        let stop = match first {
+            Some(hit) if behind => hit.t.next_up(),
+            Some(hit) => hit.t,
+            None => f32::INFINITY,
+        };
         ray.turn_around();
         let second = self.march(&mut ray, max_t, stop);
         if behind {

@@ -40,9 +40,8 @@ const SAMPLE: usize = 4096;
 /// Stanford bunny scan 0.0001; chameleon 0.019; the chain mail and flowers fixtures 0.007
 /// and 0.042 (neighbours across a thin tube or petal face the other way; the weave scored
 /// 0.025 while its threads crossed through each other, 0.0003 since, and the chain mail
-/// 0.021 while its rings did); a sheet with random
-/// normal signs 0.34. Examines at most 4096 points, evenly
-/// strided, so the result is deterministic. Errors: no normals, a non-finite position.
+/// 0.021 while its rings did); a sheet with random normal signs 0.34. Examines at most
+/// 4096 points, evenly strided, so the result is deterministic. Errors: no normals, a non-finite position.
 ///
 /// ```
 /// use glam::Vec3;
