@@ -5,9 +5,17 @@
 //! fitted so the geometry fills 90% of the image. Lighting is Lambertian, two-sided, from a
 //! light slightly above and left of the viewer, so surfaces darken toward silhouettes.
 //! Stored colours (`red/green/blue` channels) are used when present; otherwise
-//! [`RenderOptions::color`]. Splat size comes from the point spacing
-//! ([`KdIndex::median_spacing`](crate::core::KdIndex::median_spacing): median distance to the
-//! nearest distinct point, so duplicated samples do not shrink the splats). Rendering is deterministic.
+//! [`RenderOptions::color`]. Rendering is deterministic.
+//!
+//! Points with normals are drawn as surface splats: a disc in each point's tangent plane,
+//! as wide as the distance to its eighth nearest point (between one and four median
+//! spacings, [`KdIndex::median_spacing`](crate::core::KdIndex::median_spacing), which looks
+//! past duplicated samples). The nearest surface is found first; then the colours and
+//! normals of the discs within half a radius of it are blended with Gaussian weights and
+//! shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit sphere
+//! of 20,000 random points comes within about one grey level of its analytic shading. A
+//! gap in the sampling wider than the discs shows as a speck. Points without normals are
+//! drawn as small shaded spheres of 1.1 median spacings.
 //!
 //! ```
 //! use geosynth::core::io::Geometry;
@@ -36,7 +44,8 @@ use camera::Camera;
 pub use camera::UpAxis;
 /// The image type previews are returned as (from the `image` crate).
 pub use image::RgbImage;
-use raster::FrameBuffer;
+use raster::{FrameBuffer, SurfaceSplat};
+use rayon::prelude::*;
 
 /// How to render a preview.
 #[derive(Debug, Clone, PartialEq)]
@@ -192,17 +201,30 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
             }
         }
         None => {
-            let spacing = KdIndex::new(framed)?.median_spacing()?;
-            let radius = (1.1 * spacing * cam.scale() * options.splat_scale).clamp(1.0, 64.0);
-            let normals = points.normals();
-            for (i, &p) in points.positions().iter().enumerate() {
-                fb.splat(
-                    &cam,
-                    cam.project(p),
-                    radius,
-                    normals.map(|n| n[i]),
-                    colors[i],
-                );
+            let index = KdIndex::new(framed)?;
+            let spacing = index.median_spacing()?;
+            let positions = points.positions();
+            match points.normals() {
+                Some(normals) => {
+                    let px = cam.scale() * options.splat_scale;
+                    let radii = splat_radii(&index, positions, spacing, px)?;
+                    let splats = positions.iter().zip(normals).zip(&colors).zip(radii).map(
+                        |(((&p, &normal), &albedo), radius)| SurfaceSplat {
+                            centre: cam.project(p),
+                            normal,
+                            albedo,
+                            radius,
+                        },
+                    );
+                    fb.surface_splats(&cam, splats);
+                }
+                None => {
+                    let radius =
+                        (1.1 * spacing * cam.scale() * options.splat_scale).clamp(1.0, 64.0);
+                    for (&p, &c) in positions.iter().zip(&colors) {
+                        fb.sphere_splat(&cam, cam.project(p), radius, c);
+                    }
+                }
             }
         }
     }
@@ -211,6 +233,36 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
         value: format!("{}x{}", options.width, options.height),
         expected: "a size whose pixel buffer fits in memory".into(),
     })
+}
+
+/// How many of a point's nearest framed points (itself included) its surface splat
+/// reaches: enough discs to cover the gaps of an irregular sampling.
+const SPLAT_NEIGHBOURS: usize = 8;
+
+/// The largest surface splat, in median point spacings: a sparse point's disc does not
+/// swell over its surroundings.
+const MAX_SPLAT_SPACINGS: f32 = 4.0;
+
+/// Each point's surface-splat radius in pixels (`px` to a world unit): the distance to
+/// its [`SPLAT_NEIGHBOURS`]th nearest framed point, between one and
+/// [`MAX_SPLAT_SPACINGS`] median spacings (a point among copies of itself gets one), and
+/// at least a pixel. When even the largest disc would be a pixel, the neighbours are not
+/// searched.
+fn splat_radii(index: &KdIndex, positions: &[Vec3], spacing: f32, px: f32) -> Result<Vec<f32>> {
+    let largest = MAX_SPLAT_SPACINGS * spacing;
+    if largest * px <= 1.0 {
+        return Ok(vec![1.0; positions.len()]);
+    }
+    positions
+        .par_iter()
+        .map(|&p| {
+            let found = index.nearest_within(p, SPLAT_NEIGHBOURS, largest)?;
+            let radius = found
+                .get(SPLAT_NEIGHBOURS - 1)
+                .map_or(largest, |n| n.distance_squared.sqrt().max(spacing));
+            Ok((radius * px).clamp(1.0, 64.0))
+        })
+        .collect()
 }
 
 /// Width of the grey separator between panels, in pixels.

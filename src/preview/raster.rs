@@ -72,24 +72,16 @@ impl FrameBuffer {
         }
     }
 
-    /// Draws a round splat of pixel radius `radius`. With a normal it is shaded flat by that
-    /// normal; without one it is shaded as a small sphere, so unoriented points still read
-    /// as 3D. Splat depth bulges toward the viewer like a sphere, which resolves overlaps.
-    pub fn splat(
-        &mut self,
-        cam: &Camera,
-        p: Projected,
-        radius: f32,
-        normal: Option<Vec3>,
-        albedo: Vec3,
-    ) {
+    /// Draws an unoriented point as a small sphere of pixel radius `radius`, shaded by the
+    /// sphere's own normals so that points without normals still read as 3D. Its depth
+    /// bulges toward the viewer like a sphere, which resolves overlaps.
+    pub fn sphere_splat(&mut self, cam: &Camera, p: Projected, radius: f32, albedo: Vec3) {
         let r = radius.max(0.5);
         let lo = Vec2::new(p.x - r, p.y - r);
         let hi = Vec2::new(p.x + r, p.y + r);
         let Some((x0, y0, x1, y1)) = self.clip(lo, hi) else {
             return;
         };
-        let flat = normal.map(|n| albedo * cam.shade(n));
         for y in y0..=y1 {
             for x in x0..=x1 {
                 let d = Vec2::new(x as f32 + 0.5 - p.x, y as f32 + 0.5 - p.y) / r;
@@ -99,11 +91,65 @@ impl FrameBuffer {
                 }
                 let bulge = (1.0 - d2).sqrt();
                 let depth = p.depth + bulge * r / cam.scale();
-                let color = flat.unwrap_or_else(|| {
-                    let n = cam.right * d.x - cam.up * d.y + cam.toward * bulge;
-                    albedo * cam.shade(n)
-                });
-                self.test_and_set(x, y, depth, color);
+                let n = cam.right * d.x - cam.up * d.y + cam.toward * bulge;
+                self.test_and_set(x, y, depth, albedo * cam.shade(n));
+            }
+        }
+    }
+
+    /// Draws oriented points as surface splats: discs in each point's tangent plane. The
+    /// nearest surface is found first; then the albedos and normals of every disc within
+    /// half its radius of it are blended with Gaussian weights and shaded once per pixel.
+    /// Normals are turned toward the viewer before blending, so normals of either sign
+    /// and both sides of a sheet shade alike.
+    pub fn surface_splats(&mut self, cam: &Camera, splats: impl Iterator<Item = SurfaceSplat>) {
+        let footprints: Vec<Footprint> = splats.map(|s| Footprint::new(cam, &s)).collect();
+        for f in &footprints {
+            self.cover(f, |fb, i, depth, _| {
+                fb.depth[i] = fb.depth[i].max(depth);
+            });
+        }
+        let mut blend = vec![(Vec3::ZERO, Vec3::ZERO, 0.0f32); self.width * self.height];
+        for f in &footprints {
+            // Within half its radius of the nearest surface, a disc belongs to that surface.
+            let tolerance = 0.5 * f.radius * f.world_per_px;
+            self.cover(f, |fb, i, depth, rho2| {
+                if depth >= fb.depth[i] - tolerance {
+                    let w = (-2.0 * rho2).exp();
+                    let b = &mut blend[i];
+                    b.0 += w * f.normal;
+                    b.1 += w * f.albedo;
+                    b.2 += w;
+                }
+            });
+        }
+        for (color, (normal, albedo, weight)) in self.color.iter_mut().zip(blend) {
+            if weight > 0.0 {
+                *color = albedo / weight * cam.shade(normal.normalize_or_zero());
+            }
+        }
+    }
+
+    /// Calls `visit(self, pixel, depth, ρ²)` for each pixel the splat's disc covers, with
+    /// the depth of the disc's plane there and its squared distance from the centre in
+    /// disc radii.
+    fn cover(&mut self, f: &Footprint, mut visit: impl FnMut(&mut Self, usize, f32, f32)) {
+        let c = Vec2::new(f.centre.x, f.centre.y);
+        let Some((x0, y0, x1, y1)) =
+            self.clip(c - Vec2::splat(f.radius), c + Vec2::splat(f.radius))
+        else {
+            return;
+        };
+        let inv_r2 = 1.0 / (f.radius * f.radius);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let d = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - c;
+                let along_view = -d.dot(f.slope);
+                let rho2 = (d.length_squared() + along_view * along_view) * inv_r2;
+                if rho2 <= 1.0 {
+                    let depth = f.centre.depth + along_view * f.world_per_px;
+                    visit(self, y * self.width + x, depth, rho2);
+                }
             }
         }
     }
@@ -117,5 +163,58 @@ impl FrameBuffer {
                     .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
             })
             .collect()
+    }
+}
+
+/// An oriented point to draw as a disc in its tangent plane.
+pub(crate) struct SurfaceSplat {
+    /// The point, projected.
+    pub centre: Projected,
+    /// Its normal (either sign).
+    pub normal: Vec3,
+    /// Its colour.
+    pub albedo: Vec3,
+    /// The disc's radius in pixels.
+    pub radius: f32,
+}
+
+/// A surface splat's screen footprint: the ellipse its disc projects to.
+struct Footprint {
+    centre: Projected,
+    /// The disc's radius in pixels.
+    radius: f32,
+    /// How far the disc's plane recedes from the viewer per pixel of screen offset
+    /// (pixels along the view per pixel across it).
+    slope: Vec2,
+    /// World units per pixel.
+    world_per_px: f32,
+    /// The normal, turned toward the viewer.
+    normal: Vec3,
+    albedo: Vec3,
+}
+
+/// The smallest share of a splat's normal along the view used for its footprint: a disc
+/// seen edge-on is drawn as an ellipse about this wide (in radii), not as a line that
+/// pixels miss.
+const MIN_FACING: f32 = 0.3;
+
+impl Footprint {
+    fn new(cam: &Camera, splat: &SurfaceSplat) -> Self {
+        let normal = if splat.normal.dot(cam.toward) < 0.0 {
+            -splat.normal
+        } else {
+            splat.normal
+        };
+        let facing = normal.dot(cam.toward).max(MIN_FACING);
+        // Screen y grows downward, opposite to the camera's up.
+        let slope = Vec2::new(normal.dot(cam.right), -normal.dot(cam.up)) / facing;
+        Self {
+            centre: splat.centre,
+            radius: splat.radius.max(0.5),
+            slope,
+            world_per_px: 1.0 / cam.scale(),
+            normal,
+            albedo: splat.albedo,
+        }
     }
 }
