@@ -67,7 +67,13 @@ use crate::quilt::texture_file_error;
 use crate::{Error, Result};
 
 /// A solid exemplar: a closed mesh and the box whose distance field is sampled.
+///
+/// Built by [`VoxelExemplar::new`] from a mesh of one's own, by [`read_exemplar`] from a
+/// file, or from a generated solid (`VoxelExemplar::from(&fixtures::volumes::grid(1)?)`).
+/// Its fields are public to read and to change; it is `#[non_exhaustive]`, so fields may
+/// be added without breaking code outside the crate.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct VoxelExemplar {
     /// The mesh, its positions relative to [`Self::origin`].
     pub mesh: TriMesh,
@@ -87,6 +93,50 @@ pub struct VoxelExemplar {
     /// texture coordinates that only some vertices or corners have, …); empty for
     /// generated exemplars and NRRD volumes.
     pub notes: Vec<String>,
+}
+
+impl VoxelExemplar {
+    /// An exemplar from a closed mesh and the box to sample, in the same coordinates
+    /// ([`Self::origin`] zero, no notes). Errors when the mesh has no triangles or the box
+    /// is not finite or is flat along an axis.
+    ///
+    /// ```
+    /// use geosynth::core::Aabb;
+    /// use geosynth::voxel::VoxelExemplar;
+    /// use glam::Vec3;
+    ///
+    /// let mesh = geosynth::fixtures::icosphere_mesh(2)?;
+    /// let cube = Aabb::new(Vec3::splat(-1.5), Vec3::splat(1.5));
+    /// let exemplar = VoxelExemplar::new(mesh.clone(), cube)?;
+    /// assert_eq!(exemplar.mesh.face_count(), mesh.face_count());
+    /// let flat = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0));
+    /// assert!(VoxelExemplar::new(mesh, flat).is_err());
+    /// Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn new(mesh: TriMesh, bounds: Aabb) -> Result<Self> {
+        if mesh.face_count() == 0 {
+            return Err(Error::InvalidParameter {
+                name: "exemplar mesh",
+                value: format!("{} vertices, no triangles", mesh.vertices().len()),
+                expected: "a closed mesh with triangles".into(),
+            });
+        }
+        let extent = bounds.extent();
+        if !(bounds.min.is_finite() && bounds.max.is_finite() && extent.min_element() > 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "exemplar box",
+                value: format!("{} to {}", bounds.min, bounds.max),
+                expected: "finite corners and a positive extent along every axis".into(),
+            });
+        }
+        Ok(Self {
+            mesh,
+            bounds,
+            origin: DVec3::ZERO,
+            single_precision_step: None,
+            notes: Vec::new(),
+        })
+    }
 }
 
 impl From<&VolumeExemplar> for VoxelExemplar {
@@ -414,6 +464,39 @@ mod tests {
         }
         let dims = source_dims(&exemplar, 4).unwrap();
         assert_eq!(*dims.iter().max().unwrap(), 4, "{dims:?}");
+    }
+
+    #[test]
+    fn an_exemplar_built_from_ones_own_mesh_is_checked_and_synthesizes() {
+        let sphere = crate::fixtures::icosphere_mesh(2).unwrap();
+        let cube = Aabb::new(glam::Vec3::splat(-1.2), glam::Vec3::splat(1.2));
+        let no_triangles = TriMesh::new(sphere.vertices().clone(), Vec::new()).unwrap();
+        let message = VoxelExemplar::new(no_triangles, cube)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("exemplar mesh"), "{message}");
+        for (lo, hi) in [
+            (glam::Vec3::ZERO, glam::Vec3::new(1.0, 1.0, 0.0)),
+            (glam::Vec3::new(f32::NAN, 0.0, 0.0), glam::Vec3::ONE),
+            (glam::Vec3::ZERO, glam::Vec3::new(f32::INFINITY, 1.0, 1.0)),
+        ] {
+            let message = VoxelExemplar::new(sphere.clone(), Aabb { min: lo, max: hi })
+                .unwrap_err()
+                .to_string();
+            assert!(message.contains("exemplar box"), "{lo} {hi}: {message}");
+        }
+        let exemplar = VoxelExemplar::new(sphere, cube).unwrap();
+        let stage = VoxelSynth {
+            source_resolution: 12,
+            params: VoxelParams::default()
+                .target_dims([16; 3])
+                .levels(1)
+                .block(4),
+            ..Default::default()
+        };
+        let out = stage.run(exemplar, &mut RunContext::new(0)).unwrap();
+        assert_eq!(out.synthesis.field.dims(), [16; 3]);
+        assert!(out.isosurface.face_count() > 0);
     }
 
     #[test]
