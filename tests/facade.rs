@@ -172,6 +172,43 @@ fn panels_are_placed_side_by_side() {
     assert!(preview::render(&a, &opts.clone().size(0, 10)).is_err());
 }
 
+/// The width in pixels of the picture's non-background columns.
+fn drawn_width(img: &RgbImage) -> u32 {
+    let drawn: Vec<u32> = (0..img.width())
+        .filter(|&x| (0..img.height()).any(|y| img.get_pixel(x, y).0 != BACKGROUND))
+        .collect();
+    drawn.last().map_or(0, |last| last - drawn[0] + 1)
+}
+
+#[test]
+fn geometries_drawn_at_one_pixels_per_unit_keep_their_relative_size() {
+    // Squares in the XY plane, seen straight along Z.
+    let square = |side: f32| {
+        let corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side)]
+            .map(|(x, y)| Vec3::new(x, y, 0.0))
+            .to_vec();
+        let vertices = geosynth::core::PointSet::new(corners).unwrap();
+        Geometry::Mesh(geosynth::core::TriMesh::new(vertices, vec![[0, 1, 2], [0, 2, 3]]).unwrap())
+    };
+    let (small, large) = (square(1.0), square(2.0));
+    let opts = RenderOptions::default().size(200, 150).view(0.0, 0.0);
+    // Fitted, each fills the panel; at the large one's scale, the small one is half as wide.
+    let fitted = preview::fitted_pixels_per_unit(&large, &opts).unwrap();
+    assert!((fitted - 0.9 * 150.0 / 2.0).abs() < 1e-3, "{fitted}");
+    let alone = drawn_width(&preview::render(&small, &opts).unwrap());
+    let shared = opts.clone().pixels_per_unit(fitted);
+    let small_width = drawn_width(&preview::render(&small, &shared).unwrap());
+    let large_width = drawn_width(&preview::render(&large, &shared).unwrap());
+    assert!(alone.abs_diff(large_width) <= 1, "{alone} {large_width}");
+    assert!(
+        small_width.abs_diff(large_width / 2) <= 1,
+        "{small_width} {large_width}"
+    );
+    for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        assert!(preview::render(&small, &opts.clone().pixels_per_unit(bad)).is_err());
+    }
+}
+
 #[test]
 fn rendering_is_deterministic() {
     let g = Geometry::Points(fixtures::heightfield_points(32, 2.0, 3).unwrap());

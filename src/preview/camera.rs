@@ -90,6 +90,11 @@ impl Camera {
         self.scale
     }
 
+    /// The same view at `scale` pixels per world unit, still centred where it was.
+    pub fn with_scale(self, scale: f32) -> Self {
+        Self { scale, ..self }
+    }
+
     /// Projects a world point to pixel coordinates.
     pub fn project(&self, p: Vec3) -> Projected {
         let rel = p - self.center;

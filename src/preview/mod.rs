@@ -31,6 +31,7 @@
 mod camera;
 mod raster;
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use glam::Vec3;
@@ -67,6 +68,10 @@ pub struct RenderOptions {
     pub background: [f32; 3],
     /// Multiplies the automatic splat radius; default 1.
     pub splat_scale: f32,
+    /// Pixels per world unit; default `None`: fitted so the geometry fills 90% of the
+    /// image ([`fitted_pixels_per_unit`]). Set it to draw several geometries at one scale
+    /// (an exemplar beside a larger output); the view stays centred on each geometry.
+    pub pixels_per_unit: Option<f32>,
 }
 
 impl Default for RenderOptions {
@@ -80,6 +85,7 @@ impl Default for RenderOptions {
             color: [0.78, 0.8, 0.88],
             background: [1.0, 1.0, 1.0],
             splat_scale: 1.0,
+            pixels_per_unit: None,
         }
     }
 }
@@ -111,7 +117,15 @@ impl RenderOptions {
         self
     }
 
-    /// Checks sizes (1..=8192 pixels), finite angles, colours in `0..=1`, positive splat scale.
+    /// Sets the pixels per world unit instead of fitting the view to the geometry
+    /// ([`RenderOptions::pixels_per_unit`]).
+    pub fn pixels_per_unit(mut self, pixels_per_unit: f32) -> Self {
+        self.pixels_per_unit = Some(pixels_per_unit);
+        self
+    }
+
+    /// Checks sizes (1..=8192 pixels), finite angles, colours in `0..=1`, positive splat
+    /// scale and pixels per unit.
     pub fn validate(&self) -> Result<()> {
         let bad = Error::invalid::<()>;
         for (name, v) in [("width", self.width), ("height", self.height)] {
@@ -138,6 +152,11 @@ impl RenderOptions {
                 "a positive number",
             );
         }
+        if let Some(s) = self.pixels_per_unit
+            && !(s.is_finite() && s > 0.0)
+        {
+            return bad("pixels_per_unit", s.to_string(), "a positive number");
+        }
         Ok(())
     }
 }
@@ -149,26 +168,8 @@ impl RenderOptions {
 pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> {
     options.validate()?;
     let points = geometry.points();
-    let kept: Vec<Vec3>;
-    let framed = match geometry {
-        Geometry::Points(_) => {
-            let positions = points.positions();
-            kept = kept_indices(positions)
-                .into_iter()
-                .map(|i| positions[i])
-                .collect();
-            &kept
-        }
-        Geometry::Mesh(_) => points.positions(),
-    };
-    let cam = Camera::fitted(
-        framed,
-        options.up,
-        options.azimuth,
-        options.elevation,
-        options.width,
-        options.height,
-    );
+    let framed = framed_positions(geometry);
+    let cam = camera(&framed, options);
     let mut fb = FrameBuffer::new(
         options.width,
         options.height,
@@ -201,7 +202,7 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
             }
         }
         None => {
-            let index = KdIndex::new(framed)?;
+            let index = KdIndex::new(&framed)?;
             let spacing = index.median_spacing()?;
             let positions = points.positions();
             match points.normals() {
@@ -233,6 +234,51 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
         value: format!("{}x{}", options.width, options.height),
         expected: "a size whose pixel buffer fits in memory".into(),
     })
+}
+
+/// The pixels per world unit at which `geometry` fills 90% of an image of `options`
+/// (its width, height, view and up axis): what [`render`] uses unless
+/// [`RenderOptions::pixels_per_unit`] is set. The smallest of several geometries' values
+/// draws them all at one scale, each within its panel.
+pub fn fitted_pixels_per_unit(geometry: &Geometry, options: &RenderOptions) -> Result<f32> {
+    options.validate()?;
+    let fitted = RenderOptions {
+        pixels_per_unit: None,
+        ..options.clone()
+    };
+    Ok(camera(&framed_positions(geometry), &fitted).scale())
+}
+
+/// The positions the view is fitted to: a mesh's vertices, or a point set's points that
+/// are not stray ([`pointset_core::strays::kept_indices`]).
+fn framed_positions(geometry: &Geometry) -> Cow<'_, [Vec3]> {
+    let positions = geometry.points().positions();
+    match geometry {
+        Geometry::Points(_) => Cow::Owned(
+            kept_indices(positions)
+                .into_iter()
+                .map(|i| positions[i])
+                .collect(),
+        ),
+        Geometry::Mesh(_) => Cow::Borrowed(positions),
+    }
+}
+
+/// The camera of `options` centred on `framed`, fitted to it unless the options fix the
+/// pixels per unit.
+fn camera(framed: &[Vec3], options: &RenderOptions) -> Camera {
+    let cam = Camera::fitted(
+        framed,
+        options.up,
+        options.azimuth,
+        options.elevation,
+        options.width,
+        options.height,
+    );
+    match options.pixels_per_unit {
+        Some(scale) => cam.with_scale(scale),
+        None => cam,
+    }
 }
 
 /// How many of a point's nearest framed points (itself included) its surface splat

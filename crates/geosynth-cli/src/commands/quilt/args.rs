@@ -216,7 +216,8 @@ pub struct QuiltArgs {
     /// Without `--report` they need the summary: refused with `--no-quality` or `--quiet`.
     #[arg(long)]
     pub(super) baselines: bool,
-    /// Render exemplar | output to a PNG.
+    /// Render exemplar | output to a PNG, both at one scale (the larger fills its panel),
+    /// so their features are drawn the same size.
     #[arg(long)]
     pub(super) preview: Option<PathBuf>,
     /// Also write the output as a mesh (.ply, .obj, .off, .stl), as `geosynth reconstruct

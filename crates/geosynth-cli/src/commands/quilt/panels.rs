@@ -9,7 +9,9 @@ use glam::Vec3;
 
 use crate::CliResult;
 
-/// Renders exemplar | result panels (Z-up textures are viewed with Z up).
+/// Renders exemplar | result panels (Z-up textures are viewed with Z up), all at one
+/// scale, the largest at which each fits its panel, so the exemplar's features and the
+/// results' are drawn the same size.
 pub fn texture_preview(
     texture: &GeometryTexture,
     outputs: &[&QuiltOutput],
@@ -32,12 +34,19 @@ pub fn texture_preview(
         .iter()
         .map(|o| Geometry::Points(o.points.clone()))
         .collect();
+    let options = RenderOptions::default().size(w, h).view(30.0, 40.0);
     let mut panels = vec![Panel::Geometry(&exemplar, ViewUp::Z)];
     panels.extend(results.iter().map(|g| Panel::Geometry(g, up)));
-    let image = preview::render_panels(
-        &panels,
-        &RenderOptions::default().size(w, h).view(30.0, 40.0),
-    )?;
+    let mut scale = f32::INFINITY;
+    for panel in &panels {
+        if let Panel::Geometry(g, panel_up) = panel {
+            scale = scale.min(preview::fitted_pixels_per_unit(
+                g,
+                &options.clone().up(*panel_up),
+            )?);
+        }
+    }
+    let image = preview::render_panels(&panels, &options.pixels_per_unit(scale))?;
     preview::save_png(&image, path)?;
     Ok(())
 }
