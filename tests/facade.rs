@@ -204,6 +204,21 @@ fn geometries_drawn_at_one_pixels_per_unit_keep_their_relative_size() {
         small_width.abs_diff(large_width / 2) <= 1,
         "{small_width} {large_width}"
     );
+    // The common scale of several panels is the one at which the largest fits.
+    let texture = RgbImage::from_pixel(4, 4, image::Rgb([255, 0, 0]));
+    let panels = [
+        preview::Panel::Geometry(&small, UpAxis::Y),
+        preview::Panel::Image(&texture),
+        preview::Panel::Geometry(&large, UpAxis::Y),
+    ];
+    assert_eq!(
+        preview::common_pixels_per_unit(&panels, &opts).unwrap(),
+        Some(fitted)
+    );
+    assert_eq!(
+        preview::common_pixels_per_unit(&panels[1..2], &opts).unwrap(),
+        None
+    );
     for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
         assert!(preview::render(&small, &opts.clone().pixels_per_unit(bad)).is_err());
     }

@@ -249,6 +249,23 @@ pub fn fitted_pixels_per_unit(geometry: &Geometry, options: &RenderOptions) -> R
     Ok(camera(&framed_positions(geometry), &fitted).scale())
 }
 
+/// The largest pixels per world unit at which every geometry panel of `panels` fits its
+/// panel (each seen with its own up axis), or `None` when none is geometry: set it as
+/// [`RenderOptions::pixels_per_unit`] to draw the panels at one scale.
+pub fn common_pixels_per_unit(
+    panels: &[Panel<'_>],
+    options: &RenderOptions,
+) -> Result<Option<f32>> {
+    let mut common: Option<f32> = None;
+    for panel in panels {
+        if let Panel::Geometry(geometry, up) = panel {
+            let scale = fitted_pixels_per_unit(geometry, &options.clone().up(*up))?;
+            common = Some(common.map_or(scale, |c| c.min(scale)));
+        }
+    }
+    Ok(common)
+}
+
 /// The positions the view is fitted to: a mesh's vertices, or a point set's points that
 /// are not stray ([`pointset_core::strays::kept_indices`]).
 fn framed_positions(geometry: &Geometry) -> Cow<'_, [Vec3]> {

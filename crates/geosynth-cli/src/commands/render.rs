@@ -105,6 +105,11 @@ pub struct RenderArgs {
     /// 100).
     #[arg(long, default_value_t = 0.2)]
     relief: f32,
+    /// Draw every geometry panel at one scale (the largest at which each fits), so a
+    /// quilt and its exemplar, or two outputs, show their features the same size; by
+    /// default each panel is fitted to its own geometry.
+    #[arg(long)]
+    same_scale: bool,
     #[command(flatten)]
     view: ViewArgs,
 }
@@ -231,7 +236,13 @@ pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
             Input::Picture(img) => Panel::Image(img),
         })
         .collect();
-    let image = preview::render_panels(&panels, &args.view.options())?;
+    let mut options = args.view.options();
+    if args.same_scale
+        && let Some(scale) = preview::common_pixels_per_unit(&panels, &options)?
+    {
+        options = options.pixels_per_unit(scale);
+    }
+    let image = preview::render_panels(&panels, &options)?;
     preview::save_png(&image, &args.output)?;
     status(
         globals,

@@ -139,6 +139,51 @@ fn info_and_render_work_on_every_shared_file() {
 }
 
 #[test]
+fn same_scale_draws_a_square_twice_as_wide_as_one_half_its_side() {
+    let dir = Scratch::new();
+    let square = |side: u32| {
+        let path = dir.path(&format!("square{side}.obj"));
+        let s = side.to_string();
+        let obj = format!("v 0 0 0\nv {s} 0 0\nv {s} {s} 0\nv 0 {s} 0\nf 1 2 3\nf 1 3 4\n");
+        std::fs::write(&path, obj).unwrap();
+        arg(&path)
+    };
+    let (small, large) = (square(1), square(2));
+    let picture = arg(&dir.path("squares.png"));
+    // Panels 160 × 120, seen straight along z; the widths drawn in each.
+    let widths = |same_scale: bool| {
+        let mut args = vec!["render", &small, &large, "-o", &picture];
+        args.extend(["--width", "160", "--height", "120", "--azimuth", "0"]);
+        args.extend(["--elevation", "0"]);
+        if same_scale {
+            args.push("--same-scale");
+        }
+        ok(&args);
+        let img = image::open(&picture).unwrap().into_rgb8();
+        [0u32, 164].map(|x0| {
+            let drawn: Vec<u32> = (x0..x0 + 160)
+                .filter(|&x| (0..120).any(|y| img.get_pixel(x, y).0 != [255, 255, 255]))
+                .collect();
+            drawn.last().map_or(0, |last| last - drawn[0] + 1)
+        })
+    };
+    let [fitted_small, fitted_large] = widths(false);
+    assert!(
+        fitted_small.abs_diff(fitted_large) <= 1,
+        "{fitted_small} {fitted_large}"
+    );
+    let [small_width, large_width] = widths(true);
+    assert!(
+        large_width.abs_diff(fitted_large) <= 1,
+        "{large_width} {fitted_large}"
+    );
+    assert!(
+        small_width.abs_diff(large_width / 2) <= 1,
+        "{small_width} {large_width}"
+    );
+}
+
+#[test]
 fn output_into_a_closed_pipe_is_not_a_panic() {
     // `geosynth info x.ply | head -1`: the reader leaves before the output is written.
     let fixture = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");

@@ -37,16 +37,11 @@ pub fn texture_preview(
     let options = RenderOptions::default().size(w, h).view(30.0, 40.0);
     let mut panels = vec![Panel::Geometry(&exemplar, ViewUp::Z)];
     panels.extend(results.iter().map(|g| Panel::Geometry(g, up)));
-    let mut scale = f32::INFINITY;
-    for panel in &panels {
-        if let Panel::Geometry(g, panel_up) = panel {
-            scale = scale.min(preview::fitted_pixels_per_unit(
-                g,
-                &options.clone().up(*panel_up),
-            )?);
-        }
-    }
-    let image = preview::render_panels(&panels, &options.pixels_per_unit(scale))?;
+    let options = match preview::common_pixels_per_unit(&panels, &options)? {
+        Some(scale) => options.pixels_per_unit(scale),
+        None => options,
+    };
+    let image = preview::render_panels(&panels, &options)?;
     preview::save_png(&image, path)?;
     Ok(())
 }
