@@ -219,6 +219,9 @@ fn geometries_drawn_at_one_pixels_per_unit_keep_their_relative_size() {
         preview::common_pixels_per_unit(&panels[1..2], &opts).unwrap(),
         None
     );
+    let pair = [panels[0], panels[2]];
+    let at_one_scale = preview::render_panels_at_one_scale(&pair, &opts).unwrap();
+    assert!(at_one_scale == preview::render_panels(&pair, &shared).unwrap());
     for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
         assert!(preview::render(&small, &opts.clone().pixels_per_unit(bad)).is_err());
     }
@@ -1190,7 +1193,7 @@ fn every_stage_its_input_and_output_cross_threads() {
 /// The renderer's shade of the unit sphere seen from `azimuth`/`elevation` (degrees, +Y
 /// up) at pixel offset `(u, v)` from its centre in world units (`v` up), or `None` off the
 /// sphere: two-sided Lambert with ambient 0.12, lit from the viewer's direction tilted
-/// 0.45 up and 0.3 left (docs/architecture.md, "Previews").
+/// 0.45 up and 0.3 left (the renderer's `Camera::fitted` and `Camera::shade`).
 fn analytic_sphere_shade(azimuth: f32, elevation: f32, u: f32, v: f32) -> Option<f32> {
     let (az, el) = (azimuth.to_radians(), elevation.to_radians());
     let toward = Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());

@@ -358,6 +358,19 @@ pub fn render_panels(panels: &[Panel<'_>], options: &RenderOptions) -> Result<Rg
     Ok(out)
 }
 
+/// [`render_panels`] with every geometry panel drawn at one scale,
+/// [`common_pixels_per_unit`]: the largest at which each fits its panel. An exemplar beside
+/// a larger output then shows its features the same size.
+pub fn render_panels_at_one_scale(
+    panels: &[Panel<'_>],
+    options: &RenderOptions,
+) -> Result<RgbImage> {
+    match common_pixels_per_unit(panels, options)? {
+        Some(scale) => render_panels(panels, &options.clone().pixels_per_unit(scale)),
+        None => render_panels(panels, options),
+    }
+}
+
 /// Scales a picture to fit the panel (keeping its aspect ratio) on the background colour.
 fn fit_image(img: &RgbImage, options: &RenderOptions) -> RgbImage {
     let bg = options.background.map(|c| (c * 255.0).round() as u8);

@@ -236,13 +236,11 @@ pub fn run(args: &RenderArgs, globals: Globals) -> CliResult {
             Input::Picture(img) => Panel::Image(img),
         })
         .collect();
-    let mut options = args.view.options();
-    if args.same_scale
-        && let Some(scale) = preview::common_pixels_per_unit(&panels, &options)?
-    {
-        options = options.pixels_per_unit(scale);
-    }
-    let image = preview::render_panels(&panels, &options)?;
+    let image = if args.same_scale {
+        preview::render_panels_at_one_scale(&panels, &args.view.options())?
+    } else {
+        preview::render_panels(&panels, &args.view.options())?
+    };
     preview::save_png(&image, &args.output)?;
     status(
         globals,

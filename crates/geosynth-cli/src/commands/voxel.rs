@@ -232,7 +232,9 @@ pub fn run_json(run: &VoxelRun, stage: &VoxelSynth) -> Value {
     })
 }
 
-/// Renders exemplar | copied-triangle mesh | iso-surface, Z up.
+/// Renders exemplar | copied-triangle mesh | iso-surface, Z up, at one scale (the largest
+/// at which each fits), so the exemplar's features and the synthesized solid's are drawn
+/// the same size.
 pub fn voxel_preview(
     exemplar: &VoxelExemplar,
     copied: &Geometry,
@@ -245,7 +247,7 @@ pub fn voxel_preview(
         .into_iter()
         .map(|g| Panel::Geometry(g, UpAxis::Z))
         .collect();
-    let image = preview::render_panels(
+    let image = preview::render_panels_at_one_scale(
         &panels,
         &RenderOptions::default().size(w, w * 3 / 4).view(30.0, 30.0),
     )?;

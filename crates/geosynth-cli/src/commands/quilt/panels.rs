@@ -34,14 +34,12 @@ pub fn texture_preview(
         .iter()
         .map(|o| Geometry::Points(o.points.clone()))
         .collect();
-    let options = RenderOptions::default().size(w, h).view(30.0, 40.0);
     let mut panels = vec![Panel::Geometry(&exemplar, ViewUp::Z)];
     panels.extend(results.iter().map(|g| Panel::Geometry(g, up)));
-    let options = match preview::common_pixels_per_unit(&panels, &options)? {
-        Some(scale) => options.pixels_per_unit(scale),
-        None => options,
-    };
-    let image = preview::render_panels(&panels, &options)?;
+    let image = preview::render_panels_at_one_scale(
+        &panels,
+        &RenderOptions::default().size(w, h).view(30.0, 40.0),
+    )?;
     preview::save_png(&image, path)?;
     Ok(())
 }
