@@ -1,7 +1,7 @@
 //! Odd point sets and meshes (each signed either way) and parameters through the distance-field
 //! stages: each either refuses them with a typed error or returns a field and a mesh that
 //! keep their contracts (finite, clamped to the band, inside the grid's box). Never a
-//! panic.
+//! panic. The same point sets are also drawn as previews.
 
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -9,6 +9,7 @@
 use geosynth::core::io::Geometry;
 use geosynth::core::rng::rng_from_seed;
 use geosynth::core::{PointSet, TriMesh};
+use geosynth::preview::{self, RenderOptions};
 use geosynth::reconstruct::{FieldParams, Reconstruct, signed_distance};
 use geosynth::sdf::{MeshSign, PointSign};
 use geosynth::{RunContext, Stage};
@@ -237,6 +238,37 @@ proptest! {
                 let sign = if winding { MeshSign::WindingNumber } else { MeshSign::PseudoNormal };
                 check_field_and_mesh(&Geometry::Mesh(mesh), &p.mesh_sign(sign));
             }
+            Err(e) => prop_assert!(!e.to_string().is_empty()),
+        }
+    }
+
+    #[test]
+    fn odd_point_sets_render_or_are_refused(
+        c in cloud(),
+        with_normals in any::<bool>(),
+        (width, height) in (1u32..48, 1u32..48),
+        (azimuth, elevation) in (-360.0f32..360.0, -90.0f32..90.0),
+        splat_scale in -1.0f32..1.0,
+        pixels_per_unit in proptest::option::of(-3.0f32..7.0),
+    ) {
+        // Surface splats (with normals) and small spheres (without), fitted or at a fixed
+        // scale from far too small to far too large: a picture of the size asked for, or
+        // a typed error.
+        let oriented = points(&c);
+        let points = if with_normals {
+            oriented
+        } else {
+            PointSet::new(oriented.positions().to_vec()).unwrap()
+        };
+        let mut options = RenderOptions::default()
+            .size(width, height)
+            .view(azimuth, elevation);
+        options.splat_scale = 10f32.powf(splat_scale);
+        if let Some(exponent) = pixels_per_unit {
+            options = options.pixels_per_unit(10f32.powf(exponent) / c.scale);
+        }
+        match preview::render(&Geometry::Points(points), &options) {
+            Ok(image) => prop_assert_eq!(image.dimensions(), (width, height)),
             Err(e) => prop_assert!(!e.to_string().is_empty()),
         }
     }
