@@ -11,11 +11,12 @@
 //! as wide as the distance to its eighth nearest point (between one and four median
 //! spacings, [`KdIndex::median_spacing`](crate::core::KdIndex::median_spacing), which looks
 //! past duplicated samples). The nearest surface is found first; then the colours and
-//! normals of the discs within half a radius of it are blended with Gaussian weights and
-//! shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit sphere
-//! of 20,000 random points comes within about one grey level of its analytic shading. A
-//! gap in the sampling wider than the discs shows as a speck. Points without normals are
-//! drawn as small shaded spheres of 1.1 median spacings.
+//! normals of the discs within half a radius of it are blended with Gaussian weights (each
+//! normal turned to agree with the nearest disc's, so normals of either sign shade alike)
+//! and shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit
+//! sphere of 20,000 random points comes within about one grey level of its analytic
+//! shading. A gap in the sampling wider than the discs shows as a speck. Points without
+//! normals are drawn as small shaded spheres of 1.1 median spacings.
 //!
 //! ```
 //! use geosynth::core::io::Geometry;

@@ -100,13 +100,19 @@ impl FrameBuffer {
     /// Draws oriented points as surface splats: discs in each point's tangent plane. The
     /// nearest surface is found first; then the albedos and normals of every disc within
     /// half its radius of it are blended with Gaussian weights and shaded once per pixel.
-    /// Normals are turned toward the viewer before blending, so normals of either sign
-    /// and both sides of a sheet shade alike.
+    /// Before blending, each normal is turned to agree with the nearest disc's there, so
+    /// normals of either sign and both sides of a sheet shade alike, and the discs just
+    /// behind a closed surface's silhouette blend with those just in front instead of
+    /// cancelling them.
     pub fn surface_splats(&mut self, cam: &Camera, splats: impl Iterator<Item = SurfaceSplat>) {
         let footprints: Vec<Footprint> = splats.map(|s| Footprint::new(cam, &s)).collect();
+        let mut nearest_normal = vec![Vec3::ZERO; self.width * self.height];
         for f in &footprints {
             self.cover(f, |fb, i, depth, _| {
-                fb.depth[i] = fb.depth[i].max(depth);
+                if depth > fb.depth[i] {
+                    fb.depth[i] = depth;
+                    nearest_normal[i] = f.normal;
+                }
             });
         }
         let mut blend = vec![(Vec3::ZERO, Vec3::ZERO, 0.0f32); self.width * self.height];
@@ -117,7 +123,12 @@ impl FrameBuffer {
                 if depth >= fb.depth[i] - tolerance {
                     let w = (-2.0 * rho2).exp();
                     let b = &mut blend[i];
-                    b.0 += w * f.normal;
+                    let agreeing = if f.normal.dot(nearest_normal[i]) < 0.0 {
+                        -f.normal
+                    } else {
+                        f.normal
+                    };
+                    b.0 += w * agreeing;
                     b.1 += w * f.albedo;
                     b.2 += w;
                 }
@@ -188,7 +199,7 @@ struct Footprint {
     slope: Vec2,
     /// World units per pixel.
     world_per_px: f32,
-    /// The normal, turned toward the viewer.
+    /// The point's normal, as given.
     normal: Vec3,
     albedo: Vec3,
 }
@@ -200,20 +211,22 @@ const MIN_FACING: f32 = 0.3;
 
 impl Footprint {
     fn new(cam: &Camera, splat: &SurfaceSplat) -> Self {
-        let normal = if splat.normal.dot(cam.toward) < 0.0 {
+        // The plane's slope is the same for either sign of the normal; take the one
+        // facing the viewer.
+        let facing_normal = if splat.normal.dot(cam.toward) < 0.0 {
             -splat.normal
         } else {
             splat.normal
         };
-        let facing = normal.dot(cam.toward).max(MIN_FACING);
+        let facing = facing_normal.dot(cam.toward).max(MIN_FACING);
         // Screen y grows downward, opposite to the camera's up.
-        let slope = Vec2::new(normal.dot(cam.right), -normal.dot(cam.up)) / facing;
+        let slope = Vec2::new(facing_normal.dot(cam.right), -facing_normal.dot(cam.up)) / facing;
         Self {
             centre: splat.centre,
             radius: splat.radius.max(0.5),
             slope,
             world_per_px: 1.0 / cam.scale(),
-            normal,
+            normal: splat.normal,
             albedo: splat.albedo,
         }
     }
