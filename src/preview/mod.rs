@@ -18,6 +18,9 @@
 //! shading. A gap in the sampling wider than the discs shows as a speck. Points without
 //! normals are drawn as small shaded spheres of 1.1 median spacings.
 //!
+//! Images are drawn in bands of rows, in parallel, each band with buffers for its own
+//! rows only; the picture does not depend on the bands or the number of threads.
+//!
 //! ```
 //! use geosynth::core::io::Geometry;
 //! use geosynth::preview::{render, RenderOptions};
@@ -29,8 +32,11 @@
 //! Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod bands;
 mod camera;
 mod raster;
+#[cfg(test)]
+mod tests;
 
 use std::borrow::Cow;
 use std::path::Path;
@@ -42,11 +48,12 @@ use pointset_core::{KdIndex, NormalWeighting};
 
 use crate::imagery::io_error;
 use crate::{Error, Result};
+use bands::{BAND_ROWS, draw_in_bands};
 use camera::Camera;
 pub use camera::UpAxis;
 /// The image type previews are returned as (from the `image` crate).
 pub use image::RgbImage;
-use raster::{FrameBuffer, SurfaceSplat};
+use raster::{Footprint, SurfaceSplat, sphere_rows, triangle_rows};
 use rayon::prelude::*;
 
 /// How to render a preview.
@@ -167,21 +174,27 @@ impl RenderOptions {
 /// one outlier would shrink the rest to a speck; the stray points are drawn where they
 /// fall in that frame.
 pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> {
+    render_in_bands(geometry, options, BAND_ROWS)
+}
+
+/// [`render`], drawing bands of `band_rows` rows (the picture does not depend on it).
+fn render_in_bands(
+    geometry: &Geometry,
+    options: &RenderOptions,
+    band_rows: usize,
+) -> Result<RgbImage> {
     options.validate()?;
     let points = geometry.points();
     let framed = framed_positions(geometry);
     let cam = camera(&framed, options);
-    let mut fb = FrameBuffer::new(
-        options.width,
-        options.height,
-        Vec3::from(options.background),
-    );
+    let size = (options.width as usize, options.height as usize);
+    let background = Vec3::from(options.background);
     let fallback = Vec3::from(options.color);
     let colors: Vec<Vec3> = match points.colors() {
         Some(c) => c.into_iter().map(Vec3::from).collect(),
         None => vec![fallback; points.len()],
     };
-    match geometry.mesh() {
+    let rgb = match geometry.mesh() {
         Some(mesh) => {
             let computed;
             let normals = match mesh.vertices().normals() {
@@ -192,15 +205,22 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
                 }
             };
             let projected: Vec<_> = mesh.positions().iter().map(|&p| cam.project(p)).collect();
-            for t in mesh.triangles() {
-                let [a, b, c] = t.map(|v| v as usize);
-                fb.triangle(
-                    &cam,
-                    [projected[a], projected[b], projected[c]],
-                    [normals[a], normals[b], normals[c]],
-                    [colors[a], colors[b], colors[c]],
-                );
-            }
+            let corners = |t: [u32; 3]| t.map(|v| v as usize);
+            let triangles = mesh.triangles();
+            let rows = triangles
+                .iter()
+                .map(|&t| triangle_rows(&corners(t).map(|v| projected[v])));
+            draw_in_bands(size, band_rows, background, rows, |band, drawn| {
+                for &t in drawn {
+                    let [a, b, c] = corners(triangles[t]);
+                    band.triangle(
+                        &cam,
+                        [projected[a], projected[b], projected[c]],
+                        [normals[a], normals[b], normals[c]],
+                        [colors[a], colors[b], colors[c]],
+                    );
+                }
+            })
         }
         None => {
             let index = KdIndex::new(&framed)?;
@@ -210,27 +230,41 @@ pub fn render(geometry: &Geometry, options: &RenderOptions) -> Result<RgbImage> 
                 Some(normals) => {
                     let px = cam.scale() * options.splat_scale;
                     let radii = splat_radii(&index, positions, spacing, px)?;
-                    let splats = positions.iter().zip(normals).zip(&colors).zip(radii).map(
-                        |(((&p, &normal), &albedo), radius)| SurfaceSplat {
-                            centre: cam.project(p),
-                            normal,
-                            albedo,
-                            radius,
-                        },
-                    );
-                    fb.surface_splats(&cam, splats);
+                    let footprints: Vec<Footprint> = positions
+                        .iter()
+                        .zip(normals)
+                        .zip(&colors)
+                        .zip(radii)
+                        .map(|(((&p, &normal), &albedo), radius)| {
+                            let splat = SurfaceSplat {
+                                centre: cam.project(p),
+                                normal,
+                                albedo,
+                                radius,
+                            };
+                            Footprint::new(&cam, &splat)
+                        })
+                        .collect();
+                    let rows = footprints.iter().map(Footprint::rows);
+                    draw_in_bands(size, band_rows, background, rows, |band, drawn| {
+                        band.surface_splats(&cam, &footprints, drawn);
+                    })
                 }
                 None => {
                     let radius =
                         (1.1 * spacing * cam.scale() * options.splat_scale).clamp(1.0, 64.0);
-                    for (&p, &c) in positions.iter().zip(&colors) {
-                        fb.sphere_splat(&cam, cam.project(p), radius, c);
-                    }
+                    let centres: Vec<_> = positions.iter().map(|&p| cam.project(p)).collect();
+                    let rows = centres.iter().map(|&p| sphere_rows(p, radius));
+                    draw_in_bands(size, band_rows, background, rows, |band, drawn| {
+                        for &k in drawn {
+                            band.sphere_splat(&cam, centres[k], radius, colors[k]);
+                        }
+                    })
                 }
             }
         }
-    }
-    RgbImage::from_raw(options.width, options.height, fb.to_rgb8()).ok_or(Error::InvalidParameter {
+    };
+    RgbImage::from_raw(options.width, options.height, rgb).ok_or(Error::InvalidParameter {
         name: "width/height",
         value: format!("{}x{}", options.width, options.height),
         expected: "a size whose pixel buffer fits in memory".into(),

@@ -1,46 +1,54 @@
-//! A z-buffered framebuffer with triangle and splat rasterization.
+//! A z-buffered framebuffer with triangle and splat rasterization, one band of rows at a
+//! time.
 
 use glam::{Vec2, Vec3};
 
 use super::camera::{Camera, Projected};
 
-/// Colour and depth buffers; depth is "closeness" (larger wins).
+/// Colour and depth buffers of a band of an image's rows; depth is "closeness" (larger
+/// wins). Drawing takes pixel coordinates in the whole image and keeps what falls in the
+/// band, so a picture drawn band by band is the picture drawn whole.
 pub(crate) struct FrameBuffer {
-    pub width: usize,
-    pub height: usize,
-    pub color: Vec<Vec3>,
+    width: usize,
+    /// The band's first row in the image.
+    top: usize,
+    /// The band's number of rows.
+    rows: usize,
+    color: Vec<Vec3>,
     depth: Vec<f32>,
 }
 
 impl FrameBuffer {
-    pub fn new(width: u32, height: u32, background: Vec3) -> Self {
-        let (width, height) = (width as usize, height as usize);
+    /// Rows `top..top + rows` of an image `width` pixels wide, filled with `background`.
+    pub fn band(width: usize, top: usize, rows: usize, background: Vec3) -> Self {
         Self {
             width,
-            height,
-            color: vec![background; width * height],
-            depth: vec![f32::NEG_INFINITY; width * height],
+            top,
+            rows,
+            color: vec![background; width * rows],
+            depth: vec![f32::NEG_INFINITY; width * rows],
         }
     }
 
+    /// The buffers' index of image pixel `(x, y)`, which must lie in the band.
+    fn index(&self, x: usize, y: usize) -> usize {
+        (y - self.top) * self.width + x
+    }
+
     fn test_and_set(&mut self, x: usize, y: usize, depth: f32, color: Vec3) {
-        let i = y * self.width + x;
+        let i = self.index(x, y);
         if depth > self.depth[i] {
             self.depth[i] = depth;
             self.color[i] = color;
         }
     }
 
-    /// Pixel bounds of a screen-space box, clipped to the image; `None` when off screen.
+    /// Image pixel bounds of a screen-space box, clipped to the band; `None` when it
+    /// misses the band.
     fn clip(&self, lo: Vec2, hi: Vec2) -> Option<(usize, usize, usize, usize)> {
-        if !(lo.is_finite() && hi.is_finite()) {
-            return None;
-        }
-        let x0 = lo.x.floor().max(0.0) as usize;
-        let y0 = lo.y.floor().max(0.0) as usize;
-        let x1 = (hi.x.ceil() as i64).min(self.width as i64 - 1);
-        let y1 = (hi.y.ceil() as i64).min(self.height as i64 - 1);
-        (x1 >= x0 as i64 && y1 >= y0 as i64).then_some((x0, y0, x1 as usize, y1 as usize))
+        let (x0, x1) = pixel_span(lo.x, hi.x, 0, self.width)?;
+        let (y0, y1) = pixel_span(lo.y, hi.y, self.top, self.top + self.rows)?;
+        Some((x0, y0, x1, y1))
     }
 
     /// Fills a triangle, interpolating depth, normal and colour, shading per pixel.
@@ -76,7 +84,7 @@ impl FrameBuffer {
     /// sphere's own normals so that points without normals still read as 3D. Its depth
     /// bulges toward the viewer like a sphere, which resolves overlaps.
     pub fn sphere_splat(&mut self, cam: &Camera, p: Projected, radius: f32, albedo: Vec3) {
-        let r = radius.max(0.5);
+        let r = sphere_radius(radius);
         let lo = Vec2::new(p.x - r, p.y - r);
         let hi = Vec2::new(p.x + r, p.y + r);
         let Some((x0, y0, x1, y1)) = self.clip(lo, hi) else {
@@ -97,17 +105,17 @@ impl FrameBuffer {
         }
     }
 
-    /// Draws oriented points as surface splats: discs in each point's tangent plane. The
-    /// nearest surface is found first; then the albedos and normals of every disc within
-    /// half its radius of it are blended with Gaussian weights and shaded once per pixel.
-    /// Before blending, each normal is turned to agree with the nearest disc's there, so
-    /// normals of either sign and both sides of a sheet shade alike, and the discs just
-    /// behind a closed surface's silhouette blend with those just in front instead of
-    /// cancelling them.
-    pub fn surface_splats(&mut self, cam: &Camera, splats: impl Iterator<Item = SurfaceSplat>) {
-        let footprints: Vec<Footprint> = splats.map(|s| Footprint::new(cam, &s)).collect();
-        let mut nearest_normal = vec![Vec3::ZERO; self.width * self.height];
-        for f in &footprints {
+    /// Draws oriented points as surface splats, `footprints[k]` for each `k` of `drawn`
+    /// in that order: discs in each point's tangent plane. The nearest surface is found
+    /// first; then the albedos and normals of every disc within half its radius of it are
+    /// blended with Gaussian weights and shaded once per pixel. Before blending, each
+    /// normal is turned to agree with the nearest disc's there, so normals of either sign
+    /// and both sides of a sheet shade alike, and the discs just behind a closed surface's
+    /// silhouette blend with those just in front instead of cancelling them.
+    pub fn surface_splats(&mut self, cam: &Camera, footprints: &[Footprint], drawn: &[usize]) {
+        let drawn = || drawn.iter().filter_map(|&k| footprints.get(k));
+        let mut nearest_normal = vec![Vec3::ZERO; self.color.len()];
+        for f in drawn() {
             self.cover(f, |fb, i, depth, _| {
                 if depth > fb.depth[i] {
                     fb.depth[i] = depth;
@@ -115,8 +123,8 @@ impl FrameBuffer {
                 }
             });
         }
-        let mut blend = vec![(Vec3::ZERO, Vec3::ZERO, 0.0f32); self.width * self.height];
-        for f in &footprints {
+        let mut blend = vec![(Vec3::ZERO, Vec3::ZERO, 0.0f32); self.color.len()];
+        for f in drawn() {
             // Within half its radius of the nearest surface, a disc belongs to that surface.
             let tolerance = 0.5 * f.radius * f.world_per_px;
             self.cover(f, |fb, i, depth, rho2| {
@@ -159,22 +167,31 @@ impl FrameBuffer {
                 let rho2 = (d.length_squared() + along_view * along_view) * inv_r2;
                 if rho2 <= 1.0 {
                     let depth = f.centre.depth + along_view * f.world_per_px;
-                    visit(self, y * self.width + x, depth, rho2);
+                    visit(self, self.index(x, y), depth, rho2);
                 }
             }
         }
     }
 
-    /// Converts to 8-bit RGB bytes.
-    pub fn to_rgb8(&self) -> Vec<u8> {
-        self.color
-            .iter()
-            .flat_map(|c| {
-                c.to_array()
-                    .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
-            })
-            .collect()
+    /// Writes the band as 8-bit RGB bytes, row after row, into `out` (three bytes a pixel).
+    pub fn write_rgb8(&self, out: &mut [u8]) {
+        for (rgb, c) in out.chunks_exact_mut(3).zip(&self.color) {
+            for (byte, v) in rgb.iter_mut().zip(c.to_array()) {
+                *byte = (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+            }
+        }
     }
+}
+
+/// The first and last of the pixels `first..end` (along one axis) that a span from `lo`
+/// to `hi` in pixel coordinates touches; `None` when it touches none or is not finite.
+pub(crate) fn pixel_span(lo: f32, hi: f32, first: usize, end: usize) -> Option<(usize, usize)> {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
+    let from = (lo.floor() as i64).max(first as i64);
+    let to = (hi.ceil() as i64).min(end as i64 - 1);
+    (to >= from).then_some((from as usize, to as usize))
 }
 
 /// An oriented point to draw as a disc in its tangent plane.
@@ -190,7 +207,7 @@ pub(crate) struct SurfaceSplat {
 }
 
 /// A surface splat's screen footprint: the ellipse its disc projects to.
-struct Footprint {
+pub(crate) struct Footprint {
     centre: Projected,
     /// The disc's radius in pixels.
     radius: f32,
@@ -210,7 +227,8 @@ struct Footprint {
 const MIN_FACING: f32 = 0.3;
 
 impl Footprint {
-    fn new(cam: &Camera, splat: &SurfaceSplat) -> Self {
+    /// The footprint of `splat` seen by `cam`.
+    pub fn new(cam: &Camera, splat: &SurfaceSplat) -> Self {
         // The plane's slope is the same for either sign of the normal; take the one
         // facing the viewer.
         let facing_normal = if splat.normal.dot(cam.toward) < 0.0 {
@@ -230,4 +248,29 @@ impl Footprint {
             albedo: splat.albedo,
         }
     }
+
+    /// The rows the footprint may cover: its top and bottom in pixel coordinates.
+    pub fn rows(&self) -> (f32, f32) {
+        (self.centre.y - self.radius, self.centre.y + self.radius)
+    }
+}
+
+/// The rows a sphere splat of `radius` pixels at `p` may cover
+/// ([`FrameBuffer::sphere_splat`]): its top and bottom in pixel coordinates.
+pub(crate) fn sphere_rows(p: Projected, radius: f32) -> (f32, f32) {
+    let r = sphere_radius(radius);
+    (p.y - r, p.y + r)
+}
+
+/// The rows a triangle may cover: its top and bottom in pixel coordinates.
+pub(crate) fn triangle_rows(p: &[Projected; 3]) -> (f32, f32) {
+    (
+        p[0].y.min(p[1].y).min(p[2].y),
+        p[0].y.max(p[1].y).max(p[2].y),
+    )
+}
+
+/// The radius a sphere splat is drawn with: at least half a pixel.
+fn sphere_radius(radius: f32) -> f32 {
+    radius.max(0.5)
 }
