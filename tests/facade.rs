@@ -181,6 +181,31 @@ fn drawn_width(img: &RgbImage) -> u32 {
 }
 
 #[test]
+fn a_thin_sparsely_sampled_tube_is_drawn_about_as_wide_as_it_is() {
+    // A tube of radius 0.06 with about one sample per radius of spacing, seen side-on:
+    // discs as wide as the sampling's gaps stuck out of it (drawn 1.66 and 1.60 times its
+    // width, seeds 1 and 2); ellipses narrowed around it where they would leave its
+    // surface by more than a quarter of a spacing are drawn 1.20 and 1.10 times as wide.
+    let opts = RenderOptions::default().size(200, 400).view(0.0, 0.0);
+    for seed in [1, 2] {
+        let tube = Geometry::Points(fixtures::cylinder_points(300, 0.06, 2.0, seed).unwrap());
+        let true_width = 0.12 * preview::fitted_pixels_per_unit(&tube, &opts).unwrap();
+        let img = preview::render(&tube, &opts).unwrap();
+        let mut widths: Vec<u32> = (120..280)
+            .map(|y| {
+                let drawn: Vec<u32> = (0..200)
+                    .filter(|&x| img.get_pixel(x, y).0 != BACKGROUND)
+                    .collect();
+                drawn.last().map_or(0, |last| last - drawn[0] + 1)
+            })
+            .collect();
+        widths.sort_unstable();
+        let ratio = widths[widths.len() / 2] as f32 / true_width;
+        assert!((1.0..1.4).contains(&ratio), "seed {seed}: {ratio}");
+    }
+}
+
+#[test]
 fn a_point_sets_silhouette_darkens_past_the_rim_as_the_surface_does() {
     // Discs just behind a closed surface's rim stick out past it beside those just in
     // front. Turned toward the viewer before blending, their sideways normals cancelled

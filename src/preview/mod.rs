@@ -10,7 +10,10 @@
 //! Points with normals are drawn as surface splats: a disc in each point's tangent plane,
 //! as wide as the distance to its eighth nearest point (between one and four median
 //! spacings, [`KdIndex::median_spacing`](crate::core::KdIndex::median_spacing), which looks
-//! past duplicated samples). The nearest surface is found first; then the colours and
+//! past duplicated samples). Where the surface curves so much that the disc's rim would
+//! leave it by more than a quarter of a spacing (a tube about as thin as its sampling),
+//! the disc is narrowed to an ellipse along the surface's principal directions, fitted
+//! from the same neighbours, but not below a spacing. The nearest surface is found first; then the colours and
 //! normals of the discs within half a radius of it are blended with Gaussian weights (each
 //! normal turned to agree with the nearest disc's, so normals of either sign shade alike)
 //! and shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit
@@ -35,6 +38,7 @@
 mod bands;
 mod camera;
 mod raster;
+mod splat_shape;
 #[cfg(test)]
 mod tests;
 
@@ -54,7 +58,7 @@ pub use camera::UpAxis;
 /// The image type previews are returned as (from the `image` crate).
 pub use image::RgbImage;
 use raster::{Footprint, SurfaceSplat, sphere_rows, triangle_rows};
-use rayon::prelude::*;
+use splat_shape::splat_shapes;
 
 /// How to render a preview.
 #[derive(Debug, Clone, PartialEq)]
@@ -229,18 +233,18 @@ fn render_in_bands(
             match points.normals() {
                 Some(normals) => {
                     let px = cam.scale() * options.splat_scale;
-                    let radii = splat_radii(&index, positions, spacing, px)?;
+                    let shapes = splat_shapes(&index, &framed, (positions, normals), spacing, px)?;
                     let footprints: Vec<Footprint> = positions
                         .iter()
                         .zip(normals)
                         .zip(&colors)
-                        .zip(radii)
-                        .map(|(((&p, &normal), &albedo), radius)| {
+                        .zip(shapes)
+                        .map(|(((&p, &normal), &albedo), shape)| {
                             let splat = SurfaceSplat {
                                 centre: cam.project(p),
                                 normal,
                                 albedo,
-                                radius,
+                                shape,
                             };
                             Footprint::new(&cam, &splat)
                         })
@@ -331,36 +335,6 @@ fn camera(framed: &[Vec3], options: &RenderOptions) -> Camera {
         Some(scale) => cam.with_scale(scale),
         None => cam,
     }
-}
-
-/// How many of a point's nearest framed points (itself included) its surface splat
-/// reaches: enough discs to cover the gaps of an irregular sampling.
-const SPLAT_NEIGHBOURS: usize = 8;
-
-/// The largest surface splat, in median point spacings: a sparse point's disc does not
-/// swell over its surroundings.
-const MAX_SPLAT_SPACINGS: f32 = 4.0;
-
-/// Each point's surface-splat radius in pixels (`px` to a world unit): the distance to
-/// its [`SPLAT_NEIGHBOURS`]th nearest framed point, between one and
-/// [`MAX_SPLAT_SPACINGS`] median spacings (a point among copies of itself gets one), and
-/// at least a pixel. When even the largest disc would be a pixel, the neighbours are not
-/// searched.
-fn splat_radii(index: &KdIndex, positions: &[Vec3], spacing: f32, px: f32) -> Result<Vec<f32>> {
-    let largest = MAX_SPLAT_SPACINGS * spacing;
-    if largest * px <= 1.0 {
-        return Ok(vec![1.0; positions.len()]);
-    }
-    positions
-        .par_iter()
-        .map(|&p| {
-            let found = index.nearest_within(p, SPLAT_NEIGHBOURS, largest)?;
-            let radius = found
-                .get(SPLAT_NEIGHBOURS - 1)
-                .map_or(largest, |n| n.distance_squared.sqrt().max(spacing));
-            Ok((radius * px).clamp(1.0, 64.0))
-        })
-        .collect()
 }
 
 /// Width of the grey separator between panels, in pixels.

@@ -4,6 +4,7 @@
 use glam::{Vec2, Vec3};
 
 use super::camera::{Camera, Projected};
+use super::splat_shape::SplatShape;
 
 /// Colour and depth buffers of a band of an image's rows; depth is "closeness" (larger
 /// wins). Drawing takes pixel coordinates in the whole image and keeps what falls in the
@@ -125,7 +126,8 @@ impl FrameBuffer {
         }
         let mut blend = vec![(Vec3::ZERO, Vec3::ZERO, 0.0f32); self.color.len()];
         for f in drawn() {
-            // Within half its radius of the nearest surface, a disc belongs to that surface.
+            // Within half its radius of the nearest surface, a splat belongs to that
+            // surface.
             let tolerance = 0.5 * f.radius * f.world_per_px;
             self.cover(f, |fb, i, depth, rho2| {
                 if depth >= fb.depth[i] - tolerance {
@@ -149,9 +151,9 @@ impl FrameBuffer {
         }
     }
 
-    /// Calls `visit(self, pixel, depth, ρ²)` for each pixel the splat's disc covers, with
-    /// the depth of the disc's plane there and its squared distance from the centre in
-    /// disc radii.
+    /// Calls `visit(self, pixel, depth, ρ²)` for each pixel the splat's ellipse covers,
+    /// with the depth of its plane there and its squared distance from the centre in
+    /// radii (1 on the ellipse's rim).
     fn cover(&mut self, f: &Footprint, mut visit: impl FnMut(&mut Self, usize, f32, f32)) {
         let c = Vec2::new(f.centre.x, f.centre.y);
         let Some((x0, y0, x1, y1)) =
@@ -164,7 +166,9 @@ impl FrameBuffer {
             for x in x0..=x1 {
                 let d = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - c;
                 let along_view = -d.dot(f.slope);
-                let rho2 = (d.length_squared() + along_view * along_view) * inv_r2;
+                let across = d.dot(f.along_minor);
+                let rho2 = (d.length_squared() + along_view * along_view) * inv_r2
+                    + across * across * f.minor_excess;
                 if rho2 <= 1.0 {
                     let depth = f.centre.depth + along_view * f.world_per_px;
                     visit(self, self.index(x, y), depth, rho2);
@@ -194,7 +198,7 @@ pub(crate) fn pixel_span(lo: f32, hi: f32, first: usize, end: usize) -> Option<(
     (to >= from).then_some((from as usize, to as usize))
 }
 
-/// An oriented point to draw as a disc in its tangent plane.
+/// An oriented point to draw as an ellipse in its tangent plane.
 pub(crate) struct SurfaceSplat {
     /// The point, projected.
     pub centre: Projected,
@@ -202,15 +206,21 @@ pub(crate) struct SurfaceSplat {
     pub normal: Vec3,
     /// Its colour.
     pub albedo: Vec3,
-    /// The disc's radius in pixels.
-    pub radius: f32,
+    /// The ellipse's radii in pixels and its minor axis.
+    pub shape: SplatShape,
 }
 
-/// A surface splat's screen footprint: the ellipse its disc projects to.
+/// A surface splat's screen footprint: the ellipse it projects to.
 pub(crate) struct Footprint {
     centre: Projected,
-    /// The disc's radius in pixels.
+    /// The ellipse's larger radius in pixels.
     radius: f32,
+    /// Maps a screen offset from the centre to the offset's component along the
+    /// ellipse's minor axis, in pixels.
+    along_minor: Vec2,
+    /// `1 / minor² − 1 / radius²`: what the minor axis adds to the squared distance
+    /// from the centre in radii per squared pixel along it (0 for a disc).
+    minor_excess: f32,
     /// How far the disc's plane recedes from the viewer per pixel of screen offset
     /// (pixels along the view per pixel across it).
     slope: Vec2,
@@ -239,9 +249,19 @@ impl Footprint {
         let facing = facing_normal.dot(cam.toward).max(MIN_FACING);
         // Screen y grows downward, opposite to the camera's up.
         let slope = Vec2::new(facing_normal.dot(cam.right), -facing_normal.dot(cam.up)) / facing;
+        let radius = splat.shape.radius.max(0.5);
+        let minor = splat.shape.minor_radius.clamp(0.5, radius);
+        let axis = splat.shape.minor_axis;
+        // A screen offset d lies at d.x·right − d.y·up − (d·slope)·toward on the plane.
+        let along_minor = Vec2::new(
+            cam.right.dot(axis) - slope.x * cam.toward.dot(axis),
+            -cam.up.dot(axis) - slope.y * cam.toward.dot(axis),
+        );
         Self {
             centre: splat.centre,
-            radius: splat.radius.max(0.5),
+            radius,
+            along_minor,
+            minor_excess: 1.0 / (minor * minor) - 1.0 / (radius * radius),
             slope,
             world_per_px: 1.0 / cam.scale(),
             normal: splat.normal,
