@@ -18,8 +18,11 @@
 //! normal turned to agree with the nearest disc's, so normals of either sign shade alike)
 //! and shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit
 //! sphere of 20,000 random points comes within about one grey level of its analytic
-//! shading. A gap in the sampling wider than the discs shows as a speck. Points without
-//! normals are drawn as small shaded spheres of 1.1 median spacings.
+//! shading. A gap in the sampling wider than the discs shows as a speck. A point set
+//! without normals gets them from local PCA over 12 neighbours
+//! ([`mls_surface::fit_normals`]; the splats do not need them oriented), and is drawn the
+//! same way; points whose neighbours fit no plane (on a line, coincident) are drawn as
+//! small shaded spheres of 1.1 median spacings.
 //!
 //! Images are drawn in bands of rows, in parallel, each band with buffers for its own
 //! rows only; the picture does not depend on the bands or the number of threads.
@@ -46,9 +49,10 @@ use std::borrow::Cow;
 use std::path::Path;
 
 use glam::Vec3;
+use mls_surface::{NORMAL_NEIGHBOURS, fit_normals};
 use pointset_core::io::{Geometry, replace_file};
 use pointset_core::strays::kept_indices;
-use pointset_core::{KdIndex, NormalWeighting};
+use pointset_core::{KdIndex, NormalWeighting, PointSet};
 
 use crate::imagery::io_error;
 use crate::{Error, Result};
@@ -226,53 +230,101 @@ fn render_in_bands(
                 }
             })
         }
-        None => {
-            let index = KdIndex::new(&framed)?;
-            let spacing = index.median_spacing()?;
-            let positions = points.positions();
-            match points.normals() {
-                Some(normals) => {
-                    let px = cam.scale() * options.splat_scale;
-                    let shapes = splat_shapes(&index, &framed, (positions, normals), spacing, px)?;
-                    let footprints: Vec<Footprint> = positions
-                        .iter()
-                        .zip(normals)
-                        .zip(&colors)
-                        .zip(shapes)
-                        .map(|(((&p, &normal), &albedo), shape)| {
-                            let splat = SurfaceSplat {
-                                centre: cam.project(p),
-                                normal,
-                                albedo,
-                                shape,
-                            };
-                            Footprint::new(&cam, &splat)
-                        })
-                        .collect();
-                    let rows = footprints.iter().map(Footprint::rows);
-                    draw_in_bands(size, band_rows, background, rows, |band, drawn| {
-                        band.surface_splats(&cam, &footprints, drawn);
-                    })
-                }
-                None => {
-                    let radius =
-                        (1.1 * spacing * cam.scale() * options.splat_scale).clamp(1.0, 64.0);
-                    let centres: Vec<_> = positions.iter().map(|&p| cam.project(p)).collect();
-                    let rows = centres.iter().map(|&p| sphere_rows(p, radius));
-                    draw_in_bands(size, band_rows, background, rows, |band, drawn| {
-                        for &k in drawn {
-                            band.sphere_splat(&cam, centres[k], radius, colors[k]);
-                        }
-                    })
-                }
-            }
-        }
+        None => draw_points(
+            points,
+            &framed,
+            &colors,
+            &cam,
+            options,
+            (size, band_rows, background),
+        )?,
     };
     RgbImage::from_raw(options.width, options.height, rgb).ok_or(Error::InvalidParameter {
         name: "width/height",
         value: format!("{}x{}", options.width, options.height),
         expected: "a size whose pixel buffer fits in memory".into(),
     })
+}
+
+/// A point set's picture, drawn in bands (`(size, band_rows, background)` as for
+/// [`draw_in_bands`]): points with normals as surface splats, the normals given or, when
+/// the set has none, estimated by local PCA ([`fit_normals`]; their signs do not matter to
+/// the splats); points whose neighbourhoods define no normal (on a line, coincident, too
+/// few) as small shaded spheres of 1.1 median spacings.
+fn draw_points(
+    points: &PointSet,
+    framed: &[Vec3],
+    colors: &[Vec3],
+    cam: &Camera,
+    options: &RenderOptions,
+    (size, band_rows, background): ((usize, usize), usize, Vec3),
+) -> Result<Vec<u8>> {
+    let index = KdIndex::new(framed)?;
+    let spacing = index.median_spacing()?;
+    let positions = points.positions();
+    let estimated;
+    let (normals, undefined) = match points.normals() {
+        Some(normals) => (normals, Vec::new()),
+        None if points.len() >= 3 => {
+            let fit = fit_normals(points, NORMAL_NEIGHBOURS)?;
+            estimated = fit.points;
+            (estimated.normals().unwrap_or_default(), fit.undefined)
+        }
+        None => (&[][..], (0..points.len()).collect()),
+    };
+    let mut is_sphere = vec![false; points.len()];
+    for &i in &undefined {
+        is_sphere[i] = true;
+    }
+    let oriented: Vec<usize> = (0..points.len()).filter(|&i| !is_sphere[i]).collect();
+    let splat_positions: Vec<Vec3> = oriented.iter().map(|&i| positions[i]).collect();
+    let splat_normals: Vec<Vec3> = oriented.iter().map(|&i| normals[i]).collect();
+    let px = cam.scale() * options.splat_scale;
+    let shapes = splat_shapes(
+        &index,
+        framed,
+        (&splat_positions, &splat_normals),
+        spacing,
+        px,
+    )?;
+    let footprints: Vec<Footprint> = oriented
+        .iter()
+        .zip(shapes)
+        .map(|(&i, shape)| {
+            let splat = SurfaceSplat {
+                centre: cam.project(positions[i]),
+                normal: normals[i],
+                albedo: colors[i],
+                shape,
+            };
+            Footprint::new(cam, &splat)
+        })
+        .collect();
+    let radius = (1.1 * spacing * px).clamp(1.0, 64.0);
+    let spheres: Vec<_> = undefined
+        .iter()
+        .map(|&i| (cam.project(positions[i]), colors[i]))
+        .collect();
+    // The footprints are listed first, then the spheres.
+    let rows = footprints
+        .iter()
+        .map(Footprint::rows)
+        .chain(spheres.iter().map(|&(p, _)| sphere_rows(p, radius)));
+    Ok(draw_in_bands(
+        size,
+        band_rows,
+        background,
+        rows,
+        |band, drawn| {
+            let splats = drawn.partition_point(|&k| k < footprints.len());
+            for &k in &drawn[splats..] {
+                if let Some(&(centre, albedo)) = spheres.get(k - footprints.len()) {
+                    band.sphere_splat(cam, centre, radius, albedo);
+                }
+            }
+            band.surface_splats(cam, &footprints, &drawn[..splats]);
+        },
+    ))
 }
 
 /// The pixels per world unit at which `geometry` fills 90% of an image of `options`

@@ -81,8 +81,8 @@ impl FrameBuffer {
         }
     }
 
-    /// Draws an unoriented point as a small sphere of pixel radius `radius`, shaded by the
-    /// sphere's own normals so that points without normals still read as 3D. Its depth
+    /// Draws a point without a normal as a small sphere of pixel radius `radius`, shaded
+    /// by the sphere's own normals so that it still reads as 3D. Its depth
     /// bulges toward the viewer like a sphere, which resolves overlaps.
     pub fn sphere_splat(&mut self, cam: &Camera, p: Projected, radius: f32, albedo: Vec3) {
         let r = sphere_radius(radius);
