@@ -13,10 +13,10 @@
 //! past duplicated samples). Where the surface curves so much that the disc's rim would
 //! leave it by more than a quarter of a spacing (a tube about as thin as its sampling),
 //! the disc is narrowed to an ellipse along the surface's principal directions, fitted
-//! from the same neighbours, but not below a spacing. The nearest surface is found first; then the colours and
-//! normals of the discs within half a radius of it are blended with Gaussian weights (each
-//! normal turned to agree with the nearest disc's, so normals of either sign shade alike)
-//! and shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit
+//! from the same neighbours, but not below a spacing. The nearest surface is found
+//! first; then the colours and normals of the splats within half a radius of it are
+//! blended with Gaussian weights (each normal turned to agree with the nearest splat's,
+//! so normals of either sign shade alike) and shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit
 //! sphere of 20,000 random points comes within about one grey level of its analytic
 //! shading. A gap in the sampling wider than the discs shows as a speck. A point set
 //! without normals gets them from local PCA over 12 neighbours
@@ -268,7 +268,10 @@ fn draw_points(
         None if points.len() >= 3 => {
             let fit = fit_normals(points, NORMAL_NEIGHBOURS)?;
             estimated = fit.points;
-            (estimated.normals().unwrap_or_default(), fit.undefined)
+            match estimated.normals() {
+                Some(normals) => (normals, fit.undefined),
+                None => (&[][..], (0..points.len()).collect()),
+            }
         }
         None => (&[][..], (0..points.len()).collect()),
     };

@@ -107,12 +107,12 @@ impl FrameBuffer {
     }
 
     /// Draws oriented points as surface splats, `footprints[k]` for each `k` of `drawn`
-    /// in that order: discs in each point's tangent plane. The nearest surface is found
-    /// first; then the albedos and normals of every disc within half its radius of it are
-    /// blended with Gaussian weights and shaded once per pixel. Before blending, each
-    /// normal is turned to agree with the nearest disc's there, so normals of either sign
-    /// and both sides of a sheet shade alike, and the discs just behind a closed surface's
-    /// silhouette blend with those just in front instead of cancelling them.
+    /// in that order: discs or ellipses in each point's tangent plane. The nearest surface
+    /// is found first; then the albedos and normals of every splat within half its radius
+    /// of it are blended with Gaussian weights and shaded once per pixel. Before blending,
+    /// each normal is turned to agree with the nearest splat's there, so normals of either
+    /// sign and both sides of a sheet shade alike, and the splats just behind a closed
+    /// surface's silhouette blend with those just in front instead of cancelling them.
     pub fn surface_splats(&mut self, cam: &Camera, footprints: &[Footprint], drawn: &[usize]) {
         let drawn = || drawn.iter().filter_map(|&k| footprints.get(k));
         let mut nearest_normal = vec![Vec3::ZERO; self.color.len()];

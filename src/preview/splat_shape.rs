@@ -5,8 +5,8 @@
 //! A flat disc in a point's tangent plane leaves a curved surface: at distance `r` from
 //! the point, a surface of curvature `κ` lies `κ r² / 2` from the plane (the sag). On a
 //! tube sampled about as sparsely as it is thin, discs as wide as the sampling's gaps
-//! stick out of the tube by more than its radius, and the tube is drawn twice as thick
-//! as it is. So each splat is an ellipse: along each principal direction of the surface
+//! stick out of the tube by about its radius, and the tube is drawn 1.6 times as wide as
+//! it is. So each splat is an ellipse: along each principal direction of the surface
 //! (fitted from its neighbours) its radius is the neighbourhood's, capped where the sag
 //! reaches [`SAG_SPACINGS`] of the sampling's median spacing, and never below
 //! [`MIN_SPACINGS`] of it so that the sampling stays covered.
