@@ -16,9 +16,10 @@
 //! from the same neighbours, but not below a spacing. The nearest surface is found
 //! first; then the colours and normals of the splats within half a radius of it are
 //! blended with Gaussian weights (each normal turned to agree with the nearest splat's,
-//! so normals of either sign shade alike) and shaded once per pixel, so a sampled surface shades as smoothly as a mesh: a unit
-//! sphere of 20,000 random points comes within about one grey level of its analytic
-//! shading. A gap in the sampling wider than the discs shows as a speck. A point set
+//! so normals of either sign shade alike) and shaded once per pixel, so a sampled
+//! surface shades as smoothly as a mesh: a unit sphere of 20,000 random points comes
+//! within about one grey level of its analytic shading. A gap in the sampling wider than
+//! the discs shows as a speck. A point set
 //! without normals gets them from local PCA over 12 neighbours
 //! ([`mls_surface::fit_normals`]; the splats do not need them oriented), and is drawn the
 //! same way; points whose neighbours fit no plane (on a line, coincident) are drawn as
@@ -280,16 +281,8 @@ fn draw_points(
         is_sphere[i] = true;
     }
     let oriented: Vec<usize> = (0..points.len()).filter(|&i| !is_sphere[i]).collect();
-    let splat_positions: Vec<Vec3> = oriented.iter().map(|&i| positions[i]).collect();
-    let splat_normals: Vec<Vec3> = oriented.iter().map(|&i| normals[i]).collect();
     let px = cam.scale() * options.splat_scale;
-    let shapes = splat_shapes(
-        &index,
-        framed,
-        (&splat_positions, &splat_normals),
-        spacing,
-        px,
-    )?;
+    let shapes = splat_shapes(&index, framed, (positions, normals, &oriented), spacing, px)?;
     let footprints: Vec<Footprint> = oriented
         .iter()
         .zip(shapes)

@@ -43,8 +43,9 @@ pub(crate) struct SplatShape {
     pub minor_axis: Vec3,
 }
 
-/// Each oriented point's splat shape in pixels (`px` to a world unit; `spacing` is the
-/// framed points' median spacing, `index` is built over `framed`). The radius is the
+/// The splat shape in pixels of each point `i` of `drawn`, at `positions[i]` with normal
+/// `normals[i]` (`px` to a world unit; `spacing` is the framed points' median spacing,
+/// `index` is built over `framed`). The radius is the
 /// distance to the [`SPLAT_NEIGHBOURS`]th nearest framed point, between one and
 /// [`MAX_SPLAT_SPACINGS`] spacings (a point among copies of itself gets one); the sag
 /// cap may narrow it along the surface's two principal directions. Every radius is at
@@ -53,11 +54,10 @@ pub(crate) struct SplatShape {
 pub(crate) fn splat_shapes(
     index: &KdIndex,
     framed: &[Vec3],
-    points: (&[Vec3], &[Vec3]),
+    (positions, normals, drawn): (&[Vec3], &[Vec3], &[usize]),
     spacing: f32,
     px: f32,
 ) -> Result<Vec<SplatShape>> {
-    let (positions, normals) = points;
     let largest = MAX_SPLAT_SPACINGS * spacing;
     if largest * px <= 1.0 {
         let pixel = SplatShape {
@@ -65,13 +65,13 @@ pub(crate) fn splat_shapes(
             minor_radius: 1.0,
             minor_axis: Vec3::ZERO,
         };
-        return Ok(vec![pixel; positions.len()]);
+        return Ok(vec![pixel; drawn.len()]);
     }
     let in_px = |r: f32| (r * px).clamp(1.0, 64.0);
-    positions
+    drawn
         .par_iter()
-        .zip(normals)
-        .map(|(&p, &n)| {
+        .map(|&i| {
+            let (p, n) = (positions[i], normals[i]);
             let found = index.nearest_within(p, SPLAT_NEIGHBOURS, largest)?;
             let radius = found
                 .get(SPLAT_NEIGHBOURS - 1)
@@ -229,8 +229,15 @@ mod tests {
         ] {
             let index = KdIndex::new(positions).unwrap();
             let spacing = index.median_spacing().unwrap();
-            let shapes =
-                splat_shapes(&index, positions, (positions, normals), spacing, 1000.0).unwrap();
+            let all: Vec<usize> = (0..positions.len()).collect();
+            let shapes = splat_shapes(
+                &index,
+                positions,
+                (positions, normals, &all),
+                spacing,
+                1000.0,
+            )
+            .unwrap();
             let ellipses = shapes.iter().filter(|s| s.minor_radius < s.radius).count();
             if narrowed {
                 assert!(ellipses * 10 >= shapes.len() * 9, "{ellipses} ellipses");
