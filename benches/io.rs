@@ -1,5 +1,5 @@
-//! File codecs: PLY encode/decode in each encoding, on a 100k-point oriented set with colours;
-//! STL encode/decode (with welding) of a 100k-triangle mesh.
+//! File codecs: PLY and PCD encode/decode in each encoding, on a 100k-point oriented set
+//! with colours; STL encode/decode (with welding) of a 100k-triangle mesh.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -9,10 +9,11 @@ use std::path::Path;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use geosynth::core::io::ply::PlyEncoding;
-use geosynth::core::io::{self, FileFormat, Geometry, WriteOptions};
+use geosynth::core::io::{self, FileFormat, Geometry, PcdEncoding, WriteOptions};
 use geosynth::fixtures;
 
-fn ply(c: &mut Criterion) {
+/// A 100k-point oriented set with colours.
+fn coloured_points() -> Geometry {
     let mut points = fixtures::torus_points(100_000, 1.0, 0.3, 7).expect("benchmark setup");
     let colors: Vec<[f32; 3]> = points
         .positions()
@@ -20,26 +21,47 @@ fn ply(c: &mut Criterion) {
         .map(|p| [p.x.abs(), p.y.abs(), p.z.abs()])
         .collect();
     points.set_colors(&colors).expect("benchmark setup");
-    let geometry = Geometry::Points(points);
-    let mut group = c.benchmark_group("ply_100k_points");
+    Geometry::Points(points)
+}
+
+/// Writing and reading `geometry` as `format` with each named set of options, in the
+/// group `group_name` (`file_name` names the format to the reader).
+fn codec(
+    c: &mut Criterion,
+    group_name: &str,
+    format: FileFormat,
+    file_name: &str,
+    cases: &[(&str, WriteOptions)],
+) {
+    let geometry = coloured_points();
+    let mut group = c.benchmark_group(group_name);
     group.sample_size(20);
     group.throughput(Throughput::Elements(100_000));
-    for encoding in PlyEncoding::ALL {
-        let options = WriteOptions::default().ply_encoding(encoding);
-        let bytes =
-            io::encode_geometry(&geometry, FileFormat::Ply, &options).expect("benchmark setup");
-        group.bench_with_input(
-            BenchmarkId::new("write", encoding.keyword()),
-            &options,
-            |b, o| b.iter(|| io::encode_geometry(black_box(&geometry), FileFormat::Ply, o)),
-        );
-        group.bench_with_input(
-            BenchmarkId::new("read", encoding.keyword()),
-            &bytes,
-            |b, data| b.iter(|| io::read_geometry_bytes(Path::new("bench.ply"), black_box(data))),
-        );
+    for (name, options) in cases {
+        let bytes = io::encode_geometry(&geometry, format, options).expect("benchmark setup");
+        group.bench_with_input(BenchmarkId::new("write", name), options, |b, o| {
+            b.iter(|| io::encode_geometry(black_box(&geometry), format, o))
+        });
+        group.bench_with_input(BenchmarkId::new("read", name), &bytes, |b, data| {
+            b.iter(|| io::read_geometry_bytes(Path::new(file_name), black_box(data)))
+        });
     }
     group.finish();
+}
+
+fn ply(c: &mut Criterion) {
+    let cases = PlyEncoding::ALL.map(|e| (e.keyword(), WriteOptions::default().ply_encoding(e)));
+    codec(c, "ply_100k_points", FileFormat::Ply, "bench.ply", &cases);
+}
+
+fn pcd(c: &mut Criterion) {
+    let cases = [
+        PcdEncoding::Binary,
+        PcdEncoding::Ascii,
+        PcdEncoding::BinaryCompressed,
+    ]
+    .map(|e| (e.keyword(), WriteOptions::default().pcd_encoding(e)));
+    codec(c, "pcd_100k_points", FileFormat::Pcd, "bench.pcd", &cases);
 }
 
 fn stl(c: &mut Criterion) {
@@ -70,5 +92,5 @@ fn stl(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, ply, stl);
+criterion_group!(benches, ply, pcd, stl);
 criterion_main!(benches);

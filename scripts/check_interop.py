@@ -42,12 +42,17 @@
 9. has laspy write LAS point clouds (1.2 point formats 0 and 3, 1.3 format 5, 1.4 formats
    6 and 8, georeferenced at UTM coordinates) and checks that `geosynth convert` gives
    their positions, intensities, classes and colours in a PLY plyfile reads; converts a
-   demo quilt to .las and checks that laspy reads plyfile's positions from it.
+   demo quilt to .las and checks that laspy reads plyfile's positions from it;
+10. has pypcd4 write PCD clouds (ASCII, binary and LZF-compressed; colours packed as
+   integers and as PCL's floats; intensity, labels) and checks that `geosynth convert`
+   gives their positions, normals, colours and fields in a PLY plyfile reads; converts a
+   demo quilt to binary, ASCII and compressed .pcd and checks that pypcd4 reads plyfile's
+   positions, normals and patch labels from them.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
 
-    pip install --user plyfile trimesh pynrrd pillow rasterio laspy
+    pip install --user plyfile trimesh pynrrd pillow rasterio laspy pypcd4
     geosynth demo --quick --out /tmp/demo
     python3 scripts/check_interop.py target/release/geosynth /tmp/demo
 
@@ -56,7 +61,7 @@ Measured 2026-12-03 (plyfile 1.1.5, trimesh 5.2.0, pynrrd 1.1.3): 0 mismatches o
 our files (42 of them STL) and 40 of theirs (2 STL, 3 int64 NRRD, 3 detached NRRD).
 """
 import json, subprocess, sys, pathlib
-import numpy as np, plyfile, trimesh, nrrd, rasterio, laspy
+import numpy as np, plyfile, trimesh, nrrd, rasterio, laspy, pypcd4
 from PIL import Image
 
 G = sys.argv[1]
@@ -513,5 +518,54 @@ ok = read_back.header.version == laspy.header.Version(1, 2) and error < 1e-7
 bad += not ok
 print(('ok  ' if ok else 'BAD ') + f"foreign/{ours_las.name} (ours, read by laspy): "
       f"{len(positions)} points, position error {error:.1e}")
+# 10. PCD both ways: pypcd4 writes clouds in its three encodings (colours packed as
+#     integers, and in binary as PCL's floats; intensity, label), our `convert` turns them
+#     into PLY for plyfile to compare; our `convert` writes a demo quilt as binary, ASCII
+#     and compressed .pcd for pypcd4 to read (positions, normals, patch labels).
+side = np.arange(400) % 20
+xyz = np.column_stack([side * 0.25, (np.arange(400) // 20) * 0.5, (side % 3) * 0.125])
+up = np.tile([0.0, 0.0, 1.0], (400, 1))
+channels = rng.integers(0, 256, size=(400, 3)).astype(np.uint32)
+packed = channels[:, 0] << 16 | channels[:, 1] << 8 | channels[:, 2]
+intensity = (np.arange(400) % 9) * 0.5
+label = (np.arange(400) % 7).astype(np.uint16)
+for colour_type, encodings in [(np.uint32, ('ascii', 'binary', 'binary_compressed')),
+                               (np.float32, ('binary', 'binary_compressed'))]:
+    colours = packed if colour_type is np.uint32 else packed.view(np.float32)
+    columns = [*xyz.T.astype(np.float32), *up.T.astype(np.float32), colours,
+               intensity.astype(np.float32), label]
+    fields = ('x', 'y', 'z', 'normal_x', 'normal_y', 'normal_z', 'rgb', 'intensity', 'label')
+    types = (np.float32,) * 6 + (colour_type, np.float32, np.uint16)
+    cloud_pcd = pypcd4.PointCloud.from_points(columns, fields, types)
+    for encoding in encodings:
+        path = foreign / f'pypcd4_{np.dtype(colour_type).name}_{encoding}.pcd'
+        cloud_pcd.save(path, encoding=pypcd4.Encoding(encoding))
+        ours, _ = info_json(path)
+        as_ply = foreign / f'{path.stem}.ply'
+        subprocess.run([G, 'convert', str(path), '-o', str(as_ply), '-q'], check=True)
+        vertex = plyfile.PlyData.read(str(as_ply))['vertex']
+        got = lambda *keys: np.stack([vertex[k] for k in keys], axis=1)
+        ok = (ours.get('encoding') == encoding and len(vertex) == 400
+              and np.array_equal(got('x', 'y', 'z'), xyz)
+              and np.array_equal(got('nx', 'ny', 'nz'), up)
+              and np.array_equal(got('red', 'green', 'blue'), channels)
+              and np.array_equal(vertex['intensity'], intensity)
+              and np.array_equal(vertex['label'], label))
+        bad += not ok
+        print(('ok  ' if ok else 'BAD ') + f"foreign/{path.name} (pypcd4): {ours.get('format')} "
+              f"{ours.get('encoding')}, {len(vertex)} points")
+expected = np.stack([quilt_vertex[k] for k in ('x', 'y', 'z', 'nx', 'ny', 'nz')], axis=1)
+for flags, encoding in [([], 'binary'), (['--ascii'], 'ascii'),
+                        (['--compressed'], 'binary_compressed')]:
+    ours_pcd = foreign / f'{quilted.stem}_{encoding}.pcd'
+    subprocess.run([G, 'convert', str(quilted), '-o', str(ours_pcd), '-q'] + flags, check=True)
+    read_back = pypcd4.PointCloud.from_path(ours_pcd)
+    table = read_back.numpy(('x', 'y', 'z', 'normal_x', 'normal_y', 'normal_z'))
+    ok = (read_back.metadata.data.value == encoding and table.shape == expected.shape
+          and np.array_equal(table.astype(np.float32), expected)
+          and np.array_equal(read_back.numpy(('patch',)).ravel(), quilt_vertex['patch']))
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + f"foreign/{ours_pcd.name} (ours, read by pypcd4): "
+          f"{table.shape[0]} points, {read_back.metadata.data.value}")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

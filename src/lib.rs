@@ -7,7 +7,7 @@
 //!
 //! | module | crate | what |
 //! |---|---|---|
-//! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF/STL/XYZ/LAS I/O, [`Stage`] |
+//! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF/STL/XYZ/LAS/PCD I/O, [`Stage`] |
 //! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation, normal estimation and orientation |
 //! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
 //! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |

@@ -56,7 +56,7 @@ pub(crate) fn named<E: Into<BoxedError>>(path: &Path) -> impl FnOnce(E) -> Boxed
     }
 }
 
-/// Reads a geometry file (PLY, OBJ, OFF, STL, XYZ, LAS) as every command does:
+/// Reads a geometry file (PLY, OBJ, OFF, STL, XYZ, LAS, PCD) as every command does:
 /// georeferenced coordinates relative to an origin, at full precision (see
 /// [`ReadOptions::recentre_far`]); errors name the file. A file of [`SHOWN_READ_BYTES`] or
 /// more shows a progress bar in bytes while it is read (none with `--quiet`).

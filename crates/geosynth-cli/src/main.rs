@@ -36,11 +36,11 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Describe a geometry file (PLY, OBJ, OFF, STL, XYZ, LAS), a picture, a height field
+    /// Describe a geometry file (PLY, OBJ, OFF, STL, XYZ, LAS, PCD), a picture, a height field
     /// or an NRRD volume: format, counts, attributes, bounding box, topology.
     Info(commands::info::InfoArgs),
-    /// Convert a point set or mesh between PLY, OBJ, OFF, STL, XYZ and LAS, saying what the
-    /// target format cannot store.
+    /// Convert a point set or mesh between PLY, OBJ, OFF, STL, XYZ, LAS and PCD, saying what
+    /// the target format cannot store.
     Convert(commands::convert::ConvertArgs),
     /// Render point sets and meshes to a PNG, one panel per input file.
     Render(commands::render::RenderArgs),

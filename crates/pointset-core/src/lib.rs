@@ -2,7 +2,7 @@
 //!
 //! Shared foundations of the geosynth workspace: geometry types ([`PointSet`], [`TriMesh`],
 //! [`Aabb`], [`Grid3`]), spatial indices ([`KdIndex`], [`BucketGrid`]), file I/O ([`io`]:
-//! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS; polygon faces split by
+//! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS, PCD; polygon faces split by
 //! [`triangulate_polygon`]), seeded randomness ([`rng`]), stray points far outside the
 //! rest ([`strays`]), oriented points sampled on a mesh's surface ([`surface_sampling`]),
 //! and the [`Stage`] /

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use geosynth::core::io::ply::PlyEncoding;
-use geosynth::core::io::{FileFormat, Geometry, StlEncoding, WriteOptions};
+use geosynth::core::io::{FileFormat, Geometry, PcdEncoding, StlEncoding, WriteOptions};
 
 use super::{no_faces_to_orient, orient_faces};
 use crate::input_file::read_geometry;
@@ -17,18 +17,23 @@ use crate::{CliResult, Globals};
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
     /// Point set or mesh to convert (.ply, .obj, .off, .stl; point sets also .xyz, .xyzn,
-    /// .xyzrgb and .las).
+    /// .xyzrgb, .las and .pcd).
     input: PathBuf,
     /// Output file; its extension picks the format (.ply, .obj, .off; .stl for a mesh;
-    /// .xyz, .xyzn, .xyzrgb, .las for a point set). Georeferenced input is written back in
-    /// place (PLY as `double`, OBJ, OFF and XYZ with full digits, LAS as integers on a
-    /// decimal scale finer than single precision); STL, single precision, refuses it.
+    /// .xyz, .xyzn, .xyzrgb, .las, .pcd for a point set). Georeferenced input is written
+    /// back in place (PLY and PCD as `double`, OBJ, OFF and XYZ with full digits, LAS as
+    /// integers on a decimal scale finer than single precision); STL, single precision,
+    /// refuses it.
     #[arg(short, long)]
     output: PathBuf,
-    /// Write text: ASCII PLY or ASCII STL (default binary; OBJ, OFF and XYZ are always
+    /// Write text: ASCII PLY, STL or PCD (default binary; OBJ, OFF and XYZ are always
     /// text, LAS always binary).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "compressed")]
     ascii: bool,
+    /// Write PCD compressed (`DATA binary_compressed`: each field's values together,
+    /// compressed with LZF, as PCL writes large clouds); other formats refuse it.
+    #[arg(long)]
+    compressed: bool,
     /// Turn a mesh's triangles to agree with their neighbours (closed parts facing out,
     /// open parts the way most of their triangles face) before writing. A point set is
     /// written as it is, with a note.
@@ -39,10 +44,24 @@ pub struct ConvertArgs {
 /// Runs `geosynth convert`.
 pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     check_output_paths([args.output.as_path()], [])?;
+    let ext = args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("");
+    let format = FileFormat::from_extension(ext);
+    if args.compressed && format != Some(FileFormat::Pcd) {
+        return Err(format!(
+            "cannot write {} compressed: --compressed is for .pcd",
+            args.output.display()
+        )
+        .into());
+    }
     let loaded = read_geometry(&args.input, globals)?;
     report_not_kept(globals, &args.input, &loaded.notes);
     let is_mesh = loaded.geometry.mesh().is_some();
     check_geometry_output(&args.output, is_mesh, loaded.origin)?;
+    let format = format.ok_or("unknown output format")?;
     let geometry = match loaded.geometry {
         Geometry::Mesh(mesh) if args.orient_faces => {
             let (oriented, line) = orient_faces(mesh)?;
@@ -55,17 +74,11 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
         }
         other => other,
     };
-    let ext = args
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("");
-    let format = FileFormat::from_extension(ext).ok_or("unknown output format")?;
     if args.ascii {
         let always = match format {
             FileFormat::Obj | FileFormat::Off | FileFormat::Xyz(_) => Some("text"),
             FileFormat::Las => Some("binary"),
-            FileFormat::Ply | FileFormat::Stl => None,
+            FileFormat::Ply | FileFormat::Stl | FileFormat::Pcd => None,
         };
         if let Some(kind) = always {
             status(
@@ -74,15 +87,25 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
             );
         }
     }
-    let (ply, stl) = if args.ascii {
-        (PlyEncoding::Ascii, StlEncoding::Ascii)
+    let (ply, stl, pcd) = if args.ascii {
+        (PlyEncoding::Ascii, StlEncoding::Ascii, PcdEncoding::Ascii)
     } else {
-        (PlyEncoding::BinaryLittleEndian, StlEncoding::Binary)
+        (
+            PlyEncoding::BinaryLittleEndian,
+            StlEncoding::Binary,
+            PcdEncoding::Binary,
+        )
+    };
+    let pcd = if args.compressed {
+        PcdEncoding::BinaryCompressed
+    } else {
+        pcd
     };
     let mut options = WriteOptions::default()
         .origin(loaded.origin)
         .ply_encoding(ply)
-        .stl_encoding(stl);
+        .stl_encoding(stl)
+        .pcd_encoding(pcd);
     for comment in &loaded.comments {
         options = options.comment(comment.clone());
     }
@@ -95,7 +118,9 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     let counts = match format {
         // STL has no vertices of its own: the reader welds corners back by position.
         FileFormat::Stl => format!("{faces} triangles"),
-        FileFormat::Xyz(_) | FileFormat::Las => format!("{} points", geometry.points().len()),
+        FileFormat::Xyz(_) | FileFormat::Las | FileFormat::Pcd => {
+            format!("{} points", geometry.points().len())
+        }
         _ => format!("{} vertices, {faces} triangles", geometry.points().len()),
     };
     status(

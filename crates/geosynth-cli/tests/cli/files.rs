@@ -311,7 +311,7 @@ fn bad_input_fails_with_a_message_not_a_panic() {
         ),
         (
             vec!["quilt", fixture, "-o", unknown.to_str().unwrap()],
-            ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb or .las",
+            ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb, .las or .pcd",
         ),
         (
             vec!["reconstruct", fixture, "-o", missing],
@@ -744,20 +744,12 @@ fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
     );
     refused(
         &["convert", &arg(&xyz), "-o", &arg(&dir.path("m.txt"))],
-        ".xyz, .xyzn, .xyzrgb or .las",
+        ".xyz, .xyzn, .xyzrgb, .las or .pcd",
     );
     // A quilt has no colours for .xyzrgb: refused before the run. As .xyz it reads back
     // with its box.
-    let exemplar = arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"));
-    let quilt = [
-        "quilt",
-        &exemplar,
-        "--no-quality",
-        "--scale",
-        "1.2",
-        "-q",
-        "-o",
-    ];
+    let exemplar = bumpy_exemplar();
+    let quilt = small_quilt(&exemplar);
     refused(
         &[&quilt[..], &[&arg(&dir.path("q.xyzrgb"))]].concat(),
         "no colours",
@@ -851,4 +843,81 @@ fn lidar_points_go_through_las_files_and_meshes_do_not() {
     let laz = dir.path("strip.laz");
     std::fs::write(&laz, bytes).unwrap();
     refused(&["info", &arg(&laz)], "decompress");
+}
+
+#[test]
+fn point_clouds_go_through_pcd_files_in_each_encoding() {
+    let dir = Scratch::new();
+    // A quilt: normals and its patch labels, which PCD keeps as a field.
+    let exemplar = bumpy_exemplar();
+    let quilted = dir.path("q.ply");
+    ok(&[&small_quilt(&exemplar)[..], &[&arg(&quilted)]].concat());
+    let read = |path: &Path| geosynth::core::io::read_geometry(path).unwrap().geometry;
+    let original = read(&quilted);
+    for (flag, encoding) in [
+        (None, "binary"),
+        (Some("--ascii"), "ascii"),
+        (Some("--compressed"), "binary_compressed"),
+    ] {
+        let pcd = dir.path(&format!("q_{encoding}.pcd"));
+        let quilted_arg = arg(&quilted);
+        let pcd_arg = arg(&pcd);
+        let mut args = vec!["convert", &quilted_arg, "-o"];
+        args.push(&pcd_arg);
+        args.extend(flag);
+        let said = ok(&args);
+        assert!(said.contains("(PCD):"), "{said}");
+        let json = info_json(&pcd);
+        assert_eq!(json["format"], "PCD");
+        assert_eq!(json["encoding"], encoding);
+        assert!(json["attributes"].to_string().contains("patch"));
+        // Back to PLY: the same points, normals and labels.
+        let back = dir.path(&format!("back_{encoding}.ply"));
+        ok(&["convert", &pcd_arg, "-o", &arg(&back), "-q"]);
+        let back = read(&back);
+        assert_eq!(back.points().positions(), original.points().positions());
+        assert_eq!(back.points().normals(), original.points().normals());
+        assert_eq!(
+            back.points()
+                .attribute("patch")
+                .map(|a| a.values().to_vec()),
+            original
+                .points()
+                .attribute("patch")
+                .map(|a| a.values().to_vec())
+        );
+    }
+    // Compression is for PCD only, refused before the input is read; meshes are refused.
+    refused(
+        &[
+            "convert",
+            &arg(&dir.path("missing.ply")),
+            "-o",
+            &arg(&dir.path("x.ply")),
+            "--compressed",
+        ],
+        "--compressed is for .pcd",
+    );
+    let mesh = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");
+    let out = dir.path("mesh.pcd");
+    refused(&["convert", &arg(&mesh), "-o", &arg(&out)], "faces");
+    assert!(!out.exists());
+}
+
+/// The bundled bumpy exemplar, as an argument.
+fn bumpy_exemplar() -> String {
+    arg(&geosynth::fixtures::bundled_dir().join("quilt_bumpy.ply"))
+}
+
+/// A quick quilt of `exemplar` (no quality measure, 1.2 times its box), up to `-o`.
+fn small_quilt(exemplar: &str) -> [&str; 7] {
+    [
+        "quilt",
+        exemplar,
+        "--no-quality",
+        "--scale",
+        "1.2",
+        "-q",
+        "-o",
+    ]
 }

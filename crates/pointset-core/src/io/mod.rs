@@ -1,6 +1,6 @@
 //! Reading and writing point sets and meshes: PLY, OBJ, OFF, STL (meshes only), XYZ
-//! (points only: `.xyz`, `.xyzn`, `.xyzrgb`) and LAS (LiDAR points: `.las`; see
-//! [`read_las`]).
+//! (points only: `.xyz`, `.xyzn`, `.xyzrgb`), LAS (LiDAR points: `.las`; see
+//! [`read_las`]) and PCD (the Point Cloud Library's points: `.pcd`; see [`read_pcd`]).
 //!
 //! [`read_geometry`] picks the format from the file extension and checks it against the
 //! content (a `.ply` that does not start with `ply` is an error, not a guess); files without
@@ -19,6 +19,7 @@ mod buffered;
 mod las;
 mod obj;
 mod off;
+mod pcd;
 pub mod ply;
 mod replace;
 mod reporting;
@@ -37,6 +38,8 @@ pub use obj::{read_obj, write_obj};
 use obj::{read_obj_from, write_obj_at};
 use off::write_off_at;
 pub use off::{read_off, write_off};
+use pcd::write_pcd_at;
+pub use pcd::{PcdEncoding, read_pcd, write_pcd};
 pub use replace::{
     ABANDONED, FileReplacement, abandon_replacements, check_replaceable, replace_file, write_whole,
 };
@@ -68,10 +71,13 @@ pub enum FileFormat {
     /// ASPRS LAS, LiDAR points (see [`read_las`], [`write_las`]). A `.laz` file is read
     /// as LAS, so that its compression is refused with its own message; it is not written.
     Las,
+    /// The Point Cloud Library's point clouds, ASCII, binary or compressed (see
+    /// [`read_pcd`], [`write_pcd`]).
+    Pcd,
 }
 
 /// The extensions the writers know, for messages.
-pub const GEOMETRY_EXTENSIONS: &str = ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb or .las";
+pub const GEOMETRY_EXTENSIONS: &str = ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb, .las or .pcd";
 
 impl fmt::Display for FileFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -84,6 +90,7 @@ impl fmt::Display for FileFormat {
             FileFormat::Xyz(XyzColumns::Normals) => "XYZN",
             FileFormat::Xyz(XyzColumns::Colours) => "XYZRGB",
             FileFormat::Las => "LAS",
+            FileFormat::Pcd => "PCD",
         })
     }
 }
@@ -100,14 +107,15 @@ impl FileFormat {
             "xyzn" => Some(FileFormat::Xyz(XyzColumns::Normals)),
             "xyzrgb" => Some(FileFormat::Xyz(XyzColumns::Colours)),
             "las" => Some(FileFormat::Las),
+            "pcd" => Some(FileFormat::Pcd),
             _ => None,
         }
     }
 
     /// Refuses, before any work is done, what writing in this format would fail on or
     /// lose: a point set (`mesh` false) or a nonzero write origin
-    /// ([`WriteOptions::origin`]) as STL, a mesh as XYZ or LAS (its faces). PLY, OBJ and
-    /// OFF store all of them.
+    /// ([`WriteOptions::origin`]) as STL, a mesh as XYZ, LAS or PCD (its faces). PLY, OBJ
+    /// and OFF store all of them.
     ///
     /// ```
     /// use glam::DVec3;
@@ -126,11 +134,13 @@ impl FileFormat {
             FileFormat::Stl => stl::check_storable(mesh, origin),
             FileFormat::Xyz(columns) if mesh => Err(xyz::cannot_store_mesh(columns)),
             FileFormat::Las if mesh => Err(las::cannot_store_mesh()),
+            FileFormat::Pcd if mesh => Err(pcd::cannot_store_mesh()),
             FileFormat::Ply
             | FileFormat::Obj
             | FileFormat::Off
             | FileFormat::Xyz(_)
-            | FileFormat::Las => Ok(()),
+            | FileFormat::Las
+            | FileFormat::Pcd => Ok(()),
         }
     }
 
@@ -139,7 +149,8 @@ impl FileFormat {
     /// colours; OFF drops those and UVs; STL keeps only positions and triangles; `.xyz` and
     /// `.xyzn` keep positions and normals, `.xyzrgb` positions and colours, LAS positions,
     /// colours and the `intensity` and `classification` attributes when their values fit
-    /// its records (and no format of points keeps a mesh's faces, which
+    /// its records, PCD everything a point set holds (and no format of points keeps a
+    /// mesh's faces, which
     /// [`Self::check_can_store`] refuses). Colours are the `red`, `green`, `blue` channels
     /// when all three exist.
     ///
@@ -156,7 +167,7 @@ impl FileFormat {
     pub fn unstored(self, geometry: &Geometry) -> Vec<String> {
         // (UVs, colours, other attributes) kept.
         let (uvs, colours, others) = match self {
-            FileFormat::Ply => (true, true, true),
+            FileFormat::Ply | FileFormat::Pcd => (true, true, true),
             FileFormat::Obj => (true, true, false),
             FileFormat::Off => (false, true, false),
             FileFormat::Stl => (false, false, false),
@@ -191,8 +202,8 @@ impl FileFormat {
         lost
     }
 
-    /// Whether the format stores per-point (vertex) normals: PLY, OBJ, OFF, `.xyz` and
-    /// `.xyzn` do; STL (a normal per facet only), `.xyzrgb` and LAS do not.
+    /// Whether the format stores per-point (vertex) normals: PLY, OBJ, OFF, PCD, `.xyz`
+    /// and `.xyzn` do; STL (a normal per facet only), `.xyzrgb` and LAS do not.
     ///
     /// ```
     /// use pointset_core::io::FileFormat;
@@ -201,7 +212,7 @@ impl FileFormat {
     /// ```
     pub fn stores_normals(self) -> bool {
         match self {
-            FileFormat::Ply | FileFormat::Obj | FileFormat::Off => true,
+            FileFormat::Ply | FileFormat::Obj | FileFormat::Off | FileFormat::Pcd => true,
             FileFormat::Stl | FileFormat::Las | FileFormat::Xyz(XyzColumns::Colours) => false,
             FileFormat::Xyz(_) => true,
         }
@@ -233,6 +244,9 @@ impl FileFormat {
             .map(str::trim)
             .find(|l| !l.is_empty() && !l.starts_with('#'))?;
         let word = first.split_whitespace().next().unwrap_or("");
+        if pcd::starts_like_pcd(word) {
+            return Some(FileFormat::Pcd);
+        }
         if word.ends_with("OFF") && word.len() <= 6 {
             return Some(FileFormat::Off);
         }
@@ -410,6 +424,8 @@ pub struct WriteOptions {
     pub ply_encoding: PlyEncoding,
     /// STL encoding (default binary); ignored by the other formats (OBJ and OFF are text).
     pub stl_encoding: StlEncoding,
+    /// PCD encoding (default binary); ignored by the other formats.
+    pub pcd_encoding: PcdEncoding,
     /// Comment lines to write (default none; STL has no place for them).
     pub comments: Vec<String>,
     /// Added to every position as it is written, in double precision (default zero): the
@@ -428,6 +444,12 @@ impl WriteOptions {
     /// Sets the STL encoding (default [`StlEncoding::Binary`]).
     pub fn stl_encoding(mut self, encoding: StlEncoding) -> Self {
         self.stl_encoding = encoding;
+        self
+    }
+
+    /// Sets the PCD encoding (default [`PcdEncoding::Binary`]).
+    pub fn pcd_encoding(mut self, encoding: PcdEncoding) -> Self {
+        self.pcd_encoding = encoding;
         self
     }
 
@@ -468,13 +490,13 @@ fn format_of(path: &Path, sniffed: Option<FileFormat>) -> Result<FileFormat> {
             path: path.to_path_buf(),
             reason: format!(
                 "no {GEOMETRY_EXTENSIONS} extension, and the content looks like none of PLY, \
-                 OBJ, OFF, STL and LAS (XYZ is told by its extension only)"
+                 OBJ, OFF, STL, LAS and PCD (XYZ is told by its extension only)"
             ),
         }),
     }
 }
 
-/// Reads a PLY, OBJ, OFF, STL, XYZ or LAS file.
+/// Reads a PLY, OBJ, OFF, STL, XYZ, LAS or PCD file.
 pub fn read_geometry(path: impl AsRef<Path>) -> Result<LoadedGeometry> {
     read_geometry_with(path, &ReadOptions::default())
 }
@@ -617,6 +639,7 @@ fn read_as<R: Read + Seek>(
             xyz::read_xyz_from(reader, len, columns, recentre).map(|file| loaded_xyz(file, columns))
         }
         FileFormat::Las => las::read_las_from(reader, head, len, recentre).map(loaded_las),
+        FileFormat::Pcd => pcd::read_pcd_from(reader, len, recentre).map(loaded_pcd),
         FileFormat::Stl => stl::read_stl_from(reader, head, len, recentre).map(loaded_stl),
     }
 }
@@ -715,6 +738,18 @@ fn loaded_las(file: las::LasFile) -> LoadedGeometry {
     }
 }
 
+/// A PCD file's points as [`LoadedGeometry`].
+fn loaded_pcd(file: pcd::PcdFile) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry: file.geometry,
+        format: FileFormat::Pcd,
+        encoding: file.encoding,
+        comments: file.comments,
+        origin: file.origin,
+        notes: file.notes,
+    }
+}
+
 /// UTF-8's byte-order mark, which some Windows tools put before text.
 const BYTE_ORDER_MARK: &[u8] = b"\xEF\xBB\xBF";
 
@@ -770,6 +805,13 @@ fn write_encoded(
             write_xyz_at(geometry, columns, &options.comments, options.origin, out)
         }
         FileFormat::Las => write_las_at(geometry, options.origin, out),
+        FileFormat::Pcd => write_pcd_at(
+            geometry,
+            options.pcd_encoding,
+            &options.comments,
+            options.origin,
+            out,
+        ),
     }
 }
 

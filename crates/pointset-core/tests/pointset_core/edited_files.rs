@@ -1,34 +1,85 @@
-//! Edited or cut-short PLY (binary and ASCII), OBJ, OFF, XYZ and LAS files, of meshes and
-//! of point sets with normals and colours (XYZ and LAS: point sets only): each is read as valid
+//! Edited or cut-short PLY (binary and ASCII), OBJ, OFF, XYZ, LAS and PCD (binary, ASCII
+//! and compressed) files, of meshes and of point sets with normals and colours (XYZ, LAS
+//! and PCD: point sets only): each is read as valid
 //! geometry or refused with an error, never a panic. (STL and NRRD files have tests of
 //! their own like this one.)
 
 use glam::Vec3;
 use pointset_core::io::ply::PlyEncoding;
-use pointset_core::io::{self, FileFormat, Geometry, WriteOptions, XyzColumns};
+use pointset_core::io::{self, FileFormat, Geometry, PcdEncoding, WriteOptions, XyzColumns};
 use proptest::prelude::*;
 
 use super::{random_mesh, read};
 
-/// The formats edited: the format, the PLY encoding (ignored by the others), a file name
-/// that says the format.
-const FORMATS: [(FileFormat, PlyEncoding, &str); 8] = [
-    (FileFormat::Ply, PlyEncoding::BinaryLittleEndian, "e.ply"),
-    (FileFormat::Ply, PlyEncoding::BinaryBigEndian, "e.ply"),
-    (FileFormat::Ply, PlyEncoding::Ascii, "e.ply"),
-    (FileFormat::Obj, PlyEncoding::Ascii, "e.obj"),
-    (FileFormat::Off, PlyEncoding::Ascii, "e.off"),
+/// The formats edited: the format, the PLY and PCD encodings (ignored by the others), a
+/// file name that says the format.
+const FORMATS: [(FileFormat, PlyEncoding, PcdEncoding, &str); 11] = [
+    (
+        FileFormat::Ply,
+        PlyEncoding::BinaryLittleEndian,
+        PcdEncoding::Binary,
+        "e.ply",
+    ),
+    (
+        FileFormat::Ply,
+        PlyEncoding::BinaryBigEndian,
+        PcdEncoding::Binary,
+        "e.ply",
+    ),
+    (
+        FileFormat::Ply,
+        PlyEncoding::Ascii,
+        PcdEncoding::Binary,
+        "e.ply",
+    ),
+    (
+        FileFormat::Obj,
+        PlyEncoding::Ascii,
+        PcdEncoding::Binary,
+        "e.obj",
+    ),
+    (
+        FileFormat::Off,
+        PlyEncoding::Ascii,
+        PcdEncoding::Binary,
+        "e.off",
+    ),
     (
         FileFormat::Xyz(XyzColumns::Positions),
         PlyEncoding::Ascii,
+        PcdEncoding::Binary,
         "e.xyz",
     ),
     (
         FileFormat::Xyz(XyzColumns::Colours),
         PlyEncoding::Ascii,
+        PcdEncoding::Binary,
         "e.xyzrgb",
     ),
-    (FileFormat::Las, PlyEncoding::Ascii, "e.las"),
+    (
+        FileFormat::Las,
+        PlyEncoding::Ascii,
+        PcdEncoding::Binary,
+        "e.las",
+    ),
+    (
+        FileFormat::Pcd,
+        PlyEncoding::Ascii,
+        PcdEncoding::Binary,
+        "e.pcd",
+    ),
+    (
+        FileFormat::Pcd,
+        PlyEncoding::Ascii,
+        PcdEncoding::Ascii,
+        "e.pcd",
+    ),
+    (
+        FileFormat::Pcd,
+        PlyEncoding::Ascii,
+        PcdEncoding::BinaryCompressed,
+        "e.pcd",
+    ),
 ];
 
 /// A random mesh, or its vertices as points with normals and colours.
@@ -57,9 +108,9 @@ proptest! {
         edits in proptest::collection::vec((0usize..4000, any::<u8>()), 1..6),
         cut in proptest::option::of(0usize..4000),
     ) {
-        let (format, encoding, name) = FORMATS[format];
-        let options = WriteOptions::default().ply_encoding(encoding);
-        let mesh = mesh && !matches!(format, FileFormat::Xyz(_) | FileFormat::Las);
+        let (format, encoding, pcd_encoding, name) = FORMATS[format];
+        let options = WriteOptions::default().ply_encoding(encoding).pcd_encoding(pcd_encoding);
+        let mesh = mesh && !matches!(format, FileFormat::Xyz(_) | FileFormat::Las | FileFormat::Pcd);
         let mut bytes = io::encode_geometry(&geometry(seed, mesh), format, &options).unwrap();
         let len = bytes.len();
         for (at, byte) in edits {

@@ -9,6 +9,7 @@ mod edited_files;
 mod file_names;
 mod kd_construction;
 mod las_codec;
+mod pcd_codec;
 mod ply_codec;
 mod polygons;
 mod replaced_files;
@@ -209,6 +210,7 @@ proptest! {
             (FileFormat::Off, "far.off"),
             (FileFormat::Xyz(XyzColumns::Positions), "far.xyz"),
             (FileFormat::Las, "far.las"),
+            (FileFormat::Pcd, "far.pcd"),
         ] {
             let options = WriteOptions::default()
                 .ply_encoding(PlyEncoding::BinaryBigEndian)

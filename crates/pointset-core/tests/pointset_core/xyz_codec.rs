@@ -8,7 +8,7 @@ use pointset_core::{Attribute, Error, PointSet};
 use super::{random_mesh, read};
 
 /// Points with normals, colours and an attribute, at awkward coordinates.
-fn full_points() -> PointSet {
+pub(super) fn full_points() -> PointSet {
     let vertices = random_mesh(21, 30, 0).vertices().clone();
     let n = vertices.len();
     let normals = (0..n)
