@@ -161,6 +161,12 @@ fn an_organised_scan_keeps_its_valid_points_and_says_what_it_dropped() {
     ] {
         assert!(notes.contains(said), "{said}\n{notes}");
     }
+    // Normals under both names: the first full set is read, the other named as skipped.
+    let both = "FIELDS x y z normal_x normal_y normal_z nx ny nz\nSIZE 4 4 4 4 4 4 4 4 4\n\
+                TYPE F F F F F F F F F\nWIDTH 1\nDATA ascii\n0 0 0 0 0 1 1 0 0\n";
+    let back = read("both.pcd", both.as_bytes()).unwrap();
+    assert_eq!(back.geometry.points().normals(), Some(&[Vec3::Z][..]));
+    assert_eq!(back.notes.len(), 3, "{:?}", back.notes);
     // Bytes after the last record: a note.
     let mut longer = bytes.clone();
     longer.extend_from_slice(&[7; 5]);

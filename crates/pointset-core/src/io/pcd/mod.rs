@@ -16,13 +16,14 @@
 //!   attribute of that name, stored as its type (64-bit integers as `double`).
 //!
 //! What the point set cannot keep is said in [`super::LoadedGeometry::notes`]: fields of
-//! several values a point (descriptors such as FPFH histograms) are skipped; an organised
-//! cloud (`HEIGHT` above 1) is kept as a list of points; the points an organised cloud
-//! marks invalid (a NaN or infinite coordinate) are left out; normals that are not
-//! finite (PCL gives them to points with too few neighbours) become zero (no known
-//! direction) and other values that are not finite become 0; a `VIEWPOINT` other than the
-//! identity is not applied (positions are as stored, as PCL and Open3D read them).
-//! Padding fields (`_`) are skipped without a note.
+//! several values a point (descriptors such as FPFH histograms), and a second or partial
+//! set of normal fields, are skipped; an organised cloud (`HEIGHT` above 1) is kept as a
+//! list of points; the points an organised cloud marks invalid (a NaN or infinite
+//! coordinate) are left out; normals that are not finite (PCL gives them to points with
+//! too few neighbours) become zero (no known direction) and other values that are not
+//! finite become 0; a `VIEWPOINT` other than the identity is not applied (positions are
+//! as stored, as PCL and Open3D read them). Padding fields (`_`) are skipped without a
+//! note.
 //!
 //! Refused with a typed error: a header whose `SIZE`, `TYPE` or `COUNT` lists do not match
 //! its fields, unknown types or sizes, a field named twice, `WIDTH × HEIGHT` other than
@@ -49,7 +50,7 @@ use glam::{DVec3, Vec3};
 
 use super::stream::ByteStream;
 use super::{FileFormat, Geometry, relative_positions};
-use crate::{Attribute, Error, Location, PointSet, Result, ScalarType};
+use crate::{Attribute, Error, Location, PointSet, RESERVED_NAMES, Result, ScalarType};
 use header::{Field, FieldType, Header, IDENTITY_VIEWPOINT};
 
 pub use write::write_pcd;
@@ -199,6 +200,12 @@ impl Columns {
                 Slot::Colour {
                     alpha: name == "rgba",
                 }
+            } else if RESERVED_NAMES.contains(&name.as_str()) {
+                // `nx ny nz` beside `normal_x normal_y normal_z`, or one of them alone.
+                notes.push(format!(
+                    "PCD field `{name}` skipped (not a full set of normals beside the ones read)"
+                ));
+                Slot::Skipped
             } else {
                 attributes.push((name.clone(), ty.storage(), vec![0.0; points]));
                 Slot::Attribute(attributes.len() - 1)
