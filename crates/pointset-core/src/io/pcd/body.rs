@@ -30,20 +30,19 @@ pub(super) fn read_columns<R: Read>(
     }
 }
 
-/// The error of `points` points needing `needed` bytes where `stream` has fewer, if it
-/// has.
+/// The error of `declared` records of `element` needing `needed` bytes where `stream`
+/// has fewer, if it has.
 fn check_room<R: Read>(
-    header: &Header,
+    (declared, element): (u64, &str),
     needed: u128,
     stream: &ByteStream<R>,
-    element: &str,
 ) -> Result<()> {
     let available = stream.remaining();
     if needed > u128::from(available) {
         return Err(Error::HeaderExceedsFile {
             format: FileFormat::Pcd,
             element: element.into(),
-            declared: header.points,
+            declared,
             needed_bytes: needed,
             available_bytes: available,
         });
@@ -80,12 +79,8 @@ fn read_records<R: Read>(
     stream: &mut ByteStream<R>,
 ) -> Result<Columns> {
     let record_bytes = header.record_bytes();
-    check_room(
-        header,
-        points as u128 * record_bytes as u128,
-        stream,
-        "point",
-    )?;
+    let needed = points as u128 * record_bytes as u128;
+    check_room((header.points, "point"), needed, stream)?;
     let offsets = record_offsets(header);
     let mut columns = Columns::new(header, points);
     let mut record = vec![0u8; record_bytes];
@@ -113,7 +108,7 @@ fn read_lines<R: Read>(
     // A value takes at least a character and a separator (the last line's end may be
     // missing).
     let least = (points as u128 * values as u128 * 2).saturating_sub(1);
-    check_room(header, least, stream, "point")?;
+    check_room((header.points, "point"), least, stream)?;
     let not_text = |at| malformed_at_byte(at, "a point's line is not text");
     let mut raw = Vec::new();
     let mut columns = Columns::new(header, points);
@@ -187,7 +182,8 @@ fn read_compressed<R: Read>(
             ),
         ));
     }
-    check_room(header, u128::from(compressed), stream, "compressed byte")?;
+    let declared = (u64::from(compressed), "compressed byte");
+    check_room(declared, u128::from(compressed), stream)?;
     if u64::from(uncompressed) > u64::from(compressed) * lzf::MAX_EXPANSION {
         return Err(malformed_at_byte(
             sizes_at,

@@ -67,7 +67,8 @@ fn fields<'a>(points: &'a PointSet, origin: DVec3) -> Result<Vec<OutField<'a>>> 
                 }),
         );
     }
-    let has_colours = points.colors().is_some();
+    // As `PointSet::colors` decides, without building the colours.
+    let has_colours = COLOR_CHANNELS.iter().all(|c| points.attribute(c).is_some());
     let alpha = points.attribute("alpha").filter(|_| has_colours);
     if has_colours {
         fields.push(OutField {
