@@ -131,6 +131,45 @@ impl ScalarType {
         })
     }
 
+    /// Appends `value` as stored in this type ([`Self::quantize`]) to `buf`, little- or
+    /// big-endian: the binary writers' encoding (PLY, PCD).
+    pub(crate) fn encode(self, value: f64, big_endian: bool, buf: &mut Vec<u8>) {
+        let v = self.quantize(value);
+        macro_rules! bytes {
+            ($t:ty) => {{
+                let x = v as $t;
+                if big_endian {
+                    buf.extend_from_slice(&x.to_be_bytes())
+                } else {
+                    buf.extend_from_slice(&x.to_le_bytes())
+                }
+            }};
+        }
+        match self {
+            ScalarType::I8 => bytes!(i8),
+            ScalarType::U8 => bytes!(u8),
+            ScalarType::I16 => bytes!(i16),
+            ScalarType::U16 => bytes!(u16),
+            ScalarType::I32 => bytes!(i32),
+            ScalarType::U32 => bytes!(u32),
+            ScalarType::F32 => bytes!(f32),
+            ScalarType::F64 => bytes!(f64),
+        }
+    }
+
+    /// Appends `value` as stored in this type ([`Self::quantize`]) to `buf` as text:
+    /// integers whole, floats in the shortest form that reads back to the stored value.
+    pub(crate) fn encode_text(self, value: f64, buf: &mut Vec<u8>) {
+        use std::io::Write;
+        let v = self.quantize(value);
+        // Writing into a Vec cannot fail.
+        let _ = match self {
+            ScalarType::F32 => write!(buf, "{}", v as f32),
+            ScalarType::F64 => write!(buf, "{v}"),
+            _ => write!(buf, "{}", v as i64),
+        };
+    }
+
     /// Converts a value for storage: integers are rounded and clamped to the type's range,
     /// `F32` rounds to single precision.
     pub fn quantize(self, value: f64) -> f64 {

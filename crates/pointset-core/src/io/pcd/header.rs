@@ -74,21 +74,16 @@ impl FieldType {
     }
 
     /// A value decoded from its little-endian bytes (`bytes` holds exactly
-    /// [`Self::size`]).
+    /// [`Self::size`]): through [`ScalarType::decode`], but for 64-bit integers, which it
+    /// has no type for.
     pub(crate) fn decode(self, bytes: &[u8]) -> f64 {
         let mut word = [0u8; 8];
         let n = bytes.len().min(8);
         word[..n].copy_from_slice(&bytes[..n]);
-        let unsigned = u64::from_le_bytes(word);
         match self {
-            FieldType::Float(4) => f64::from(f32::from_bits(unsigned as u32)),
-            FieldType::Float(_) => f64::from_bits(unsigned),
-            FieldType::Unsigned(_) => unsigned as f64,
-            FieldType::Signed(size) => {
-                // Sign-extend from the top bit of the stored width.
-                let shift = 64 - 8 * size as u32;
-                (((unsigned << shift) as i64) >> shift) as f64
-            }
+            FieldType::Signed(8) => i64::from_le_bytes(word) as f64,
+            FieldType::Unsigned(8) => u64::from_le_bytes(word) as f64,
+            _ => self.storage().decode(&word, false).unwrap_or(0.0),
         }
     }
 }

@@ -8,7 +8,7 @@ use super::header::FieldType;
 use super::{NORMAL_NAMES, PcdEncoding, cannot_store_mesh, lzf};
 use crate::io::buffered::buffered;
 use crate::io::{FileFormat, Geometry};
-use crate::{Attribute, COLOR_CHANNELS, Error, PointSet, Result};
+use crate::{Attribute, COLOR_CHANNELS, Error, PointSet, Result, ScalarType};
 
 /// Where a written field's values come from.
 #[derive(Debug, Clone, Copy)]
@@ -26,7 +26,8 @@ enum Source<'a> {
 /// A field to write.
 struct OutField<'a> {
     name: &'a str,
-    ty: FieldType,
+    /// How its values are stored (PCD's `TYPE` and `SIZE`: [`FieldType::of`]).
+    ty: ScalarType,
     source: Source<'a>,
 }
 
@@ -42,9 +43,9 @@ fn taken_name(name: &str) -> bool {
 /// The fields `points` are written as (see the module docs).
 fn fields<'a>(points: &'a PointSet, origin: DVec3) -> Result<Vec<OutField<'a>>> {
     let position_type = if origin == DVec3::ZERO {
-        FieldType::Float(4)
+        ScalarType::F32
     } else {
-        FieldType::Float(8)
+        ScalarType::F64
     };
     let mut fields: Vec<OutField<'a>> = ["x", "y", "z"]
         .iter()
@@ -62,7 +63,7 @@ fn fields<'a>(points: &'a PointSet, origin: DVec3) -> Result<Vec<OutField<'a>>> 
                 .enumerate()
                 .map(|(k, name)| OutField {
                     name,
-                    ty: FieldType::Float(4),
+                    ty: ScalarType::F32,
                     source: Source::Normal(k),
                 }),
         );
@@ -73,7 +74,7 @@ fn fields<'a>(points: &'a PointSet, origin: DVec3) -> Result<Vec<OutField<'a>>> 
     if has_colours {
         fields.push(OutField {
             name: if alpha.is_some() { "rgba" } else { "rgb" },
-            ty: FieldType::Unsigned(4),
+            ty: ScalarType::U32,
             source: Source::Colour(alpha),
         });
     }
@@ -94,7 +95,7 @@ fn fields<'a>(points: &'a PointSet, origin: DVec3) -> Result<Vec<OutField<'a>>> 
         }
         fields.push(OutField {
             name,
-            ty: FieldType::of(attribute.storage()),
+            ty: attribute.storage(),
             source: Source::Attribute(attribute),
         });
     }
@@ -125,36 +126,6 @@ fn value(
         }
         Source::Attribute(a) => f64::from(a.values()[i]),
     }
-}
-
-/// `value` stored as `ty`, little-endian (integers rounded and clamped to the type).
-fn put(out: &mut Vec<u8>, ty: FieldType, value: f64) {
-    let v = ty.storage().quantize(value);
-    match ty {
-        FieldType::Signed(1) => out.extend_from_slice(&(v as i8).to_le_bytes()),
-        FieldType::Signed(2) => out.extend_from_slice(&(v as i16).to_le_bytes()),
-        FieldType::Signed(4) => out.extend_from_slice(&(v as i32).to_le_bytes()),
-        FieldType::Signed(_) => out.extend_from_slice(&(v as i64).to_le_bytes()),
-        FieldType::Unsigned(1) => out.extend_from_slice(&(v as u8).to_le_bytes()),
-        FieldType::Unsigned(2) => out.extend_from_slice(&(v as u16).to_le_bytes()),
-        FieldType::Unsigned(4) => out.extend_from_slice(&(v as u32).to_le_bytes()),
-        FieldType::Unsigned(_) => out.extend_from_slice(&(v as u64).to_le_bytes()),
-        FieldType::Float(4) => out.extend_from_slice(&(v as f32).to_le_bytes()),
-        FieldType::Float(_) => out.extend_from_slice(&v.to_le_bytes()),
-    }
-}
-
-/// `value` stored as `ty`, as text: integers whole, floats in the shortest form that
-/// reads back to the stored value.
-fn put_text(out: &mut Vec<u8>, ty: FieldType, value: f64) {
-    let v = ty.storage().quantize(value);
-    // Writing to a vector does not fail.
-    let _ = match ty {
-        FieldType::Float(4) => write!(out, "{}", v as f32),
-        FieldType::Float(_) => write!(out, "{v}"),
-        FieldType::Signed(_) => write!(out, "{}", v as i64),
-        FieldType::Unsigned(_) => write!(out, "{}", v as u64),
-    };
 }
 
 /// Writes the point set `geometry` as PCD 0.7 in `encoding` (see the module docs), with
@@ -220,7 +191,7 @@ pub(crate) fn write_pcd_at(
         let mut columns = Vec::with_capacity(total as usize);
         for field in &fields {
             for i in 0..points.len() {
-                put(&mut columns, field.ty, value(field, i));
+                field.ty.encode(value(field, i), false, &mut columns);
             }
         }
         let packed = lzf::compress(&columns);
@@ -244,7 +215,11 @@ pub(crate) fn write_pcd_at(
         writeln!(out, "VERSION 0.7")?;
         writeln!(out, "FIELDS {}", list(&|f| f.name.to_string()))?;
         writeln!(out, "SIZE {}", list(&|f| f.ty.size().to_string()))?;
-        writeln!(out, "TYPE {}", list(&|f| f.ty.letter().to_string()))?;
+        writeln!(
+            out,
+            "TYPE {}",
+            list(&|f| FieldType::of(f.ty).letter().to_string())
+        )?;
         writeln!(out, "COUNT {}", list(&|_| "1".to_string()))?;
         writeln!(out, "WIDTH {count}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0")?;
         writeln!(out, "POINTS {count}\nDATA {}", encoding.keyword())?;
@@ -261,9 +236,9 @@ pub(crate) fn write_pcd_at(
                     if k > 0 {
                         line.push(b' ');
                     }
-                    put_text(&mut line, field.ty, value(field, i));
+                    field.ty.encode_text(value(field, i), &mut line);
                 } else {
-                    put(&mut line, field.ty, value(field, i));
+                    field.ty.encode(value(field, i), false, &mut line);
                 }
             }
             if encoding == PcdEncoding::Ascii {

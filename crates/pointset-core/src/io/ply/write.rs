@@ -116,35 +116,9 @@ fn single_line(s: &str) -> String {
 }
 
 fn put(buf: &mut Vec<u8>, encoding: PlyEncoding, ty: ScalarType, value: f64) {
-    let v = ty.quantize(value);
-    if encoding == PlyEncoding::Ascii {
-        // Writing into a Vec cannot fail.
-        let _ = match ty {
-            ScalarType::F32 => write!(buf, "{}", v as f32),
-            ScalarType::F64 => write!(buf, "{v}"),
-            _ => write!(buf, "{}", v as i64),
-        };
-        return;
-    }
-    let big = encoding == PlyEncoding::BinaryBigEndian;
-    macro_rules! bytes {
-        ($t:ty) => {{
-            let x = v as $t;
-            if big {
-                buf.extend_from_slice(&x.to_be_bytes())
-            } else {
-                buf.extend_from_slice(&x.to_le_bytes())
-            }
-        }};
-    }
-    match ty {
-        ScalarType::I8 => bytes!(i8),
-        ScalarType::U8 => bytes!(u8),
-        ScalarType::I16 => bytes!(i16),
-        ScalarType::U16 => bytes!(u16),
-        ScalarType::I32 => bytes!(i32),
-        ScalarType::U32 => bytes!(u32),
-        ScalarType::F32 => bytes!(f32),
-        ScalarType::F64 => bytes!(f64),
+    match encoding {
+        PlyEncoding::Ascii => ty.encode_text(value, buf),
+        PlyEncoding::BinaryLittleEndian => ty.encode(value, false, buf),
+        PlyEncoding::BinaryBigEndian => ty.encode(value, true, buf),
     }
 }
