@@ -47,7 +47,12 @@
    integers and as PCL's floats; intensity, labels) and checks that `geosynth convert`
    gives their positions, normals, colours and fields in a PLY plyfile reads; converts a
    demo quilt to binary, ASCII and compressed .pcd and checks that pypcd4 reads plyfile's
-   positions, normals and patch labels from them.
+   positions, normals and patch labels from them;
+11. has trimesh write a glTF scene (two meshes with vertex colours, placed by node
+   transforms, one of them mirroring) and checks that `geosynth convert` merges it into
+   a PLY with trimesh's placed vertices, oriented triangles and colours (converted from
+   glTF's linear values to sRGB); converts a demo mesh and the demo quilt to .glb and
+   .gltf and checks that trimesh reads their vertices, faces and points.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -567,5 +572,77 @@ for flags, encoding in [([], 'binary'), (['--ascii'], 'ascii'),
     bad += not ok
     print(('ok  ' if ok else 'BAD ') + f"foreign/{ours_pcd.name} (ours, read by pypcd4): "
           f"{table.shape[0]} points, {read_back.metadata.data.value}")
+# 11. glTF both ways: trimesh writes a scene of two coloured meshes placed by node
+#     transforms (one a mirror) as .glb; our `convert` merges it into a PLY whose vertices,
+#     oriented triangles and colours plyfile compares with trimesh's own placed meshes
+#     (glTF colours are linear: we keep sRGB, so trimesh's bytes c come back as
+#     srgb(c / 255) × 255). Our `convert` writes a demo mesh and the demo quilt as .glb
+#     and .gltf for trimesh to read (vertices, faces, points).
+def srgb_bytes(linear_bytes):
+    l = linear_bytes / 255.0
+    s = np.where(l <= 0.0031308, 12.92 * l, 1.055 * l ** (1 / 2.4) - 0.055)
+    return np.round(s * 255)
+def oriented_faces(faces):
+    """Triangles as index triples starting at their smallest index: a set two meshes
+    share when they draw the same oriented triangles."""
+    return {tuple(np.roll(t, -int(np.argmin(t)))) for t in faces}
+scene = trimesh.Scene()
+placed = []
+for name, solid, transform in [
+        ('ico', trimesh.creation.icosphere(subdivisions=1),
+         trimesh.transformations.translation_matrix([3.0, 0.0, 0.0])),
+        ('torus', trimesh.creation.torus(major_radius=1.0, minor_radius=0.3),
+         trimesh.transformations.rotation_matrix(0.7, [0, 1, 1]) @ np.diag([1.0, -2.0, 1.0, 1.0]))]:
+    solid.visual.vertex_colors = np.column_stack(
+        [rng.integers(0, 256, size=(len(solid.vertices), 3)), np.full(len(solid.vertices), 255)]
+    ).astype(np.uint8)
+    scene.add_geometry(solid, node_name=name, transform=transform)
+    moved = solid.copy()
+    moved.apply_transform(transform)
+    placed.append(moved)
+theirs_glb = foreign / 'trimesh_scene.glb'
+scene.export(str(theirs_glb))
+as_ply = foreign / 'trimesh_scene_glb.ply'
+subprocess.run([G, 'convert', str(theirs_glb), '-o', str(as_ply), '-q'], check=True)
+ours = plyfile.PlyData.read(str(as_ply))
+vertices = np.stack([ours['vertex'][k] for k in ('x', 'y', 'z')], axis=1).astype(np.float64)
+faces = np.stack(ours['face']['vertex_indices'])
+their_vertices = np.concatenate([m.vertices for m in placed])
+their_colours = np.concatenate([m.visual.vertex_colors[:, :3] for m in placed])
+offsets = np.cumsum([0] + [len(m.vertices) for m in placed])
+their_faces = np.concatenate([m.faces + k for m, k in zip(placed, offsets)])
+# Our vertices matched to theirs by position (sorted the same way: every one differs).
+order = np.lexsort(vertices.T)
+their_order = np.lexsort(their_vertices.T)
+theirs_of_ours = np.empty(len(order), dtype=np.int64)
+theirs_of_ours[order] = their_order[:len(order)]
+colours = np.stack([ours['vertex'][k] for k in ('red', 'green', 'blue')], axis=1)
+ok = (vertices.shape == their_vertices.shape
+      and np.allclose(vertices[order], their_vertices[their_order], atol=1e-5)
+      and np.array_equal(colours[order], srgb_bytes(their_colours[their_order].astype(np.float64)))
+      and oriented_faces(theirs_of_ours[faces]) == oriented_faces(their_faces))
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/{theirs_glb.name} (trimesh): {len(vertices)} vertices, "
+      f"{len(faces)} triangles against trimesh's {len(their_faces)}")
+mesh_ply = sorted(p for p in root.rglob('*.ply')
+                  if 'foreign' not in p.parts and 'face' in plyfile.PlyData.read(str(p)))[0]
+mesh_data = plyfile.PlyData.read(str(mesh_ply))
+mesh_vertices = np.stack([mesh_data['vertex'][k] for k in ('x', 'y', 'z')], axis=1)
+mesh_faces = np.stack(mesh_data['face']['vertex_indices'])
+quilt_points = np.stack([quilt_vertex[k] for k in ('x', 'y', 'z')], axis=1)
+for source, ext in [(mesh_ply, 'glb'), (mesh_ply, 'gltf'), (quilted, 'glb'), (quilted, 'gltf')]:
+    ours_gltf = foreign / f'{source.stem}.{ext}'
+    subprocess.run([G, 'convert', str(source), '-o', str(ours_gltf), '-q'], check=True)
+    loaded = trimesh.load(str(ours_gltf), process=False)
+    geometry = list(loaded.geometry.values())[0] if isinstance(loaded, trimesh.Scene) else loaded
+    if source == mesh_ply:
+        ok = (np.array_equal(np.asarray(geometry.vertices, dtype=np.float32), mesh_vertices)
+              and np.array_equal(geometry.faces, mesh_faces))
+        what = f"{len(geometry.vertices)} vertices, {len(geometry.faces)} faces"
+    else:
+        ok = np.array_equal(np.asarray(geometry.vertices, dtype=np.float32), quilt_points)
+        what = f"{len(geometry.vertices)} points ({type(geometry).__name__})"
+    bad += not ok
+    print(('ok  ' if ok else 'BAD ') + f"foreign/{ours_gltf.name} (ours, read by trimesh): {what}")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)

@@ -84,6 +84,17 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A structured document (a glTF file's JSON) whose content breaks the format's
+    /// rules, found at the member `at` (e.g. `accessors[3].count`).
+    #[error("{format} file invalid at `{at}`: {message}")]
+    InvalidDocument {
+        /// The format being read.
+        format: FileFormat,
+        /// The member at fault, as a path from the document's root.
+        at: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A property type name that the PLY specification does not define.
     #[error("PLY header line {line}: unknown property type `{type_name}`")]
     UnknownPropertyType {

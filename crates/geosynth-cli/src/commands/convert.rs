@@ -4,7 +4,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 use geosynth::core::io::ply::PlyEncoding;
-use geosynth::core::io::{FileFormat, Geometry, PcdEncoding, StlEncoding, WriteOptions};
+use geosynth::core::io::{
+    FileFormat, Geometry, GltfContainer, PcdEncoding, StlEncoding, WriteOptions,
+};
 
 use super::{no_faces_to_orient, orient_faces};
 use crate::input_file::read_geometry;
@@ -16,14 +18,14 @@ use crate::{CliResult, Globals};
 /// Arguments of `geosynth convert`.
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// Point set or mesh to convert (.ply, .obj, .off, .stl; point sets also .xyz, .xyzn,
-    /// .xyzrgb, .las and .pcd).
+    /// Point set or mesh to convert (.ply, .obj, .off, .stl, .glb, .gltf; point sets also
+    /// .xyz, .xyzn, .xyzrgb, .las and .pcd).
     input: PathBuf,
-    /// Output file; its extension picks the format (.ply, .obj, .off; .stl for a mesh;
-    /// .xyz, .xyzn, .xyzrgb, .las, .pcd for a point set). Georeferenced input is written
-    /// back in place (PLY and PCD as `double`, OBJ, OFF and XYZ with full digits, LAS as
-    /// integers on a decimal scale finer than single precision); STL, single precision,
-    /// refuses it.
+    /// Output file; its extension picks the format (.ply, .obj, .off, .glb, .gltf; .stl for
+    /// a mesh; .xyz, .xyzn, .xyzrgb, .las, .pcd for a point set). Georeferenced input is
+    /// written back in place (PLY and PCD as `double`, OBJ, OFF and XYZ with full digits,
+    /// LAS as integers on a decimal scale finer than single precision, glTF as the node's
+    /// translation); STL, single precision, refuses it.
     #[arg(short, long)]
     output: PathBuf,
     /// Write text: ASCII PLY, STL or PCD (default binary; OBJ, OFF and XYZ are always
@@ -77,7 +79,8 @@ pub fn run(args: &ConvertArgs, globals: Globals) -> CliResult {
     if args.ascii {
         let always = match format {
             FileFormat::Obj | FileFormat::Off | FileFormat::Xyz(_) => Some("text"),
-            FileFormat::Las => Some("binary"),
+            FileFormat::Las | FileFormat::Gltf(GltfContainer::Binary) => Some("binary"),
+            FileFormat::Gltf(GltfContainer::Json) => Some("JSON, its data in base64"),
             FileFormat::Ply | FileFormat::Stl | FileFormat::Pcd => None,
         };
         if let Some(kind) = always {

@@ -24,7 +24,8 @@ use crate::{CliResult, Globals};
 #[derive(Debug, Args)]
 pub struct InfoArgs {
     /// The file to describe: .ply, .obj, .off, .stl, .xyz (.xyzn, .xyzrgb: point clouds, a
-    /// point a line), .las (LiDAR points), .pcd (PCL point clouds), a picture (.png, .jpg), a raw height field
+    /// point a line), .las (LiDAR points), .pcd (PCL point clouds), .glb or .gltf (glTF
+    /// scenes, merged), a picture (.png, .jpg), a raw height field
     /// (`name_WxH.f32le`, or a raw file with an ENVI header beside it: `.f32le`, `.bil`,
     /// `.bsq`, `.bip`, `.img`, `.dat`, `.raw`, `.bin`), a one-band TIFF height field (.tif,
     /// .tiff: a GeoTIFF DEM) or an NRRD volume (.nrrd as `sdf` and `voxel --field` write,

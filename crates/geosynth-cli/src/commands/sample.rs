@@ -39,7 +39,7 @@ pub enum NormalsArg {
 pub struct SampleArgs {
     /// Mesh to sample (.ply, .obj, .off, .stl).
     input: PathBuf,
-    /// Output point set (.ply, .pcd, .xyzn, .obj, .off; .xyz and .las keep no normals). Vertex
+    /// Output point set (.ply, .pcd, .glb, .gltf, .xyzn, .obj, .off; .xyz and .las keep no normals). Vertex
     /// colours and other vertex attributes are interpolated onto the points.
     #[arg(short, long)]
     output: PathBuf,

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use geosynth::core::io::Geometry;
 use geosynth::core::testdata::shared_data;
 
 use crate::{
@@ -311,7 +312,7 @@ fn bad_input_fails_with_a_message_not_a_panic() {
         ),
         (
             vec!["quilt", fixture, "-o", unknown.to_str().unwrap()],
-            ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb, .las or .pcd",
+            ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb, .las, .pcd, .glb or .gltf",
         ),
         (
             vec!["reconstruct", fixture, "-o", missing],
@@ -744,7 +745,7 @@ fn point_clouds_go_through_xyz_files_and_meshes_do_not() {
     );
     refused(
         &["convert", &arg(&xyz), "-o", &arg(&dir.path("m.txt"))],
-        ".xyz, .xyzn, .xyzrgb, .las or .pcd",
+        ".xyz, .xyzn, .xyzrgb, .las, .pcd, .glb or .gltf",
     );
     // A quilt has no colours for .xyzrgb: refused before the run. As .xyz it reads back
     // with its box.
@@ -902,6 +903,59 @@ fn point_clouds_go_through_pcd_files_in_each_encoding() {
     let out = dir.path("mesh.pcd");
     refused(&["convert", &arg(&mesh), "-o", &arg(&out)], "faces");
     assert!(!out.exists());
+}
+
+#[test]
+fn meshes_and_quilts_go_through_gltf_files() {
+    let dir = Scratch::new();
+    let read = |path: &Path| geosynth::core::io::read_geometry(path).unwrap().geometry;
+    let mesh = geosynth::fixtures::bundled_dir().join("torus_mesh.ply");
+    let exemplar = bumpy_exemplar();
+    let quilted = dir.path("q.ply");
+    ok(&[&small_quilt(&exemplar)[..], &[&arg(&quilted)]].concat());
+    for (input, kind) in [(mesh, "mesh"), (quilted, "quilt")] {
+        let original = read(&input);
+        for (ext, format, encoding) in [("glb", "GLB", "binary"), ("gltf", "glTF", "JSON")] {
+            let gltf = dir.path(&format!("{kind}.{ext}"));
+            let said = ok(&["convert", &arg(&input), "-o", &arg(&gltf)]);
+            assert!(said.contains(&format!("({format}):")), "{said}");
+            let json = info_json(&gltf);
+            assert_eq!(json["format"], format);
+            assert_eq!(json["encoding"], encoding);
+            // Back to PLY: the same vertices, normals, faces and attributes.
+            let back = dir.path(&format!("{kind}_{ext}.ply"));
+            ok(&["convert", &arg(&gltf), "-o", &arg(&back), "-q"]);
+            let back = read(&back);
+            assert_eq!(back.points().positions(), original.points().positions());
+            assert_eq!(back.points().normals(), original.points().normals());
+            assert_eq!(
+                back.mesh().map(|m| m.triangles().to_vec()),
+                original.mesh().map(|m| m.triangles().to_vec())
+            );
+            let patch = |g: &Geometry| g.points().attribute("patch").map(|a| a.values().to_vec());
+            assert_eq!(patch(&back), patch(&original));
+            let png = dir.path(&format!("{kind}_{ext}.png"));
+            ok(&[
+                "render",
+                &arg(&gltf),
+                "-o",
+                &arg(&png),
+                "--width",
+                "160",
+                "--height",
+                "120",
+            ]);
+            assert!(png.exists());
+        }
+    }
+    let said = ok(&[
+        "convert",
+        &arg(&dir.path("mesh.glb")),
+        "-o",
+        &arg(&dir.path("again.glb")),
+        "--ascii",
+    ]);
+    assert!(said.contains("GLB is always binary"), "{said}");
 }
 
 /// The bundled bumpy exemplar, as an argument.

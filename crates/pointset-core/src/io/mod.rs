@@ -1,6 +1,7 @@
 //! Reading and writing point sets and meshes: PLY, OBJ, OFF, STL (meshes only), XYZ
 //! (points only: `.xyz`, `.xyzn`, `.xyzrgb`), LAS (LiDAR points: `.las`; see
-//! [`read_las`]) and PCD (the Point Cloud Library's points: `.pcd`; see [`read_pcd`]).
+//! [`read_las`]), PCD (the Point Cloud Library's points: `.pcd`; see [`read_pcd`]) and
+//! glTF 2.0 (scenes: `.glb`, `.gltf`; see [`read_gltf`]).
 //!
 //! [`read_geometry`] picks the format from the file extension and checks it against the
 //! content (a `.ply` that does not start with `ply` is an error, not a guess); files without
@@ -16,6 +17,7 @@
 //! `double` coordinates). Plain [`read_geometry`] never moves the data.
 
 mod buffered;
+pub mod gltf;
 mod las;
 mod obj;
 mod off;
@@ -32,6 +34,8 @@ use std::fs::File;
 use std::io::{Cursor, Read, Seek, SeekFrom};
 use std::path::Path;
 
+use gltf::write_gltf_at;
+pub use gltf::{GltfContainer, MAX_GLTF_VERTICES, read_gltf, write_gltf};
 use las::write_las_at;
 pub use las::{read_las, write_las};
 pub use obj::{read_obj, write_obj};
@@ -74,10 +78,13 @@ pub enum FileFormat {
     /// The Point Cloud Library's point clouds, ASCII, binary or compressed (see
     /// [`read_pcd`], [`write_pcd`]).
     Pcd,
+    /// glTF 2.0 scenes, in either container (see [`read_gltf`], [`write_gltf`]).
+    Gltf(GltfContainer),
 }
 
 /// The extensions the writers know, for messages.
-pub const GEOMETRY_EXTENSIONS: &str = ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb, .las or .pcd";
+pub const GEOMETRY_EXTENSIONS: &str =
+    ".ply, .obj, .off, .stl, .xyz, .xyzn, .xyzrgb, .las, .pcd, .glb or .gltf";
 
 impl fmt::Display for FileFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -91,6 +98,8 @@ impl fmt::Display for FileFormat {
             FileFormat::Xyz(XyzColumns::Colours) => "XYZRGB",
             FileFormat::Las => "LAS",
             FileFormat::Pcd => "PCD",
+            FileFormat::Gltf(GltfContainer::Binary) => "GLB",
+            FileFormat::Gltf(GltfContainer::Json) => "glTF",
         })
     }
 }
@@ -108,14 +117,16 @@ impl FileFormat {
             "xyzrgb" => Some(FileFormat::Xyz(XyzColumns::Colours)),
             "las" => Some(FileFormat::Las),
             "pcd" => Some(FileFormat::Pcd),
+            "glb" => Some(FileFormat::Gltf(GltfContainer::Binary)),
+            "gltf" => Some(FileFormat::Gltf(GltfContainer::Json)),
             _ => None,
         }
     }
 
     /// Refuses, before any work is done, what writing in this format would fail on or
     /// lose: a point set (`mesh` false) or a nonzero write origin
-    /// ([`WriteOptions::origin`]) as STL, a mesh as XYZ, LAS or PCD (its faces). PLY, OBJ
-    /// and OFF store all of them.
+    /// ([`WriteOptions::origin`]) as STL, a mesh as XYZ, LAS or PCD (its faces). PLY, OBJ,
+    /// OFF and glTF store all of them.
     ///
     /// ```
     /// use glam::DVec3;
@@ -140,7 +151,8 @@ impl FileFormat {
             | FileFormat::Off
             | FileFormat::Xyz(_)
             | FileFormat::Las
-            | FileFormat::Pcd => Ok(()),
+            | FileFormat::Pcd
+            | FileFormat::Gltf(_) => Ok(()),
         }
     }
 
@@ -149,7 +161,8 @@ impl FileFormat {
     /// colours; OFF drops those and UVs; STL keeps only positions and triangles; `.xyz` and
     /// `.xyzn` keep positions and normals, `.xyzrgb` positions and colours, LAS positions,
     /// colours and the `intensity` and `classification` attributes when their values fit
-    /// its records, PCD everything a point set holds (and no format of points keeps a
+    /// its records, PCD everything a point set holds, glTF everything (attributes of 32-bit
+    /// integers or doubles as floats, the values they hold) (and no format of points keeps a
     /// mesh's faces, which
     /// [`Self::check_can_store`] refuses). Colours are the `red`, `green`, `blue` channels
     /// when all three exist.
@@ -167,7 +180,7 @@ impl FileFormat {
     pub fn unstored(self, geometry: &Geometry) -> Vec<String> {
         // (UVs, colours, other attributes) kept.
         let (uvs, colours, others) = match self {
-            FileFormat::Ply | FileFormat::Pcd => (true, true, true),
+            FileFormat::Ply | FileFormat::Pcd | FileFormat::Gltf(_) => (true, true, true),
             FileFormat::Obj => (true, true, false),
             FileFormat::Off => (false, true, false),
             FileFormat::Stl => (false, false, false),
@@ -212,13 +225,18 @@ impl FileFormat {
     /// ```
     pub fn stores_normals(self) -> bool {
         match self {
-            FileFormat::Ply | FileFormat::Obj | FileFormat::Off | FileFormat::Pcd => true,
+            FileFormat::Ply
+            | FileFormat::Obj
+            | FileFormat::Off
+            | FileFormat::Pcd
+            | FileFormat::Gltf(_) => true,
             FileFormat::Stl | FileFormat::Las | FileFormat::Xyz(XyzColumns::Colours) => false,
             FileFormat::Xyz(_) => true,
         }
     }
 
-    /// The format a file's content looks like, if any. A binary STL is recognised by its
+    /// The format a file's content looks like, if any (a `.glb` by its magic bytes, a
+    /// `.gltf` by a JSON object naming glTF members). A binary STL is recognised by its
     /// size (84 bytes plus 50 per facet its header declares), so pass the whole file.
     pub fn sniff(bytes: &[u8]) -> Option<Self> {
         Self::sniff_start(bytes, bytes.len() as u64)
@@ -234,6 +252,9 @@ impl FileFormat {
         }
         if stl::binary_facet_count_of(head, len).is_some() {
             return Some(FileFormat::Stl);
+        }
+        if let Some(container) = gltf::sniff(head) {
+            return Some(FileFormat::Gltf(container));
         }
         if head.starts_with(b"ply") && matches!(head.get(3), Some(b'\n' | b'\r')) {
             return Some(FileFormat::Ply);
@@ -489,8 +510,8 @@ fn format_of(path: &Path, sniffed: Option<FileFormat>) -> Result<FileFormat> {
         (None, None) => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
             reason: format!(
-                "no {GEOMETRY_EXTENSIONS} extension, and the content looks like none of PLY, \
-                 OBJ, OFF, STL, LAS and PCD (XYZ is told by its extension only)"
+                "no {GEOMETRY_EXTENSIONS} extension, and the content looks like none of PLY, OBJ, \
+                 OFF, STL, LAS, PCD and glTF (XYZ is told by its extension only)"
             ),
         }),
     }
@@ -574,7 +595,13 @@ pub fn read_geometry_in(
     let result = if regular && let Some((format, start)) = format_of_file(path, &bytes, len)? {
         file.seek(SeekFrom::Start(start)).map_err(at_path)?;
         let head = bytes.get(start as usize..).unwrap_or(&[]);
-        read_as(format, file, head, len - start, options.recentre_far)
+        read_as(
+            format,
+            file,
+            (head, path),
+            len - start,
+            options.recentre_far,
+        )
     } else {
         match file.read_to_end(&mut bytes) {
             Ok(_) => read_geometry_bytes_with(path, &bytes, options),
@@ -622,12 +649,12 @@ fn format_of_file(path: &Path, head: &[u8], len: u64) -> Result<Option<(FileForm
 }
 
 /// Reads `len` bytes of `format` from `reader`, which starts at their first byte; `head`
-/// holds their first bytes (all of them, or at least [`SNIFFED_TEXT`]). Every format is
-/// read as it streams in.
+/// holds their first bytes (all of them, or at least [`SNIFFED_TEXT`]). Every format but
+/// glTF is read as it streams in; glTF's external buffers are looked for beside `path`.
 fn read_as<R: Read + Seek>(
     format: FileFormat,
     reader: R,
-    head: &[u8],
+    (head, path): (&[u8], &Path),
     len: u64,
     recentre: bool,
 ) -> Result<LoadedGeometry> {
@@ -640,6 +667,9 @@ fn read_as<R: Read + Seek>(
         }
         FileFormat::Las => las::read_las_from(reader, head, len, recentre).map(loaded_las),
         FileFormat::Pcd => pcd::read_pcd_from(reader, len, recentre).map(loaded_pcd),
+        FileFormat::Gltf(_) => {
+            gltf::read_gltf_from(reader, len, recentre, path.parent()).map(loaded_gltf)
+        }
         FileFormat::Stl => stl::read_stl_from(reader, head, len, recentre).map(loaded_stl),
     }
 }
@@ -663,7 +693,13 @@ pub fn read_geometry_bytes_with(
     let bytes = without_byte_order_mark(bytes);
     let format = detect_format(path, bytes)?;
     let len = bytes.len() as u64;
-    read_as(format, Cursor::new(bytes), bytes, len, options.recentre_far)
+    read_as(
+        format,
+        Cursor::new(bytes),
+        (bytes, path),
+        len,
+        options.recentre_far,
+    )
 }
 
 /// A PLY file's geometry as [`LoadedGeometry`].
@@ -750,6 +786,22 @@ fn loaded_pcd(file: pcd::PcdFile) -> LoadedGeometry {
     }
 }
 
+/// A glTF file's geometry as [`LoadedGeometry`].
+fn loaded_gltf(file: gltf::GltfFile) -> LoadedGeometry {
+    LoadedGeometry {
+        geometry: file.geometry,
+        format: FileFormat::Gltf(file.container),
+        encoding: match file.container {
+            GltfContainer::Binary => "binary",
+            GltfContainer::Json => "JSON",
+        }
+        .into(),
+        comments: file.comments,
+        origin: file.origin,
+        notes: file.notes,
+    }
+}
+
 /// UTF-8's byte-order mark, which some Windows tools put before text.
 const BYTE_ORDER_MARK: &[u8] = b"\xEF\xBB\xBF";
 
@@ -812,6 +864,9 @@ fn write_encoded(
             options.origin,
             out,
         ),
+        FileFormat::Gltf(container) => {
+            write_gltf_at(geometry, container, &options.comments, options.origin, out)
+        }
     }
 }
 

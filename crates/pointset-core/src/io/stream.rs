@@ -197,6 +197,7 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use std::io::{Cursor, Read, Seek, SeekFrom};
+    use std::path::Path;
 
     use glam::{DVec3, Vec2, Vec3};
     use proptest::prelude::*;
@@ -321,7 +322,7 @@ mod tests {
         len: u64,
         recentre: bool,
     ) -> std::result::Result<io::LoadedGeometry, String> {
-        io::read_as(format, reader, head, len, recentre).map_err(|e| e.to_string())
+        io::read_as(format, reader, (head, Path::new("")), len, recentre).map_err(|e| e.to_string())
     }
 
     proptest! {

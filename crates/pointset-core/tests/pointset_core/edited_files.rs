@@ -1,19 +1,21 @@
-//! Edited or cut-short PLY (binary and ASCII), OBJ, OFF, XYZ, LAS and PCD (binary, ASCII
-//! and compressed) files, of meshes and of point sets with normals and colours (XYZ, LAS
+//! Edited or cut-short PLY (binary and ASCII), OBJ, OFF, XYZ, LAS, PCD (binary, ASCII
+//! and compressed) and glTF (`.glb` and `.gltf`) files, of meshes and of point sets with normals and colours (XYZ, LAS
 //! and PCD: point sets only): each is read as valid
 //! geometry or refused with an error, never a panic. (STL and NRRD files have tests of
 //! their own like this one.)
 
 use glam::Vec3;
 use pointset_core::io::ply::PlyEncoding;
-use pointset_core::io::{self, FileFormat, Geometry, PcdEncoding, WriteOptions, XyzColumns};
+use pointset_core::io::{
+    self, FileFormat, Geometry, GltfContainer, PcdEncoding, WriteOptions, XyzColumns,
+};
 use proptest::prelude::*;
 
 use super::{random_mesh, read};
 
 /// The formats edited: the format, the PLY and PCD encodings (ignored by the others), a
 /// file name that says the format.
-const FORMATS: [(FileFormat, PlyEncoding, PcdEncoding, &str); 11] = [
+const FORMATS: [(FileFormat, PlyEncoding, PcdEncoding, &str); 13] = [
     (
         FileFormat::Ply,
         PlyEncoding::BinaryLittleEndian,
@@ -79,6 +81,18 @@ const FORMATS: [(FileFormat, PlyEncoding, PcdEncoding, &str); 11] = [
         PlyEncoding::Ascii,
         PcdEncoding::BinaryCompressed,
         "e.pcd",
+    ),
+    (
+        FileFormat::Gltf(GltfContainer::Binary),
+        PlyEncoding::Ascii,
+        PcdEncoding::Binary,
+        "e.glb",
+    ),
+    (
+        FileFormat::Gltf(GltfContainer::Json),
+        PlyEncoding::Ascii,
+        PcdEncoding::Binary,
+        "e.gltf",
     ),
 ];
 

@@ -7,6 +7,7 @@
 mod edited_files;
 #[path = "../shared/file_names.rs"]
 mod file_names;
+mod gltf_codec;
 mod kd_construction;
 mod las_codec;
 mod pcd_codec;

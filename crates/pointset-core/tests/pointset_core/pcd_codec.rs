@@ -25,7 +25,7 @@ fn encoded(points: &PointSet, encoding: PcdEncoding) -> Vec<u8> {
 }
 
 /// The attributes of `points` by name: colours come back first, the others after them.
-fn by_name(points: &PointSet) -> Vec<(String, ScalarType, Vec<f32>)> {
+pub(super) fn by_name(points: &PointSet) -> Vec<(String, ScalarType, Vec<f32>)> {
     let mut all: Vec<_> = points
         .attributes()
         .iter()

@@ -141,7 +141,7 @@ pub struct QuiltArgs {
     /// isolated); a fitted plane (`--up auto`) always leaves both out.
     #[arg(long, conflicts_with = "heightfield")]
     pub(super) keep_strays: bool,
-    /// Output point set (.ply, .obj, .off, .pcd, .xyz or .xyzn).
+    /// Output point set (.ply, .obj, .off, .pcd, .glb, .gltf, .xyz or .xyzn).
     #[arg(short, long)]
     pub(super) output: PathBuf,
     /// Read the parameters from JSON: any of the library's `QuiltParams` fields (as the
