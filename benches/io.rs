@@ -1,5 +1,5 @@
-//! File codecs: PLY and PCD encode/decode in each encoding, on a 100k-point oriented set
-//! with colours; STL encode/decode (with welding) of a 100k-triangle mesh.
+//! File codecs: PLY, PCD and glTF encode/decode in each encoding, on a 100k-point oriented
+//! set with colours; STL encode/decode (with welding) of a 100k-triangle mesh.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -9,7 +9,7 @@ use std::path::Path;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use geosynth::core::io::ply::PlyEncoding;
-use geosynth::core::io::{self, FileFormat, Geometry, PcdEncoding, WriteOptions};
+use geosynth::core::io::{self, FileFormat, Geometry, GltfContainer, PcdEncoding, WriteOptions};
 use geosynth::fixtures;
 
 /// A 100k-point oriented set with colours.
@@ -64,6 +64,16 @@ fn pcd(c: &mut Criterion) {
     codec(c, "pcd_100k_points", FileFormat::Pcd, "bench.pcd", &cases);
 }
 
+fn gltf(c: &mut Criterion) {
+    for container in [GltfContainer::Binary, GltfContainer::Json] {
+        let ext = container.extension();
+        let cases = [("default", WriteOptions::default())];
+        let format = FileFormat::Gltf(container);
+        let group = format!("{ext}_100k_points");
+        codec(c, &group, format, &format!("bench.{ext}"), &cases);
+    }
+}
+
 fn stl(c: &mut Criterion) {
     // A torus of 224 × 224 quads: 100,352 triangles over 50,176 shared vertices.
     let mesh = fixtures::torus_mesh(224, 224, 1.0, 0.3).expect("benchmark setup");
@@ -92,5 +102,5 @@ fn stl(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, ply, pcd, stl);
+criterion_group!(benches, ply, pcd, gltf, stl);
 criterion_main!(benches);

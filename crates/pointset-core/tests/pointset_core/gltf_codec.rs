@@ -375,7 +375,8 @@ fn what_cannot_be_kept_is_said() {
         "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3"}],
         "meshes": [
             {"primitives": [
-                {"attributes": {"POSITION": 0, "NORMAL": 0, "TANGENT": 0}, "targets": [{}]},
+                {"attributes": {"POSITION": 0, "NORMAL": 0, "TANGENT": 0, "_DIR": 0},
+                 "targets": [{}]},
                 {"attributes": {"POSITION": 0}, "mode": 1},
                 {"attributes": {"POSITION": 0}, "mode": 0}
             ]},
@@ -395,7 +396,7 @@ fn what_cannot_be_kept_is_said() {
         "1 skinned glTF mesh read in the rest pose",
         "1 glTF line primitive skipped",
         "morph targets of 1 glTF primitive not applied",
-        "glTF vertex attributes skipped: TANGENT",
+        "glTF vertex attributes skipped: TANGENT, _DIR",
         "1 glTF point primitive skipped beside the triangles",
         "not on every primitive, or whose names are taken, skipped: NORMAL",
     ] {

@@ -4,7 +4,7 @@
 use std::borrow::Cow;
 
 use super::document::{Document, Member};
-use crate::{Result, ScalarType};
+use crate::{Error, Result, ScalarType};
 
 /// An accessor's component type (glTF's `componentType` codes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -239,7 +239,14 @@ pub(super) fn read_accessor(
         components,
         count: accessor.required_index("count")?,
     };
+    let len = layout.count.saturating_mul(components);
     let mut values = Vec::new();
+    values
+        .try_reserve_exact(len)
+        .map_err(|_| Error::OutOfMemory {
+            what: format!("the values of {}", accessor.path_of("")),
+            bytes: len as u128 * 8,
+        })?;
     match accessor.index("bufferView")? {
         Some(view) => {
             let offset = accessor.index("byteOffset")?.unwrap_or(0);
@@ -252,10 +259,9 @@ pub(super) fn read_accessor(
                 layout.count,
                 layout.element_bytes(),
             )?;
-            values.reserve_exact(layout.count * components);
             decode_into(bytes, stride, &layout, &mut values);
         }
-        None if layout.count <= file_len => values.resize(layout.count * components, 0.0),
+        None if layout.count <= file_len => values.resize(len, 0.0),
         None => {
             return Err(accessor.invalid(
                 "count",

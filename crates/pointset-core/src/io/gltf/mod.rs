@@ -61,6 +61,10 @@
 //! `f32`s. Comments go to `asset.extras.comments` (and are read back from there). A `.glb`
 //! holds the JSON and one binary chunk; a `.gltf` is one self-contained file with its
 //! buffer as a base64 `data:` URI (a third larger).
+//!
+//! Coordinates are written and read as they are. glTF's viewers take +Y as up, so a
+//! Z-up height field or quilt opens lying on its back in them, as an OBJ does in
+//! Blender's importer with its default axes; rotate it there, or before writing.
 
 mod accessor;
 mod base64;

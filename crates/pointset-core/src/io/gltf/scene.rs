@@ -4,6 +4,7 @@
 use std::borrow::Cow;
 use std::collections::hash_map::Entry;
 use std::collections::{BTreeSet, HashMap};
+use std::rc::Rc;
 
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec2, Vec3};
 
@@ -161,13 +162,13 @@ struct Skipped {
 /// The vertex stream of attribute `semantic` (accessor `index`), which must have `count`
 /// elements of one of `kinds`.
 fn stream(
-    read: &mut impl FnMut(usize, &str, &[&str]) -> Result<Elements>,
+    read: &mut impl FnMut(usize, &str, &[&str]) -> Result<Rc<Elements>>,
     attributes: &Member<'_>,
     semantic: &str,
     index: usize,
     count: usize,
     kinds: &[&str],
-) -> Result<Elements> {
+) -> Result<Rc<Elements>> {
     let elements = read(index, &attributes.path_of(semantic), kinds)?;
     if elements.count() != count {
         return Err(attributes.invalid(
@@ -190,7 +191,7 @@ fn storage_of(elements: &Elements) -> ScalarType {
 /// Reads primitive `primitive` (`None` when it draws lines).
 fn read_part(
     primitive: &Member<'_>,
-    read: &mut impl FnMut(usize, &str, &[&str]) -> Result<Elements>,
+    read: &mut impl FnMut(usize, &str, &[&str]) -> Result<Rc<Elements>>,
     skipped: &mut Skipped,
 ) -> Result<Option<Part>> {
     let draws = match primitive.index("mode")?.unwrap_or(4) {
@@ -268,10 +269,13 @@ fn read_part(
                 );
             }
             name if name.len() > 1 && name.starts_with('_') => {
-                let Ok(a) = stream(read, &attributes, &semantic, index, count, &["SCALAR"]) else {
+                let kinds = ["SCALAR", "VEC2", "VEC3", "VEC4"];
+                let a = stream(read, &attributes, &semantic, index, count, &kinds)?;
+                if a.components != 1 {
+                    // An attribute holds one value a point.
                     skipped.attributes.insert(semantic.clone());
                     continue;
-                };
+                }
                 let values = a.values.iter().map(|&v| v as f32).collect();
                 part.attributes
                     .push((name[1..].to_string(), storage_of(&a), values));
@@ -427,14 +431,15 @@ fn placed_parts(
         ));
     }
     // Accessors shared by primitives are decoded once for each use's kinds.
-    let mut cache: HashMap<(usize, String), Elements> = HashMap::new();
-    let mut read = |index: usize, from: &str, kinds: &[&str]| -> Result<Elements> {
+    let mut cache: HashMap<(usize, String), Rc<Elements>> = HashMap::new();
+    let mut read = |index: usize, from: &str, kinds: &[&str]| -> Result<Rc<Elements>> {
         let key = (index, kinds.join(","));
         if let Some(elements) = cache.get(&key) {
-            return Ok(elements.clone());
+            return Ok(Rc::clone(elements));
         }
         let elements = read_accessor(document, buffers, index, from, kinds, file_len)?;
-        cache.insert(key, elements.clone());
+        let elements = Rc::new(elements);
+        cache.insert(key, Rc::clone(&elements));
         Ok(elements)
     };
     let mut skipped = Skipped::default();
