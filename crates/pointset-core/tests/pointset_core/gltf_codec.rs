@@ -343,12 +343,18 @@ fn node_transforms_compose_and_mirrors_reverse_the_corners() {
             {"buffer": 0, "byteOffset": 96, "byteLength": 3}
         ]),
     );
-    let mut rest = f32_bytes(&[0.0, 0.6, 0.8].repeat(4));
+    let mut rest = f32_bytes(&[[0.0, 0.6, 0.8].repeat(3), vec![f32::NAN; 3]].concat());
     rest.extend([0u8, 1, 2, 0]);
     let loaded = read("t.glb", &glb(&document, &quad_bin(&rest))).unwrap();
     let mesh = loaded.geometry.mesh().unwrap();
     assert_eq!(mesh.vertex_count(), 12);
     assert_eq!(mesh.triangles(), [[0, 1, 2], [4, 6, 5], [8, 10, 9]]);
+    // The fourth vertex's normal is NaN: kept as zero, once for the mesh's three instances.
+    assert_eq!(mesh.vertices().normals().unwrap()[3], Vec3::ZERO);
+    assert_eq!(
+        loaded.notes,
+        ["1 glTF normal not finite, kept as zero (no known direction)"]
+    );
     // The child's world transform: translate (10,0,0) · R · S.
     let linear = DMat3::from_quat(rotation) * DMat3::from_diagonal(DVec3::new(-2.0, 1.0, 1.0));
     let p = |i: usize| mesh.positions()[i].as_dvec3();

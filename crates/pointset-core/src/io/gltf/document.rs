@@ -89,16 +89,25 @@ impl Document {
         self.root().array(key)
     }
 
-    /// Item `index` of the top-level array `key`, referenced from `from`.
+    /// Item `index` of the top-level array `key`, referenced from `from` (found without
+    /// visiting the other items: files hold thousands of accessors).
     pub(super) fn item(&self, key: &str, index: usize, from: &str) -> Result<Member<'_>> {
-        let items = self.root().array(key)?;
-        let len = items.len();
-        items.into_iter().nth(index).ok_or_else(|| {
+        let items = match self.root.get(key) {
+            None | Some(Value::Null) => &[][..],
+            Some(Value::Array(items)) => items.as_slice(),
+            Some(_) => return Err(self.root().invalid(key, "is not an array")),
+        };
+        let value = items.get(index).ok_or_else(|| {
             invalid(
                 self.container,
                 from,
-                format!("refers to {key}[{index}], but the file has {len}"),
+                format!("refers to {key}[{index}], but the file has {}", items.len()),
             )
+        })?;
+        Ok(Member {
+            value,
+            path: format!("{key}[{index}]"),
+            container: self.container,
         })
     }
 

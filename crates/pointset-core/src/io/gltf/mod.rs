@@ -31,7 +31,8 @@
 //! primitives, point primitives in a file with triangles, other attributes (`TANGENT`,
 //! `TEXCOORD_1`, `COLOR_1`, `JOINTS_0`, `WEIGHTS_0`, …), an attribute some primitives have
 //! and others lack (a vertex channel is all or nothing), morph targets and skins (the
-//! meshes are read in their rest pose), and scenes other than the one read. Materials,
+//! meshes are read in their rest pose), scenes other than the one read, and normals that
+//! are not finite (kept as zero, no known direction, as the PCD reader keeps them). Materials,
 //! textures, cameras, lights and animations are not geometry and are left without a note.
 //!
 //! Refused with a typed error naming the member at fault ([`crate::Error::InvalidDocument`],

@@ -157,6 +157,8 @@ struct Skipped {
     attributes: BTreeSet<String>,
     line_primitives: usize,
     morphed: usize,
+    /// Normals that were not finite, kept as zero.
+    unknown_normals: usize,
 }
 
 /// The vertex stream of attribute `semantic` (accessor `index`), which must have `count`
@@ -229,11 +231,16 @@ fn read_part(
             "POSITION" => {}
             "NORMAL" => {
                 let n = stream(read, &attributes, &semantic, index, count, &["VEC3"])?;
-                part.normals = Some(
-                    (0..count)
-                        .map(|i| DVec3::from_slice(n.element(i)).as_vec3())
-                        .collect(),
-                );
+                let normal = |i| {
+                    let v = DVec3::from_slice(n.element(i)).as_vec3();
+                    if v.is_finite() {
+                        v
+                    } else {
+                        skipped.unknown_normals += 1;
+                        Vec3::ZERO
+                    }
+                };
+                part.normals = Some((0..count).map(normal).collect());
             }
             "COLOR_0" => {
                 let c = stream(
@@ -475,6 +482,17 @@ fn placed_parts(
             "morph targets of {} glTF primitive{} not applied (base shape read)",
             skipped.morphed,
             if skipped.morphed == 1 { "" } else { "s" }
+        ));
+    }
+    if skipped.unknown_normals > 0 {
+        notes.push(format!(
+            "{} glTF normal{} not finite, kept as zero (no known direction)",
+            skipped.unknown_normals,
+            if skipped.unknown_normals == 1 {
+                ""
+            } else {
+                "s"
+            }
         ));
     }
     if !skipped.attributes.is_empty() {
