@@ -523,16 +523,16 @@ fn reconstruct_one(
             .map_or(0.0, |(_, d)| d.as_secs_f64())
     };
     let topology = mesh.topology();
-    let geometry_path = out
-        .join("geometry")
-        .join(format!("{}_reconstructed.ply", job.name));
     let mesh = Geometry::Mesh(mesh);
-    write_geometry_file(
-        &geometry_path,
-        &mesh,
-        &WriteOptions::default().comment(format!("reconstructed from {}", job.name)),
-        globals,
-    )?;
+    // PLY for geometry tools, and glTF for Blender, three.js and game engines (the scans
+    // are Y-up, as glTF's viewers expect).
+    let options = WriteOptions::default().comment(format!("reconstructed from {}", job.name));
+    let geometry_path = |ext: &str| {
+        out.join("geometry")
+            .join(format!("{}_reconstructed.{ext}", job.name))
+    };
+    write_geometry_file(&geometry_path("ply"), &mesh, &options, globals)?;
+    write_geometry_file(&geometry_path("glb"), &mesh, &options, globals)?;
     let preview_path = out
         .join("previews")
         .join(format!("{}_reconstructed.png", job.name));
@@ -562,7 +562,7 @@ fn reconstruct_one(
         euler_characteristic: topology.euler_characteristic,
         seconds_distance_field: seconds("distance field"),
         seconds_isosurface: seconds("iso-surface"),
-        geometry: relative(&geometry_path, out),
+        geometry: relative(&geometry_path("ply"), out),
         preview: relative(&preview_path, out),
     })
 }

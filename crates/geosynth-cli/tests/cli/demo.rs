@@ -58,6 +58,15 @@ fn demo_quick_writes_report_geometry_and_previews() {
             .contains("| stage | seconds |")
     );
     assert!(Path::new(&out.join("fixtures.png")).is_file());
+    // Reconstructed scans (when the shared data is found) come as PLY and as glTF, the
+    // same mesh in both.
+    for r in report["reconstructions"].as_array().into_iter().flatten() {
+        let ply = out.join(r["geometry"].as_str().unwrap());
+        let read = |path: &Path| geosynth::core::io::read_geometry(path).unwrap().geometry;
+        let (ply_mesh, glb_mesh) = (read(&ply), read(&ply.with_extension("glb")));
+        assert_eq!(glb_mesh, ply_mesh, "{}", ply.display());
+        assert_eq!(r["faces"], glb_mesh.mesh().unwrap().face_count());
+    }
     // Patch quilting: every texture fixture, its files, and the parameters that made it.
     let quilts = report["quilts"].as_array().unwrap();
     assert_eq!(quilts.len(), 4);
