@@ -619,3 +619,130 @@ fn shared_meshes_round_trip_as_glb() {
         assert!((*p - *q).abs().max_element() < 1e-6);
     }
 }
+
+/// Every JSON pointer into `value` (objects' members and arrays' items, nested).
+fn pointers(value: &Value, at: String, out: &mut Vec<String>) {
+    match value {
+        Value::Object(members) => {
+            for (key, member) in members {
+                let path = format!("{at}/{key}");
+                out.push(path.clone());
+                pointers(member, path, out);
+            }
+        }
+        Value::Array(items) => {
+            for (k, item) in items.iter().enumerate() {
+                let path = format!("{at}/{k}");
+                out.push(path.clone());
+                pointers(item, path, out);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Values a broken or hostile writer might put anywhere.
+fn odd_value(pick: usize) -> Value {
+    let values = [
+        json!(-1),
+        json!(0),
+        json!(1),
+        json!(2),
+        json!(3),
+        json!(5),
+        json!(6),
+        json!(7),
+        json!(4_294_967_295u64),
+        json!(1e300),
+        json!(1.5),
+        json!(-0.0),
+        json!("x"),
+        json!(null),
+        json!([]),
+        json!({}),
+        json!(true),
+        json!([0, 0, 0, 0]),
+        json!([1e300, 0, 0]),
+        json!(5126),
+        json!(5121),
+        json!("VEC2"),
+        json!("SCALAR"),
+    ];
+    values[pick % values.len()].clone()
+}
+
+proptest! {
+    /// A document whose members are replaced by odd values, anywhere, is read or refused
+    /// with an error, never a panic; so is one whose members are removed.
+    #[test]
+    fn edited_documents_are_read_or_refused(
+        picks in proptest::collection::vec((any::<usize>(), any::<usize>(), any::<bool>()), 1..5),
+        binary in any::<bool>(),
+    ) {
+        let vertices = PointSet::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z])
+            .unwrap()
+            .with_normals(vec![Vec3::Z; 4])
+            .unwrap()
+            .with_attribute(Attribute::new("label", vec![1.0, 2.0, 3.0, 4.0]).with_storage(ScalarType::U8))
+            .unwrap();
+        let mut vertices = vertices;
+        vertices.set_colors(&[[0.5, 0.25, 1.0]; 4]).unwrap();
+        let mesh = TriMesh::new(vertices, vec![[0, 1, 2], [0, 2, 3]])
+            .unwrap()
+            .with_uvs(vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE])
+            .unwrap();
+        let options = WriteOptions::default().origin(DVec3::new(1e6, 0.0, 0.0));
+        let geometry = Geometry::Mesh(mesh);
+        // The document and binary chunk of the .glb, or the .gltf's document.
+        let (mut document, bin): (Value, Vec<u8>) = if binary {
+            let file = encoded(&geometry, GltfContainer::Binary, &options);
+            let word = |at: usize| u32::from_le_bytes(file[at..at + 4].try_into().unwrap()) as usize;
+            let json_end = 20 + word(12);
+            let document = serde_json::from_slice(&file[20..json_end]).unwrap();
+            (document, file[json_end + 8..].to_vec())
+        } else {
+            let file = encoded(&geometry, GltfContainer::Json, &options);
+            (serde_json::from_slice(&file).unwrap(), Vec::new())
+        };
+        for (path_pick, value_pick, remove) in picks {
+            let mut all = Vec::new();
+            pointers(&document, String::new(), &mut all);
+            if all.is_empty() {
+                break;
+            }
+            let target = &all[path_pick % all.len()];
+            let (parent, key) = target.rsplit_once('/').unwrap();
+            match document.pointer_mut(parent) {
+                Some(Value::Object(members)) if remove => {
+                    members.remove(key);
+                }
+                Some(Value::Object(members)) => {
+                    members.insert(key.to_string(), odd_value(value_pick));
+                }
+                Some(Value::Array(items)) => {
+                    let k: usize = key.parse().unwrap();
+                    if remove {
+                        items.remove(k);
+                    } else {
+                        items[k] = odd_value(value_pick);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let bytes = if binary {
+            glb(&document, &bin)
+        } else {
+            serde_json::to_vec(&document).unwrap()
+        };
+        let name = if binary { "e.glb" } else { "e.gltf" };
+        if let Ok(loaded) = read(name, &bytes) {
+            let points = loaded.geometry.points();
+            prop_assert!(points.positions().iter().all(|p| p.is_finite()));
+            if let Some(mesh) = loaded.geometry.mesh() {
+                let n = mesh.vertex_count() as u32;
+                prop_assert!(mesh.triangles().iter().flatten().all(|&v| v < n));
+            }
+        }
+    }
+}
