@@ -61,7 +61,9 @@
 //! so viewers place georeferenced data where it is while the positions stay small
 //! `f32`s. Comments go to `asset.extras.comments` (and are read back from there). A `.glb`
 //! holds the JSON and one binary chunk; a `.gltf` is one self-contained file with its
-//! buffer as a base64 `data:` URI (a third larger).
+//! buffer as a base64 `data:` URI (a third larger). The binary buffer is built in memory
+//! before anything is written (the JSON, which comes first, states its length); a
+//! `.gltf`'s base64 is then streamed into the file a chunk at a time.
 //!
 //! Coordinates are written and read as they are. glTF's viewers take +Y as up, so a
 //! Z-up height field or quilt opens lying on its back in them, as an OBJ does in

@@ -13,6 +13,9 @@ use crate::io::buffered::buffered;
 use crate::io::{FileFormat, Geometry};
 use crate::{COLOR_CHANNELS, Error, Result, ScalarType};
 
+/// The start of a buffer's `data:` URI; its base64 follows.
+const DATA_URI: &str = "data:application/octet-stream;base64,";
+
 /// `bufferView.target` of vertex streams.
 const ARRAY_BUFFER: u32 = 34962;
 /// `bufferView.target` of indices.
@@ -288,10 +291,8 @@ pub(crate) fn write_gltf_at(
         document["bufferViews"] = json!(buffer.views);
         let mut described = json!({ "byteLength": byte_length });
         if container == GltfContainer::Json {
-            described["uri"] = json!(format!(
-                "data:application/octet-stream;base64,{}",
-                base64::encode(&buffer.bytes)
-            ));
+            // The data goes in when the text is written (see below).
+            described["uri"] = json!(DATA_URI);
         }
         document["buffers"] = json!([described]);
     }
@@ -300,7 +301,23 @@ pub(crate) fn write_gltf_at(
         what: format!("its JSON document ({e})"),
     })?;
     if container == GltfContainer::Json {
-        return buffered(out, |out| out.write_all(&text));
+        // The buffer's base64 is streamed into the URI, a chunk at a time, instead of being
+        // built whole (a third larger than the buffer) and copied into the document. The
+        // member is found by its unescaped quotes, which no string value can hold.
+        let marker = format!("\"uri\":\"{DATA_URI}");
+        let split = text
+            .windows(marker.len())
+            .rposition(|w| w == marker.as_bytes())
+            .map_or(text.len(), |at| at + marker.len());
+        let (head, tail) = text.split_at(split);
+        let data = if n > 0 { buffer.bytes.as_slice() } else { &[] };
+        return buffered(out, |out| {
+            out.write_all(head)?;
+            for chunk in data.chunks(3 << 14) {
+                out.write_all(base64::encode(chunk).as_bytes())?;
+            }
+            out.write_all(tail)
+        });
     }
     text.resize(text.len().next_multiple_of(4), b' ');
     let mut bin = std::mem::take(&mut buffer.bytes);
