@@ -426,6 +426,24 @@ pub(crate) fn relative_positions(raw: &[DVec3], recentre_far: bool) -> (Vec<Vec3
     (relative, origin)
 }
 
+/// `values` with those that are not finite (NaN or infinite) replaced by 0, and how many
+/// were replaced: what the readers keep of a file's odd values (and say in a note).
+pub(crate) fn finite_or_zero(values: impl IntoIterator<Item = f32>) -> (Vec<f32>, usize) {
+    let mut replaced = 0;
+    let kept = values
+        .into_iter()
+        .map(|v| {
+            if v.is_finite() {
+                v
+            } else {
+                replaced += 1;
+                0.0
+            }
+        })
+        .collect();
+    (kept, replaced)
+}
+
 /// Colours as a text file gives them, in `0..=1`: integers in `0..=255` when any value
 /// exceeds 1, floats in `0..=1` otherwise (decided per file, as OFF and XYZ readers do).
 pub(crate) fn unit_colours(raw: &[[f64; 3]]) -> Vec<[f32; 3]> {

@@ -746,3 +746,29 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn odd_application_attributes_are_kept_or_said() {
+    // `_w` holds a NaN, `_my value` has a name no attribute may have, `_dir` three values
+    // a point; all read from the quad's positions or the floats after them.
+    let document = quad_document(
+        json!({"mode": 0, "attributes": {"_w": 1, "_my value": 1, "_dir": 0}}),
+        json!([{"mesh": 0}]),
+        json!([{"bufferView": 1, "componentType": 5126, "count": 4, "type": "SCALAR"}]),
+        json!([{"buffer": 0, "byteOffset": 48, "byteLength": 16}]),
+    );
+    let bin = quad_bin(&f32_bytes(&[1.0, f32::NAN, 3.0, 4.0]));
+    let loaded = read("a.glb", &glb(&document, &bin)).unwrap();
+    let w = loaded.geometry.points().attribute("w").unwrap();
+    assert_eq!(w.values(), [1.0, 0.0, 3.0, 4.0]);
+    assert_eq!(w.storage(), ScalarType::F32);
+    assert_eq!(loaded.geometry.points().attributes().len(), 1);
+    let notes = loaded.notes.join("\n");
+    for said in [
+        "glTF attribute `_w`: 1 value not finite, kept as 0",
+        "glTF vertex attributes skipped: _dir",
+        "skipped: _my value",
+    ] {
+        assert!(notes.contains(said), "missing {said:?} in\n{notes}");
+    }
+}

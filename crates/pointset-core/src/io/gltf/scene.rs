@@ -12,7 +12,7 @@ use super::MAX_GLTF_VERTICES;
 use super::accessor::{Component, Elements, read_accessor};
 use super::colour::linear_to_srgb;
 use super::document::{Document, Member};
-use crate::io::{Geometry, relative_positions};
+use crate::io::{Geometry, finite_or_zero, relative_positions};
 use crate::{Attribute, COLOR_CHANNELS, PointSet, RESERVED_NAMES, Result, ScalarType, TriMesh};
 
 /// A mesh placed in the scene by a node.
@@ -190,6 +190,20 @@ fn storage_of(elements: &Elements) -> ScalarType {
     }
 }
 
+/// The element kinds the vertex attribute `semantic` may have; `None` for one not read.
+fn kinds_of(semantic: &str) -> Option<&'static [&'static str]> {
+    match semantic {
+        "POSITION" | "NORMAL" => Some(&["VEC3"]),
+        "COLOR_0" => Some(&["VEC3", "VEC4"]),
+        "TEXCOORD_0" => Some(&["VEC2"]),
+        // Application attributes: any kind is read, one value a point kept.
+        name if name.len() > 1 && name.starts_with('_') => {
+            Some(&["SCALAR", "VEC2", "VEC3", "VEC4"])
+        }
+        _ => None,
+    }
+}
+
 /// Reads primitive `primitive` (`None` when it draws lines).
 fn read_part(
     primitive: &Member<'_>,
@@ -226,94 +240,21 @@ fn read_part(
         triangles: None,
     };
     for (semantic, value) in primitive.entries("attributes")? {
-        let index = value.as_index()?;
-        match semantic.as_str() {
-            "POSITION" => {}
-            "NORMAL" => {
-                let n = stream(read, &attributes, &semantic, index, count, &["VEC3"])?;
-                let normal = |i| {
-                    let v = DVec3::from_slice(n.element(i)).as_vec3();
-                    if v.is_finite() {
-                        v
-                    } else {
-                        skipped.unknown_normals += 1;
-                        Vec3::ZERO
-                    }
-                };
-                part.normals = Some((0..count).map(normal).collect());
-            }
-            "COLOR_0" => {
-                let c = stream(
-                    read,
-                    &attributes,
-                    &semantic,
-                    index,
-                    count,
-                    &["VEC3", "VEC4"],
-                )?;
-                let rgb = (0..count)
-                    .map(|i| {
-                        let e = c.element(i);
-                        [0, 1, 2].map(|k| (linear_to_srgb(e[k]) * 255.0).round() as f32)
-                    })
-                    .collect();
-                let alpha = (c.components == 4).then(|| {
-                    (0..count)
-                        .map(|i| (c.element(i)[3].clamp(0.0, 1.0) * 255.0).round() as f32)
-                        .collect()
-                });
-                part.colours = Some(Colours { rgb, alpha });
-            }
-            "TEXCOORD_0" => {
-                let t = stream(read, &attributes, &semantic, index, count, &["VEC2"])?;
-                part.uvs = Some(
-                    (0..count)
-                        .map(|i| {
-                            let e = t.element(i);
-                            Vec2::new(e[0] as f32, (1.0 - e[1]) as f32)
-                        })
-                        .collect(),
-                );
-            }
-            name if name.len() > 1 && name.starts_with('_') => {
-                let kinds = ["SCALAR", "VEC2", "VEC3", "VEC4"];
-                let a = stream(read, &attributes, &semantic, index, count, &kinds)?;
-                if a.components != 1 {
-                    // An attribute holds one value a point.
-                    skipped.attributes.insert(semantic.clone());
-                    continue;
-                }
-                let values = a.values.iter().map(|&v| v as f32).collect();
-                part.attributes
-                    .push((name[1..].to_string(), storage_of(&a), values));
-            }
-            _ => {
-                skipped.attributes.insert(semantic.clone());
-            }
-        }
+        let Some(kinds) = kinds_of(&semantic) else {
+            skipped.attributes.insert(semantic);
+            continue;
+        };
+        let elements = stream(
+            read,
+            &attributes,
+            &semantic,
+            value.as_index()?,
+            count,
+            kinds,
+        )?;
+        part.take(&semantic, &elements, skipped);
     }
-    let order: Option<Vec<u32>> = match primitive.index("indices")? {
-        None => None,
-        Some(index) => {
-            let elements = read(index, &primitive.path_of("indices"), &["SCALAR"])?;
-            if !matches!(
-                elements.component,
-                Component::U8 | Component::U16 | Component::U32
-            ) || elements.normalized
-            {
-                return Err(primitive.invalid(
-                    "indices",
-                    "indices must be unsigned 8-, 16- or 32-bit integers",
-                ));
-            }
-            if let Some(bad) = elements.values.iter().find(|&&v| v as usize >= count) {
-                return Err(
-                    primitive.invalid("indices", format!("index {bad} past the {count} vertices"))
-                );
-            }
-            Some(elements.values.iter().map(|&v| v as u32).collect())
-        }
-    };
+    let order = read_indices(primitive, read, count)?;
     let mode = primitive.index("mode")?.unwrap_or(4);
     match (draws, order) {
         (Draws::Triangles, order) => {
@@ -324,6 +265,33 @@ fn read_part(
         (_, None) => {}
     }
     Ok(Some(part))
+}
+
+/// The vertex order a primitive's `indices` give (`None` without them), each checked to
+/// be one of its `count` vertices.
+fn read_indices(
+    primitive: &Member<'_>,
+    read: &mut impl FnMut(usize, &str, &[&str]) -> Result<Rc<Elements>>,
+    count: usize,
+) -> Result<Option<Vec<u32>>> {
+    let Some(index) = primitive.index("indices")? else {
+        return Ok(None);
+    };
+    let elements = read(index, &primitive.path_of("indices"), &["SCALAR"])?;
+    let integers = matches!(
+        elements.component,
+        Component::U8 | Component::U16 | Component::U32
+    );
+    if !integers || elements.normalized {
+        return Err(primitive.invalid(
+            "indices",
+            "indices must be unsigned 8-, 16- or 32-bit integers",
+        ));
+    }
+    if let Some(bad) = elements.values.iter().find(|&&v| v as usize >= count) {
+        return Err(primitive.invalid("indices", format!("index {bad} past the {count} vertices")));
+    }
+    Ok(Some(elements.values.iter().map(|&v| v as u32).collect()))
 }
 
 /// The triangles a `TRIANGLES` (4), `TRIANGLE_STRIP` (5) or `TRIANGLE_FAN` (6) list of
@@ -344,6 +312,56 @@ fn triangles(v: &[u32], mode: usize) -> Vec<[u32; 3]> {
 }
 
 impl Part {
+    /// Keeps the vertex stream `semantic` (its `elements`, one a vertex) as geosynth
+    /// holds it: normals (not finite: zero), colours from linear to sRGB bytes, UVs with
+    /// `v` flipped, application attributes of one value a point.
+    fn take(&mut self, semantic: &str, elements: &Elements, skipped: &mut Skipped) {
+        let count = elements.count();
+        match semantic {
+            "NORMAL" => {
+                let normal = |i| {
+                    let v = DVec3::from_slice(elements.element(i)).as_vec3();
+                    if v.is_finite() {
+                        v
+                    } else {
+                        skipped.unknown_normals += 1;
+                        Vec3::ZERO
+                    }
+                };
+                self.normals = Some((0..count).map(normal).collect());
+            }
+            "COLOR_0" => {
+                let byte = |v: f64| (v.clamp(0.0, 1.0) * 255.0).round() as f32;
+                let rgb = (0..count)
+                    .map(|i| {
+                        let e = elements.element(i);
+                        [0, 1, 2].map(|k| byte(linear_to_srgb(e[k])))
+                    })
+                    .collect();
+                let alpha = (elements.components == 4)
+                    .then(|| (0..count).map(|i| byte(elements.element(i)[3])).collect());
+                self.colours = Some(Colours { rgb, alpha });
+            }
+            "TEXCOORD_0" => {
+                let uv = |i| {
+                    let e = elements.element(i);
+                    Vec2::new(e[0] as f32, (1.0 - e[1]) as f32)
+                };
+                self.uvs = Some((0..count).map(uv).collect());
+            }
+            name if name.starts_with('_') && elements.components == 1 => {
+                let values = elements.values.iter().map(|&v| v as f32).collect();
+                let storage = storage_of(elements);
+                self.attributes
+                    .push((name[1..].to_string(), storage, values));
+            }
+            "POSITION" => {}
+            _ => {
+                skipped.attributes.insert(semantic.to_string());
+            }
+        }
+    }
+
     /// The points drawn in `order` (an indexed `POINTS` primitive).
     fn picked(self, order: &[u32]) -> Part {
         let pick = |values: &Vec<f32>| order.iter().map(|&i| values[i as usize]).collect();
@@ -570,35 +588,7 @@ pub(super) fn merged_geometry(
     } else if some(&|p| p.colours.is_some()) {
         partial.push("COLOR_0".to_string());
     }
-    let names: BTreeSet<&str> = parts
-        .iter()
-        .flat_map(|p| p.attributes.iter().map(|a| a.0.as_str()))
-        .collect();
-    for name in names {
-        let columns: Vec<&(String, ScalarType, Vec<f32>)> = parts
-            .iter()
-            .filter_map(|p| p.attributes.iter().find(|a| a.0 == name))
-            .collect();
-        let taken = RESERVED_NAMES.contains(&name)
-            || (has_colours && (COLOR_CHANNELS.contains(&name) || name == "alpha"));
-        if columns.len() < parts.len() || taken {
-            partial.push(format!("_{name}"));
-            continue;
-        }
-        let storage = columns[0].1;
-        let storage = if columns.iter().all(|c| c.1 == storage) {
-            storage
-        } else {
-            ScalarType::F32
-        };
-        let values = columns.iter().flat_map(|c| c.2.iter().copied()).collect();
-        if points
-            .set_attribute(Attribute::new(name, values).with_storage(storage))
-            .is_err()
-        {
-            partial.push(format!("_{name}"));
-        }
-    }
+    merge_attributes(&parts, has_colours, &mut points, &mut partial, notes)?;
     let uvs = (is_mesh && all(&|p| p.uvs.is_some())).then(|| {
         let uvs = parts.iter().flat_map(|p| p.uvs.iter().flatten().copied());
         uvs.collect::<Vec<_>>()
@@ -629,4 +619,48 @@ pub(super) fn merged_geometry(
         mesh = mesh.with_uvs(uvs)?;
     }
     Ok((Geometry::Mesh(mesh), origin))
+}
+
+/// Adds the application attributes every part has to `points`, each in the parts' common
+/// storage (`f32` when they differ); names some parts lack, or that are taken (by
+/// positions, normals or the colours) or invalid (with whitespace), go to `partial`.
+/// Values that are not finite are kept as 0, with a note.
+fn merge_attributes(
+    parts: &[Part],
+    has_colours: bool,
+    points: &mut PointSet,
+    partial: &mut Vec<String>,
+    notes: &mut Vec<String>,
+) -> Result<()> {
+    let names: BTreeSet<&str> = parts
+        .iter()
+        .flat_map(|p| p.attributes.iter().map(|a| a.0.as_str()))
+        .collect();
+    for name in names {
+        let columns: Vec<&(String, ScalarType, Vec<f32>)> = parts
+            .iter()
+            .filter_map(|p| p.attributes.iter().find(|a| a.0 == name))
+            .collect();
+        let taken = RESERVED_NAMES.contains(&name)
+            || (has_colours && (COLOR_CHANNELS.contains(&name) || name == "alpha"));
+        if columns.len() < parts.len() || taken || name.chars().any(char::is_whitespace) {
+            partial.push(format!("_{name}"));
+            continue;
+        }
+        let storage = columns[0].1;
+        let storage = if columns.iter().all(|c| c.1 == storage) {
+            storage
+        } else {
+            ScalarType::F32
+        };
+        let (values, not_finite) = finite_or_zero(columns.iter().flat_map(|c| c.2.iter().copied()));
+        if not_finite > 0 {
+            notes.push(format!(
+                "glTF attribute `_{name}`: {not_finite} value{} not finite, kept as 0",
+                if not_finite == 1 { "" } else { "s" }
+            ));
+        }
+        points.set_attribute(Attribute::new(name, values).with_storage(storage))?;
+    }
+    Ok(())
 }

@@ -49,7 +49,7 @@ use std::io::Read;
 use glam::{DVec3, Vec3};
 
 use super::stream::ByteStream;
-use super::{FileFormat, Geometry, relative_positions};
+use super::{FileFormat, Geometry, finite_or_zero, relative_positions};
 use crate::{Attribute, Error, Location, PointSet, RESERVED_NAMES, Result, ScalarType};
 use header::{Field, FieldType, Header, IDENTITY_VIEWPOINT};
 
@@ -362,19 +362,7 @@ impl Columns {
             }
         }
         for (name, storage, values) in &self.attributes {
-            let mut not_finite = 0;
-            let kept: Vec<f32> = valid
-                .iter()
-                .map(|&i| {
-                    let v = values[i] as f32;
-                    if v.is_finite() {
-                        v
-                    } else {
-                        not_finite += 1;
-                        0.0
-                    }
-                })
-                .collect();
+            let (kept, not_finite) = finite_or_zero(valid.iter().map(|&i| values[i] as f32));
             if not_finite > 0 {
                 self.notes.push(format!(
                     "PCD field `{name}`: {not_finite} value{} not finite, kept as 0",
