@@ -51,8 +51,8 @@ impl UpArg {
 /// Arguments of `geosynth normals`.
 #[derive(Debug, Args)]
 pub struct NormalsArgs {
-    /// Point set (.ply, .obj, .off, .glb, .gltf, .xyz, .las, .pcd); normals it has are replaced (or, with
-    /// `--keep-directions`, kept and oriented).
+    /// Point set (.ply, .obj, .off, .glb, .gltf, .xyz, .las, .pcd); normals it has are
+    /// replaced (or, with `--keep-directions`, kept and oriented).
     input: PathBuf,
     /// Output point set with normals (.ply, .obj, .off, .pcd, .glb, .gltf, .xyz or .xyzn).
     #[arg(short, long)]

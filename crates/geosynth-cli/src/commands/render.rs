@@ -89,10 +89,11 @@ fn parse_color(s: &str) -> Result<[f32; 3], String> {
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     /// Files to render, each a panel, left to right: point sets and meshes (.ply, .obj,
-    /// .off, .stl, .glb, .gltf, .xyz, .las, .pcd), pictures (.png, .jpg), raw height fields (`name_WxH.f32le`,
-    /// or raw files with an ENVI header: `.f32le`, `.bil`, `.img`, …) and one-band TIFFs
-    /// (GeoTIFF DEMs), drawn as shaded terrain, and NRRD volumes (.nrrd or .nhdr, drawn as
-    /// the zero level set of their first channel: the surface of a signed distance field).
+    /// .off, .stl, .glb, .gltf, .xyz, .las, .pcd), pictures (.png, .jpg), raw height fields
+    /// (`name_WxH.f32le`, or raw files with an ENVI header: `.f32le`, `.bil`, `.img`, …)
+    /// and one-band TIFFs (GeoTIFF DEMs), drawn as shaded terrain, and NRRD volumes (.nrrd
+    /// or .nhdr, drawn as the zero level set of their first channel: the surface of a
+    /// signed distance field).
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Output PNG.

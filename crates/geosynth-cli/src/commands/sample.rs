@@ -39,8 +39,9 @@ pub enum NormalsArg {
 pub struct SampleArgs {
     /// Mesh to sample (.ply, .obj, .off, .stl).
     input: PathBuf,
-    /// Output point set (.ply, .pcd, .glb, .gltf, .xyzn, .obj, .off; .xyz and .las keep no normals). Vertex
-    /// colours and other vertex attributes are interpolated onto the points.
+    /// Output point set (.ply, .pcd, .glb, .gltf, .xyzn, .obj, .off; .xyz and .las keep no
+    /// normals). Vertex colours and other vertex attributes are interpolated onto the
+    /// points.
     #[arg(short, long)]
     output: PathBuf,
     /// About this many points, spread as a Poisson disk (no two closer than the spacing

@@ -20,16 +20,16 @@ use crate::{CliError, CliResult, Globals};
 /// Arguments of `geosynth warp`.
 #[derive(Debug, Args)]
 pub struct WarpArgs {
-    /// Point set or mesh to warp (.ply, .obj, .off, .stl, .glb, .gltf, .xyz, .las, .pcd); meshes keep
-    /// their faces.
+    /// Point set or mesh to warp (.ply, .obj, .off, .stl, .glb, .gltf, .xyz, .las, .pcd);
+    /// meshes keep their faces.
     input: PathBuf,
     /// Pairs file: one pair per line, `sx sy sz qx qy qz` (source → target); `#` starts a
     /// comment.
     #[arg(long)]
     pairs: PathBuf,
-    /// Output file (.ply, .obj, .off, .glb, .gltf; .stl for a mesh; .xyz, .xyzn, .xyzrgb, .las, .pcd for
-    /// a point set): warped positions, transported normals when the input has normals, other
-    /// attributes unchanged.
+    /// Output file (.ply, .obj, .off, .glb, .gltf; .stl for a mesh; .xyz, .xyzn, .xyzrgb,
+    /// .las, .pcd for a point set): warped positions, transported normals when the input
+    /// has normals, other attributes unchanged.
     #[arg(short, long)]
     output: PathBuf,
     /// Smoothing λ of the spline (0 = interpolate the pairs exactly).

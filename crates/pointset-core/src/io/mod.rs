@@ -161,11 +161,10 @@ impl FileFormat {
     /// colours; OFF drops those and UVs; STL keeps only positions and triangles; `.xyz` and
     /// `.xyzn` keep positions and normals, `.xyzrgb` positions and colours, LAS positions,
     /// colours and the `intensity` and `classification` attributes when their values fit
-    /// its records, PCD everything a point set holds, glTF everything (attributes of 32-bit
-    /// integers or doubles as floats, the values they hold) (and no format of points keeps a
-    /// mesh's faces, which
-    /// [`Self::check_can_store`] refuses). Colours are the `red`, `green`, `blue` channels
-    /// when all three exist.
+    /// its records, PCD everything a point set holds, glTF everything (attributes stored as
+    /// 32-bit integers or doubles are written as floats of the same values). No format of
+    /// points keeps a mesh's faces, which [`Self::check_can_store`] refuses. Colours are
+    /// the `red`, `green`, `blue` channels when all three exist.
     ///
     /// ```
     /// use pointset_core::io::{FileFormat, Geometry};
