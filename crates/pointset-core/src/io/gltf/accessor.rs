@@ -309,42 +309,16 @@ fn apply_sparse(
         components: 1,
         count,
     };
-    let (index_bytes, _) = view_bytes(
-        document,
-        buffers,
-        indices.required_index("bufferView")?,
-        &indices,
-        indices.index("byteOffset")?.unwrap_or(0),
-        count,
-        index_layout.element_bytes(),
-    )?;
-    let mut targets = Vec::with_capacity(count);
-    decode_into(
-        index_bytes,
-        index_layout.element_bytes(),
-        &index_layout,
-        &mut targets,
-    );
+    let targets = packed(document, buffers, &indices, &index_layout)?;
     let replacement = sparse
         .object("values")?
         .ok_or_else(|| sparse.invalid("values", "missing (required)"))?;
-    let value_layout = Layout { count, ..*layout };
-    let (value_bytes, _) = view_bytes(
+    let new_values = packed(
         document,
         buffers,
-        replacement.required_index("bufferView")?,
         &replacement,
-        replacement.index("byteOffset")?.unwrap_or(0),
-        count,
-        value_layout.element_bytes(),
+        &Layout { count, ..*layout },
     )?;
-    let mut new_values = Vec::with_capacity(count * layout.components);
-    decode_into(
-        value_bytes,
-        value_layout.element_bytes(),
-        &value_layout,
-        &mut new_values,
-    );
     let n = layout.components;
     for (k, &target) in targets.iter().enumerate() {
         let target = target as usize;
@@ -360,4 +334,27 @@ fn apply_sparse(
         values[target * n..(target + 1) * n].copy_from_slice(&new_values[k * n..(k + 1) * n]);
     }
     Ok(())
+}
+
+/// The elements of `layout` a sparse accessor's `indices` or `values` member (`member`:
+/// its `bufferView` and `byteOffset`) holds, tightly packed as the format asks.
+fn packed(
+    document: &Document,
+    buffers: &[Cow<'_, [u8]>],
+    member: &Member<'_>,
+    layout: &Layout,
+) -> Result<Vec<f64>> {
+    let element_bytes = layout.element_bytes();
+    let (bytes, _) = view_bytes(
+        document,
+        buffers,
+        member.required_index("bufferView")?,
+        member,
+        member.index("byteOffset")?.unwrap_or(0),
+        layout.count,
+        element_bytes,
+    )?;
+    let mut values = Vec::with_capacity(layout.count * layout.components);
+    decode_into(bytes, element_bytes, layout, &mut values);
+    Ok(values)
 }

@@ -154,10 +154,10 @@ fn malformed_at_byte(container: GltfContainer, at: u64, message: impl Into<Strin
 ///   "scenes": [{"nodes": [0]}]
 /// }"#;
 /// let geometry = read_gltf(gltf.as_bytes())?;
-/// let mesh = geometry.mesh().expect("a triangle");
+/// let mesh = geometry.mesh().ok_or("a triangle makes a mesh")?;
 /// assert_eq!(mesh.triangles(), [[0, 1, 2]]);
 /// assert_eq!(mesh.positions()[1].to_array(), [1.0, 0.0, 2.0]);
-/// # Ok::<(), pointset_core::Error>(())
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn read_gltf(bytes: &[u8]) -> Result<Geometry> {
     read_gltf_bytes(bytes, None, false).map(|file| file.geometry)

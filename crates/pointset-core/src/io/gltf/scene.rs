@@ -79,11 +79,8 @@ fn instances(document: &Document, notes: &mut Vec<String>) -> Result<Vec<Instanc
         let chosen = document.root().index("scene")?.unwrap_or(0);
         let scene = document.item("scenes", chosen, "scene")?;
         if scenes.len() > 1 {
-            notes.push(format!(
-                "glTF scene {chosen} read; the file's {} other scene{} not",
-                scenes.len() - 1,
-                if scenes.len() == 2 { "" } else { "s" }
-            ));
+            let others = counted(scenes.len() - 1, "other scene", "other scenes");
+            notes.push(format!("glTF scene {chosen} read; the file's {others} not"));
         }
         scene
             .array("nodes")?
@@ -115,9 +112,9 @@ fn instances(document: &Document, notes: &mut Vec<String>) -> Result<Vec<Instanc
         stack.extend(children[i].iter().rev().map(|&c| (c, world)));
     }
     if skinned > 0 {
+        let meshes = counted(skinned, "skinned glTF mesh", "skinned glTF meshes");
         notes.push(format!(
-            "{skinned} skinned glTF mesh{} read in the rest pose (skins not applied)",
-            if skinned == 1 { "" } else { "es" }
+            "{meshes} read in the rest pose (skins not applied)"
         ));
     }
     Ok(placed)
@@ -210,11 +207,12 @@ fn read_part(
     read: &mut impl FnMut(usize, &str, &[&str]) -> Result<Rc<Elements>>,
     skipped: &mut Skipped,
 ) -> Result<Option<Part>> {
-    let draws = match primitive.index("mode")?.unwrap_or(4) {
+    let mode = primitive.index("mode")?.unwrap_or(4);
+    let draws = match mode {
         0 => Draws::Points,
         1..=3 => Draws::Lines,
         4..=6 => Draws::Triangles,
-        mode => return Err(primitive.invalid("mode", format!("{mode} is not a glTF mode"))),
+        _ => return Err(primitive.invalid("mode", format!("{mode} is not a glTF mode"))),
     };
     if draws == Draws::Lines {
         skipped.line_primitives += 1;
@@ -255,7 +253,6 @@ fn read_part(
         part.take(&semantic, &elements, skipped);
     }
     let order = read_indices(primitive, read, count)?;
-    let mode = primitive.index("mode")?.unwrap_or(4);
     match (draws, order) {
         (Draws::Triangles, order) => {
             let order = order.unwrap_or_else(|| (0..count as u32).collect());
@@ -485,32 +482,23 @@ fn placed_parts(
         parts.extend(local.iter().map(|p| p.placed(&instance.world)));
     }
     if skipped.line_primitives > 0 {
-        notes.push(format!(
-            "{} glTF line primitive{} skipped",
+        let lines = counted(
             skipped.line_primitives,
-            if skipped.line_primitives == 1 {
-                ""
-            } else {
-                "s"
-            }
-        ));
+            "glTF line primitive",
+            "glTF line primitives",
+        );
+        notes.push(format!("{lines} skipped"));
     }
     if skipped.morphed > 0 {
+        let morphed = counted(skipped.morphed, "glTF primitive", "glTF primitives");
         notes.push(format!(
-            "morph targets of {} glTF primitive{} not applied (base shape read)",
-            skipped.morphed,
-            if skipped.morphed == 1 { "" } else { "s" }
+            "morph targets of {morphed} not applied (base shape read)"
         ));
     }
     if skipped.unknown_normals > 0 {
+        let normals = counted(skipped.unknown_normals, "glTF normal", "glTF normals");
         notes.push(format!(
-            "{} glTF normal{} not finite, kept as zero (no known direction)",
-            skipped.unknown_normals,
-            if skipped.unknown_normals == 1 {
-                ""
-            } else {
-                "s"
-            }
+            "{normals} not finite, kept as zero (no known direction)"
         ));
     }
     if !skipped.attributes.is_empty() {
@@ -537,10 +525,8 @@ pub(super) fn merged_geometry(
     if is_mesh {
         let points = parts.iter().filter(|p| p.triangles.is_none()).count();
         if points > 0 {
-            notes.push(format!(
-                "{points} glTF point primitive{} skipped beside the triangles",
-                if points == 1 { "" } else { "s" }
-            ));
+            let points = counted(points, "glTF point primitive", "glTF point primitives");
+            notes.push(format!("{points} skipped beside the triangles"));
         }
         parts.retain(|p| p.triangles.is_some());
     }
@@ -655,12 +641,17 @@ fn merge_attributes(
         };
         let (values, not_finite) = finite_or_zero(columns.iter().flat_map(|c| c.2.iter().copied()));
         if not_finite > 0 {
+            let values = counted(not_finite, "value", "values");
             notes.push(format!(
-                "glTF attribute `_{name}`: {not_finite} value{} not finite, kept as 0",
-                if not_finite == 1 { "" } else { "s" }
+                "glTF attribute `_{name}`: {values} not finite, kept as 0"
             ));
         }
         points.set_attribute(Attribute::new(name, values).with_storage(storage))?;
     }
     Ok(())
+}
+
+/// `count` and the noun, `one` or `many` as the count asks: a note's subject.
+fn counted(count: usize, one: &str, many: &str) -> String {
+    format!("{count} {}", if count == 1 { one } else { many })
 }
