@@ -7,7 +7,7 @@
 //!
 //! | module | crate | what |
 //! |---|---|---|
-//! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF/STL/XYZ/LAS/PCD I/O, [`Stage`] |
+//! | [`core`] | `pointset-core` | point sets, meshes, grids, spatial indices, PLY/OBJ/OFF/STL/XYZ/LAS/PCD/glTF I/O, mesh simplification, [`Stage`] |
 //! | [`mls`] | `mls-surface` | point-set surfaces: projection, rays, surface variation, clustering, relaxation, normal estimation and orientation |
 //! | [`sdf`] | `distance-field` | signed distance grids, block pyramids, iso-surfaces, NRRD |
 //! | [`tps`] | `tps-warp` | thin-plate spline warps, normal transport, automatic point pairing |
@@ -17,6 +17,7 @@
 //! | [`strays`] | (facade) | stage: a scan → the same without its stray and isolated points |
 //! | [`sample`] | (facade) | stage: a mesh → oriented points sampled on its surface (uniform or Poisson disk) |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid; trimming open scans |
+//! | [`simplify`] | (facade) | stage: a mesh → the same surface in fewer triangles (edge collapse under error quadrics) |
 //! | [`warp`] | (facade) | stage: a point set or mesh moved by a thin-plate spline |
 //! | [`preview`] | (facade) | CPU rendering of point sets and meshes to PNG |
 //! | [`fixtures`] | (facade) | deterministic procedural exemplars |
@@ -142,6 +143,7 @@ pub mod preview;
 pub mod quilt;
 pub mod reconstruct;
 pub mod sample;
+pub mod simplify;
 pub mod strays;
 pub mod voxel;
 pub mod warp;

@@ -49,6 +49,9 @@ enum Command {
     /// Sample oriented points on a mesh's surface, as a Poisson disk or uniformly by area
     /// (for the commands that take point sets, from a mesh whose vertices are too few).
     Sample(commands::sample::SampleArgs),
+    /// Simplify a mesh to fewer triangles by edge collapse under error quadrics (Garland
+    /// and Heckbert), keeping its topology, boundaries and seams.
+    Simplify(commands::simplify::SimplifyArgs),
     /// Turn an oriented point set into a closed mesh (MLS surface → distance field →
     /// iso-surface), or remesh a mesh closed through its own distance field.
     Reconstruct(commands::reconstruct::ReconstructArgs),
@@ -106,6 +109,7 @@ fn main() -> ExitCode {
         Command::Render(args) => commands::render::run(&args, globals),
         Command::Normals(args) => commands::normals::run(&args, globals),
         Command::Sample(args) => commands::sample::run(&args, globals),
+        Command::Simplify(args) => commands::simplify::run(&args, globals),
         Command::Reconstruct(args) => commands::reconstruct::run_reconstruct(
             &args,
             GivenFlags::of(&matches, "reconstruct"),

@@ -2,10 +2,11 @@
 //!
 //! Shared foundations of the geosynth workspace: geometry types ([`PointSet`], [`TriMesh`],
 //! [`Aabb`], [`Grid3`]), spatial indices ([`KdIndex`], [`BucketGrid`]), file I/O ([`io`]:
-//! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS, PCD; polygon faces split by
+//! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS, PCD, glTF; polygon faces split by
 //! [`triangulate_polygon`]), seeded randomness ([`rng`]), stray points far outside the
 //! rest ([`strays`]), oriented points sampled on a mesh's surface ([`surface_sampling`]),
-//! and the [`Stage`] /
+//! meshes simplified by edge collapse under error quadrics ([`simplify`]), and the
+//! [`Stage`] /
 //! [`RunContext`] / [`Progress`] machinery every algorithm is exposed through, and the
 //! [`Surface`] trait (closest point + normal) shared by point-set surfaces and meshes. It
 //! contains no algorithm from any paper.
@@ -48,7 +49,8 @@
 //!
 //! ## Features
 //!
-//! - `serde`: `Serialize`/`Deserialize` for [`Aabb`] and [`ScalarType`].
+//! - `serde`: `Serialize`/`Deserialize` for [`Aabb`], [`ScalarType`] and the parameters of
+//!   [`surface_sampling`] and [`simplify`].
 
 #![deny(missing_docs)]
 
@@ -65,6 +67,7 @@ mod polygon;
 pub mod rng;
 mod scalar;
 mod scaled;
+pub mod simplify;
 pub mod spatial;
 mod stage;
 pub mod strays;

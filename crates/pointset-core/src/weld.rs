@@ -52,7 +52,7 @@ impl PositionWelder {
 }
 
 /// The words a position is welded by: its coordinates' bit patterns, `-0` taken as `0`.
-fn position_bits(p: Vec3) -> [u32; 3] {
+pub(crate) fn position_bits(p: Vec3) -> [u32; 3] {
     p.to_array()
         .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
 }

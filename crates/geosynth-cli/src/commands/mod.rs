@@ -13,6 +13,7 @@ pub mod render;
 pub mod sample;
 pub mod sheet_heights;
 pub mod sheet_mesh;
+pub mod simplify;
 pub mod voxel;
 pub mod voxel_memory;
 pub mod warp;

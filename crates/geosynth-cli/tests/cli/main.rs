@@ -19,6 +19,7 @@ mod remesh;
 mod sample;
 #[cfg(unix)]
 mod signals;
+mod simplify;
 mod strays;
 mod surfaces;
 mod timings;

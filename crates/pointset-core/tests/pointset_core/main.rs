@@ -14,6 +14,7 @@ mod pcd_codec;
 mod ply_codec;
 mod polygons;
 mod replaced_files;
+mod simplify;
 mod stl_codec;
 mod streamed_files;
 mod xyz_codec;

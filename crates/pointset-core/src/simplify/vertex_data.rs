@@ -1,0 +1,103 @@
+//! What a simplified mesh's vertices carry besides their positions: normals, texture
+//! coordinates and named attributes, merged as edges collapse.
+
+use glam::{Vec2, Vec3};
+
+use crate::{Attribute, COLOR_CHANNELS, PointSet, Result, ScalarType, TriMesh};
+
+/// One named attribute's values, and how two of them merge.
+#[derive(Debug)]
+struct Channel {
+    name: String,
+    storage: ScalarType,
+    values: Vec<f32>,
+    /// Interpolated (floats and colour channels) rather than taken from the nearer vertex
+    /// (integer labels, such as a quilt's `patch`).
+    blends: bool,
+}
+
+/// The input mesh's per-vertex data, updated in place as vertices merge.
+#[derive(Debug)]
+pub(super) struct VertexData {
+    normals: Option<Vec<Vec3>>,
+    uvs: Option<Vec<Vec2>>,
+    channels: Vec<Channel>,
+}
+
+impl VertexData {
+    /// The data of `mesh`'s vertices.
+    pub(super) fn of(mesh: &TriMesh) -> Self {
+        let vertices = mesh.vertices();
+        let channels = vertices
+            .attributes()
+            .iter()
+            .map(|attribute| Channel {
+                name: attribute.name().to_owned(),
+                storage: attribute.storage(),
+                values: attribute.values().to_vec(),
+                blends: !attribute.storage().is_integer()
+                    || COLOR_CHANNELS.contains(&attribute.name())
+                    || attribute.name() == "alpha",
+            })
+            .collect();
+        Self {
+            normals: vertices.normals().map(<[Vec3]>::to_vec),
+            uvs: mesh.uvs().map(<[Vec2]>::to_vec),
+            channels,
+        }
+    }
+
+    /// `gone` merges into `keep`, which moved to `t` of the way from where it was toward
+    /// `gone` (0: stayed, 1: took `gone`'s place). Normals, UVs, floats and colours are
+    /// interpolated by `t` (normals renormalized, kept as they were where the two cancel),
+    /// each attribute stored in its type; integer labels come from the nearer vertex.
+    pub(super) fn merge(&mut self, keep: usize, gone: usize, t: f32) {
+        if let Some(normals) = &mut self.normals {
+            let mixed = normals[keep].lerp(normals[gone], t);
+            if let Some(unit) = mixed.try_normalize() {
+                normals[keep] = unit;
+            }
+        }
+        if let Some(uvs) = &mut self.uvs {
+            uvs[keep] = uvs[keep].lerp(uvs[gone], t);
+        }
+        for channel in &mut self.channels {
+            let (k, g) = (channel.values[keep], channel.values[gone]);
+            channel.values[keep] = if channel.blends {
+                channel
+                    .storage
+                    .quantize(f64::from(k) + f64::from(t) * (f64::from(g) - f64::from(k)))
+                    as f32
+            } else if t > 0.5 {
+                g
+            } else {
+                k
+            };
+        }
+    }
+
+    /// The mesh of `triangles` over the vertices `kept` (indices into the input's), at
+    /// `positions` (one per kept vertex), carrying the kept vertices' data.
+    pub(super) fn into_mesh(
+        self,
+        kept: &[usize],
+        positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<TriMesh> {
+        let mut vertices = PointSet::new(positions)?;
+        if let Some(normals) = &self.normals {
+            vertices.set_normals(Some(kept.iter().map(|&v| normals[v]).collect()))?;
+        }
+        for channel in self.channels {
+            let values = kept.iter().map(|&v| channel.values[v]).collect();
+            vertices.set_attribute(
+                Attribute::new(channel.name, values).with_storage(channel.storage),
+            )?;
+        }
+        let mesh = TriMesh::new(vertices, triangles)?;
+        match self.uvs {
+            Some(uvs) => mesh.with_uvs(kept.iter().map(|&v| uvs[v]).collect()),
+            None => Ok(mesh),
+        }
+    }
+}

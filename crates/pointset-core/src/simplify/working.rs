@@ -1,0 +1,437 @@
+//! The mesh as it is being simplified: its vertices welded by position, the live faces
+//! over them with each corner's wedge (the input vertex it came from, which carries the
+//! corner's normal, texture coordinates and attributes), each vertex's faces and quadric,
+//! and the checks that keep an edge collapse from changing the surface's topology or
+//! folding it.
+
+use std::collections::HashMap;
+
+use glam::{DVec3, Vec3};
+
+use super::quadric::Quadric;
+use crate::DisjointSets;
+use crate::weld::position_bits;
+
+/// What a vertex may do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Role {
+    /// Moves and merges freely.
+    Free,
+    /// Takes part in no collapse: on an edge of more than two faces, or where its faces
+    /// make more than one fan (the surface pinched to a point).
+    Frozen,
+    /// Merged into a neighbour, or used by no face.
+    Gone,
+}
+
+/// Why a collapse was not made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Refusal {
+    /// It would change the topology: glue two parts of the surface together, close a hole
+    /// of three edges, pinch a boundary, remove a whole component, or make two faces of
+    /// the same corners.
+    Topology,
+    /// A face would turn by more than the limit, or shrink to no area.
+    Fold,
+}
+
+/// An edge collapse as planned: `gone` merges into `keep`, which moves to `position`,
+/// `t` of the way from where `keep` was toward `gone`.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Collapse {
+    pub(super) keep: u32,
+    pub(super) gone: u32,
+    pub(super) position: DVec3,
+    pub(super) t: f64,
+    /// `Q(position)` of the two vertices' summed quadrics.
+    pub(super) cost: f64,
+    /// The root mean square distance from `position` to the two vertices' planes.
+    pub(super) distance: f64,
+}
+
+/// The mesh being simplified (module docs of `simplify`).
+#[derive(Debug)]
+pub(super) struct Working {
+    /// Per welded vertex.
+    pub(super) positions: Vec<DVec3>,
+    /// Faces over welded vertices.
+    faces: Vec<[u32; 3]>,
+    /// Each face's corners as wedges (input vertices).
+    corners: Vec<[u32; 3]>,
+    /// Each wedge's welded vertex.
+    wedge_vertex: Vec<u32>,
+    face_alive: Vec<bool>,
+    vertex_faces: Vec<Vec<u32>>,
+    quadrics: Vec<Quadric>,
+    pub(super) roles: Vec<Role>,
+    /// Bumped each time a vertex moves or merges: queued collapses of its edges that were
+    /// planned before are stale.
+    pub(super) versions: Vec<u32>,
+    pub(super) live_faces: usize,
+    /// Edges inside the surface whose two faces have different wedges at an end.
+    pub(super) seam_edges: usize,
+}
+
+impl Working {
+    /// The working mesh of `corners` (faces over the input's vertices, none with a
+    /// repeated corner) at the input's `positions` less `centre` (where double precision
+    /// rounds least), welded where positions are equal (`-0` as `0`, as [`crate::TriMesh::welded`] welds);
+    /// faces whose corners weld together are left out (their count is returned beside).
+    /// Each face's plane is weighted by its area, and each boundary or seam edge's
+    /// constraint plane by `boundary_weight` times its squared length.
+    pub(super) fn new(
+        positions: &[Vec3],
+        corners: &[[u32; 3]],
+        centre: DVec3,
+        boundary_weight: f64,
+    ) -> (Self, usize) {
+        let mut welded: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut welded_positions = Vec::new();
+        let wedge_vertex: Vec<u32> = positions
+            .iter()
+            .map(|p| {
+                *welded.entry(position_bits(*p)).or_insert_with(|| {
+                    welded_positions.push(p.as_dvec3() - centre);
+                    welded_positions.len() as u32 - 1
+                })
+            })
+            .collect();
+        let input_faces = corners.len();
+        let (faces, corners): (Vec<[u32; 3]>, Vec<[u32; 3]>) = corners
+            .iter()
+            .map(|c| (c.map(|w| wedge_vertex[w as usize]), *c))
+            .filter(|([a, b, c], _)| a != b && b != c && c != a)
+            .unzip();
+        let n = welded_positions.len();
+        let mut vertex_faces = vec![Vec::new(); n];
+        for (f, face) in faces.iter().enumerate() {
+            for &v in face {
+                vertex_faces[v as usize].push(f as u32);
+            }
+        }
+        // Per edge: its faces, and whether they disagree on the wedges at its ends.
+        let mut edge_faces: HashMap<(u32, u32), (u32, [u32; 2])> = HashMap::new();
+        let mut seam = HashMap::new();
+        for (face, corner) in faces.iter().zip(&corners) {
+            for i in 0..3 {
+                let (a, b) = (face[i], face[(i + 1) % 3]);
+                let wedges = [corner[i], corner[(i + 1) % 3]];
+                let key = (a.min(b), a.max(b));
+                let wedges = if a < b {
+                    wedges
+                } else {
+                    [wedges[1], wedges[0]]
+                };
+                let entry = edge_faces.entry(key).or_insert((0, wedges));
+                entry.0 += 1;
+                if entry.1 != wedges {
+                    seam.insert(key, ());
+                }
+            }
+        }
+        let constrained = |a: u32, b: u32| {
+            let key = (a.min(b), a.max(b));
+            edge_faces[&key].0 == 1 || (edge_faces[&key].0 == 2 && seam.contains_key(&key))
+        };
+        let mut quadrics = vec![Quadric::default(); n];
+        for face in &faces {
+            let [a, b, c] = face.map(|v| welded_positions[v as usize]);
+            let cross = (b - a).cross(c - a);
+            let area = 0.5 * cross.length();
+            let Some(normal) = cross.try_normalize() else {
+                continue;
+            };
+            let plane = Quadric::plane(a, normal, area, area);
+            for &v in face {
+                quadrics[v as usize].add(&plane);
+            }
+            for (u, v) in face_edges(face) {
+                if !constrained(u, v) {
+                    continue;
+                }
+                let (pu, pv): (DVec3, DVec3) =
+                    (welded_positions[u as usize], welded_positions[v as usize]);
+                let Some(across) = (pv - pu).cross(normal).try_normalize() else {
+                    continue;
+                };
+                let constraint =
+                    Quadric::plane(pu, across, boundary_weight * pu.distance_squared(pv), 0.0);
+                quadrics[u as usize].add(&constraint);
+                quadrics[v as usize].add(&constraint);
+            }
+        }
+        let left_out = input_faces - faces.len();
+        let mut working = Self {
+            roles: vec![Role::Free; n],
+            versions: vec![0; n],
+            live_faces: faces.len(),
+            face_alive: vec![true; faces.len()],
+            seam_edges: seam.len(),
+            positions: welded_positions,
+            faces,
+            corners,
+            wedge_vertex,
+            vertex_faces,
+            quadrics,
+        };
+        working.assign_roles(edge_faces.iter().map(|(&edge, &(count, _))| (edge, count)));
+        (working, left_out)
+    }
+
+    fn assign_roles(&mut self, edge_counts: impl Iterator<Item = ((u32, u32), u32)>) {
+        for ((a, b), _) in edge_counts.filter(|(_, count)| *count > 2) {
+            self.roles[a as usize] = Role::Frozen;
+            self.roles[b as usize] = Role::Frozen;
+        }
+        for v in 0..self.positions.len() {
+            if self.vertex_faces[v].is_empty() {
+                self.roles[v] = Role::Gone;
+            } else if self.roles[v] == Role::Free && !self.is_one_fan(v as u32) {
+                self.roles[v] = Role::Frozen;
+            }
+        }
+    }
+
+    /// Whether `v`'s faces, joined where they share an edge through `v`, make one fan.
+    fn is_one_fan(&self, v: u32) -> bool {
+        let ring = self.neighbours(v);
+        let mut fans = DisjointSets::new(ring.len());
+        let index = |w: u32| ring.iter().position(|&r| r == w).map(|i| i as u32);
+        let mut joined = 0;
+        for &f in &self.vertex_faces[v as usize] {
+            let [a, b] = others(&self.faces[f as usize], v);
+            if let (Some(i), Some(j)) = (index(a), index(b))
+                && fans.join(i, j)
+            {
+                joined += 1;
+            }
+        }
+        // A ring of n neighbours is one fan when n − 1 joins linked them all.
+        joined + 1 >= ring.len()
+    }
+
+    /// The faces still in the mesh, in their input order.
+    pub(super) fn live_faces(&self) -> impl Iterator<Item = &[u32; 3]> {
+        self.faces
+            .iter()
+            .zip(&self.face_alive)
+            .filter(|(_, alive)| **alive)
+            .map(|(face, _)| face)
+    }
+
+    /// The vertices sharing a face with `v`, each once, in the order first met.
+    pub(super) fn neighbours(&self, v: u32) -> Vec<u32> {
+        let mut ring = Vec::with_capacity(8);
+        for &f in &self.vertex_faces[v as usize] {
+            for w in others(&self.faces[f as usize], v) {
+                if !ring.contains(&w) {
+                    ring.push(w);
+                }
+            }
+        }
+        ring
+    }
+
+    /// The faces of the edge `a`–`b`.
+    fn edge_faces(&self, a: u32, b: u32) -> Vec<u32> {
+        self.vertex_faces[a as usize]
+            .iter()
+            .copied()
+            .filter(|&f| self.faces[f as usize].contains(&b))
+            .collect()
+    }
+
+    /// Whether `v` lies on an edge of one face.
+    fn on_boundary(&self, v: u32) -> bool {
+        self.neighbours(v)
+            .into_iter()
+            .any(|w| self.edge_faces(v, w).len() == 1)
+    }
+
+    /// The collapse of the edge `a`–`b`, planned: the lower index stays, and goes where
+    /// the summed quadric is least; `None` when either vertex may not move.
+    pub(super) fn plan(&self, a: u32, b: u32) -> Option<Collapse> {
+        if self.roles[a as usize] != Role::Free || self.roles[b as usize] != Role::Free {
+            return None;
+        }
+        let (keep, gone) = (a.min(b), a.max(b));
+        let (pk, pg) = (self.positions[keep as usize], self.positions[gone as usize]);
+        let quadric = self.quadrics[keep as usize].plus(&self.quadrics[gone as usize]);
+        let position = quadric.best_point(pk, pg);
+        let span = pk.distance_squared(pg);
+        let t = if span > 0.0 {
+            ((position - pk).dot(pg - pk) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        Some(Collapse {
+            keep,
+            gone,
+            position,
+            t,
+            cost: quadric.cost(position),
+            distance: quadric.rms_distance(position),
+        })
+    }
+
+    /// Whether `collapse` keeps the surface's topology and folds no face more than
+    /// `min_cos` allows (the cosine of the largest turn): `Ok(false)` when the edge is no
+    /// longer in the mesh.
+    pub(super) fn check(&self, collapse: &Collapse, min_cos: f64) -> Result<bool, Refusal> {
+        let (keep, gone) = (collapse.keep, collapse.gone);
+        let shared = self.edge_faces(keep, gone);
+        if shared.is_empty() {
+            return Ok(false);
+        }
+        if shared.len() > 2 {
+            return Err(Refusal::Topology);
+        }
+        if shared.len() == 2 && self.on_boundary(keep) && self.on_boundary(gone) {
+            return Err(Refusal::Topology);
+        }
+        // The link condition: the two vertices' common neighbours are exactly the corners
+        // across the edge.
+        let across: Vec<u32> = shared
+            .iter()
+            .map(|&f| third(&self.faces[f as usize], keep, gone))
+            .collect();
+        let ring_gone = self.neighbours(gone);
+        let common = self
+            .neighbours(keep)
+            .into_iter()
+            .filter(|w| ring_gone.contains(w))
+            .count();
+        if common != across.len() || across.iter().any(|w| !ring_gone.contains(w)) {
+            return Err(Refusal::Topology);
+        }
+        let rest_keep: Vec<u32> = self.faces_without(keep, &shared);
+        let rest_gone: Vec<u32> = self.faces_without(gone, &shared);
+        if rest_keep.is_empty() && rest_gone.is_empty() {
+            return Err(Refusal::Topology);
+        }
+        let kept_corners: Vec<[u32; 3]> = rest_keep
+            .iter()
+            .map(|&f| sorted(self.faces[f as usize]))
+            .collect();
+        for &f in &rest_gone {
+            let moved = self.faces[f as usize].map(|v| if v == gone { keep } else { v });
+            if kept_corners.contains(&sorted(moved)) {
+                return Err(Refusal::Topology);
+            }
+        }
+        for &f in rest_keep.iter().chain(&rest_gone) {
+            let face = self.faces[f as usize];
+            let before = self.normal(face.map(|v| self.positions[v as usize]));
+            let after = self.normal(face.map(|v| {
+                if v == keep || v == gone {
+                    collapse.position
+                } else {
+                    self.positions[v as usize]
+                }
+            }));
+            let (lb, la) = (before.length(), after.length());
+            if lb > 0.0 && (la <= 1e-12 * lb || before.dot(after) < min_cos * lb * la) {
+                return Err(Refusal::Fold);
+            }
+        }
+        Ok(true)
+    }
+
+    fn normal(&self, [a, b, c]: [DVec3; 3]) -> DVec3 {
+        (b - a).cross(c - a)
+    }
+
+    fn faces_without(&self, v: u32, shared: &[u32]) -> Vec<u32> {
+        self.vertex_faces[v as usize]
+            .iter()
+            .copied()
+            .filter(|f| !shared.contains(f))
+            .collect()
+    }
+
+    /// Makes `collapse` (checked): the edge's faces leave the mesh, `gone`'s other faces
+    /// take `keep` in its place, and `keep` moves and takes `gone`'s quadric. `gone`'s
+    /// wedges on the edge's faces merge into `keep`'s wedges there (appended to `merged`
+    /// as `(keep's wedge, gone's wedge)`, for their data); its other wedges (the far side
+    /// of a seam that ends at `gone`) stay, at `keep`'s position.
+    pub(super) fn apply(&mut self, collapse: &Collapse, merged: &mut Vec<(u32, u32)>) {
+        let (keep, gone) = (collapse.keep as usize, collapse.gone as usize);
+        let shared = self.edge_faces(collapse.keep, collapse.gone);
+        merged.clear();
+        for &f in &shared {
+            let (face, corner) = (self.faces[f as usize], self.corners[f as usize]);
+            let wedge_of = |v: u32| face.iter().position(|&c| c == v).map(|i| corner[i]);
+            if let (Some(k), Some(g)) = (wedge_of(collapse.keep), wedge_of(collapse.gone))
+                && k != g
+                && !merged.iter().any(|&(_, m)| m == g)
+            {
+                merged.push((k, g));
+            }
+            self.face_alive[f as usize] = false;
+            let w = third(&face, collapse.keep, collapse.gone);
+            self.vertex_faces[w as usize].retain(|&g| g != f);
+        }
+        self.live_faces -= shared.len();
+        let moved = std::mem::take(&mut self.vertex_faces[gone]);
+        self.vertex_faces[keep].retain(|f| !shared.contains(f));
+        for f in moved.into_iter().filter(|f| !shared.contains(f)) {
+            let (face, corner) = (&mut self.faces[f as usize], &mut self.corners[f as usize]);
+            for (v, w) in face.iter_mut().zip(corner.iter_mut()) {
+                if *v == collapse.gone {
+                    *v = collapse.keep;
+                    match merged.iter().find(|&&(_, g)| g == *w) {
+                        Some(&(k, _)) => *w = k,
+                        None => self.wedge_vertex[*w as usize] = collapse.keep,
+                    }
+                }
+            }
+            self.vertex_faces[keep].push(f);
+        }
+        self.positions[keep] = collapse.position;
+        let absorbed = self.quadrics[gone];
+        self.quadrics[keep].add(&absorbed);
+        self.roles[gone] = Role::Gone;
+        self.versions[keep] = self.versions[keep].wrapping_add(1);
+        self.versions[gone] = self.versions[gone].wrapping_add(1);
+    }
+
+    /// The live faces' corners as wedges, in the faces' input order.
+    pub(super) fn live_corners(&self) -> impl Iterator<Item = &[u32; 3]> {
+        self.corners
+            .iter()
+            .zip(&self.face_alive)
+            .filter(|(_, alive)| **alive)
+            .map(|(corner, _)| corner)
+    }
+
+    /// Where wedge `w` is now: at its welded vertex.
+    pub(super) fn wedge_position(&self, w: u32) -> DVec3 {
+        self.positions[self.wedge_vertex[w as usize] as usize]
+    }
+}
+
+/// A face's three edges, in its corners' order.
+fn face_edges(&[a, b, c]: &[u32; 3]) -> [(u32, u32); 3] {
+    [(a, b), (b, c), (c, a)]
+}
+
+/// The face's other two corners than `v`, in the face's order after `v`.
+fn others(face: &[u32; 3], v: u32) -> [u32; 2] {
+    match face.iter().position(|&c| c == v) {
+        Some(i) => [face[(i + 1) % 3], face[(i + 2) % 3]],
+        None => [face[1], face[2]],
+    }
+}
+
+/// The face's corner that is neither `a` nor `b`.
+fn third(face: &[u32; 3], a: u32, b: u32) -> u32 {
+    face.iter()
+        .copied()
+        .find(|&c| c != a && c != b)
+        .unwrap_or(face[0])
+}
+
+fn sorted(mut face: [u32; 3]) -> [u32; 3] {
+    face.sort_unstable();
+    face
+}
