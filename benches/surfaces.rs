@@ -1,7 +1,7 @@
 //! Surface kernels: MLS projection throughput, the MLS surface read as a height field,
 //! signed distance grids from a mesh and from a point set (signed either way), winding
 //! numbers of meshes and point clouds, iso-surface extraction, normals of unoriented
-//! points (fitted by PCA, oriented by propagation).
+//! points (fitted by PCA, oriented by propagation), mesh simplification.
 
 // A benchmark whose setup fails has nothing to measure: aborting is the right outcome.
 #![allow(clippy::expect_used)]
@@ -11,6 +11,7 @@ mod common;
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use geosynth::core::simplify::{SimplifyParams, simplify_mesh};
 use geosynth::core::{KdIndex, RunContext, rng};
 use geosynth::fixtures;
 use geosynth::mls::{
@@ -202,6 +203,32 @@ fn mesh_surface_build(c: &mut Criterion) {
     group.finish();
 }
 
+/// `geosynth simplify`: a bumpy torus of 200,000 triangles (bumps so that no two
+/// vertices share their planes) down to a tenth and to a hundredth.
+fn mesh_simplification(c: &mut Criterion) {
+    let torus = fixtures::torus_mesh(400, 250, 1.0, 0.35).expect("benchmark setup");
+    let mut g = rng::rng_from_seed(5);
+    let mut vertices = torus.vertices().clone();
+    let bumpy: Vec<Vec3> = vertices
+        .positions()
+        .iter()
+        .map(|&p| p * (1.0 + g.random_range(-0.002..0.002)))
+        .collect();
+    vertices = geosynth::core::PointSet::new(bumpy).expect("benchmark setup");
+    let torus = geosynth::core::TriMesh::new(vertices, torus.triangles().to_vec())
+        .expect("benchmark setup");
+    let mut group = c.benchmark_group("simplify_200k_triangles");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(torus.face_count() as u64));
+    for target in [20_000, 2_000] {
+        let params = SimplifyParams::faces(target);
+        group.bench_with_input(BenchmarkId::new("to", target), &params, |b, params| {
+            b.iter(|| simplify_mesh(black_box(&torus), params, &mut RunContext::new(0)))
+        });
+    }
+    group.finish();
+}
+
 /// `geosynth normals` on 200,000 points of a torus: the PCA fit of every point's
 /// neighbourhood, and the orientation of normals whose signs are random (as fits come).
 fn point_normals(c: &mut Criterion) {
@@ -255,6 +282,7 @@ criterion_group!(
     mls_top_heights,
     sdf_grids,
     winding_numbers,
-    mesh_surface_build
+    mesh_surface_build,
+    mesh_simplification
 );
 criterion_main!(benches);

@@ -7,6 +7,7 @@
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+use geosynth::core::simplify::SimplifyParams;
 use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling};
 use geosynth::mls::{ClusterParams, MlsParams, RelaxParams as MlsRelaxParams};
 use geosynth::normals::EstimateNormals;
@@ -14,6 +15,7 @@ use geosynth::quilt::{Method, OutputSize, QuiltParams, WarpTargets};
 use geosynth::reconstruct::FieldParams;
 use geosynth::sample::SampleSurface;
 use geosynth::sdf::{FarSigns, GridSpec, MeshSign, PointSign};
+use geosynth::simplify::Simplify;
 use geosynth::strays::LeaveOutStrays;
 use geosynth::tps::{
     AffineRegularization, PairingParams, Table1Preset, ThinPlateSpline, TpsParams,
@@ -273,6 +275,13 @@ fn the_remaining_types_survive_json() {
             normals: SampleNormals::Faces,
         }
     );
+    let simplify = Simplify {
+        params: SimplifyParams::faces(500).max_error(0.25),
+    };
+    assert_eq!(round_trip(&simplify), simplify);
+    // Only the target is needed; the limits take their defaults.
+    let written: SimplifyParams = serde_json::from_str(r#"{ "target_faces": 80 }"#).unwrap();
+    assert_eq!(written, SimplifyParams::faces(80));
     let spec = GridSpec {
         dims: [3, 4, 5],
         origin: Vec3::new(-1.0, 0.5, 2.0),

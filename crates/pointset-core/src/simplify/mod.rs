@@ -4,7 +4,7 @@
 //! shape, its boundaries and its topology.
 //!
 //! Each vertex carries a quadric, the sum of the squared distances to the planes of the
-//! faces around it (each weighted by its face's area). Every edge gets a cost: its two
+//! faces around it, each plane counted once as in the paper. Every edge gets a cost: its two
 //! vertices' quadrics summed, at the point where that sum is least. The cheapest edge
 //! collapses — one vertex merges into the other, which moves to that point and takes
 //! the summed quadric — and the edges around it are costed anew; until the mesh has no
@@ -20,8 +20,7 @@
 //!   faces of the same corners (a tetrahedron), or remove a component's last face. So a
 //!   closed surface stays closed, with its genus, and every component stays.
 //! - **Boundaries** get the paper's constraint planes: through each boundary edge,
-//!   perpendicular to its face, weighted by [`SimplifyParams::boundary_weight`] times the
-//!   edge's squared length (so, like a face's area, it scales as a length squared). A
+//!   perpendicular to its face, counted [`SimplifyParams::boundary_weight`] times. A
 //!   boundary then moves along itself, not inward.
 //! - **Seams**: the topology is that of the vertices welded by position (`-0` as `0`),
 //!   so a mesh split where its texture coordinates jump (Spot's OBJ: 13 pieces, one
@@ -38,11 +37,13 @@
 //!   the least point along the edge (a flat or a straight neighbourhood has a plane or a
 //!   line of best points); never worse than either endpoint.
 //! - **No folds**: a collapse is refused when any face around it would turn by more than
-//!   [`SimplifyParams::max_face_turn`] degrees, or lose all its area.
+//!   [`SimplifyParams::max_face_turn`] degrees, or lose all its area, or end up more than
+//!   a right angle from the way it faced in the input (turns add up over collapses: on a
+//!   torus at a tenth of its faces, one face had come to face into the tube).
 //! - **Error limit**: [`SimplifyParams::max_error`] refuses a collapse whose point lies
-//!   further than that from its planes (the root mean square distance, weighted by the
-//!   faces' areas, a boundary's constraint counted as a plane of its weight), so a run
-//!   can stop at a tolerance instead of a count.
+//!   further than that from its faces' planes (the root mean square distance over the
+//!   planes merged into it, a boundary's constraints counted in the sum but not in the
+//!   number), so a run can stop at a tolerance instead of a count.
 //! - **Vertex data**: normals, texture coordinates, colours and float attributes are
 //!   interpolated along the edge to where the vertex went (normals renormalized); integer
 //!   attributes other than colours (labels, such as a quilt's `patch`) come from the
@@ -86,7 +87,7 @@ mod working;
 
 use crate::{Error, Result, RunContext, TriMesh};
 use vertex_data::VertexData;
-use working::{Collapse, Refusal, Role, Working};
+use working::{Refusal, Role, Working};
 
 /// How far to simplify, and the limits a collapse must keep (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -96,15 +97,15 @@ pub struct SimplifyParams {
     /// Stop once the mesh has no more faces than this (0: as far as the limits allow).
     pub target_faces: usize,
     /// No collapse whose vertex lands further than this from its planes, in the mesh's
-    /// units (root mean square over the planes, weighted by area); `None`: no limit.
+    /// units (root mean square over the planes merged into it); `None`: no limit.
     #[cfg_attr(feature = "serde", serde(default))]
     pub max_error: Option<f64>,
     /// The most a face may turn in one collapse, in degrees, above 0 and at most 180
     /// (default [`DEFAULT_MAX_FACE_TURN`]).
     #[cfg_attr(feature = "serde", serde(default = "default_max_face_turn"))]
     pub max_face_turn: f64,
-    /// The weight of a boundary edge's constraint plane per squared length of the edge,
-    /// at least 0 (default [`DEFAULT_BOUNDARY_WEIGHT`]; 0 lets boundaries shrink).
+    /// How many times a boundary or seam edge's constraint plane counts against a face's
+    /// plane, at least 0 (default [`DEFAULT_BOUNDARY_WEIGHT`]; 0 lets boundaries shrink).
     #[cfg_attr(feature = "serde", serde(default = "default_boundary_weight"))]
     pub boundary_weight: f64,
 }
@@ -114,8 +115,7 @@ pub struct SimplifyParams {
 pub const DEFAULT_MAX_FACE_TURN: f64 = 90.0;
 
 /// The default [`SimplifyParams::boundary_weight`]: a boundary edge's constraint plane
-/// weighs as much as a hundred faces of its length squared, so a boundary barely moves
-/// off its line.
+/// weighs as much as a hundred faces' planes, so a boundary barely moves off its line.
 pub const DEFAULT_BOUNDARY_WEIGHT: f64 = 100.0;
 
 #[cfg(feature = "serde")]
@@ -223,18 +223,16 @@ pub struct Simplified {
     pub report: SimplifyReport,
 }
 
-/// A collapse waiting in the queue, with the versions its vertices had when it was
-/// planned.
+/// A collapse waiting in the queue: its cost, its edge (`keep` the lower index) and the
+/// versions its vertices had when it was planned. Kept small (the queue's moves were
+/// most of the run with the whole plan in each entry); the plan is made again when the
+/// entry comes out, the same while the versions hold.
+#[derive(Debug, Clone, Copy)]
 struct Queued {
-    collapse: Collapse,
+    cost: f64,
+    keep: u32,
+    gone: u32,
     versions: [u32; 2],
-}
-
-impl Queued {
-    fn key(&self) -> (f64, u32, u32) {
-        let c = &self.collapse;
-        (c.cost, c.keep.min(c.gone), c.keep.max(c.gone))
-    }
 }
 
 impl PartialEq for Queued {
@@ -253,8 +251,10 @@ impl PartialOrd for Queued {
 
 impl Ord for Queued {
     fn cmp(&self, other: &Self) -> Ordering {
-        let ((ca, a1, a2), (cb, b1, b2)) = (self.key(), other.key());
-        ca.total_cmp(&cb).then(a1.cmp(&b1)).then(a2.cmp(&b2))
+        self.cost
+            .total_cmp(&other.cost)
+            .then(self.keep.cmp(&other.keep))
+            .then(self.gone.cmp(&other.gone))
     }
 }
 
@@ -319,14 +319,16 @@ pub fn simplify_mesh(
         let Some(Reverse(queued)) = queue.pop() else {
             break;
         };
-        let collapse = queued.collapse;
-        let (keep, gone) = (collapse.keep as usize, collapse.gone as usize);
+        let (keep, gone) = (queued.keep as usize, queued.gone as usize);
         if queued.versions != [working.versions[keep], working.versions[gone]]
             || working.roles[keep] == Role::Gone
             || working.roles[gone] == Role::Gone
         {
             continue;
         }
+        let Some(collapse) = working.plan(queued.keep, queued.gone) else {
+            continue;
+        };
         if params
             .max_error
             .is_some_and(|limit| collapse.distance > limit)
@@ -393,6 +395,11 @@ fn enqueue(working: &Working, queue: &mut BinaryHeap<Reverse<Queued>>, a: u32, b
             working.versions[collapse.keep as usize],
             working.versions[collapse.gone as usize],
         ];
-        queue.push(Reverse(Queued { collapse, versions }));
+        queue.push(Reverse(Queued {
+            cost: collapse.cost,
+            keep: collapse.keep,
+            gone: collapse.gone,
+            versions,
+        }));
     }
 }

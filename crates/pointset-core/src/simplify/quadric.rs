@@ -4,22 +4,22 @@
 use glam::{DMat3, DVec3};
 
 /// `Q(p) = pᵀAp + 2b·p + c`: the weighted sum of squared distances from `p` to the planes
-/// added to it, with the sum of the weights of the faces' planes (`area`) beside it.
+/// added to it, with the number of faces' planes among them (`faces`) beside it.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(super) struct Quadric {
     /// `A`'s upper triangle: xx, xy, xz, yy, yz, zz.
     a: [f64; 6],
     b: DVec3,
     c: f64,
-    /// The summed weight of the faces' planes (their areas), which turns `Q` into a mean
-    /// squared distance; the boundary's constraint planes add to `Q` but not to this.
-    area: f64,
+    /// How many faces' planes were added, which turns `Q` into a mean squared distance;
+    /// the boundary's constraint planes add to `Q` but not to this.
+    faces: f64,
 }
 
 impl Quadric {
     /// The quadric of the plane through `point` with unit normal `normal`, weighted by
-    /// `weight`; `area` is the weight counted as surface (0 for a constraint plane).
-    pub(super) fn plane(point: DVec3, normal: DVec3, weight: f64, area: f64) -> Self {
+    /// `weight`; `faces` is 1 for a face's plane, 0 for a constraint plane.
+    pub(super) fn plane(point: DVec3, normal: DVec3, weight: f64, faces: f64) -> Self {
         let d = -normal.dot(point);
         let n = normal;
         Self {
@@ -34,7 +34,7 @@ impl Quadric {
             .map(|v| v * weight),
             b: n * (d * weight),
             c: d * d * weight,
-            area,
+            faces,
         }
     }
 
@@ -45,7 +45,7 @@ impl Quadric {
         }
         self.b += other.b;
         self.c += other.c;
-        self.area += other.area;
+        self.faces += other.faces;
     }
 
     /// The sum of the two.
@@ -68,11 +68,11 @@ impl Quadric {
         (p.dot(self.matrix() * p) + 2.0 * self.b.dot(p) + self.c).max(0.0)
     }
 
-    /// The root mean square distance from `p` to the planes, weighted by area: `Q(p)`
-    /// over the faces' summed area (0 for a quadric of no area).
+    /// The root mean square distance from `p` to the faces' planes: `Q(p)` over their
+    /// number (0 for a quadric of no face).
     pub(super) fn rms_distance(&self, p: DVec3) -> f64 {
-        if self.area > 0.0 {
-            (self.cost(p) / self.area).sqrt()
+        if self.faces > 0.0 {
+            (self.cost(p) / self.faces).sqrt()
         } else {
             0.0
         }

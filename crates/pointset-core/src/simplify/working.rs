@@ -61,6 +61,8 @@ pub(super) struct Working {
     /// Each wedge's welded vertex.
     wedge_vertex: Vec<u32>,
     face_alive: Vec<bool>,
+    /// Each face's unit normal in the input (zero for a face of no area).
+    first_normals: Vec<DVec3>,
     vertex_faces: Vec<Vec<u32>>,
     quadrics: Vec<Quadric>,
     pub(super) roles: Vec<Role>,
@@ -77,8 +79,8 @@ impl Working {
     /// repeated corner) at the input's `positions` less `centre` (where double precision
     /// rounds least), welded where positions are equal (`-0` as `0`, as [`crate::TriMesh::welded`] welds);
     /// faces whose corners weld together are left out (their count is returned beside).
-    /// Each face's plane is weighted by its area, and each boundary or seam edge's
-    /// constraint plane by `boundary_weight` times its squared length.
+    /// Each face's plane counts once, and each boundary or seam edge's constraint plane
+    /// `boundary_weight` times.
     pub(super) fn new(
         positions: &[Vec3],
         corners: &[[u32; 3]],
@@ -137,11 +139,10 @@ impl Working {
         for face in &faces {
             let [a, b, c] = face.map(|v| welded_positions[v as usize]);
             let cross = (b - a).cross(c - a);
-            let area = 0.5 * cross.length();
             let Some(normal) = cross.try_normalize() else {
                 continue;
             };
-            let plane = Quadric::plane(a, normal, area, area);
+            let plane = Quadric::plane(a, normal, 1.0, 1.0);
             for &v in face {
                 quadrics[v as usize].add(&plane);
             }
@@ -154,14 +155,21 @@ impl Working {
                 let Some(across) = (pv - pu).cross(normal).try_normalize() else {
                     continue;
                 };
-                let constraint =
-                    Quadric::plane(pu, across, boundary_weight * pu.distance_squared(pv), 0.0);
+                let constraint = Quadric::plane(pu, across, boundary_weight, 0.0);
                 quadrics[u as usize].add(&constraint);
                 quadrics[v as usize].add(&constraint);
             }
         }
         let left_out = input_faces - faces.len();
+        let first_normals = faces
+            .iter()
+            .map(|face| {
+                let [a, b, c] = face.map(|v| welded_positions[v as usize]);
+                (b - a).cross(c - a).normalize_or_zero()
+            })
+            .collect();
         let mut working = Self {
+            first_normals,
             roles: vec![Role::Free; n],
             versions: vec![0; n],
             live_faces: faces.len(),
@@ -331,6 +339,11 @@ impl Working {
             }));
             let (lb, la) = (before.length(), after.length());
             if lb > 0.0 && (la <= 1e-12 * lb || before.dot(after) < min_cos * lb * la) {
+                return Err(Refusal::Fold);
+            }
+            // Turns add up over many collapses: never past a right angle from the face's
+            // first orientation either.
+            if self.first_normals[f as usize].dot(after) < 0.0 {
                 return Err(Refusal::Fold);
             }
         }
