@@ -4,7 +4,7 @@
 //! and the checks that keep an edge collapse from changing the surface's topology or
 //! folding it.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use glam::{DVec3, Vec3};
 
@@ -77,29 +77,17 @@ pub(super) struct Working {
 impl Working {
     /// The working mesh of `corners` (faces over the input's vertices, none with a
     /// repeated corner) at the input's `positions` less `centre` (where double precision
-    /// rounds least), welded where positions are equal (`-0` as `0`, as [`crate::TriMesh::welded`] welds);
-    /// faces whose corners weld together are left out (their count is returned beside).
-    /// Each face's plane counts once, and each boundary or seam edge's constraint plane
-    /// `boundary_weight` times.
+    /// rounds least), welded where positions are equal; faces whose corners weld together
+    /// are left out (their count is returned beside). Each face's plane counts once, and
+    /// each boundary or seam edge's constraint plane `boundary_weight` times.
     pub(super) fn new(
         positions: &[Vec3],
         corners: &[[u32; 3]],
         centre: DVec3,
         boundary_weight: f64,
     ) -> (Self, usize) {
-        let mut welded: HashMap<[u32; 3], u32> = HashMap::new();
-        let mut welded_positions = Vec::new();
-        let wedge_vertex: Vec<u32> = positions
-            .iter()
-            .map(|p| {
-                *welded.entry(position_bits(*p)).or_insert_with(|| {
-                    welded_positions.push(p.as_dvec3() - centre);
-                    welded_positions.len() as u32 - 1
-                })
-            })
-            .collect();
-        let input_faces = corners.len();
-        let (faces, corners): (Vec<[u32; 3]>, Vec<[u32; 3]>) = corners
+        let (welded_positions, wedge_vertex) = weld(positions, centre);
+        let (faces, kept_corners): (Vec<[u32; 3]>, Vec<[u32; 3]>) = corners
             .iter()
             .map(|c| (c.map(|w| wedge_vertex[w as usize]), *c))
             .filter(|([a, b, c], _)| a != b && b != c && c != a)
@@ -111,56 +99,8 @@ impl Working {
                 vertex_faces[v as usize].push(f as u32);
             }
         }
-        // Per edge: its faces, and whether they disagree on the wedges at its ends.
-        let mut edge_faces: HashMap<(u32, u32), (u32, [u32; 2])> = HashMap::new();
-        let mut seam = HashMap::new();
-        for (face, corner) in faces.iter().zip(&corners) {
-            for i in 0..3 {
-                let (a, b) = (face[i], face[(i + 1) % 3]);
-                let wedges = [corner[i], corner[(i + 1) % 3]];
-                let key = (a.min(b), a.max(b));
-                let wedges = if a < b {
-                    wedges
-                } else {
-                    [wedges[1], wedges[0]]
-                };
-                let entry = edge_faces.entry(key).or_insert((0, wedges));
-                entry.0 += 1;
-                if entry.1 != wedges {
-                    seam.insert(key, ());
-                }
-            }
-        }
-        let constrained = |a: u32, b: u32| {
-            let key = (a.min(b), a.max(b));
-            edge_faces[&key].0 == 1 || (edge_faces[&key].0 == 2 && seam.contains_key(&key))
-        };
-        let mut quadrics = vec![Quadric::default(); n];
-        for face in &faces {
-            let [a, b, c] = face.map(|v| welded_positions[v as usize]);
-            let cross = (b - a).cross(c - a);
-            let Some(normal) = cross.try_normalize() else {
-                continue;
-            };
-            let plane = Quadric::plane(a, normal, 1.0, 1.0);
-            for &v in face {
-                quadrics[v as usize].add(&plane);
-            }
-            for (u, v) in face_edges(face) {
-                if !constrained(u, v) {
-                    continue;
-                }
-                let (pu, pv): (DVec3, DVec3) =
-                    (welded_positions[u as usize], welded_positions[v as usize]);
-                let Some(across) = (pv - pu).cross(normal).try_normalize() else {
-                    continue;
-                };
-                let constraint = Quadric::plane(pu, across, boundary_weight, 0.0);
-                quadrics[u as usize].add(&constraint);
-                quadrics[v as usize].add(&constraint);
-            }
-        }
-        let left_out = input_faces - faces.len();
+        let edges = EdgeTable::new(&faces, &kept_corners);
+        let quadrics = initial_quadrics(&welded_positions, &faces, &edges, boundary_weight);
         let first_normals = faces
             .iter()
             .map(|face| {
@@ -174,20 +114,21 @@ impl Working {
             versions: vec![0; n],
             live_faces: faces.len(),
             face_alive: vec![true; faces.len()],
-            seam_edges: seam.len(),
+            seam_edges: edges.seams.len(),
             positions: welded_positions,
             faces,
-            corners,
+            corners: kept_corners,
             wedge_vertex,
             vertex_faces,
             quadrics,
         };
-        working.assign_roles(edge_faces.iter().map(|(&edge, &(count, _))| (edge, count)));
+        working.assign_roles(&edges);
+        let left_out = corners.len() - working.faces.len();
         (working, left_out)
     }
 
-    fn assign_roles(&mut self, edge_counts: impl Iterator<Item = ((u32, u32), u32)>) {
-        for ((a, b), _) in edge_counts.filter(|(_, count)| *count > 2) {
+    fn assign_roles(&mut self, edges: &EdgeTable) {
+        for (&(a, b), _) in edges.faces.iter().filter(|(_, count)| **count > 2) {
             self.roles[a as usize] = Role::Frozen;
             self.roles[b as usize] = Role::Frozen;
         }
@@ -421,6 +362,103 @@ impl Working {
     pub(super) fn wedge_position(&self, w: u32) -> DVec3 {
         self.positions[self.wedge_vertex[w as usize] as usize]
     }
+}
+
+/// The input's positions less `centre`, one per distinct position (`-0` as `0`, as
+/// [`crate::TriMesh::welded`] welds), and each input vertex's welded vertex.
+fn weld(positions: &[Vec3], centre: DVec3) -> (Vec<DVec3>, Vec<u32>) {
+    let mut welded: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut welded_positions = Vec::new();
+    let wedge_vertex = positions
+        .iter()
+        .map(|p| {
+            *welded.entry(position_bits(*p)).or_insert_with(|| {
+                welded_positions.push(p.as_dvec3() - centre);
+                welded_positions.len() as u32 - 1
+            })
+        })
+        .collect();
+    (welded_positions, wedge_vertex)
+}
+
+/// The welded mesh's edges (lower vertex first): how many faces each has, and which of
+/// those with two faces are seams (the faces use different wedges at an end).
+struct EdgeTable {
+    faces: HashMap<(u32, u32), u32>,
+    seams: HashSet<(u32, u32)>,
+}
+
+impl EdgeTable {
+    fn new(faces: &[[u32; 3]], corners: &[[u32; 3]]) -> Self {
+        let mut first_wedges: HashMap<(u32, u32), [u32; 2]> = HashMap::new();
+        let mut counts: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut differing = HashSet::new();
+        for (face, corner) in faces.iter().zip(corners) {
+            for i in 0..3 {
+                let (j, k) = if face[i] < face[(i + 1) % 3] {
+                    (i, (i + 1) % 3)
+                } else {
+                    ((i + 1) % 3, i)
+                };
+                let key = (face[j], face[k]);
+                *counts.entry(key).or_default() += 1;
+                if *first_wedges.entry(key).or_insert([corner[j], corner[k]])
+                    != [corner[j], corner[k]]
+                {
+                    differing.insert(key);
+                }
+            }
+        }
+        let seams = differing
+            .into_iter()
+            .filter(|key| counts[key] == 2)
+            .collect();
+        Self {
+            faces: counts,
+            seams,
+        }
+    }
+
+    /// Whether the edge `a`–`b` gets constraint planes: a boundary or a seam.
+    fn constrained(&self, a: u32, b: u32) -> bool {
+        let key = (a.min(b), a.max(b));
+        self.faces.get(&key) == Some(&1) || self.seams.contains(&key)
+    }
+}
+
+/// Each welded vertex's quadric: the planes of its faces, each once, and the constraint
+/// planes of its boundary and seam edges (through the edge, perpendicular to its face),
+/// each `boundary_weight` times.
+fn initial_quadrics(
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+    edges: &EdgeTable,
+    boundary_weight: f64,
+) -> Vec<Quadric> {
+    let mut quadrics = vec![Quadric::default(); positions.len()];
+    for face in faces {
+        let [a, b, c] = face.map(|v| positions[v as usize]);
+        let Some(normal) = (b - a).cross(c - a).try_normalize() else {
+            continue;
+        };
+        let plane = Quadric::plane(a, normal, 1.0, 1.0);
+        for &v in face {
+            quadrics[v as usize].add(&plane);
+        }
+        for (u, v) in face_edges(face)
+            .into_iter()
+            .filter(|&(u, v)| edges.constrained(u, v))
+        {
+            let (pu, pv) = (positions[u as usize], positions[v as usize]);
+            let Some(across) = (pv - pu).cross(normal).try_normalize() else {
+                continue;
+            };
+            let constraint = Quadric::plane(pu, across, boundary_weight, 0.0);
+            quadrics[u as usize].add(&constraint);
+            quadrics[v as usize].add(&constraint);
+        }
+    }
+    quadrics
 }
 
 /// A face's three edges, in its corners' order.
