@@ -298,7 +298,31 @@ pub fn simplify_mesh(
         ..SimplifyReport::default()
     };
 
-    let mut queue = BinaryHeap::new();
+    let mut queue = queue_every_edge(&working);
+    collapse_until(
+        &mut working,
+        &mut data,
+        &mut queue,
+        params,
+        &mut report,
+        ctx,
+    )?;
+
+    // Every input vertex at its welded vertex, those no live face uses left out.
+    let positions = (0..mesh.vertex_count() as u32)
+        .map(|w| (working.wedge_position(w) + centre).as_vec3())
+        .collect();
+    let triangles = working.live_corners().copied().collect();
+    let mesh = data
+        .into_mesh(positions, triangles)?
+        .into_without_unreferenced_vertices()?;
+    report.faces_after = mesh.face_count();
+    report.vertices_after = mesh.vertex_count();
+    Ok(Simplified { mesh, report })
+}
+
+/// The planned collapse of every edge of `working`, queued in the order of their vertices.
+fn queue_every_edge(working: &Working) -> BinaryHeap<Reverse<Queued>> {
     let mut edges = HashSet::new();
     for face in working.live_faces() {
         for (a, b) in [(face[0], face[1]), (face[1], face[2]), (face[2], face[0])] {
@@ -307,13 +331,28 @@ pub fn simplify_mesh(
     }
     let mut edges: Vec<(u32, u32)> = edges.into_iter().collect();
     edges.sort_unstable();
+    let mut queue = BinaryHeap::with_capacity(edges.len());
     for (a, b) in edges {
-        enqueue(&working, &mut queue, a, b);
+        enqueue(working, &mut queue, a, b);
     }
+    queue
+}
 
+/// Collapses the cheapest edges that pass the checks until `working` has no more than
+/// `params.target_faces` faces or the queue is empty, merging the wedges' `data` and
+/// counting into `report`; progress as "simplify", cancellation every
+/// [`PROGRESS_EVERY`] collapses.
+fn collapse_until(
+    working: &mut Working,
+    data: &mut VertexData,
+    queue: &mut BinaryHeap<Reverse<Queued>>,
+    params: &SimplifyParams,
+    report: &mut SimplifyReport,
+    ctx: &mut RunContext,
+) -> Result<()> {
     let min_cos = params.max_face_turn.to_radians().cos();
-    let to_remove = working.live_faces.saturating_sub(params.target_faces) as u64;
     let start_faces = working.live_faces;
+    let to_remove = start_faces.saturating_sub(params.target_faces) as u64;
     let mut merged = Vec::new();
     while working.live_faces > params.target_faces {
         let Some(Reverse(queued)) = queue.pop() else {
@@ -348,7 +387,7 @@ pub fn simplify_mesh(
                 report.collapses += 1;
                 report.max_collapse_error = report.max_collapse_error.max(collapse.distance);
                 for w in working.neighbours(collapse.keep) {
-                    enqueue(&working, &mut queue, collapse.keep, w);
+                    enqueue(working, queue, collapse.keep, w);
                 }
                 if report.collapses.is_multiple_of(PROGRESS_EVERY) {
                     ctx.check_cancelled()?;
@@ -358,34 +397,8 @@ pub fn simplify_mesh(
             }
         }
     }
-
-    // The wedges the live faces use, in their input order.
-    let mut renumbered = vec![u32::MAX; mesh.vertex_count()];
-    let mut triangles: Vec<[u32; 3]> = working.live_corners().copied().collect();
-    for face in &triangles {
-        for &w in face {
-            renumbered[w as usize] = 0;
-        }
-    }
-    let mut kept = Vec::new();
-    for (w, slot) in renumbered.iter_mut().enumerate() {
-        if *slot == 0 {
-            *slot = kept.len() as u32;
-            kept.push(w);
-        }
-    }
-    for face in &mut triangles {
-        *face = face.map(|w| renumbered[w as usize]);
-    }
-    let positions = kept
-        .iter()
-        .map(|&w| (working.wedge_position(w as u32) + centre).as_vec3())
-        .collect();
-    let mesh = data.into_mesh(&kept, positions, triangles)?;
-    report.faces_after = mesh.face_count();
-    report.vertices_after = mesh.vertex_count();
     ctx.report("simplify", to_remove, Some(to_remove));
-    Ok(Simplified { mesh, report })
+    Ok(())
 }
 
 /// Queues the collapse of the edge `a`–`b`, when one of its vertices may merge.

@@ -76,27 +76,23 @@ impl VertexData {
         }
     }
 
-    /// The mesh of `triangles` over the vertices `kept` (indices into the input's), at
-    /// `positions` (one per kept vertex), carrying the kept vertices' data.
+    /// The mesh of `triangles` over the input's vertices, at `positions` (one per input
+    /// vertex), carrying their data.
     pub(super) fn into_mesh(
         self,
-        kept: &[usize],
         positions: Vec<Vec3>,
         triangles: Vec<[u32; 3]>,
     ) -> Result<TriMesh> {
         let mut vertices = PointSet::new(positions)?;
-        if let Some(normals) = &self.normals {
-            vertices.set_normals(Some(kept.iter().map(|&v| normals[v]).collect()))?;
-        }
+        vertices.set_normals(self.normals)?;
         for channel in self.channels {
-            let values = kept.iter().map(|&v| channel.values[v]).collect();
             vertices.set_attribute(
-                Attribute::new(channel.name, values).with_storage(channel.storage),
+                Attribute::new(channel.name, channel.values).with_storage(channel.storage),
             )?;
         }
         let mesh = TriMesh::new(vertices, triangles)?;
         match self.uvs {
-            Some(uvs) => mesh.with_uvs(kept.iter().map(|&v| uvs[v]).collect()),
+            Some(uvs) => mesh.with_uvs(uvs),
             None => Ok(mesh),
         }
     }
