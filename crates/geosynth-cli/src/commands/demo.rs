@@ -11,11 +11,13 @@ use std::time::Instant;
 
 use clap::Args;
 use geosynth::core::io::{self, Geometry, WriteOptions, write_whole};
+use geosynth::core::simplify::SimplifyParams;
 use geosynth::fixtures::{self, Fixture};
 use geosynth::preview::{self, RenderOptions};
 use geosynth::quilt::{Method, OutputSize, QualityReport, QuiltParams};
 use geosynth::reconstruct::{FieldParams, Reconstruct};
 use geosynth::sdf::PointSign;
+use geosynth::simplify::Simplify;
 use geosynth::tps::{PairingParams, Table1Preset};
 use geosynth::{RunContext, Stage};
 use serde::Serialize;
@@ -119,7 +121,20 @@ struct ReconstructionEntry {
     seconds_distance_field: f64,
     seconds_isosurface: f64,
     geometry: String,
+    /// The reconstruction simplified to a tenth of its faces (`geosynth simplify`).
+    simplified: SimplifiedEntry,
     preview: String,
+}
+
+/// A reconstruction simplified by edge collapse: its counts, topology and file.
+#[derive(Debug, Serialize)]
+struct SimplifiedEntry {
+    faces: usize,
+    closed_manifold: bool,
+    euler_characteristic: i64,
+    max_collapse_error: f64,
+    seconds: f64,
+    geometry: String,
 }
 
 #[derive(Debug, Serialize)]
@@ -393,10 +408,10 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
         ));
     }
     md.push_str("\n## Reconstructions (MLS surface → distance field → iso-surface)\n\n");
-    md.push_str("| input | points | sign | grid | vertices | faces | closed manifold | components | χ | field s | iso s | preview |\n|---|---:|---|---:|---:|---:|---|---:|---:|---:|---:|---|\n");
+    md.push_str("| input | points | sign | grid | vertices | faces | closed manifold | components | χ | field s | iso s | simplified faces (closed, χ) | simplify s | preview |\n|---|---:|---|---:|---:|---:|---|---:|---:|---:|---:|---|---:|---|\n");
     for r in &report.reconstructions {
         md.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | ![]({}) |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {} ({}, {}) | {:.2} | ![]({}) |\n",
             r.name,
             r.input_points,
             r.sign,
@@ -408,6 +423,10 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
             r.euler_characteristic,
             r.seconds_distance_field,
             r.seconds_isosurface,
+            r.simplified.faces,
+            r.simplified.closed_manifold,
+            r.simplified.euler_characteristic,
+            r.simplified.seconds,
             r.preview
         ));
     }
@@ -498,8 +517,11 @@ fn write_reports(report: &Report, out: &Path) -> CliResult {
     write_whole(&path, md).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
 }
 
-/// Reconstructs one point set, writes the mesh and a points | mesh preview of `(w, h)`
-/// pixels.
+/// The share of a reconstruction's faces its simplified copy keeps.
+const SIMPLIFIED_SHARE: usize = 10;
+
+/// Reconstructs one point set, writes the mesh and its copy simplified to a tenth of the
+/// faces, and a points | mesh | simplified preview of `(w, h)` pixels.
 fn reconstruct_one(
     job: &ReconstructionJob,
     points: geosynth::core::PointSet,
@@ -523,6 +545,14 @@ fn reconstruct_one(
             .map_or(0.0, |(_, d)| d.as_secs_f64())
     };
     let topology = mesh.topology();
+    let simplify = Simplify {
+        params: SimplifyParams::faces(mesh.face_count() / SIMPLIFIED_SHARE),
+    };
+    let started = Instant::now();
+    let simplified = simplify.run(mesh.clone(), &mut RunContext::new(0))?;
+    let simplify_seconds = started.elapsed().as_secs_f64();
+    let simplified_topology = simplified.mesh.topology();
+    let simplified_mesh = Geometry::Mesh(simplified.mesh);
     let mesh = Geometry::Mesh(mesh);
     // PLY for geometry tools, and glTF for Blender, three.js and game engines (the scans
     // are Y-up, as glTF's viewers expect).
@@ -533,6 +563,19 @@ fn reconstruct_one(
     };
     write_geometry_file(&geometry_path("ply"), &mesh, &options, globals)?;
     write_geometry_file(&geometry_path("glb"), &mesh, &options, globals)?;
+    let simplified_path = out
+        .join("geometry")
+        .join(format!("{}_simplified.ply", job.name));
+    let simplified_options = WriteOptions::default().comment(format!(
+        "reconstructed from {}, simplified to a tenth of its faces",
+        job.name
+    ));
+    write_geometry_file(
+        &simplified_path,
+        &simplified_mesh,
+        &simplified_options,
+        globals,
+    )?;
     let preview_path = out
         .join("previews")
         .join(format!("{}_reconstructed.png", job.name));
@@ -540,6 +583,7 @@ fn reconstruct_one(
     let panels = [
         preview::Panel::Geometry(&cloud, preview::UpAxis::Y),
         preview::Panel::Geometry(&mesh, preview::UpAxis::Y),
+        preview::Panel::Geometry(&simplified_mesh, preview::UpAxis::Y),
     ];
     preview::save_png(
         &preview::render_panels(&panels, &RenderOptions::default().size(w, h))?,
@@ -563,6 +607,14 @@ fn reconstruct_one(
         seconds_distance_field: seconds("distance field"),
         seconds_isosurface: seconds("iso-surface"),
         geometry: relative(&geometry_path("ply"), out),
+        simplified: SimplifiedEntry {
+            faces: simplified.report.faces_after,
+            closed_manifold: simplified_topology.is_closed_manifold(),
+            euler_characteristic: simplified_topology.euler_characteristic,
+            max_collapse_error: simplified.report.max_collapse_error,
+            seconds: simplify_seconds,
+            geometry: relative(&simplified_path, out),
+        },
         preview: relative(&preview_path, out),
     })
 }

@@ -66,6 +66,17 @@ fn demo_quick_writes_report_geometry_and_previews() {
         let (ply_mesh, glb_mesh) = (read(&ply), read(&ply.with_extension("glb")));
         assert_eq!(glb_mesh, ply_mesh, "{}", ply.display());
         assert_eq!(r["faces"], glb_mesh.mesh().unwrap().face_count());
+        // Its copy at a tenth of the faces, closed and of the same genus when it is.
+        let simplified = &r["simplified"];
+        let fewer = read(&out.join(simplified["geometry"].as_str().unwrap()));
+        let fewer = fewer.mesh().unwrap();
+        assert_eq!(simplified["faces"], fewer.face_count());
+        assert!(fewer.face_count() <= ply_mesh.mesh().unwrap().face_count() / 10);
+        if r["closed_manifold"] == true {
+            let topology = fewer.topology();
+            assert!(topology.is_closed_manifold(), "{}", ply.display());
+            assert_eq!(r["euler_characteristic"], topology.euler_characteristic);
+        }
     }
     // Patch quilting: every texture fixture, its files, and the parameters that made it.
     let quilts = report["quilts"].as_array().unwrap();
