@@ -79,7 +79,7 @@
 //! ```
 
 use std::cmp::{Ordering, Reverse};
-use std::collections::{BinaryHeap, HashSet};
+use std::collections::BinaryHeap;
 
 mod quadric;
 mod vertex_data;
@@ -298,7 +298,7 @@ pub fn simplify_mesh(
         ..SimplifyReport::default()
     };
 
-    let mut queue = queue_every_edge(&working);
+    let mut queue = queue_every_edge(&mut working);
     collapse_until(
         &mut working,
         &mut data,
@@ -321,16 +321,10 @@ pub fn simplify_mesh(
     Ok(Simplified { mesh, report })
 }
 
-/// The planned collapse of every edge of `working`, queued in the order of their vertices.
-fn queue_every_edge(working: &Working) -> BinaryHeap<Reverse<Queued>> {
-    let mut edges = HashSet::new();
-    for face in working.live_faces() {
-        for (a, b) in [(face[0], face[1]), (face[1], face[2]), (face[2], face[0])] {
-            edges.insert((a.min(b), a.max(b)));
-        }
-    }
-    let mut edges: Vec<(u32, u32)> = edges.into_iter().collect();
-    edges.sort_unstable();
+/// The planned collapse of every edge of `working`, queued in the order of their vertices
+/// (the edge list is handed over: it is not needed again).
+fn queue_every_edge(working: &mut Working) -> BinaryHeap<Reverse<Queued>> {
+    let edges = std::mem::take(&mut working.edges);
     let mut queue = BinaryHeap::with_capacity(edges.len());
     for (a, b) in edges {
         enqueue(working, &mut queue, a, b);
@@ -376,11 +370,11 @@ fn collapse_until(
             continue;
         }
         match working.check(&collapse, min_cos) {
-            Ok(false) => continue,
+            Ok(None) => continue,
             Err(Refusal::Topology) => report.refused_topology += 1,
             Err(Refusal::Fold) => report.refused_fold += 1,
-            Ok(true) => {
-                working.apply(&collapse, &mut merged);
+            Ok(Some(shared)) => {
+                working.apply(&collapse, &shared, &mut merged);
                 for &(k, g) in &merged {
                     data.merge(k as usize, g as usize, collapse.t as f32);
                 }

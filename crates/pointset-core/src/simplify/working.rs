@@ -72,6 +72,9 @@ pub(super) struct Working {
     pub(super) live_faces: usize,
     /// Edges inside the surface whose two faces have different wedges at an end.
     pub(super) seam_edges: usize,
+    /// Every edge of the input (lower vertex first), sorted: the first collapses to plan
+    /// (taken by the queue when it is filled).
+    pub(super) edges: Vec<(u32, u32)>,
 }
 
 impl Working {
@@ -115,6 +118,7 @@ impl Working {
             live_faces: faces.len(),
             face_alive: vec![true; faces.len()],
             seam_edges: edges.seams.len(),
+            edges: edges.sorted(),
             positions: welded_positions,
             faces,
             corners: kept_corners,
@@ -157,15 +161,6 @@ impl Working {
         }
         // A ring of n neighbours is one fan when n − 1 joins linked them all.
         joined + 1 >= ring.len()
-    }
-
-    /// The faces still in the mesh, in their input order.
-    pub(super) fn live_faces(&self) -> impl Iterator<Item = &[u32; 3]> {
-        self.faces
-            .iter()
-            .zip(&self.face_alive)
-            .filter(|(_, alive)| **alive)
-            .map(|(face, _)| face)
     }
 
     /// The vertices sharing a face with `v`, each once, in the order first met.
@@ -224,13 +219,17 @@ impl Working {
     }
 
     /// Whether `collapse` keeps the surface's topology and folds no face more than
-    /// `min_cos` allows (the cosine of the largest turn): `Ok(false)` when the edge is no
-    /// longer in the mesh.
-    pub(super) fn check(&self, collapse: &Collapse, min_cos: f64) -> Result<bool, Refusal> {
+    /// `min_cos` allows (the cosine of the largest turn): the edge's faces, for
+    /// [`Self::apply`], or `Ok(None)` when the edge is no longer in the mesh.
+    pub(super) fn check(
+        &self,
+        collapse: &Collapse,
+        min_cos: f64,
+    ) -> Result<Option<Vec<u32>>, Refusal> {
         let (keep, gone) = (collapse.keep, collapse.gone);
         let shared = self.edge_faces(keep, gone);
         if shared.is_empty() {
-            return Ok(false);
+            return Ok(None);
         }
         if shared.len() > 2 {
             return Err(Refusal::Topology);
@@ -288,7 +287,7 @@ impl Working {
                 return Err(Refusal::Fold);
             }
         }
-        Ok(true)
+        Ok(Some(shared))
     }
 
     fn normal(&self, [a, b, c]: [DVec3; 3]) -> DVec3 {
@@ -303,16 +302,20 @@ impl Working {
             .collect()
     }
 
-    /// Makes `collapse` (checked): the edge's faces leave the mesh, `gone`'s other faces
+    /// Makes `collapse`, checked, whose edge has the faces `shared`: they leave the mesh, `gone`'s other faces
     /// take `keep` in its place, and `keep` moves and takes `gone`'s quadric. `gone`'s
     /// wedges on the edge's faces merge into `keep`'s wedges there (appended to `merged`
     /// as `(keep's wedge, gone's wedge)`, for their data); its other wedges (the far side
     /// of a seam that ends at `gone`) stay, at `keep`'s position.
-    pub(super) fn apply(&mut self, collapse: &Collapse, merged: &mut Vec<(u32, u32)>) {
+    pub(super) fn apply(
+        &mut self,
+        collapse: &Collapse,
+        shared: &[u32],
+        merged: &mut Vec<(u32, u32)>,
+    ) {
         let (keep, gone) = (collapse.keep as usize, collapse.gone as usize);
-        let shared = self.edge_faces(collapse.keep, collapse.gone);
         merged.clear();
-        for &f in &shared {
+        for &f in shared {
             let (face, corner) = (self.faces[f as usize], self.corners[f as usize]);
             let wedge_of = |v: u32| face.iter().position(|&c| c == v).map(|i| corner[i]);
             if let (Some(k), Some(g)) = (wedge_of(collapse.keep), wedge_of(collapse.gone))
@@ -417,6 +420,13 @@ impl EdgeTable {
             faces: counts,
             seams,
         }
+    }
+
+    /// The edges, sorted.
+    fn sorted(&self) -> Vec<(u32, u32)> {
+        let mut edges: Vec<(u32, u32)> = self.faces.keys().copied().collect();
+        edges.sort_unstable();
+        edges
     }
 
     /// Whether the edge `a`–`b` gets constraint planes: a boundary or a seam.
