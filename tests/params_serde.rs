@@ -7,7 +7,7 @@
 // Test helpers fail the test by panicking; that is their job.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use geosynth::core::simplify::SimplifyParams;
+use geosynth::core::simplify::{SimplifiedNormals, SimplifyParams};
 use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling};
 use geosynth::mls::{ClusterParams, MlsParams, RelaxParams as MlsRelaxParams};
 use geosynth::normals::EstimateNormals;
@@ -276,9 +276,14 @@ fn the_remaining_types_survive_json() {
         }
     );
     let simplify = Simplify {
-        params: SimplifyParams::faces(500).max_error(0.25),
+        params: SimplifyParams {
+            normals: SimplifiedNormals::Recompute,
+            ..SimplifyParams::faces(500).max_error(0.25)
+        },
     };
     assert_eq!(round_trip(&simplify), simplify);
+    let written: SimplifiedNormals = serde_json::from_str(r#""recompute""#).unwrap();
+    assert_eq!(written, SimplifiedNormals::Recompute);
     // Only the target is needed; the limits take their defaults.
     let written: SimplifyParams = serde_json::from_str(r#"{ "target_faces": 80 }"#).unwrap();
     assert_eq!(written, SimplifyParams::faces(80));

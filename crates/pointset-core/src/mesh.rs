@@ -18,6 +18,21 @@ pub enum NormalWeighting {
     Angle,
 }
 
+/// What a triangle with `corners` adds to each corner's vertex normal, weighted as
+/// `weighting` says (zero for a triangle of no area).
+pub(crate) fn corner_normal_shares(corners: [Vec3; 3], weighting: NormalWeighting) -> [Vec3; 3] {
+    let face = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+    let unit = crate::triangle_normal(corners[0], corners[1], corners[2]);
+    std::array::from_fn(|k| match weighting {
+        NormalWeighting::Area => face,
+        NormalWeighting::Angle => {
+            let e1 = crate::unit_vector(corners[(k + 1) % 3] - corners[k]);
+            let e2 = crate::unit_vector(corners[(k + 2) % 3] - corners[k]);
+            unit * e1.dot(e2).clamp(-1.0, 1.0).acos()
+        }
+    })
+}
+
 /// Edge-based topology of a mesh (see [`TriMesh::topology`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MeshTopology {
@@ -202,19 +217,11 @@ impl TriMesh {
     pub fn vertex_normals(&self, weighting: NormalWeighting) -> Vec<Vec3> {
         let mut acc = vec![Vec3::ZERO; self.vertex_count()];
         for t in &self.triangles {
-            let corners = self.corners(t);
-            let face = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
-            let unit = crate::triangle_normal(corners[0], corners[1], corners[2]);
-            for k in 0..3 {
-                let w = match weighting {
-                    NormalWeighting::Area => face,
-                    NormalWeighting::Angle => {
-                        let e1 = crate::unit_vector(corners[(k + 1) % 3] - corners[k]);
-                        let e2 = crate::unit_vector(corners[(k + 2) % 3] - corners[k]);
-                        unit * e1.dot(e2).clamp(-1.0, 1.0).acos()
-                    }
-                };
-                acc[t[k] as usize] += w;
+            for (&v, share) in t
+                .iter()
+                .zip(corner_normal_shares(self.corners(t), weighting))
+            {
+                acc[v as usize] += share;
             }
         }
         acc.into_iter().map(crate::unit_vector).collect()

@@ -3,10 +3,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 use geosynth::Stage;
 use geosynth::core::io::{Geometry, WriteOptions};
-use geosynth::core::simplify::{DEFAULT_BOUNDARY_WEIGHT, DEFAULT_MAX_FACE_TURN, SimplifyParams};
+use geosynth::core::simplify::{
+    DEFAULT_BOUNDARY_WEIGHT, DEFAULT_MAX_FACE_TURN, SimplifiedNormals, SimplifyParams,
+};
 use geosynth::simplify::Simplify;
 use serde_json::json;
 
@@ -49,10 +51,33 @@ pub struct SimplifyArgs {
     /// How strongly boundaries keep their line (0 lets them shrink).
     #[arg(long, value_name = "W", default_value_t = DEFAULT_BOUNDARY_WEIGHT)]
     boundary_weight: f64,
+    /// Where the output's vertex normals come from, when the input has normals.
+    #[arg(long, value_enum, default_value_t = NormalsArg::Interpolate)]
+    normals: NormalsArg,
     /// Also write a JSON report: the parameters, the counts before and after, the
     /// collapses made and refused, each phase's seconds and the peak memory.
     #[arg(long, value_name = "R.json")]
     report: Option<PathBuf>,
+}
+
+/// Where a simplified mesh's vertex normals come from.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum NormalsArg {
+    /// Interpolated along each collapsed edge, as texture coordinates are (the input's
+    /// shading kept); one facing against its faces takes theirs.
+    Interpolate,
+    /// From the output's faces, smooth where the input's normals were and creased where
+    /// they were not.
+    Recompute,
+}
+
+impl From<NormalsArg> for SimplifiedNormals {
+    fn from(normals: NormalsArg) -> Self {
+        match normals {
+            NormalsArg::Interpolate => Self::Interpolate,
+            NormalsArg::Recompute => Self::Recompute,
+        }
+    }
 }
 
 impl SimplifyArgs {
@@ -98,6 +123,7 @@ pub fn run(args: &SimplifyArgs, globals: Globals) -> CliResult {
     params.max_error = args.max_error;
     params.max_face_turn = args.max_turn;
     params.boundary_weight = args.boundary_weight;
+    params.normals = args.normals.into();
     params.validate()?;
     let (mut ctx, bar) = progress_context(globals, 0, "simplifying", false);
     ctx.record_timing(READING, read_time);

@@ -1,6 +1,7 @@
 //! `geosynth simplify`: a mesh in fewer triangles.
 
 use geosynth::core::io::read_geometry;
+use geosynth::core::{NormalWeighting, TriMesh};
 
 use super::*;
 
@@ -57,6 +58,27 @@ fn the_torus_halves_by_default_and_goes_to_a_count_or_a_tolerance() {
         .clone();
     assert!(mesh.face_count() <= 200);
     assert_closed(&few, 0, "the torus at 200 faces");
+    // The torus's normals were interpolated (the default): not those of the coarse faces,
+    // which `--normals recompute` gives.
+    let faceted = dir.path("faceted.ply");
+    let recompute = ["--faces", "200", "--normals", "recompute"];
+    ok(&[
+        &["simplify", &arg(&torus), "-o", &arg(&faceted)][..],
+        &recompute,
+    ]
+    .concat());
+    let largest_turn_from_faces = |mesh: &TriMesh| {
+        let stored = mesh.vertices().normals().unwrap();
+        let faces = mesh.vertex_normals(NormalWeighting::Angle);
+        stored
+            .iter()
+            .zip(faces)
+            .map(|(n, f)| n.angle_between(f).to_degrees())
+            .fold(0.0, f32::max)
+    };
+    assert!(largest_turn_from_faces(&mesh) > 1.0);
+    let faceted = read_geometry(&faceted).unwrap().geometry;
+    assert!(largest_turn_from_faces(faceted.mesh().unwrap()) < 0.01);
 
     // A tolerance alone goes as far as it allows, no further.
     let (tolerant, report) = (dir.path("tol.obj"), dir.path("tol.json"));
@@ -106,6 +128,10 @@ fn simplify_refuses_point_sets_bad_targets_and_limits() {
     refused(
         &["simplify", &arg(&torus), "-o", &arg(&dir.path("o.xyz"))],
         "cannot write",
+    );
+    refused(
+        &["simplify", &arg(&torus), "-o", &out, "--normals", "smooth"],
+        "invalid value 'smooth'",
     );
     assert!(!dir.path("o.ply").exists());
 }

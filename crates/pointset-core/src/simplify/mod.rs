@@ -44,10 +44,25 @@
 //!   further than that from its faces' planes (the root mean square distance over the
 //!   planes merged into it, a boundary's constraints counted in the sum but not in the
 //!   number), so a run can stop at a tolerance instead of a count.
-//! - **Vertex data**: normals, texture coordinates, colours and float attributes are
-//!   interpolated along the edge to where the vertex went (normals renormalized); integer
-//!   attributes other than colours (labels, such as a quilt's `patch`) come from the
-//!   nearer of the two vertices.
+//! - **Vertex data**: texture coordinates, colours and float attributes are interpolated
+//!   along the edge to where the vertex went; integer attributes other than colours
+//!   (labels, such as a quilt's `patch`) come from the nearer of the two vertices.
+//! - **Normals** are interpolated along the edge too (renormalized) by default
+//!   ([`SimplifiedNormals::Interpolate`]), which keeps the dense input's shading on the
+//!   coarse output; or recomputed from the output's faces
+//!   ([`SimplifiedNormals::Recompute`]), which shades the output as the faceted surface it
+//!   is. Either way a normal never ends up facing against its faces: faces are taken in
+//!   *smooth groups* — vertices at one position whose input normals agree (within a
+//!   degree: the two sides of a texture seam) start in one group, those whose normals
+//!   differ (the sides of a hard edge) in groups of their own, merged vertices join
+//!   their groups — and an interpolated normal facing against the angle-weighted mean
+//!   normal of its group's faces is replaced by that mean, as every recomputed normal
+//!   is. So the input's creases stay creases and its smooth surfaces stay smooth across
+//!   seams. (Measured on the demo's reconstructions at a tenth of their faces: the
+//!   interpolated normals lie 2.6° from the input's nearest normal on average on the
+//!   bunny and 12.3° on the chameleon, the recomputed ones 4.6° and 18.5°; one
+//!   interpolated normal of the chameleon's faced against its faces before it was
+//!   replaced.)
 //! - **Order**: ties in cost go to the edge of lower vertex indices, so the result
 //!   depends on the mesh and the parameters only. A refused edge is tried again once one
 //!   of its own vertices has changed.
@@ -82,6 +97,7 @@ use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 
 mod quadric;
+mod smooth_groups;
 mod vertex_data;
 mod working;
 
@@ -108,6 +124,23 @@ pub struct SimplifyParams {
     /// plane, at least 0 (default [`DEFAULT_BOUNDARY_WEIGHT`]; 0 lets boundaries shrink).
     #[cfg_attr(feature = "serde", serde(default = "default_boundary_weight"))]
     pub boundary_weight: f64,
+    /// Where the output's vertex normals come from, when the input has normals.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub normals: SimplifiedNormals,
+}
+
+/// Where a simplified mesh's vertex normals come from (module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum SimplifiedNormals {
+    /// Interpolated along each collapsed edge, as texture coordinates are: the input's
+    /// shading kept. One that ends up facing against its faces takes theirs.
+    #[default]
+    Interpolate,
+    /// Recomputed from the output's faces, each vertex's from the faces of its smooth
+    /// group, the input's creases kept: the output shaded as the surface it is.
+    Recompute,
 }
 
 /// The default [`SimplifyParams::max_face_turn`], in degrees: a face may turn by up to a
@@ -136,6 +169,7 @@ impl SimplifyParams {
             max_error: None,
             max_face_turn: DEFAULT_MAX_FACE_TURN,
             boundary_weight: DEFAULT_BOUNDARY_WEIGHT,
+            normals: SimplifiedNormals::Interpolate,
         }
     }
 
@@ -287,7 +321,7 @@ pub fn simplify_mesh(
         .collect();
     let (mut working, welded_together) =
         Working::new(mesh.positions(), &corners, centre, params.boundary_weight);
-    let mut data = VertexData::of(mesh);
+    let mut data = VertexData::of(mesh, params.normals);
     let mut report = SimplifyReport {
         faces_before: mesh.face_count(),
         vertices_before: mesh.vertex_count(),

@@ -3,6 +3,8 @@
 
 use glam::{Vec2, Vec3};
 
+use super::SimplifiedNormals;
+use super::smooth_groups::SmoothGroups;
 use crate::{Attribute, COLOR_CHANNELS, PointSet, Result, ScalarType, TriMesh};
 
 /// One named attribute's values, and how two of them merge.
@@ -20,13 +22,17 @@ struct Channel {
 #[derive(Debug)]
 pub(super) struct VertexData {
     normals: Option<Vec<Vec3>>,
+    /// The vertices' smooth groups, when they have normals.
+    smooth_groups: Option<SmoothGroups>,
+    /// Where the output's normals come from.
+    normals_from: SimplifiedNormals,
     uvs: Option<Vec<Vec2>>,
     channels: Vec<Channel>,
 }
 
 impl VertexData {
-    /// The data of `mesh`'s vertices.
-    pub(super) fn of(mesh: &TriMesh) -> Self {
+    /// The data of `mesh`'s vertices, whose normals will be as `normals` says.
+    pub(super) fn of(mesh: &TriMesh, normals: SimplifiedNormals) -> Self {
         let vertices = mesh.vertices();
         let channels = vertices
             .attributes()
@@ -42,6 +48,10 @@ impl VertexData {
             .collect();
         Self {
             normals: vertices.normals().map(<[Vec3]>::to_vec),
+            smooth_groups: vertices
+                .normals()
+                .map(|normals| SmoothGroups::of(vertices.positions(), normals)),
+            normals_from: normals,
             uvs: mesh.uvs().map(<[Vec2]>::to_vec),
             channels,
         }
@@ -50,8 +60,12 @@ impl VertexData {
     /// `gone` merges into `keep`, which moved to `t` of the way from where it was toward
     /// `gone` (0: stayed, 1: took `gone`'s place). Normals, UVs, floats and colours are
     /// interpolated by `t` (normals renormalized, kept as they were where the two cancel),
-    /// each attribute stored in its type; integer labels come from the nearer vertex.
+    /// each attribute stored in its type; integer labels come from the nearer vertex. Their
+    /// smooth groups join.
     pub(super) fn merge(&mut self, keep: usize, gone: usize, t: f32) {
+        if let Some(groups) = &mut self.smooth_groups {
+            groups.merge(keep, gone);
+        }
         if let Some(normals) = &mut self.normals {
             let mixed = normals[keep].lerp(normals[gone], t);
             if let Some(unit) = mixed.try_normalize() {
@@ -77,12 +91,26 @@ impl VertexData {
     }
 
     /// The mesh of `triangles` over the input's vertices, at `positions` (one per input
-    /// vertex), carrying their data.
+    /// vertex), carrying their data. Each normal becomes its vertex's mean face normal (in
+    /// its smooth group) when recomputed, or when interpolated and facing against it;
+    /// normals of vertices whose faces have no area stay.
     pub(super) fn into_mesh(
-        self,
+        mut self,
         positions: Vec<Vec3>,
         triangles: Vec<[u32; 3]>,
     ) -> Result<TriMesh> {
+        if let (Some(groups), Some(normals)) = (self.smooth_groups, &mut self.normals) {
+            let means = groups.mean_face_normals(&positions, &triangles);
+            for (normal, mean) in normals.iter_mut().zip(means) {
+                let replace = match self.normals_from {
+                    SimplifiedNormals::Recompute => mean != Vec3::ZERO,
+                    SimplifiedNormals::Interpolate => normal.dot(mean) < 0.0,
+                };
+                if replace {
+                    *normal = mean;
+                }
+            }
+        }
         let mut vertices = PointSet::new(positions)?;
         vertices.set_normals(self.normals)?;
         for channel in self.channels {
