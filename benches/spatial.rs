@@ -256,6 +256,29 @@ fn surface_sampling(c: &mut Criterion) {
     group.finish();
 }
 
+/// `core::surface_sampling::thin_points` on 1,000,000 points of a torus: a Poisson disk of
+/// spacing 0.01 (about 80,000 kept), and about 100,000 kept by count (the spacing searched
+/// for, a pass each try).
+fn point_thinning(c: &mut Criterion) {
+    use geosynth::core::RunContext;
+    use geosynth::core::surface_sampling::{PointThinning, thin_points};
+    let mut group = c.benchmark_group("thin_points_1m");
+    group.sample_size(10);
+    let torus = geosynth::fixtures::torus_points(1_000_000, 1.0, 0.35, 2).expect("benchmark setup");
+    for (name, thinning) in [
+        ("spacing_0.01", PointThinning::PoissonDisk { spacing: 0.01 }),
+        (
+            "count_100k",
+            PointThinning::PoissonDiskCount { count: 100_000 },
+        ),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| thin_points(black_box(&torus), &thinning, &mut RunContext::new(1)))
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     kd_index,
@@ -263,6 +286,7 @@ criterion_group!(
     bucket_grid,
     stray_points,
     isolated_points,
-    surface_sampling
+    surface_sampling,
+    point_thinning
 );
 criterion_main!(benches);

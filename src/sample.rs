@@ -1,11 +1,13 @@
 //! Stage: a mesh → oriented points on its surface, for the algorithms that work on
 //! point-set surfaces (MLS, [`crate::quilt`]) when the mesh's vertices are too few or too
-//! uneven to stand for it (what `geosynth sample` runs); and the points' colours from a
-//! texture image at their texture coordinates ([`texture_colours`]).
+//! uneven to stand for it (what `geosynth sample` runs); stage: a point set → fewer of its
+//! own points, when a scan is far denser than they need ([`ThinPoints`]); and the points'
+//! colours from a texture image at their texture coordinates ([`texture_colours`]).
 
 use image::RgbImage;
 use pointset_core::surface_sampling::{
-    SampleNormals, SurfaceSamples, SurfaceSampling, UV_CHANNELS, sample_surface,
+    PointThinning, SampleNormals, SurfaceSamples, SurfaceSampling, ThinnedPoints, UV_CHANNELS,
+    sample_surface, thin_points,
 };
 use pointset_core::{PointSet, RunContext, Stage, TriMesh};
 
@@ -69,6 +71,54 @@ impl Stage for SampleSurface {
 
     fn run(&self, input: TriMesh, ctx: &mut RunContext) -> Result<SurfaceSamples> {
         Ok(sample_surface(&input, &self.sampling, self.normals, ctx)?)
+    }
+}
+
+/// Stage: point set → the points kept by a Poisson disk of its own points, or at random
+/// ([`pointset_core::surface_sampling::thin_points`]), seeded by the run's seed; each kept
+/// point exactly as it was, with its normal and attributes. `map(|thinned| thinned.points)`
+/// hands the points on.
+///
+/// Errors: an empty point set, a count or spacing out of range, or cancellation.
+///
+/// ```
+/// use geosynth::core::surface_sampling::PointThinning;
+/// use geosynth::sample::ThinPoints;
+/// use geosynth::{RunContext, Stage};
+///
+/// // 20,000 points on a sphere, thinned to about 2,000 no closer together than they
+/// // need to be.
+/// let sphere = geosynth::fixtures::sphere_points(20_000)?;
+/// let thin = ThinPoints { thinning: PointThinning::PoissonDiskCount { count: 2_000 } };
+/// let thinned = thin.run(sphere.clone(), &mut RunContext::new(1))?;
+/// assert!(thinned.points.len().abs_diff(2_000) <= 20);
+/// let spacing = thinned.spacing.unwrap_or_default();
+/// assert!(spacing > 0.05 && spacing < 0.1); // about √(4π · 0.65 / 2000)
+/// // The kept points are the sphere's own, with their normals.
+/// let first = thinned.kept[0] as usize;
+/// assert_eq!(thinned.points.positions()[0], sphere.positions()[first]);
+/// assert_eq!(thinned.points.normals().unwrap()[0], sphere.normals().unwrap()[first]);
+/// Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct ThinPoints {
+    /// Which points to keep.
+    pub thinning: PointThinning,
+}
+
+impl Stage for ThinPoints {
+    type Input = PointSet;
+    type Output = ThinnedPoints;
+    type Error = Error;
+
+    fn name(&self) -> &str {
+        "thin points"
+    }
+
+    fn run(&self, input: PointSet, ctx: &mut RunContext) -> Result<ThinnedPoints> {
+        Ok(thin_points(&input, &self.thinning, ctx)?)
     }
 }
 

@@ -8,12 +8,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use geosynth::core::simplify::{SimplifiedNormals, SimplifyParams};
-use geosynth::core::surface_sampling::{SampleNormals, SurfaceSampling};
+use geosynth::core::surface_sampling::{PointThinning, SampleNormals, SurfaceSampling};
 use geosynth::mls::{ClusterParams, MlsParams, RelaxParams as MlsRelaxParams};
 use geosynth::normals::EstimateNormals;
 use geosynth::quilt::{Method, OutputSize, QuiltParams, WarpTargets};
 use geosynth::reconstruct::FieldParams;
-use geosynth::sample::SampleSurface;
+use geosynth::sample::{SampleSurface, ThinPoints};
 use geosynth::sdf::{FarSigns, GridSpec, MeshSign, PointSign};
 use geosynth::simplify::Simplify;
 use geosynth::strays::LeaveOutStrays;
@@ -275,6 +275,17 @@ fn the_remaining_types_survive_json() {
             normals: SampleNormals::Faces,
         }
     );
+    for thinning in [
+        PointThinning::PoissonDisk { spacing: 0.02 },
+        PointThinning::PoissonDiskCount { count: 5000 },
+        PointThinning::Random { count: 10 },
+    ] {
+        let stage = ThinPoints { thinning };
+        assert_eq!(round_trip(&stage), stage);
+    }
+    let written: ThinPoints =
+        serde_json::from_str(r#"{ "thinning": { "random": { "count": 7 } } }"#).unwrap();
+    assert_eq!(written.thinning, PointThinning::Random { count: 7 });
     let simplify = Simplify {
         params: SimplifyParams {
             normals: SimplifiedNormals::Recompute,

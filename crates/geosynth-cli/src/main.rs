@@ -47,7 +47,8 @@ enum Command {
     /// Estimate a point set's normals by local PCA and orient them by propagation.
     Normals(commands::normals::NormalsArgs),
     /// Sample oriented points on a mesh's surface, as a Poisson disk or uniformly by area
-    /// (for the commands that take point sets, from a mesh whose vertices are too few).
+    /// (for the commands that take point sets, from a mesh whose vertices are too few); or
+    /// thin a point set to fewer of its own points, as a Poisson disk or at random.
     Sample(commands::sample::SampleArgs),
     /// Simplify a mesh to fewer triangles by edge collapse under error quadrics (Garland
     /// and Heckbert), keeping its topology, boundaries and seams.

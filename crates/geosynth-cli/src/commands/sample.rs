@@ -1,4 +1,5 @@
-//! `geosynth sample`: oriented points sampled on a mesh's surface.
+//! `geosynth sample`: oriented points sampled on a mesh's surface, or a point set thinned
+//! to fewer of its own points.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -20,6 +21,8 @@ use crate::output::{
 use crate::phases::{READING, WRITING};
 use crate::{CliResult, Globals};
 
+mod thin;
+
 /// Points `sample` aims for when given neither `--count` nor `--spacing`.
 const DEFAULT_COUNT: usize = 100_000;
 
@@ -37,23 +40,26 @@ pub enum NormalsArg {
 /// Arguments of `geosynth sample`.
 #[derive(Debug, Args)]
 pub struct SampleArgs {
-    /// Mesh to sample (.ply, .obj, .off, .stl).
+    /// Mesh to sample (.ply, .obj, .off, .stl, .glb, .gltf), or point set to thin (any
+    /// point format).
     input: PathBuf,
     /// Output point set (.ply, .pcd, .glb, .gltf, .xyzn, .obj, .off; .xyz and .las keep no
-    /// normals). Vertex colours and other vertex attributes are interpolated onto the
-    /// points.
+    /// normals). A mesh's vertex colours and other vertex attributes are interpolated onto
+    /// the points; a point set's kept points keep theirs.
     #[arg(short, long)]
     output: PathBuf,
     /// About this many points, spread as a Poisson disk (no two closer than the spacing
     /// that gives about this many; default 100000). With `--uniform`, exactly this many,
-    /// drawn independently.
+    /// drawn independently (from a point set: without replacement).
     #[arg(long, conflicts_with = "spacing")]
     count: Option<usize>,
-    /// No two points closer than this, in the mesh's units (Poisson-disk sampling).
+    /// No two points closer than this, in the input's units (Poisson-disk sampling; a
+    /// point set keeps a point within this of each of its points).
     #[arg(long, conflicts_with = "uniform")]
     spacing: Option<f32>,
-    /// Draw the points independently, uniform by area, instead of as a Poisson disk:
-    /// unbiased, and clumped like any random draw.
+    /// Draw the points independently, uniform by area (from a point set: any of its
+    /// points alike), instead of as a Poisson disk: unbiased, and clumped like any random
+    /// draw.
     #[arg(long)]
     uniform: bool,
     /// Colour the points from this image (PNG, JPEG, …) at their texture coordinates,
@@ -62,14 +68,14 @@ pub struct SampleArgs {
     /// as `s` and `t`. Replaces any vertex colours the mesh has (with a note).
     #[arg(long, value_name = "IMG")]
     texture: Option<PathBuf>,
-    /// Where the points' normals come from.
-    #[arg(long, value_enum, default_value_t = NormalsArg::Faces)]
-    normals: NormalsArg,
+    /// Where the points' normals come from, on a mesh (default: faces).
+    #[arg(long, value_enum)]
+    normals: Option<NormalsArg>,
     /// Seed of the random draws: the same mesh, options and seed give the same points.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Also write a JSON report: the mesh's area, the sampling, the points written, each
-    /// stage's seconds and the peak memory.
+    /// Also write a JSON report: the mesh's area or the point set's count, the sampling,
+    /// the points written, each stage's seconds and the peak memory.
     #[arg(long, value_name = "R.json")]
     report: Option<PathBuf>,
 }
@@ -84,13 +90,8 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
     check_geometry_output(&args.output, false, loaded.origin)?;
     let mesh = match loaded.geometry {
         Geometry::Mesh(mesh) => mesh,
-        Geometry::Points(_) => {
-            return Err(format!(
-                "{} is a point set: `sample` samples a mesh's triangles (`convert` writes a \
-                 point set in another format)",
-                args.input.display()
-            )
-            .into());
+        Geometry::Points(points) => {
+            return thin::run(args, points, loaded.origin, read_time, globals);
         }
     };
     let texture = match &args.texture {
@@ -124,7 +125,7 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
     };
     let stage = SampleSurface {
         sampling,
-        normals: match args.normals {
+        normals: match args.normals.unwrap_or_default() {
             NormalsArg::Faces => SampleNormals::Faces,
             NormalsArg::Interpolated => SampleNormals::Interpolated,
         },
@@ -176,7 +177,7 @@ pub fn run(args: &SampleArgs, globals: Globals) -> CliResult {
             "area": area,
             "sampling": if spacing.is_some() { "poisson_disk" } else { "uniform" },
             "spacing": spacing,
-            "normals": format!("{:?}", args.normals).to_lowercase(),
+            "normals": format!("{:?}", args.normals.unwrap_or_default()).to_lowercase(),
             "seed": args.seed,
             "texture": args.texture.as_ref().map(|p| p.display().to_string()),
             "points": count,

@@ -1,4 +1,4 @@
-//! `geosynth sample`: points on a mesh's surface.
+//! `geosynth sample`: points on a mesh's surface, or fewer of a point set's own.
 
 use geosynth::core::io::{Geometry, read_geometry};
 use geosynth::core::{KdIndex, PointSet};
@@ -150,6 +150,73 @@ fn vertex_colours_are_carried_onto_the_points() {
 }
 
 #[test]
+fn a_point_set_is_thinned_to_its_own_points() {
+    let dir = Scratch::new();
+    let sphere = fixture("sphere_points.ply");
+    let all = read_points(&sphere);
+    let kept_from_input = |points: &PointSet| {
+        let index = KdIndex::new(all.positions()).unwrap();
+        points
+            .positions()
+            .iter()
+            .zip(points.normals().unwrap())
+            .all(|(p, n)| {
+                let nearest = index.nearest(*p, 1).unwrap()[0];
+                nearest.distance_squared == 0.0 && all.normals().unwrap()[nearest.index] == *n
+            })
+    };
+    // By spacing: a Poisson disk of the sphere's own points, every one of them near one.
+    let spaced = dir.path("spaced.ply");
+    let printed = sample(&sphere, &spaced, &["--spacing", "0.2"]);
+    let points = read_points(&spaced);
+    assert!(
+        printed.contains(&format!(
+            "{} of {} points, none closer than 0.2)",
+            points.len(),
+            all.len()
+        )),
+        "{printed}"
+    );
+    assert!(closest_pair(points.positions()) >= 0.2);
+    assert!(kept_from_input(&points));
+    let index = KdIndex::new(points.positions()).unwrap();
+    for p in all.positions() {
+        assert!(index.nearest(*p, 1).unwrap()[0].distance_squared < 0.04);
+    }
+    // By count, with a report: the spacing found and the passes it took.
+    let (counted, report) = (dir.path("counted.pcd"), dir.path("r.json"));
+    let printed = sample(
+        &sphere,
+        &counted,
+        &["--count", "300", "--report", &arg(&report)],
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let kept = r["points"].as_u64().unwrap();
+    assert!(kept.abs_diff(300) <= 3, "{kept}");
+    assert_eq!(r["points_before"], all.len());
+    assert_eq!(r["thinning"]["poisson_disk_count"]["count"], 300);
+    assert!(r["passes"].as_u64().unwrap() >= 1);
+    assert_eq!(
+        timed_stages(&r, "timings"),
+        ["reading", "thinning", "writing"]
+    );
+    let spacing = r["spacing"].as_f64().unwrap() as f32;
+    assert!(printed.contains("found in"), "{printed}");
+    let points = read_points(&counted);
+    assert_eq!(points.len() as u64, kept);
+    assert!(closest_pair(points.positions()) >= spacing);
+    // At random: exactly as many, decided by the seed.
+    let (a, b) = (dir.path("a.ply"), dir.path("b.ply"));
+    sample(&sphere, &a, &["--uniform", "--count", "40", "--seed", "3"]);
+    sample(&sphere, &b, &["--uniform", "--count", "40", "--seed", "4"]);
+    let (a, b) = (read_points(&a), read_points(&b));
+    assert_eq!((a.len(), b.len()), (40, 40));
+    assert!(kept_from_input(&a) && kept_from_input(&b));
+    assert_ne!(a.positions(), b.positions());
+}
+
+#[test]
 fn points_formats_and_options_that_cannot_work_are_refused() {
     let dir = Scratch::new();
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
@@ -158,7 +225,19 @@ fn points_formats_and_options_that_cannot_work_are_refused() {
         arg(&fixtures.join("sphere_points.ply")),
     );
     let out = arg(&dir.path("o.ply"));
-    refused(&["sample", &points, "-o", &out], "is a point set");
+    refused(
+        &["sample", &points, "-o", &out, "--normals", "faces"],
+        "is a point set: --normals is for sampling a mesh",
+    );
+    refused(
+        &["sample", &points, "-o", &out, "--texture", &sphere],
+        "is a point set: --texture",
+    );
+    refused(
+        &["sample", &points, "-o", &out, "--spacing", "0"],
+        "spacing",
+    );
+    refused(&["sample", &points, "-o", &out, "--count", "0"], "count");
     refused(&["sample", &sphere, "-o", &arg(&dir.path("o.stl"))], "STL");
     refused(
         &["sample", &sphere, "-o", &out, "--spacing", "0"],

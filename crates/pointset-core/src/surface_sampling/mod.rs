@@ -53,19 +53,20 @@
 //! # Ok::<(), pointset_core::Error>(())
 //! ```
 
-use glam::{DVec3, Vec3};
-use rayon::prelude::*;
+use glam::Vec3;
 
 mod disk_grid;
 mod draws;
+mod phased;
+mod point_thinning;
 mod tiles;
 
 use crate::rng::rng_from_seed;
-use crate::spatial::CellMap;
 use crate::{Attribute, Error, NormalWeighting, PointSet, Result, RunContext, TriMesh};
-use disk_grid::DiskGrid;
 use draws::{Draws, FaceChoice, Sample};
-use tiles::{TILE_SPACINGS, Tiles};
+use phased::{Candidates, grid_low, keep_apart, spacing_too_small};
+pub use point_thinning::{MAX_COUNT_PASSES, PointThinning, ThinnedPoints, thin_points};
+use tiles::{TILE_SPACINGS, Tile, Tiles};
 
 /// Most samples a [`SurfaceSampling::Uniform`] sampling may ask for (2²⁶, about 1.6 GB of
 /// positions and normals).
@@ -222,10 +223,6 @@ pub fn sample_surface(
 /// The progress stage's name.
 const STAGE: &str = "sample surface";
 
-/// Poisson-disk tiles tested between progress reports and cancellation checks: enough
-/// for both threads of a small machine to stay busy.
-const TILES_PER_BATCH: usize = 256;
-
 /// Uniform samples drawn between progress reports and cancellation checks.
 const REPORT_EVERY: u64 = 1 << 16;
 
@@ -264,6 +261,7 @@ fn poisson_disk(
     if !(spacing.is_finite() && spacing > 0.0) {
         return Err(invalid("a positive finite length".into()));
     }
+    let too_small = || spacing_too_small(spacing, "the mesh's box");
     let spacing = f64::from(spacing);
     let candidates = (POISSON_CANDIDATES_PER_AREA * area / (spacing * spacing)).ceil();
     let least = (POISSON_CANDIDATES_PER_AREA * area / MAX_POISSON_CANDIDATES as f64).sqrt();
@@ -272,80 +270,36 @@ fn poisson_disk(
             "at least {least:.3e} for a surface of area {area:.3e} (at most {MAX_POISSON_CANDIDATES} candidates)"
         )));
     }
-    // A cell below the mesh's box, so that no rounding puts a sample below the grid.
-    let low = mesh
-        .positions()
-        .iter()
-        .fold(DVec3::splat(f64::INFINITY), |m, p| m.min(p.as_dvec3()))
-        - spacing;
-    let too_small = || {
-        invalid(format!(
-            "a length that spans the mesh's box in at most 2^{} cells",
-            crate::spatial::CELL_BITS + 2
-        ))
-    };
+    let low = grid_low(mesh.positions(), spacing);
     let tiles = Tiles::new(mesh, low, TILE_SPACINGS * spacing).ok_or_else(too_small)?;
-    let per_area = POISSON_CANDIDATES_PER_AREA / (spacing * spacing);
-    let (seed, cancel) = (ctx.seed(), ctx.cancel_flag().clone());
-    let (total_tiles, mut done) = (tiles.count() as u64, 0);
-    // The samples kept in each tile, by the tile's key, and the keys in the order done.
-    let mut kept_by_tile: CellMap<Vec<Sample>> = CellMap::default();
-    let mut order = Vec::new();
-    // A phase's tiles go in batches, with progress and a cancellation check between
-    // them: tiles of one phase are not neighbours, so the batches give the same points.
-    for batch in tiles
-        .phases()
-        .iter()
-        .flat_map(|phase| phase.chunks(TILES_PER_BATCH))
-    {
-        ctx.check_cancelled()?;
-        ctx.report(STAGE, done, Some(total_tiles));
-        let by_tile = batch
-            .par_iter()
-            .map(|tile| {
-                if cancel.is_cancelled() {
-                    return Err(Error::Cancelled);
-                }
-                // The tile's own grid, first holding the samples its neighbours kept in
-                // earlier phases within two spacings of it, so that every test reads one
-                // small grid.
-                let [tile_low, tile_high] = tiles.bounds(tile);
-                let near = |p: Vec3| {
-                    let p = p.as_dvec3();
-                    p.cmpge(tile_low - 2.0 * spacing).all()
-                        && p.cmple(tile_high + 2.0 * spacing).all()
-                };
-                let mut grid = DiskGrid::new(low, spacing);
-                let around = tiles
-                    .neighbours(tile)
-                    .filter_map(|key| kept_by_tile.get(&key));
-                for sample in around.flatten().filter(|s| near(s.position)) {
-                    if let Some(cell) = grid.cell(sample.position) {
-                        grid.keep(sample.position, cell);
-                    }
-                }
-                let mut tile_kept = Vec::new();
-                for sample in tiles.candidates(mesh, tile, per_area, seed) {
-                    let cell = grid.cell(sample.position).ok_or_else(too_small)?;
-                    if !grid.crowded(sample.position, cell) {
-                        grid.keep(sample.position, cell);
-                        tile_kept.push(sample);
-                    }
-                }
-                Ok((tile.key(), tile_kept))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        for (key, tile_kept) in by_tile {
-            order.push(key);
-            kept_by_tile.insert(key, tile_kept);
-        }
-        done += batch.len() as u64;
+    let candidates = MeshCandidates {
+        mesh,
+        tiles: &tiles,
+        per_area: POISSON_CANDIDATES_PER_AREA / (spacing * spacing),
+        seed: ctx.seed(),
+    };
+    keep_apart(&tiles, &candidates, low, spacing, STAGE, too_small, ctx)
+}
+
+/// Candidates drawn on a mesh's triangles, `per_area` per unit of area in each tile.
+struct MeshCandidates<'a> {
+    mesh: &'a TriMesh,
+    tiles: &'a Tiles,
+    per_area: f64,
+    seed: u64,
+}
+
+impl Candidates for MeshCandidates<'_> {
+    type Item = Sample;
+
+    fn of_tile(&self, tile: &Tile<'_>) -> Vec<Sample> {
+        self.tiles
+            .candidates(self.mesh, tile, self.per_area, self.seed)
     }
-    Ok(order
-        .iter()
-        .filter_map(|key| kept_by_tile.remove(key))
-        .flatten()
-        .collect())
+
+    fn position(&self, item: &Sample) -> Vec3 {
+        item.position
+    }
 }
 
 /// A quantity given at `mesh`'s vertices, interpolated at each sample by its barycentric

@@ -33,10 +33,11 @@ struct Corner {
     position: DVec3,
 }
 
-/// The tiles the triangles cross, and the triangles crossing each.
+/// The tiles the triangles cross, and the triangles crossing each; or the tiles a point
+/// set's points lie in, and the points in each.
 pub(super) struct Tiles {
     cells: PackedCells,
-    /// (tile key, triangle) pairs, sorted.
+    /// (tile key, triangle or point) pairs, sorted.
     crossings: Vec<(u64, u32)>,
 }
 
@@ -61,7 +62,21 @@ impl Tiles {
         Some(Self { cells, crossings })
     }
 
-    /// How many tiles the triangles cross.
+    /// The tiles of side `side` from `low` that hold some of `positions` (each point in
+    /// one: the tiles are half open); `None` when the points span more than 2²¹ tiles
+    /// along an axis, or one lies below `low`.
+    pub(super) fn of_points(positions: &[Vec3], low: DVec3, side: f64) -> Option<Self> {
+        let cells = PackedCells::new(low, side);
+        let mut crossings = positions
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| Some((cells.key(p)?, i as u32)))
+            .collect::<Option<Vec<_>>>()?;
+        crossings.sort_unstable();
+        Some(Self { cells, crossings })
+    }
+
+    /// How many tiles the triangles cross (or the points lie in).
     pub(super) fn count(&self) -> usize {
         self.tiles().count()
     }
@@ -111,7 +126,7 @@ impl Tiles {
         let mut rng = stream(seed, tile.key);
         let bounds = tile_box(&self.cells, unpack(tile.key));
         let mut candidates = Vec::new();
-        for &(_, face) in tile.crossings {
+        for face in tile.items() {
             let corners = mesh.triangles()[face as usize].map(|v| positions[v as usize].as_dvec3());
             let piece = clip(&corners, bounds);
             let area = clipped_area(&piece);
@@ -132,7 +147,7 @@ impl Tiles {
     }
 }
 
-/// One tile: its packed key and the triangles crossing it.
+/// One tile: its packed key and the triangles crossing it (or the points in it).
 pub(super) struct Tile<'t> {
     key: u64,
     crossings: &'t [(u64, u32)],
@@ -142,6 +157,11 @@ impl Tile<'_> {
     /// The tile's packed key.
     pub(super) fn key(&self) -> u64 {
         self.key
+    }
+
+    /// The triangles crossing the tile, or the points in it, in increasing order.
+    pub(super) fn items(&self) -> impl Iterator<Item = u32> + '_ {
+        self.crossings.iter().map(|&(_, item)| item)
     }
 }
 

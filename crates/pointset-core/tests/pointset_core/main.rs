@@ -12,6 +12,7 @@ mod kd_construction;
 mod las_codec;
 mod pcd_codec;
 mod ply_codec;
+mod point_thinning;
 mod polygons;
 mod replaced_files;
 mod simplify;
