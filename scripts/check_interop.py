@@ -56,7 +56,11 @@
 12. simplifies closed meshes trimesh wrote (a fine icosphere, a torus, and a capsule
    split along a seam, as UV-mapped meshes are) with `geosynth simplify` and checks that
    trimesh finds each result watertight and consistently wound, of the input's Euler
-   number, within 2% of its volume and within the face count asked for.
+   number, within 2% of its volume and within the face count asked for;
+13. thins a point cloud trimesh sampled on a torus (with plyfile's colours) with `geosynth
+   sample --spacing` and checks in numpy that every kept point is one of the cloud's with
+   its colour, no two closer than the spacing, and every point of the cloud closer than
+   the spacing to a kept one.
 
 `.ci/run` runs it on the quick demo, with pinned versions of the readers in a virtual
 environment (they are not project dependencies). By hand:
@@ -689,5 +693,42 @@ for name, solid, target in [('icosphere', trimesh.creation.icosphere(subdivision
                 f"{reference.euler_number}), volume {ratio:.4f} of the input's")
     bad += not ok
     print(('ok  ' if ok else 'BAD ') + f"foreign/{fewer.name} (ours, from trimesh's mesh): {note}")
+# 13. Their point cloud thinned by us: trimesh samples a torus (with a random colour a
+#    point, written by plyfile), `geosynth sample --spacing` keeps a Poisson disk of its
+#    points, and numpy checks the disk by brute force.
+torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
+cloud, _ = trimesh.sample.sample_surface(torus, 6000, seed=13)
+colours = np.random.default_rng(13).integers(0, 256, size=(len(cloud), 3), dtype=np.uint8)
+table = np.empty(len(cloud), dtype=[('x', 'f4'), ('y', 'f4'), ('z', 'f4'),
+                                    ('red', 'u1'), ('green', 'u1'), ('blue', 'u1')])
+for axis, name in enumerate('xyz'):
+    table[name] = cloud[:, axis]
+for channel, name in enumerate(['red', 'green', 'blue']):
+    table[name] = colours[:, channel]
+dense, thin = foreign / 'trimesh_torus_cloud.ply', foreign / 'torus_cloud_thinned.ply'
+plyfile.PlyData([plyfile.PlyElement.describe(table, "vertex")]).write(str(dense))
+spacing = 0.1
+result = subprocess.run([G, 'sample', str(dense), '-o', str(thin), '--spacing', str(spacing),
+                         '-q'], capture_output=True, text=True)
+if result.returncode != 0:
+    ok, note = False, result.stderr.strip()
+else:
+    kept = plyfile.PlyData.read(str(thin))["vertex"]
+    given = np.stack([table[n].astype(np.float64) for n in ['x', 'y', 'z', 'red', 'green', 'blue']], 1)
+    ours = np.stack([kept[n].astype(np.float64) for n in ['x', 'y', 'z', 'red', 'green', 'blue']], 1)
+    rows = {tuple(row) for row in given}
+    members = all(tuple(row) in rows for row in ours)
+    positions, everything = ours[:, :3], given[:, :3]
+    apart = np.sqrt(((positions[:, None, :] - positions[None, :, :]) ** 2).sum(-1))
+    np.fill_diagonal(apart, np.inf)
+    gaps = np.sqrt(((everything[:, None, :] - positions[None, :, :]) ** 2).sum(-1)).min(1)
+    # Distances are compared in double precision, against the spacing as a float.
+    limit = float(np.float32(spacing))
+    ok = members and apart.min() >= limit * (1 - 1e-6) and gaps.max() < limit * (1 + 1e-6)
+    note = (f"{len(given)} → {len(ours)} points; kept are the cloud's own with their colours: "
+            f"{members}; closest pair {apart.min():.4f}, widest gap {gaps.max():.4f} "
+            f"(spacing {spacing})")
+bad += not ok
+print(('ok  ' if ok else 'BAD ') + f"foreign/{thin.name} (ours, from trimesh's cloud): {note}")
 print(f"{bad} mismatches")
 sys.exit(1 if bad else 0)
