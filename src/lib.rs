@@ -15,7 +15,7 @@
 //! | [`quilt`] | `patch-quilt` | paper 000: patch-based geometry texture synthesis, the `Quilt` stage, and `SampleHeights` to write a quilted height field back as one |
 //! | [`normals`] | (facade) | stage: bare points → points with oriented normals |
 //! | [`strays`] | (facade) | stage: a scan → the same without its stray and isolated points |
-//! | [`sample`] | (facade) | stage: a mesh → oriented points sampled on its surface (uniform or Poisson disk) |
+//! | [`sample`] | (facade) | stage: a mesh → oriented points sampled on its surface (uniform or Poisson disk); stage: a point set → fewer of its own points |
 //! | [`reconstruct`] | (facade) | stages: oriented points → mesh, geometry → distance grid; trimming open scans |
 //! | [`simplify`] | (facade) | stage: a mesh → the same surface in fewer triangles (edge collapse under error quadrics) |
 //! | [`warp`] | (facade) | stage: a point set or mesh moved by a thin-plate spline |

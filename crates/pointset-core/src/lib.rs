@@ -4,7 +4,8 @@
 //! [`Aabb`], [`Grid3`]), spatial indices ([`KdIndex`], [`BucketGrid`]), file I/O ([`io`]:
 //! PLY ascii/binary, OBJ, OFF, STL, XYZ, LAS, PCD, glTF; polygon faces split by
 //! [`triangulate_polygon`]), seeded randomness ([`rng`]), stray points far outside the
-//! rest ([`strays`]), oriented points sampled on a mesh's surface ([`surface_sampling`]),
+//! rest ([`strays`]), oriented points sampled on a mesh's surface and point sets thinned
+//! to their own points ([`surface_sampling`]),
 //! meshes simplified by edge collapse under error quadrics ([`simplify`]), and the
 //! [`Stage`] /
 //! [`RunContext`] / [`Progress`] machinery every algorithm is exposed through, and the

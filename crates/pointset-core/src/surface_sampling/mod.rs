@@ -1,8 +1,10 @@
 //! Points sampled on a mesh's surface: an oriented point set from a triangle mesh, for the
 //! algorithms that work on point-set surfaces (MLS, quilting) and for meshes whose vertices
-//! are too few or too uneven to stand for their surface.
+//! are too few or too uneven to stand for their surface; and a point set's own points,
+//! thinned to a Poisson disk or at random ([`thin_points`], module `point_thinning`), for
+//! scans far denser than those algorithms need.
 //!
-//! Two samplings ([`SurfaceSampling`]):
+//! Two samplings of a mesh ([`SurfaceSampling`]):
 //!
 //! - **Uniform**: `count` independent samples, each on a triangle chosen with probability
 //!   proportional to its area, at a point uniform over that triangle (barycentric
