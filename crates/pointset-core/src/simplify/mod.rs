@@ -93,15 +93,14 @@
 //! # Ok::<(), pointset_core::Error>(())
 //! ```
 
-use std::cmp::{Ordering, Reverse};
-use std::collections::BinaryHeap;
-
 mod quadric;
+mod queue;
 mod smooth_groups;
 mod vertex_data;
 mod working;
 
 use crate::{Error, Result, RunContext, TriMesh};
+use queue::{CollapseQueue, Queued};
 use vertex_data::VertexData;
 use working::{Refusal, Role, Working};
 
@@ -257,41 +256,6 @@ pub struct Simplified {
     pub report: SimplifyReport,
 }
 
-/// A collapse waiting in the queue: its cost, its edge (`keep` the lower index) and the
-/// versions its vertices had when it was planned. Kept small (the queue's moves were
-/// most of the run with the whole plan in each entry); the plan is made again when the
-/// entry comes out, the same while the versions hold.
-#[derive(Debug, Clone, Copy)]
-struct Queued {
-    cost: f64,
-    keep: u32,
-    gone: u32,
-    versions: [u32; 2],
-}
-
-impl PartialEq for Queued {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
-}
-
-impl Eq for Queued {}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Queued {
-    fn cmp(&self, other: &Self) -> Ordering {
-        self.cost
-            .total_cmp(&other.cost)
-            .then(self.keep.cmp(&other.keep))
-            .then(self.gone.cmp(&other.gone))
-    }
-}
-
 /// Collapses between reports of progress and checks for cancellation.
 const PROGRESS_EVERY: usize = 4096;
 
@@ -355,15 +319,15 @@ pub fn simplify_mesh(
     Ok(Simplified { mesh, report })
 }
 
-/// The planned collapse of every edge of `working`, queued in the order of their vertices
-/// (the edge list is handed over: it is not needed again).
-fn queue_every_edge(working: &mut Working) -> BinaryHeap<Reverse<Queued>> {
+/// The planned collapse of every edge of `working`, queued (the edge list is handed over:
+/// it is not needed again).
+fn queue_every_edge(working: &mut Working) -> CollapseQueue {
     let edges = std::mem::take(&mut working.edges);
-    let mut queue = BinaryHeap::with_capacity(edges.len());
-    for (a, b) in edges {
-        enqueue(working, &mut queue, a, b);
-    }
-    queue
+    let planned = edges
+        .into_iter()
+        .filter_map(|(a, b)| planned(working, a, b))
+        .collect();
+    CollapseQueue::from_entries(planned)
 }
 
 /// Collapses the cheapest edges that pass the checks until `working` has no more than
@@ -373,7 +337,7 @@ fn queue_every_edge(working: &mut Working) -> BinaryHeap<Reverse<Queued>> {
 fn collapse_until(
     working: &mut Working,
     data: &mut VertexData,
-    queue: &mut BinaryHeap<Reverse<Queued>>,
+    queue: &mut CollapseQueue,
     params: &SimplifyParams,
     report: &mut SimplifyReport,
     ctx: &mut RunContext,
@@ -383,7 +347,7 @@ fn collapse_until(
     let to_remove = start_faces.saturating_sub(params.target_faces) as u64;
     let mut merged = Vec::new();
     while working.live_faces > params.target_faces {
-        let Some(Reverse(queued)) = queue.pop() else {
+        let Some(queued) = queue.pop() else {
             break;
         };
         let (keep, gone) = (queued.keep as usize, queued.gone as usize);
@@ -430,17 +394,24 @@ fn collapse_until(
 }
 
 /// Queues the collapse of the edge `a`–`b`, when one of its vertices may merge.
-fn enqueue(working: &Working, queue: &mut BinaryHeap<Reverse<Queued>>, a: u32, b: u32) {
-    if let Some(collapse) = working.plan(a, b) {
-        let versions = [
-            working.versions[collapse.keep as usize],
-            working.versions[collapse.gone as usize],
-        ];
-        queue.push(Reverse(Queued {
-            cost: collapse.cost,
-            keep: collapse.keep,
-            gone: collapse.gone,
-            versions,
-        }));
+fn enqueue(working: &Working, queue: &mut CollapseQueue, a: u32, b: u32) {
+    if let Some(entry) = planned(working, a, b) {
+        queue.push(entry);
     }
+}
+
+/// The queue's entry for the collapse of the edge `a`–`b`; `None` when neither vertex
+/// may merge.
+fn planned(working: &Working, a: u32, b: u32) -> Option<Queued> {
+    let collapse = working.plan(a, b)?;
+    let versions = [
+        working.versions[collapse.keep as usize],
+        working.versions[collapse.gone as usize],
+    ];
+    Some(Queued {
+        cost: collapse.cost,
+        keep: collapse.keep,
+        gone: collapse.gone,
+        versions,
+    })
 }
