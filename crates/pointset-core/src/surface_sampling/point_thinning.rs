@@ -103,8 +103,9 @@ const STAGE: &str = "thin points";
 /// points" (tiles done, each pass anew) and stops when cancelled.
 ///
 /// Errors: an empty point set ([`Error::EmptyInput`]); a count of 0, a spacing that is not
-/// positive and finite, or one so small that the points span more than 2²¹ tiles of 16
-/// spacings along an axis ([`Error::InvalidParameter`]); [`Error::Cancelled`].
+/// positive and finite, or one so small that the points' box spans more than 2²³ spacings
+/// along an axis ([`Error::InvalidParameter`]; a count's search stays above that);
+/// [`Error::Cancelled`].
 pub fn thin_points(
     points: &PointSet,
     thinning: &PointThinning,
