@@ -10,10 +10,12 @@
 //!   tile by tile in eight phases as the mesh's Poisson disk is (the module `tiles` of
 //!   [`super`]), so the result depends on the points, the spacing and the seed only, not
 //!   on the threads. Points at one position are one point. With a count instead of a
-//!   spacing, the spacing is searched for: each pass scales it by `√(kept / count)` (a
-//!   surface's disk holds about `area / spacing²` points), kept inside the bracket the
-//!   passes so far have found, until the count is met within 1% or after
-//!   [`MAX_COUNT_PASSES`] passes; the pass nearest the count is kept.
+//!   spacing, the spacing is searched for: each pass scales it by `(kept / count)^(1/d)`
+//!   (a disk holds about `c / spacing^d` points: `d` = 2 on a surface at first, then as
+//!   measured from the last two passes, between 1 for a line and 3 for a volume), kept
+//!   inside the bracket the passes so far have found, until the count is met within 1%
+//!   (or one point) or after [`MAX_COUNT_PASSES`] passes; the pass nearest the count is
+//!   kept.
 //! - **Random**: `count` points drawn without replacement, each subset as likely as any.
 //!
 //! The kept points keep their positions, normals and attributes exactly, in their input
@@ -225,6 +227,8 @@ fn poisson_disk_for_count(
     let mut spacing = diagonal / target.sqrt();
     let mut best: Option<(Vec<u32>, f32)> = None;
     let mut passes = 0;
+    // The spacing and the count kept of the last pass.
+    let mut previous: Option<(f64, f64)> = None;
     while passes < MAX_COUNT_PASSES {
         passes += 1;
         let this = spacing as f32;
@@ -242,12 +246,21 @@ fn poisson_disk_for_count(
         {
             best = Some((kept, this));
         }
-        if off <= 0.01 * target {
+        if off <= (0.01 * target).max(1.0) {
             break;
         }
-        // A surface's disk keeps about area / spacing² points; outside the bracket, or
-        // where that has stalled, the bracket's middle (or a step out of it).
-        let scaled = spacing * (found / target).sqrt();
+        // A disk keeps about c / spacing^d points: d is 2 on a surface, 1 along a line
+        // and 3 through a volume, measured from the last two passes once there are two
+        // (and kept within 1..3); outside the bracket, or where that has stalled, the
+        // bracket's middle (or a step out of it).
+        let dimension = match previous {
+            Some((s, f)) if f != found && found > 0.0 && f > 0.0 => {
+                ((f / found).ln() / (spacing / s).ln()).clamp(1.0, 3.0)
+            }
+            _ => 2.0,
+        };
+        previous = Some((spacing, found));
+        let scaled = spacing * (found / target).powf(dimension.recip());
         spacing = if scaled > too_many && scaled < too_few {
             scaled
         } else if too_few.is_infinite() {

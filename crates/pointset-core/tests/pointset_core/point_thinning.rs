@@ -148,6 +148,31 @@ fn a_count_finds_its_spacing_on_the_shared_scans() {
 }
 
 #[test]
+fn a_count_is_found_along_lines_and_through_volumes_too() {
+    // A disk keeps about c / spacing^d points, d = 1 on a line and 3 in a volume: the
+    // search measures d from its passes instead of taking a surface's 2.
+    let mut g = rng::stream(9, 0);
+    let line: Vec<Vec3> = (0..20_000)
+        .map(|_| Vec3::X * g.random_range(0.0..10.0f32))
+        .collect();
+    let volume: Vec<Vec3> = (0..50_000)
+        .map(|_| Vec3::new(g.random(), g.random(), g.random()))
+        .collect();
+    for (name, positions) in [("line", line), ("volume", volume)] {
+        let points = PointSet::new(positions).unwrap();
+        for count in [1000, 100] {
+            let out = thinned(&points, PointThinning::PoissonDiskCount { count }, 1);
+            let found = out.kept.len();
+            assert!(
+                found.abs_diff(count) <= count / 100,
+                "{name}: {found} of {count}"
+            );
+            assert!(out.passes <= 7, "{name}, {count}: {} passes", out.passes);
+        }
+    }
+}
+
+#[test]
 fn a_count_at_or_above_the_points_keeps_them_all() {
     let points = clustered(100, 3);
     for thinning in [

@@ -87,7 +87,11 @@ pub(super) fn run(
     let spread = match (spacing, count) {
         (Some(spacing), 1) => format!("alone at a spacing of {spacing}"),
         (Some(spacing), _) if args.spacing.is_none() => {
-            format!("none closer than {spacing}, a spacing found in {passes} passes")
+            let passes = match passes {
+                1 => "1 pass".to_string(),
+                n => format!("{n} passes"),
+            };
+            format!("none closer than {spacing}, a spacing found in {passes}")
         }
         (Some(spacing), _) => format!("none closer than {spacing}"),
         (None, _) if count == before => format!("all of them: {asked} asked for"),
