@@ -487,7 +487,7 @@ fn an_interpolated_normal_never_faces_against_its_faces() {
 }
 
 #[test]
-fn recomputed_normals_keep_hard_edges() {
+fn hard_edges_stay_creased_with_either_normals() {
     // A cube of six 6 × 6 grids, flat shaded: each grid's vertices its own, with its
     // face's normal, so every edge of the cube is a crease.
     let (mut positions, mut normals, mut faces) = (Vec::new(), Vec::new(), Vec::new());
@@ -528,15 +528,24 @@ fn recomputed_normals_keep_hard_edges() {
         faces,
     )
     .unwrap();
-    let out = simplified(&cube, &SimplifyParams::faces(24));
-    assert!(out.mesh.face_count() <= 24, "{:?}", out.report);
-    let welded = out.mesh.welded().unwrap().topology();
-    assert!(welded.is_closed_manifold() && welded.euler_characteristic == 2);
-    // Every corner still carries its own face's normal: no crease was smoothed over.
-    let normals = out.mesh.vertices().normals().unwrap();
-    for (t, face) in out.mesh.triangles().iter().zip(out.mesh.face_normals()) {
-        for &v in t {
-            assert!(normals[v as usize].abs_diff_eq(face, 1e-6), "{face}");
+    for normals in [SimplifiedNormals::Recompute, SimplifiedNormals::Interpolate] {
+        let params = SimplifyParams {
+            normals,
+            ..SimplifyParams::faces(24)
+        };
+        let out = simplified(&cube, &params);
+        assert!(out.mesh.face_count() <= 24, "{:?}", out.report);
+        let welded = out.mesh.welded().unwrap().topology();
+        assert!(welded.is_closed_manifold() && welded.euler_characteristic == 2);
+        // Every corner still carries its own face's normal: no crease was smoothed over.
+        let stored = out.mesh.vertices().normals().unwrap();
+        for (t, face) in out.mesh.triangles().iter().zip(out.mesh.face_normals()) {
+            for &v in t {
+                assert!(
+                    stored[v as usize].abs_diff_eq(face, 1e-6),
+                    "{normals:?}: {face}"
+                );
+            }
         }
     }
 }
