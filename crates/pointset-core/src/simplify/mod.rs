@@ -285,7 +285,7 @@ pub fn simplify_mesh(
         .collect();
     let (mut working, welded_together) =
         Working::new(mesh.positions(), &corners, centre, params.boundary_weight);
-    let mut data = VertexData::of(mesh, params.normals);
+    let mut data = VertexData::of(mesh, working.wedge_vertices(), params.normals);
     let mut report = SimplifyReport {
         faces_before: mesh.face_count(),
         vertices_before: mesh.vertex_count(),

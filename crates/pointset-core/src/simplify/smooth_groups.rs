@@ -12,7 +12,6 @@
 use glam::Vec3;
 
 use crate::mesh::corner_normal_shares;
-use crate::weld::position_bits;
 use crate::{DisjointSets, NormalWeighting};
 
 /// Normals of vertices at one position that differ by less than this, in degrees, are the
@@ -27,15 +26,15 @@ pub(super) struct SmoothGroups {
 }
 
 impl SmoothGroups {
-    /// The first groups of the vertices at `positions` with `normals`: those at one
-    /// position (welded as the simplification welds, `-0` as `0`) whose normals agree.
-    pub(super) fn of(positions: &[Vec3], normals: &[Vec3]) -> Self {
-        let mut sets = DisjointSets::new(positions.len());
-        let mut order: Vec<u32> = (0..positions.len() as u32).collect();
-        let bits = |v: &u32| position_bits(positions[*v as usize]);
-        order.sort_unstable_by_key(bits);
+    /// The first groups of the vertices with `normals`, welded as `welded` says (each
+    /// vertex's welded vertex, as the simplification welds them): those welded together
+    /// whose normals agree.
+    pub(super) fn of(welded: &[u32], normals: &[Vec3]) -> Self {
+        let mut sets = DisjointSets::new(welded.len());
+        let mut order: Vec<u32> = (0..welded.len() as u32).collect();
+        order.sort_unstable_by_key(|&v| welded[v as usize]);
         let min_cos = SAME_NORMAL_DEGREES.to_radians().cos();
-        for run in order.chunk_by(|a, b| bits(a) == bits(b)) {
+        for run in order.chunk_by(|&a, &b| welded[a as usize] == welded[b as usize]) {
             for (i, &a) in run.iter().enumerate() {
                 for &b in &run[i + 1..] {
                     if normals[a as usize].dot(normals[b as usize]) >= min_cos {
@@ -81,13 +80,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn groups_join_equal_normals_at_one_position_only() {
-        let positions = [Vec3::ZERO, Vec3::ZERO, -Vec3::ZERO, Vec3::ZERO, Vec3::X];
+    fn groups_join_equal_normals_of_one_welded_vertex_only() {
+        let welded = [0, 0, 0, 0, 1];
         let tilted = Vec3::new(0.0, (0.5f32).to_radians().sin(), 1.0).normalize();
         let normals = [Vec3::Z, tilted, Vec3::Z, Vec3::X, Vec3::Z];
-        let mut groups = SmoothGroups::of(&positions, &normals);
+        let mut groups = SmoothGroups::of(&welded, &normals);
         let roots: Vec<u32> = (0..5).map(|v| groups.sets.root(v)).collect();
-        // Half a degree apart and at -0: one group; a right angle apart, or elsewhere: not.
+        // Half a degree apart: one group; a right angle apart, or elsewhere: not.
         assert_eq!(roots, [0, 0, 0, 3, 4]);
     }
 
@@ -96,12 +95,13 @@ mod tests {
         // Two faces meeting at a right angle along the edge x = 0..1, y = z = 0: the
         // vertices on the edge written twice, once per face, with that face's normal.
         let positions = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO, Vec3::X, Vec3::Z];
+        let welded = [0, 1, 2, 0, 1, 3];
         let triangles = [[0, 1, 2], [3, 5, 4]];
         let normals = [Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Y, Vec3::Y, Vec3::Y];
-        let creased = SmoothGroups::of(&positions, &normals);
+        let creased = SmoothGroups::of(&welded, &normals);
         assert_eq!(creased.mean_face_normals(&positions, &triangles), normals);
         // Merged (as a collapse would), the edge's vertices are shaded across the crease.
-        let mut joined = SmoothGroups::of(&positions, &normals);
+        let mut joined = SmoothGroups::of(&welded, &normals);
         joined.merge(0, 3);
         joined.merge(1, 4);
         let mean = joined.mean_face_normals(&positions, &triangles);
@@ -111,7 +111,7 @@ mod tests {
         }
         assert_eq!((mean[2], mean[5]), (Vec3::Z, Vec3::Y));
         // A vertex without faces has no mean.
-        let lone = SmoothGroups::of(&positions, &normals);
+        let lone = SmoothGroups::of(&welded, &normals);
         assert_eq!(
             lone.mean_face_normals(&positions, &triangles[..1])[3],
             Vec3::ZERO

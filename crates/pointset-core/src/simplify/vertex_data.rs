@@ -31,8 +31,9 @@ pub(super) struct VertexData {
 }
 
 impl VertexData {
-    /// The data of `mesh`'s vertices, whose normals will be as `normals` says.
-    pub(super) fn of(mesh: &TriMesh, normals: SimplifiedNormals) -> Self {
+    /// The data of `mesh`'s vertices, welded as `welded` says (each vertex's welded
+    /// vertex), whose normals will be as `normals` says.
+    pub(super) fn of(mesh: &TriMesh, welded: &[u32], normals: SimplifiedNormals) -> Self {
         let vertices = mesh.vertices();
         let channels = vertices
             .attributes()
@@ -50,7 +51,7 @@ impl VertexData {
             normals: vertices.normals().map(<[Vec3]>::to_vec),
             smooth_groups: vertices
                 .normals()
-                .map(|normals| SmoothGroups::of(vertices.positions(), normals)),
+                .map(|normals| SmoothGroups::of(welded, normals)),
             normals_from: normals,
             uvs: mesh.uvs().map(<[Vec2]>::to_vec),
             channels,

@@ -361,6 +361,11 @@ impl Working {
             .map(|(corner, _)| corner)
     }
 
+    /// Each wedge's welded vertex.
+    pub(super) fn wedge_vertices(&self) -> &[u32] {
+        &self.wedge_vertex
+    }
+
     /// Where wedge `w` is now: at its welded vertex.
     pub(super) fn wedge_position(&self, w: u32) -> DVec3 {
         self.positions[self.wedge_vertex[w as usize] as usize]
